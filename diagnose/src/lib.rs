@@ -1,0 +1,1 @@
+//! Mismatch diagnosis between a recording and the nominal model.

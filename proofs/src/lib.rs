@@ -1,0 +1,1 @@
+//! Proof harnesses and the envelope they assume.

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Runs every test of the workspace, installing what they need first.
+# This is the README's test command; .ci/run calls it on a clean checkout.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+step() { printf '\n==== %s ====\n' "$*"; }
+
+step "toolchain and system packages"
+scripts/setup.sh
+
+step "workspace tests (host)"
+cargo test --workspace --locked
+
+if [ -x scripts/cross-check.sh ]; then
+  step "embedded targets"
+  scripts/cross-check.sh
+fi
+
+step "all tests passed"

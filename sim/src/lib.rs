@@ -1,0 +1,1 @@
+//! The simulator: rigid body, effects, sensors, maneuvers.

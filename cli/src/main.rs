@@ -1,8 +1,15 @@
 //! `massid`: one binary for demo, simulate, estimate, diagnose, mix, characterize.
+//! One module per subcommand in `cmd/`; each owns its clap `Args` and a `run`.
 use clap::{Parser, Subcommand};
 
+mod cmd;
+
 #[derive(Parser)]
-#[command(name = "massid", version, about = "SPHERES-style mass-property identification and mismatch diagnosis")]
+#[command(
+    name = "massid",
+    version,
+    about = "SPHERES-style mass-property identification, simulation and mismatch diagnosis"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -10,16 +17,36 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate an RGA flight with a proof mass attached half way and identify it online.
-    Demo,
+    /// Simulate an RGA flight with a proof mass attached half way and identify it online
+    /// with the f64 reference and the f32 and fixed-point kernels.
+    Demo(cmd::demo::Args),
+    /// Simulate a satellite and write a recording plus its truth file.
+    Simulate(cmd::simulate::Args),
+    /// Run a recording through the mass-property identification (f64, f32, fixed kernels).
+    Estimate(cmd::estimate::Args),
+    /// Explain why a recording and the nominal model disagree.
+    Diagnose(cmd::diagnose::Args),
+    /// Turn a force/torque command into per-thruster PWM on/off times.
+    Mix(cmd::mix::Args),
+    /// Ground characterization tools (trifilar pendulum, torsion spring, damping, ...).
+    Characterize(cmd::characterize::Args),
 }
 
-fn main() {
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    match cli.command {
-        Command::Demo => {
-            eprintln!("massid demo: not built yet");
-            std::process::exit(2);
+    let result = match cli.command {
+        Command::Demo(a) => cmd::demo::run(a),
+        Command::Simulate(a) => cmd::simulate::run(a),
+        Command::Estimate(a) => cmd::estimate::run(a),
+        Command::Diagnose(a) => cmd::diagnose::run(a),
+        Command::Mix(a) => cmd::mix::run(a),
+        Command::Characterize(a) => cmd::characterize::run(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("massid: error: {e:#}");
+            std::process::ExitCode::FAILURE
         }
     }
 }

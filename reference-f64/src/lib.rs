@@ -3,3 +3,13 @@
 //! shares no numerical code with `massid-kernel`.
 //!
 //! Modules mirror the seed's chapters.
+
+pub mod satellite;
+pub mod recording;
+pub mod preprocess;
+pub mod omega_dot;
+pub mod mass_id;
+pub mod pipeline;
+pub mod mixer;
+pub mod characterize;
+pub mod slosh;

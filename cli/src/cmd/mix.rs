@@ -1,0 +1,8 @@
+//! `massid mix` (being written).
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`massid mix` is not available in this build yet")
+}

@@ -1,0 +1,8 @@
+//! `massid simulate` (being written).
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`massid simulate` is not available in this build yet")
+}

@@ -1,0 +1,1 @@
+//! (owned by the reference-mixer/characterization work; being written)

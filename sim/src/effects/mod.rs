@@ -1,0 +1,345 @@
+//! The effect vocabulary of `shared/contracts/diagnosis-output.md`: every piece of physics
+//! the nominal model leaves out, one file per effect, each a [`Component`] that switches
+//! itself into a [`PlantConfig`]. Adding an effect = adding a file, a variant below and
+//! (if it is new physics) a field in `PlantConfig`.
+//!
+//! [`Effect`] (de)serialises exactly as the contract:
+//! `{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}`.
+
+mod blowdown;
+mod com_offset;
+mod disturbance_torque;
+mod fuel_slosh;
+mod gyro_bias;
+mod gyro_ringing;
+mod gyro_scale;
+mod inertia;
+mod mass_property_change;
+mod pressure_drop;
+mod thrust_scale;
+mod thruster_latency;
+
+pub use blowdown::Blowdown;
+pub use com_offset::ComOffset;
+pub use disturbance_torque::DisturbanceTorque;
+pub use fuel_slosh::FuelSlosh;
+pub use gyro_bias::GyroBias;
+pub use gyro_ringing::GyroRinging;
+pub use gyro_scale::GyroScale;
+pub use inertia::Inertia;
+pub use mass_property_change::MassPropertyChange;
+pub use pressure_drop::PressureDrop;
+pub use thrust_scale::ThrustScale;
+pub use thruster_latency::ThrusterLatency;
+
+use reference_f64::satellite::{Satellite, N_THRUSTERS};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// One physical effect: it writes itself into the plant configuration the simulator runs.
+/// Several effects of one kind compose (delays add, scales multiply, tones superpose).
+pub trait Component {
+    fn apply(&self, plant: &mut PlantConfig);
+}
+
+/// Mass properties relative to the nominal model: CoM offset (true minus model's, metres,
+/// body axes) and the true inertia about the CoM (xx yy zz xy xz yz).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MassPhase {
+    pub com_offset_m: [f64; 3],
+    pub inertia_kgm2: [f64; 6],
+}
+
+/// Everything that differs from the nominal satellite, in the form the simulator uses.
+/// Built by [`PlantConfig::new`] from the satellite and a list of effects.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlantConfig {
+    pub open_delay_ms: f64,
+    pub close_delay_ms: f64,
+    pub pressure_drop_n: f64,
+    pub blowdowns: Vec<Blowdown>,
+    pub thrust_scale: [f64; N_THRUSTERS],
+    /// Mass properties from t = 0.
+    pub initial: MassPhase,
+    /// Step changes (time s, values after), sorted by time.
+    pub changes: Vec<(f64, MassPhase)>,
+    pub slosh: Vec<FuelSlosh>,
+    /// True minus nominal gyro bias, counts.
+    pub gyro_bias_counts: [f64; 3],
+    /// True / nominal gyro scale.
+    pub gyro_scale: [f64; 3],
+    pub ringing: Vec<GyroRinging>,
+    pub disturbance_torque_nm: [f64; 3],
+}
+
+impl PlantConfig {
+    /// The nominal satellite: no effect switched on.
+    pub fn nominal(sat: &Satellite) -> Self {
+        PlantConfig {
+            open_delay_ms: 0.0,
+            close_delay_ms: 0.0,
+            pressure_drop_n: 0.0,
+            blowdowns: Vec::new(),
+            thrust_scale: [1.0; N_THRUSTERS],
+            initial: MassPhase { com_offset_m: [0.0; 3], inertia_kgm2: sat.inertia_kgm2 },
+            changes: Vec::new(),
+            slosh: Vec::new(),
+            gyro_bias_counts: [0.0; 3],
+            gyro_scale: [1.0; 3],
+            ringing: Vec::new(),
+            disturbance_torque_nm: [0.0; 3],
+        }
+    }
+
+    /// The satellite with `effects` switched on (in list order).
+    pub fn new(sat: &Satellite, effects: &[Effect]) -> Self {
+        let mut p = Self::nominal(sat);
+        for e in effects {
+            e.component().apply(&mut p);
+        }
+        p
+    }
+
+    /// Mass properties in force at time `t_s`.
+    pub fn mass_at(&self, t_s: f64) -> &MassPhase {
+        let mut m = &self.initial;
+        for (at, phase) in &self.changes {
+            if t_s >= *at {
+                m = phase;
+            }
+        }
+        m
+    }
+
+    /// Product of all blowdown factors at `t_s`.
+    pub fn blowdown_factor(&self, t_s: f64) -> f64 {
+        self.blowdowns.iter().map(|b| b.factor(t_s)).product()
+    }
+}
+
+/// One effect of the vocabulary with its parameters (names and units as in the contract).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+#[serde(tag = "effect", content = "params", rename_all = "snake_case")]
+pub enum Effect {
+    ThrusterLatency(ThrusterLatency),
+    PressureDrop(PressureDrop),
+    Blowdown(Blowdown),
+    ThrustScale(ThrustScale),
+    ComOffset(ComOffset),
+    Inertia(Inertia),
+    MassPropertyChange(MassPropertyChange),
+    FuelSlosh(FuelSlosh),
+    GyroBias(GyroBias),
+    GyroScale(GyroScale),
+    GyroRinging(GyroRinging),
+    DisturbanceTorque(DisturbanceTorque),
+}
+
+/// The contract's effect names, in the table's order.
+pub const EFFECT_NAMES: [&str; 12] = [
+    "thruster_latency",
+    "pressure_drop",
+    "blowdown",
+    "thrust_scale",
+    "com_offset",
+    "inertia",
+    "mass_property_change",
+    "fuel_slosh",
+    "gyro_bias",
+    "gyro_scale",
+    "gyro_ringing",
+    "disturbance_torque",
+];
+
+impl Effect {
+    /// The part that switches this effect into a plant.
+    pub fn component(&self) -> &dyn Component {
+        match self {
+            Effect::ThrusterLatency(e) => e,
+            Effect::PressureDrop(e) => e,
+            Effect::Blowdown(e) => e,
+            Effect::ThrustScale(e) => e,
+            Effect::ComOffset(e) => e,
+            Effect::Inertia(e) => e,
+            Effect::MassPropertyChange(e) => e,
+            Effect::FuelSlosh(e) => e,
+            Effect::GyroBias(e) => e,
+            Effect::GyroScale(e) => e,
+            Effect::GyroRinging(e) => e,
+            Effect::DisturbanceTorque(e) => e,
+        }
+    }
+
+    /// The contract's name, e.g. `"thruster_latency"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Effect::ThrusterLatency(_) => "thruster_latency",
+            Effect::PressureDrop(_) => "pressure_drop",
+            Effect::Blowdown(_) => "blowdown",
+            Effect::ThrustScale(_) => "thrust_scale",
+            Effect::ComOffset(_) => "com_offset",
+            Effect::Inertia(_) => "inertia",
+            Effect::MassPropertyChange(_) => "mass_property_change",
+            Effect::FuelSlosh(_) => "fuel_slosh",
+            Effect::GyroBias(_) => "gyro_bias",
+            Effect::GyroScale(_) => "gyro_scale",
+            Effect::GyroRinging(_) => "gyro_ringing",
+            Effect::DisturbanceTorque(_) => "disturbance_torque",
+        }
+    }
+
+    /// Parameters flattened to `(name, value)`; array entries are named `scale[5]` (0-based).
+    /// Includes extra keys (e.g. `inertia_fraction[0]`). Lets a fitter treat every effect alike.
+    pub fn params(&self) -> Vec<(String, f64)> {
+        let v = serde_json::to_value(self).expect("effects serialise");
+        let mut out = Vec::new();
+        if let Some(obj) = v.get("params").and_then(|p| p.as_object()) {
+            for (k, val) in obj {
+                match val {
+                    serde_json::Value::Array(a) => {
+                        for (i, x) in a.iter().enumerate() {
+                            out.push((format!("{k}[{i}]"), x.as_f64().unwrap_or(f64::NAN)));
+                        }
+                    }
+                    other => out.push((k.clone(), other.as_f64().unwrap_or(f64::NAN))),
+                }
+            }
+        }
+        out
+    }
+
+    /// A copy with the named parameters (as [`Effect::params`] names them) replaced.
+    pub fn with_params(&self, values: &[(&str, f64)]) -> Result<Effect, String> {
+        let mut v = serde_json::to_value(self).expect("effects serialise");
+        let obj = v
+            .get_mut("params")
+            .and_then(|p| p.as_object_mut())
+            .ok_or_else(|| "effect has no params".to_string())?;
+        for (name, x) in values {
+            let (key, idx) = match name.find('[') {
+                Some(b) => {
+                    let i: usize = name[b + 1..name.len() - 1]
+                        .parse()
+                        .map_err(|_| format!("bad parameter index in {name:?}"))?;
+                    (&name[..b], Some(i))
+                }
+                None => (*name, None),
+            };
+            let slot = obj
+                .get_mut(key)
+                .ok_or_else(|| format!("{}: no parameter {key:?}", self.name()))?;
+            let num = serde_json::Value::from(*x);
+            match (slot, idx) {
+                (serde_json::Value::Array(a), Some(i)) if i < a.len() => a[i] = num,
+                (s, None) if !s.is_array() => *s = num,
+                _ => return Err(format!("{}: parameter {name:?} has the wrong shape", self.name())),
+            }
+        }
+        serde_json::from_value(v).map_err(|e| e.to_string())
+    }
+
+    /// Physical sanity of the parameters (finite, positive where the physics needs it).
+    pub fn validate(&self) -> Result<(), String> {
+        let bad = self.params().into_iter().find(|(_, v)| !v.is_finite());
+        if let Some((k, _)) = bad {
+            return Err(format!("{}: parameter {k} is not a finite number", self.name()));
+        }
+        let positive = |what: &str, v: f64| {
+            if v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{}: {what} must be > 0 (got {v})", self.name()))
+            }
+        };
+        let non_negative = |what: &str, v: f64| {
+            if v >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{}: {what} must be >= 0 (got {v})", self.name()))
+            }
+        };
+        match self {
+            Effect::ThrusterLatency(e) => {
+                non_negative("open_ms", e.open_ms)?;
+                non_negative("close_ms", e.close_ms)
+            }
+            Effect::Blowdown(e) => positive("tau_s", e.tau_s),
+            Effect::ThrustScale(e) => e.scale.iter().try_for_each(|s| non_negative("scale", *s)),
+            Effect::Inertia(e) => e.inertia_kgm2[..3].iter().try_for_each(|v| positive("inertia_kgm2 diagonal", *v)),
+            Effect::MassPropertyChange(e) => {
+                non_negative("at_s", e.at_s)?;
+                e.inertia_kgm2[..3].iter().try_for_each(|v| positive("inertia_kgm2 diagonal", *v))
+            }
+            Effect::FuelSlosh(e) => {
+                positive("freq_hz", e.freq_hz)?;
+                non_negative("damping_ratio", e.damping_ratio)?;
+                e.inertia_fraction.iter().try_for_each(|v| non_negative("inertia_fraction", *v))
+            }
+            Effect::GyroScale(e) => e.scale.iter().try_for_each(|s| positive("scale", *s)),
+            Effect::GyroRinging(e) => {
+                positive("freq_hz", e.freq_hz)?;
+                positive("decay_ms", e.decay_ms)
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The `.truth.json` beside a simulated recording: every effect present beyond the nominal model.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Truth {
+    pub satellite: String,
+    pub effects: Vec<Effect>,
+}
+
+/// Why a truth file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum TruthError {
+    #[error("{path}: cannot read: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: line {line}, column {column}: {msg}")]
+    Parse { path: String, line: usize, column: usize, msg: String },
+    #[error("{path}: {msg}")]
+    Invalid { path: String, msg: String },
+}
+
+impl Truth {
+    /// Parses a truth document (JSON) and checks every effect's parameters.
+    pub fn from_json_str(text: &str, path: &str) -> Result<Truth, TruthError> {
+        let t: Truth = serde_json::from_str(text).map_err(|e| TruthError::Parse {
+            path: path.to_string(),
+            line: e.line(),
+            column: e.column(),
+            msg: e.to_string(),
+        })?;
+        for e in &t.effects {
+            e.validate().map_err(|msg| TruthError::Invalid { path: path.to_string(), msg })?;
+        }
+        Ok(t)
+    }
+
+    /// Reads `NAME.truth.json`.
+    pub fn read(path: &Path) -> Result<Truth, TruthError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| TruthError::Io { path: p.clone(), source })?;
+        Self::from_json_str(&text, &p)
+    }
+
+    /// Pretty JSON with a trailing newline (deterministic: field order is fixed).
+    pub fn to_json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("truth serialises");
+        s.push('\n');
+        s
+    }
+
+    /// Writes the truth file.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        std::fs::write(path, self.to_json())
+    }
+
+    /// The truth path beside a recording: `X.csv` -> `X.truth.json`.
+    pub fn path_for(recording: &Path) -> std::path::PathBuf {
+        let stem = recording.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        recording.with_file_name(format!("{stem}.truth.json"))
+    }
+}

@@ -1,0 +1,147 @@
+//! The fast, deterministic (noise-free) prediction the mismatch diagnosis calls hundreds of
+//! times per recording: for commanded thruster words at sample instants, what the body does
+//! and what a noise-free gyro reads, converted to rad/s with the NOMINAL bias and scale the
+//! same way a recording is.
+use crate::dynamics::{Plant, State};
+use crate::effects::{Effect, PlantConfig};
+use crate::propagate::{propagate, StepOptions};
+use crate::valves::ValveEdge;
+use reference_f64::satellite::Satellite;
+
+/// Prediction settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PredictOptions {
+    /// Largest RK4 step, ms; steps are also cut at every actual valve edge, so 1 ms is exact
+    /// enough for piecewise-constant thrust (see the crate README for the step study).
+    pub max_step_ms: f64,
+}
+
+impl Default for PredictOptions {
+    fn default() -> Self {
+        PredictOptions { max_step_ms: 1.0 }
+    }
+}
+
+/// Everything predicted at each sample instant.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Prediction {
+    /// What a noise-free gyro reads, in rad/s after the nominal conversion: includes gyro bias
+    /// and scale errors and ringing sampled at the sample instants.
+    pub gyro_rad_s: Vec<[f64; 3]>,
+    /// True body rate, rad/s.
+    pub body_rate: Vec<[f64; 3]>,
+    /// True angular acceleration right after the sample instant, rad/s^2.
+    pub angular_accel: Vec<[f64; 3]>,
+    /// Specific force at the CoM (thrust / mass), body axes, m/s^2, right after the instant.
+    pub specific_force: Vec<[f64; 3]>,
+    /// Actual valve state after latency at the instant (bit i = thruster i+1 open).
+    pub valves_open: Vec<u16>,
+    /// The actual valve edges (after latency), ms.
+    pub edges: Vec<ValveEdge>,
+}
+
+/// A satellite with effects switched on, reusable for many predictions.
+#[derive(Clone, Debug)]
+pub struct Predictor {
+    plant: Plant,
+    counts_per_rad_s: [f64; 3],
+}
+
+impl Predictor {
+    pub fn new(sat: &Satellite, effects: &[Effect]) -> Self {
+        Self::from_config(sat, PlantConfig::new(sat, effects))
+    }
+
+    /// From an already-built plant configuration (e.g. one a fitter edits directly).
+    pub fn from_config(sat: &Satellite, mut cfg: PlantConfig) -> Self {
+        cfg.pressure_drop_n += sat.pressure_drop_n_per_extra;
+        Predictor { plant: Plant::new(sat, cfg), counts_per_rad_s: sat.gyro_counts_per_rad_s }
+    }
+
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+
+    /// Predicts at `times_ms` for commanded `words` (word k holds until sample k+1), the body
+    /// turning at `initial_rate` (rad/s) at the first sample, liquid at rest.
+    pub fn run(&self, times_ms: &[u64], words: &[u16], initial_rate: [f64; 3], opts: PredictOptions) -> Prediction {
+        let n = times_ms.len().min(words.len());
+        let mut p = Prediction {
+            gyro_rad_s: Vec::with_capacity(n),
+            body_rate: Vec::with_capacity(n),
+            angular_accel: Vec::with_capacity(n),
+            specific_force: Vec::with_capacity(n),
+            valves_open: Vec::with_capacity(n),
+            edges: Vec::new(),
+        };
+        let step = StepOptions { max_step_ms: opts.max_step_ms, full: false };
+        p.edges = propagate(&self.plant, times_ms, words, State::with_rates(initial_rate), step, |s| {
+            p.body_rate.push(s.state.w.into());
+            p.angular_accel.push(s.derivative.w_dot.into());
+            p.specific_force.push(s.derivative.specific_force.into());
+            p.valves_open.push(s.valves);
+        });
+        let ringing = ringing_at(&self.plant.cfg, &p.edges, &times_ms[..n]);
+        let cfg = &self.plant.cfg;
+        p.gyro_rad_s = (0..n)
+            .map(|k| {
+                std::array::from_fn(|a| {
+                    cfg.gyro_scale[a] * (p.body_rate[k][a] + ringing[k][a])
+                        + cfg.gyro_bias_counts[a] / self.counts_per_rad_s[a]
+                })
+            })
+            .collect();
+        p
+    }
+}
+
+/// The gyro ringing (rad/s, per axis) at each sample instant: every actual valve edge starts
+/// a decaying tone of every ringing effect (tones older than 12 decay times are dropped:
+/// below 1e-5 of their peak).
+pub fn ringing_at(cfg: &PlantConfig, edges: &[ValveEdge], times_ms: &[u64]) -> Vec<[f64; 3]> {
+    let mut out = vec![[0.0; 3]; times_ms.len()];
+    for r in &cfg.ringing {
+        let horizon_ms = 12.0 * r.decay_ms;
+        let mut first = 0usize;
+        for (k, &t) in times_ms.iter().enumerate() {
+            let t = t as f64;
+            while first < edges.len() && edges[first].t_ms < t - horizon_ms {
+                first += 1;
+            }
+            let mut j = first;
+            while j < edges.len() && edges[j].t_ms <= t {
+                let dt_s = (t - edges[j].t_ms) * 1e-3;
+                for a in 0..3 {
+                    out[k][a] += r.response(a, dt_s);
+                }
+                j += 1;
+            }
+        }
+    }
+    out
+}
+
+/// What a noise-free gyro reads (rad/s, nominal conversion) at `times_ms` for commanded
+/// `words` with `effects` on. Convenience over [`Predictor`].
+pub fn predict_gyro_rates(
+    sat: &Satellite,
+    effects: &[Effect],
+    times_ms: &[u64],
+    words: &[u16],
+    initial_rate: [f64; 3],
+    opts: PredictOptions,
+) -> Vec<[f64; 3]> {
+    Predictor::new(sat, effects).run(times_ms, words, initial_rate, opts).gyro_rad_s
+}
+
+/// The full prediction (rates, accelerations, valve states); see [`Prediction`].
+pub fn predict(
+    sat: &Satellite,
+    effects: &[Effect],
+    times_ms: &[u64],
+    words: &[u16],
+    initial_rate: [f64; 3],
+    opts: PredictOptions,
+) -> Prediction {
+    Predictor::new(sat, effects).run(times_ms, words, initial_rate, opts)
+}

@@ -1,0 +1,329 @@
+//! The per-tick pipeline: one call per gyro sample (the 1 kHz interrupt). Gyro counts and the
+//! commanded thruster word in; firing detection, valve-transient skip, the angular-acceleration
+//! Kalman filter, the batch over the first two firings, then RLS; estimates and status out.
+//!
+//! Flow (mirrors the seed's flight code, App. E):
+//! * a change of thruster word ends the current firing and, if the new word is non-zero,
+//!   starts the next one: the Kalman filter is reset to the nominal prediction and skips the
+//!   10 ms valve transient;
+//! * firings 1 and 2 contribute their final angular-acceleration estimate (one measurement
+//!   each) to the batch, solved when firing 2 ends;
+//! * from firing 3 on, every tick with a Kalman update adds an RLS measurement (the current
+//!   estimate weighted by its information); the estimate is re-solved (LU) when the firing
+//!   ends, after the optional change test and forgetting.
+
+use crate::model::{inertia_rows, FiringTerms, ModelError, ModelTerms, SatelliteParams};
+use crate::omega_dot::{KfConfig, KfStatus, OmegaDotEstimate, OmegaDotKf};
+use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
+use crate::scalar::Scalar;
+
+/// Pipeline configuration.
+#[derive(Clone, Copy, Debug)]
+pub struct PipelineConfig<S> {
+    /// Kalman-filter constants.
+    pub kf: KfConfig,
+    /// RLS options.
+    pub rls: RlsConfig<S>,
+    /// Firings whose final estimates form the batch (the seed: 2).
+    pub batch_firings: u32,
+}
+
+impl<S: Scalar> PipelineConfig<S> {
+    /// The seed's settings at sample period `dt_ms`: R0 of Fig. 4.5, P0 = 0.5, 10 ms transient,
+    /// batch over two firings, RLS without forgetting or change detection.
+    pub fn seed(dt_ms: u32) -> Self {
+        PipelineConfig { kf: KfConfig::seed(dt_ms), rls: RlsConfig::default(), batch_firings: 2 }
+    }
+}
+
+/// Overall state, reported every tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum PipelineStatus {
+    /// No firing finished yet.
+    Idle = 0,
+    /// Collecting the batch firings.
+    Batch = 1,
+    /// Estimates valid, every term observable.
+    Ok = 2,
+    /// Estimates valid; some terms are held at the nominal model (see the masks).
+    PartlyUnobservable = 3,
+    /// The information matrix was singular at the last solve; previous estimate kept.
+    Singular = 4,
+    /// A value did not fit the scalar format at the last solve; previous estimate kept.
+    Overflow = 5,
+}
+
+/// What happened during one tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TickEvent {
+    /// Thrusters off (or in a gap), nothing to do.
+    Coasting,
+    /// Inside the 10 ms valve transient.
+    Transient,
+    /// Kalman-filter update (and an RLS measurement if past the batch).
+    Updated,
+    /// A firing ended and the estimate was re-solved (batch or RLS).
+    Solved,
+    /// The Kalman filter could not form an estimate in this format (sample skipped).
+    KfOverflow,
+    /// The firing is longer than the Kalman accumulators allow: frozen.
+    FiringTooLong,
+}
+
+/// Per-tick output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TickReport {
+    /// What this tick did.
+    pub event: TickEvent,
+    /// The pipeline's status after the tick.
+    pub status: PipelineStatus,
+}
+
+/// The whole onboard identification state (fixed size, no allocation).
+#[derive(Clone, Copy, Debug)]
+pub struct Pipeline<S> {
+    cfg: PipelineConfig<S>,
+    terms: ModelTerms<S>,
+    kf: OmegaDotKf<S>,
+    mass: MassId<S>,
+    word: u16,
+    firing_terms: FiringTerms<S>,
+    firings: u32,
+    last: Option<Measurement<S>>,
+    last_estimate: Option<OmegaDotEstimate<S>>,
+    status: PipelineStatus,
+    ticks: u64,
+}
+
+impl<S: Scalar> Pipeline<S> {
+    /// A pipeline for `params` (terms derived once here).
+    pub fn new(params: &SatelliteParams, cfg: PipelineConfig<S>) -> Result<Self, ModelError> {
+        let terms = params.terms::<S>()?;
+        let firing_terms = terms.firing_terms(0);
+        Ok(Pipeline {
+            cfg,
+            terms,
+            kf: OmegaDotKf::new(&cfg.kf),
+            mass: MassId::new(cfg.rls, terms.theta_inertia_nominal),
+            word: 0,
+            firing_terms,
+            firings: 0,
+            last: None,
+            last_estimate: None,
+            status: PipelineStatus::Idle,
+            ticks: 0,
+        })
+    }
+
+    /// One sample period with a gyro sample and the commanded thruster word (bit i = thruster i+1).
+    pub fn tick(&mut self, gyro_counts: [u16; 3], thrusters: u16) -> TickReport {
+        self.step(Some(gyro_counts), thrusters & 0x0fff)
+    }
+
+    /// One sample period without a sample (telemetry gap): time advances, the word is unchanged.
+    pub fn tick_gap(&mut self) -> TickReport {
+        self.step(None, self.word)
+    }
+
+    fn step(&mut self, gyro: Option<[u16; 3]>, word: u16) -> TickReport {
+        self.ticks = self.ticks.saturating_add(1);
+        let mut solved = false;
+        if word != self.word {
+            solved = self.end_firing();
+            self.word = word;
+            if word != 0 {
+                self.firings = self.firings.saturating_add(1);
+                self.firing_terms = self.terms.firing_terms(word);
+                self.kf.reset(self.firing_terms.omega_dot_nominal);
+                self.last = None;
+                self.last_estimate = None;
+                if self.status == PipelineStatus::Idle {
+                    self.status = PipelineStatus::Batch;
+                }
+            }
+        }
+        let event = if self.word == 0 {
+            TickEvent::Coasting
+        } else {
+            match self.kf.update(gyro) {
+                KfStatus::Skipping => TickEvent::Transient,
+                KfStatus::Anchored | KfStatus::Missing => TickEvent::Coasting,
+                KfStatus::Saturated => TickEvent::FiringTooLong,
+                KfStatus::Updated => self.after_kf_update(),
+            }
+        };
+        let event = if solved { TickEvent::Solved } else { event };
+        TickReport { event, status: self.status }
+    }
+
+    fn after_kf_update(&mut self) -> TickEvent {
+        let Some(est) = self.kf.estimate() else {
+            return TickEvent::KfOverflow;
+        };
+        let m = self.measurement(&est);
+        self.last = Some(m);
+        self.last_estimate = Some(est);
+        if self.firings > self.cfg.batch_firings {
+            self.mass.add_tick(&m);
+        }
+        TickEvent::Updated
+    }
+
+    fn measurement(&self, est: &OmegaDotEstimate<S>) -> Measurement<S> {
+        let ft = &self.firing_terms;
+        let mut b_com = [S::ZERO; 3];
+        for ((b, w), n) in b_com.iter_mut().zip(est.omega_dot.iter()).zip(ft.omega_dot_nominal.iter()) {
+            *b = w.minus(*n);
+        }
+        Measurement {
+            a_com: ft.a_com,
+            b_com,
+            a_inertia: inertia_rows(&ft.torque_cnm),
+            b_inertia: est.omega_dot,
+            weight: est.information,
+            variance: est.variance,
+        }
+    }
+
+    /// Returns true if a solve happened.
+    fn end_firing(&mut self) -> bool {
+        if self.word == 0 || self.firings == 0 {
+            return false;
+        }
+        let last = self.last.take();
+        let rls_status = if self.firings <= self.cfg.batch_firings {
+            if let Some(m) = last {
+                self.mass.add_batch(&m);
+            }
+            if self.firings == self.cfg.batch_firings {
+                Some(self.mass.solve())
+            } else {
+                None
+            }
+        } else {
+            Some(self.mass.end_firing(last.as_ref()))
+        };
+        match rls_status {
+            None => false,
+            Some(s) => {
+                self.status = match s {
+                    RlsStatus::Ok => PipelineStatus::Ok,
+                    RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
+                    RlsStatus::Singular => PipelineStatus::Singular,
+                    RlsStatus::Overflow => PipelineStatus::Overflow,
+                    RlsStatus::NoData => self.status,
+                };
+                true
+            }
+        }
+    }
+
+    /// Ends the current firing (if any) as if the thrusters had turned off, e.g. at the end
+    /// of a recording, so its data is folded in.
+    pub fn finish(&mut self) -> PipelineStatus {
+        if self.end_firing() {
+            self.word = 0;
+        }
+        self.word = 0;
+        self.status
+    }
+
+    /// The current estimates (in kernel units).
+    pub fn estimates(&self) -> Estimates<S> {
+        Estimates {
+            delta_com_m: self.mass.delta_com_m,
+            theta_inertia: self.mass.theta_inertia,
+            unobservable_com: self.mass.unobservable_com,
+            unobservable_inertia: self.mass.unobservable_inertia,
+            status: self.status,
+            updates: self.mass.updates,
+            firings: self.firings,
+            resets: self.mass.resets,
+        }
+    }
+
+    /// The latest angular-acceleration estimate of the current firing.
+    pub fn omega_dot(&self) -> Option<OmegaDotEstimate<S>> {
+        self.last_estimate
+    }
+
+    /// The identification state (covariances, information).
+    pub fn mass_id(&self) -> &MassId<S> {
+        &self.mass
+    }
+
+    /// The derived model terms.
+    pub fn model_terms(&self) -> &ModelTerms<S> {
+        &self.terms
+    }
+}
+
+/// Estimates in kernel units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimates<S> {
+    /// CoM offset from the model's CoM, m.
+    pub delta_com_m: [S; 3],
+    /// Inverse-inertia parameters xx yy zz xy xz yz, 1/(kg m^2)/100.
+    pub theta_inertia: [S; 6],
+    /// CoM terms held at the model (unobservable so far).
+    pub unobservable_com: [bool; 3],
+    /// Inverse-inertia terms held at the model.
+    pub unobservable_inertia: [bool; 6],
+    /// Pipeline status.
+    pub status: PipelineStatus,
+    /// Measurement updates folded in.
+    pub updates: u32,
+    /// Firings seen.
+    pub firings: u32,
+    /// Covariance resets by the change detector.
+    pub resets: u32,
+}
+
+impl<S: Scalar> Estimates<S> {
+    /// CoM offset in mm (reporting).
+    pub fn com_offset_mm(&self) -> [f64; 3] {
+        self.delta_com_m.map(|v| f64::from(v.to_f32()) * 1e3)
+    }
+
+    /// Inverse inertia matrix, 1/(kg m^2) (reporting).
+    pub fn inertia_inverse(&self) -> [[f64; 3]; 3] {
+        let t = self.theta_inertia.map(|v| f64::from(v.to_f32()) * 100.0);
+        let [xx, yy, zz, xy, xz, yz] = t;
+        [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]
+    }
+
+    /// Inertia xx yy zz xy xz yz, kg m^2 (reporting; `None` if the inverse is singular).
+    pub fn inertia_kgm2(&self) -> Option<[f64; 6]> {
+        let j = self.inertia_inverse();
+        let p = SatelliteParams {
+            inertia_kgm2: [j[0][0], j[1][1], j[2][2], j[0][1], j[0][2], j[1][2]].map(|v| v as f32),
+            ..crate::model::SPH2
+        };
+        // Reuse the adjugate inverse (f64) on the f32-rounded parameters: exact enough for reports.
+        let _ = p;
+        invert3(&j).map(|m| [m[0][0], m[1][1], m[2][2], m[0][1], m[0][2], m[1][2]])
+    }
+}
+
+/// 3x3 inverse by the adjugate (f64, reporting only).
+pub fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1];
+    let c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2];
+    let c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
+    let det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
+    if !det.is_finite() || det == 0.0 {
+        return None;
+    }
+    let c10 = m[0][2] * m[2][1] - m[0][1] * m[2][2];
+    let c11 = m[0][0] * m[2][2] - m[0][2] * m[2][0];
+    let c12 = m[0][1] * m[2][0] - m[0][0] * m[2][1];
+    let c20 = m[0][1] * m[1][2] - m[0][2] * m[1][1];
+    let c21 = m[0][2] * m[1][0] - m[0][0] * m[1][2];
+    let c22 = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    Some([
+        [c00 / det, c10 / det, c20 / det],
+        [c01 / det, c11 / det, c21 / det],
+        [c02 / det, c12 / det, c22 / det],
+    ])
+}

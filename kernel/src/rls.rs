@@ -1,0 +1,558 @@
+//! Mass-property identification: CoM offset and inverse inertia by recursive least squares
+//! in information form (seed eqs 3.9-3.10), seeded by a batch over the first two firings,
+//! with optional exponential forgetting and an optional innovation change detector that
+//! resets the covariance.
+//!
+//! Information form: `Lambda_k = lambda Lambda_{k-1} + A' R^-1 A`, `eta_k = lambda eta_{k-1} +
+//! A' R^-1 b`, `x_k = Lambda_k^-1 eta_k` (LU solve). This is the seed's recursion rewritten
+//! without the per-update inverse; the final value equals the batch over all data.
+//!
+//! Fixed point: the information grows without bound (~1e10 in SI units over a run), so
+//! `Lambda` and `eta` are stored as **block floating point**: O(1) mantissas plus one shared
+//! exponent ([`InfoLs::exponent`]). Because `x = Lambda^-1 eta` is invariant to a common
+//! scale, the solve uses the mantissas directly; the exponent only matters for the
+//! covariance. A covariance reset is then a change of exponent (free and exact).
+
+use crate::lu::{Lu, LuError};
+use crate::scalar::{max_abs, Scalar, Scaled};
+
+/// One least-squares problem `A x ~= b` in information form, `N` unknowns, 3 rows per update.
+#[derive(Clone, Copy, Debug)]
+pub struct InfoLs<S, const N: usize> {
+    /// Upper triangle of the information mantissa (the lower triangle is not maintained).
+    lam: [[S; N]; N],
+    eta: [S; N],
+    exp: i32,
+    empty: bool,
+    /// A value stopped fitting the format (status, never silent).
+    saturated: bool,
+}
+
+/// Where the mantissas are kept: the largest diagonal stays below this (f32: irrelevant).
+const DIAG_LIMIT_LOG2: i32 = 4;
+
+impl<S: Scalar, const N: usize> Default for InfoLs<S, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<S: Scalar, const N: usize> InfoLs<S, N> {
+    /// No information.
+    pub fn new() -> Self {
+        InfoLs { lam: [[S::ZERO; N]; N], eta: [S::ZERO; N], exp: 0, empty: true, saturated: false }
+    }
+
+    /// The shared exponent: true information = stored mantissa * 2^exponent.
+    pub fn exponent(&self) -> i32 {
+        self.exp
+    }
+
+    /// True if nothing has been added.
+    pub fn is_empty(&self) -> bool {
+        self.empty
+    }
+
+    /// True if some value hit the format's limit.
+    pub fn is_saturated(&self) -> bool {
+        self.saturated
+    }
+
+    /// The full symmetric information mantissa.
+    pub fn information(&self) -> [[S; N]; N] {
+        let mut m = self.lam;
+        for i in 0..N {
+            for j in 0..i {
+                let v = self.lam.get(j).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO);
+                if let Some(d) = m.get_mut(i).and_then(|r| r.get_mut(j)) {
+                    *d = v;
+                }
+            }
+        }
+        m
+    }
+
+    /// The information-vector mantissa.
+    pub fn info_vector(&self) -> [S; N] {
+        self.eta
+    }
+
+    fn max_diag(&self) -> S {
+        let mut m = S::ZERO;
+        for (i, row) in self.lam.iter().enumerate() {
+            m = max_abs(m, row.get(i).copied().unwrap_or(S::ZERO));
+        }
+        m
+    }
+
+    /// Multiplies the stored mantissas by 2^-k and raises the exponent by k (value unchanged).
+    fn shift_down(&mut self, k: i32) {
+        if k <= 0 {
+            return;
+        }
+        for v in self.lam.iter_mut().flatten() {
+            *v = v.mul_pow2(k.saturating_neg());
+        }
+        for v in self.eta.iter_mut() {
+            *v = v.mul_pow2(k.saturating_neg());
+        }
+        self.exp = self.exp.saturating_add(k);
+    }
+
+    fn renormalise(&mut self) {
+        let limit = S::from_int_pow2(1, DIAG_LIMIT_LOG2);
+        for _ in 0..64 {
+            if self.max_diag().lt(limit) {
+                break;
+            }
+            self.shift_down(1);
+        }
+    }
+
+    fn check_valid(&mut self) {
+        if !self.lam.iter().flatten().chain(self.eta.iter()).all(|v| v.is_valid()) {
+            self.saturated = true;
+        }
+    }
+
+    /// Adds three weighted rows: `Lambda += sum_i w_i a_i' a_i`, `eta += sum_i w_i a_i' b_i`.
+    pub fn add(&mut self, rows: &[[S; N]; 3], b: &[S; 3], w: &[Scaled<S>; 3]) {
+        let w = w.map(|v| v.normalized());
+        let we = w.iter().fold(i32::MIN, |m, v| m.max(v.e));
+        if self.empty {
+            self.exp = we;
+            self.empty = false;
+        } else if we > self.exp {
+            self.shift_down(we.saturating_sub(self.exp));
+        }
+        let mut wm = w.map(|v| v.mantissa_at(self.exp));
+        // Row sizes sum_j |a_ij| (regressors are O(10) in kernel units).
+        let r = rows.map(|row| row.iter().fold(S::ZERO, |acc, v| acc.plus(v.abs())));
+        let one = S::ONE;
+        let budget = S::from_int_pow2(1, DIAG_LIMIT_LOG2.saturating_add(1));
+        for _ in 0..64 {
+            let t = [0usize, 1, 2].map(|i| {
+                let wi = wm.get(i).copied().unwrap_or(S::ZERO);
+                let ri = r.get(i).copied().unwrap_or(S::ZERO);
+                wi.times(ri)
+            });
+            let small = t.iter().all(|ti| ti.lt(one));
+            let bound = t.iter().zip(r.iter()).fold(self.max_diag(), |acc, (ti, ri)| acc.mul_add(*ti, *ri));
+            if small && bound.lt(budget) {
+                break;
+            }
+            self.shift_down(1);
+            wm = wm.map(|v| v.mul_pow2(-1));
+        }
+        for ((row, bi), wi) in rows.iter().zip(b.iter()).zip(wm.iter()) {
+            let v: [S; N] = row.map(|a| wi.times(a));
+            for (j, (lam_row, vj)) in self.lam.iter_mut().zip(v.iter()).enumerate() {
+                for (lam_jk, a_k) in lam_row.iter_mut().zip(row.iter()).skip(j) {
+                    *lam_jk = lam_jk.mul_add(*vj, *a_k);
+                }
+            }
+            for (eta_j, vj) in self.eta.iter_mut().zip(v.iter()) {
+                *eta_j = eta_j.mul_add(*vj, *bi);
+            }
+        }
+        self.renormalise();
+        self.check_valid();
+    }
+
+    /// Exponential forgetting: information times `lambda` (0 < lambda <= 1).
+    pub fn forget(&mut self, lambda: S) {
+        for v in self.lam.iter_mut().flatten().chain(self.eta.iter_mut()) {
+            *v = v.times(lambda);
+        }
+    }
+
+    /// Divides the information by 2^bits without touching the estimate (covariance reset).
+    pub fn deflate(&mut self, bits: i32) {
+        self.exp = self.exp.saturating_sub(bits.max(0));
+    }
+
+    /// Adds another problem's information (exponents aligned).
+    pub fn merge(&mut self, other: &Self) {
+        if other.empty {
+            return;
+        }
+        if self.empty {
+            *self = *other;
+            return;
+        }
+        let mut o = *other;
+        let e = self.exp.max(o.exp).saturating_add(1);
+        self.shift_down(e.saturating_sub(self.exp));
+        o.shift_down(e.saturating_sub(o.exp));
+        for (a, b) in self.lam.iter_mut().flatten().zip(o.lam.iter().flatten()) {
+            *a = a.plus(*b);
+        }
+        for (a, b) in self.eta.iter_mut().zip(o.eta.iter()) {
+            *a = a.plus(*b);
+        }
+        self.saturated |= o.saturated;
+        self.renormalise();
+        self.check_valid();
+    }
+
+    /// The terms whose information is not certainly above `rel * max diag`.
+    pub fn unobservable(&self, rel: S) -> [bool; N] {
+        let thr = rel.times(self.max_diag());
+        core::array::from_fn(|i| {
+            let d = self.lam.get(i).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO);
+            !thr.lt(d)
+        })
+    }
+
+    /// Solves for the estimate; unobservable terms (see [`InfoLs::unobservable`]) are held
+    /// at `prior` and the rest solved with them fixed. Returns the estimate, the mask and the
+    /// factorisation of the reduced system (for covariances).
+    pub fn solve(&self, prior: &[S; N], unobs_rel: S, pivot_rel: S) -> Result<Solution<S, N>, LuError> {
+        if self.empty {
+            return Err(LuError::ZeroMatrix);
+        }
+        if self.saturated {
+            return Err(LuError::Overflow);
+        }
+        let unobs = self.unobservable(unobs_rel);
+        let mut m = self.information();
+        let mut rhs = self.eta;
+        let scale = self.max_diag();
+        for (j, &u) in unobs.iter().enumerate() {
+            if !u {
+                continue;
+            }
+            let pj = prior.get(j).copied().unwrap_or(S::ZERO);
+            for (i, (row, r)) in m.iter_mut().zip(rhs.iter_mut()).enumerate() {
+                if let Some(mij) = row.get_mut(j) {
+                    if i != j {
+                        *r = r.minus(mij.times(pj));
+                        *mij = S::ZERO;
+                    }
+                }
+            }
+            if let (Some(row), Some(r)) = (m.get_mut(j), rhs.get_mut(j)) {
+                for v in row.iter_mut() {
+                    *v = S::ZERO;
+                }
+                if let Some(d) = row.get_mut(j) {
+                    *d = scale;
+                }
+                *r = scale.times(pj);
+            }
+        }
+        let lu = Lu::factor(&m, pivot_rel)?;
+        let x = lu.solve(&rhs)?;
+        Ok(Solution { x, unobservable: unobs, lu, exp: self.exp })
+    }
+}
+
+/// Per-term variances, `None` where they do not fit the format.
+pub type MaybeVariances<S, const N: usize> = [Option<Scaled<S>>; N];
+
+/// The result of [`InfoLs::solve`].
+#[derive(Clone, Copy, Debug)]
+pub struct Solution<S, const N: usize> {
+    /// The estimate.
+    pub x: [S; N],
+    /// Terms held at the prior.
+    pub unobservable: [bool; N],
+    lu: Lu<S, N>,
+    exp: i32,
+}
+
+impl<S: Scalar, const N: usize> Solution<S, N> {
+    /// `row * Lambda^-1 * row'` (block floating point): the variance the estimate predicts
+    /// for a measurement with regressor `row`. `None` if it does not fit.
+    pub fn predicted_variance(&self, row: &[S; N]) -> Option<Scaled<S>> {
+        let y = self.lu.solve(row).ok()?;
+        let q = row.iter().zip(y.iter()).fold(S::ZERO, |acc, (a, b)| acc.mul_add(*a, *b));
+        Some(Scaled { m: q, e: self.exp.saturating_neg() })
+    }
+
+    /// Variance of each estimated term (diagonal of `Lambda^-1`), `None` where it does not fit.
+    pub fn variances(&self) -> [Option<Scaled<S>>; N] {
+        core::array::from_fn(|j| {
+            let e: [S; N] = core::array::from_fn(|i| if i == j { S::ONE } else { S::ZERO });
+            let y = self.lu.solve(&e).ok()?;
+            let v = y.get(j).copied()?;
+            Some(Scaled { m: v, e: self.exp.saturating_neg() })
+        })
+    }
+}
+
+/// The two least-squares problems' regressors for one measurement (seed eqs 3.5-3.8).
+#[derive(Clone, Copy, Debug)]
+pub struct Measurement<S> {
+    /// CoM rows `I^-1 [c]x` (rad/s^2 per m).
+    pub a_com: [[S; 3]; 3],
+    /// CoM right-hand side `omega_dot - I^-1 a` (rad/s^2).
+    pub b_com: [S; 3],
+    /// Inverse-inertia rows from the torque in cN m.
+    pub a_inertia: [[S; 6]; 3],
+    /// Inverse-inertia right-hand side `omega_dot` (rad/s^2).
+    pub b_inertia: [S; 3],
+    /// Per-axis weight `1 / variance(omega_dot)`.
+    pub weight: [Scaled<S>; 3],
+    /// Per-axis variance of `omega_dot` (for the change detector).
+    pub variance: [Scaled<S>; 3],
+}
+
+/// Change detector on the RLS innovations (a one-sided CUSUM of the normalised innovation
+/// squared, evaluated once per firing from the firing's final angular acceleration).
+#[derive(Clone, Copy, Debug)]
+pub struct DetectorConfig<S> {
+    /// Subtracted from each firing's statistic (its expected value is 3 for a consistent model).
+    pub drift: S,
+    /// Alarm when the cumulative sum exceeds this.
+    pub threshold: S,
+    /// On alarm, the information is divided by 2^deflate_bits (covariance reset).
+    pub deflate_bits: i32,
+}
+
+/// RLS options.
+#[derive(Clone, Copy, Debug)]
+pub struct RlsConfig<S> {
+    /// Forgetting factor per update (`None` = the seed's RLS, never forgets).
+    pub forgetting: Option<S>,
+    /// Change detector (`None` = off).
+    pub detector: Option<DetectorConfig<S>>,
+    /// A term is unobservable when its information is below this fraction of the largest.
+    pub unobservable_rel: S,
+    /// LU pivot threshold relative to the matrix scale.
+    pub pivot_rel: S,
+}
+
+impl<S: Scalar> Default for RlsConfig<S> {
+    fn default() -> Self {
+        RlsConfig {
+            forgetting: None,
+            detector: None,
+            unobservable_rel: S::from_int_pow2(1, -14),
+            pivot_rel: S::from_int_pow2(1, -20),
+        }
+    }
+}
+
+/// Outcome of a solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RlsStatus {
+    /// Estimate updated, every term observable.
+    Ok,
+    /// Estimate updated; some terms held at the prior (see the masks).
+    PartlyUnobservable,
+    /// The information matrix is numerically singular beyond the unobservable terms.
+    Singular,
+    /// A value did not fit the scalar format.
+    Overflow,
+    /// No information yet.
+    NoData,
+}
+
+/// CoM offset + inverse inertia identification state.
+#[derive(Clone, Copy, Debug)]
+pub struct MassId<S> {
+    cfg: RlsConfig<S>,
+    com: InfoLs<S, 3>,
+    inertia: InfoLs<S, 6>,
+    pending_com: InfoLs<S, 3>,
+    pending_inertia: InfoLs<S, 6>,
+    pending_updates: u32,
+    prior_inertia: [S; 6],
+    /// CoM offset estimate, m (relative to the model's CoM).
+    pub delta_com_m: [S; 3],
+    /// Inverse-inertia parameters (xx yy zz xy xz yz), 1/(kg m^2)/100.
+    pub theta_inertia: [S; 6],
+    /// Terms held at the prior.
+    pub unobservable_com: [bool; 3],
+    /// Terms held at the prior.
+    pub unobservable_inertia: [bool; 6],
+    /// Latest solve's status.
+    pub status: RlsStatus,
+    /// Measurement updates folded in.
+    pub updates: u32,
+    /// Covariance resets by the change detector.
+    pub resets: u32,
+    cusum: S,
+    /// Last firing's detector statistic (normalised innovation squared), for telemetry.
+    pub last_nis: S,
+}
+
+impl<S: Scalar> MassId<S> {
+    /// Empty state; `prior_inertia` are the nominal parameters unobservable terms fall back to.
+    pub fn new(cfg: RlsConfig<S>, prior_inertia: [S; 6]) -> Self {
+        MassId {
+            cfg,
+            com: InfoLs::new(),
+            inertia: InfoLs::new(),
+            pending_com: InfoLs::new(),
+            pending_inertia: InfoLs::new(),
+            pending_updates: 0,
+            prior_inertia,
+            delta_com_m: [S::ZERO; 3],
+            theta_inertia: prior_inertia,
+            unobservable_com: [true; 3],
+            unobservable_inertia: [true; 6],
+            status: RlsStatus::NoData,
+            updates: 0,
+            resets: 0,
+            cusum: S::ZERO,
+            last_nis: S::ZERO,
+        }
+    }
+
+    /// Adds a batch measurement (first two firings) straight into the information.
+    pub fn add_batch(&mut self, m: &Measurement<S>) {
+        self.com.add(&m.a_com, &m.b_com, &m.weight);
+        self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
+        self.updates = self.updates.saturating_add(1);
+    }
+
+    /// Adds a per-tick RLS measurement of the current firing (folded in at [`MassId::end_firing`]).
+    pub fn add_tick(&mut self, m: &Measurement<S>) {
+        if let Some(l) = self.cfg.forgetting {
+            self.pending_com.forget(l);
+            self.pending_inertia.forget(l);
+        }
+        self.pending_com.add(&m.a_com, &m.b_com, &m.weight);
+        self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
+        self.pending_updates = self.pending_updates.saturating_add(1);
+        self.updates = self.updates.saturating_add(1);
+    }
+
+    /// Ends an RLS firing: change test with the firing's final measurement against the
+    /// estimate from before the firing, forgetting, fold-in, solve.
+    pub fn end_firing(&mut self, last: Option<&Measurement<S>>) -> RlsStatus {
+        if let (Some(det), Some(m)) = (self.cfg.detector, last) {
+            if let Some(nis) = self.innovation_nis(m) {
+                self.last_nis = nis;
+                let s = self.cusum.plus(nis).minus(det.drift);
+                self.cusum = if S::ZERO.lt(s) { s } else { S::ZERO };
+                if det.threshold.lt(self.cusum) {
+                    self.com.deflate(det.deflate_bits);
+                    self.inertia.deflate(det.deflate_bits);
+                    self.cusum = S::ZERO;
+                    self.resets = self.resets.saturating_add(1);
+                }
+            }
+        }
+        if let Some(l) = self.cfg.forgetting {
+            let f = pow_u32(l, self.pending_updates);
+            self.com.forget(f);
+            self.inertia.forget(f);
+        }
+        let (pc, pi) = (self.pending_com, self.pending_inertia);
+        self.com.merge(&pc);
+        self.inertia.merge(&pi);
+        self.pending_com = InfoLs::new();
+        self.pending_inertia = InfoLs::new();
+        self.pending_updates = 0;
+        self.solve()
+    }
+
+    /// Normalised innovation squared of the inertia equations for `m` against the current estimate.
+    fn innovation_nis(&self, m: &Measurement<S>) -> Option<S> {
+        if self.inertia.is_empty() {
+            return None;
+        }
+        let sol = self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel).ok()?;
+        let mut total = S::ZERO;
+        for ((row, b), var) in m.a_inertia.iter().zip(m.b_inertia.iter()).zip(m.variance.iter()) {
+            let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
+            let nu = b.minus(pred);
+            let s = sol.predicted_variance(row)?.plus(*var);
+            let nu_s = Scaled { m: nu, e: 0 }.normalized();
+            let term = nu_s.times(nu_s).over(s)?;
+            total = total.plus(term.value());
+        }
+        Some(total)
+    }
+
+    /// Solves both problems for the current estimate.
+    pub fn solve(&mut self) -> RlsStatus {
+        let zero3 = [S::ZERO; 3];
+        let c = self.com.solve(&zero3, self.cfg.unobservable_rel, self.cfg.pivot_rel);
+        let i = self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel);
+        let mut status = RlsStatus::Ok;
+        match c {
+            Ok(sol) => {
+                self.delta_com_m = sol.x;
+                self.unobservable_com = sol.unobservable;
+            }
+            Err(e) => status = worst(status, lu_status(e)),
+        }
+        match i {
+            Ok(sol) => {
+                self.theta_inertia = sol.x;
+                self.unobservable_inertia = sol.unobservable;
+            }
+            Err(e) => status = worst(status, lu_status(e)),
+        }
+        if status == RlsStatus::Ok
+            && (self.unobservable_com.iter().any(|u| *u) || self.unobservable_inertia.iter().any(|u| *u))
+        {
+            status = RlsStatus::PartlyUnobservable;
+        }
+        self.status = status;
+        status
+    }
+
+    /// Variances of the CoM terms (m^2) and of the inverse-inertia parameters, where they fit.
+    pub fn variances(&self) -> (MaybeVariances<S, 3>, MaybeVariances<S, 6>) {
+        let zero3 = [S::ZERO; 3];
+        let c = self
+            .com
+            .solve(&zero3, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+            .map(|s| s.variances())
+            .unwrap_or([None; 3]);
+        let i = self
+            .inertia
+            .solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+            .map(|s| s.variances())
+            .unwrap_or([None; 6]);
+        (c, i)
+    }
+
+    /// The information problems (for tests and the range analysis).
+    pub fn problems(&self) -> (&InfoLs<S, 3>, &InfoLs<S, 6>) {
+        (&self.com, &self.inertia)
+    }
+}
+
+fn lu_status(e: LuError) -> RlsStatus {
+    match e {
+        LuError::Singular { .. } => RlsStatus::Singular,
+        LuError::Overflow => RlsStatus::Overflow,
+        LuError::ZeroMatrix => RlsStatus::NoData,
+    }
+}
+
+fn worst(a: RlsStatus, b: RlsStatus) -> RlsStatus {
+    let rank = |s: RlsStatus| match s {
+        RlsStatus::Ok => 0,
+        RlsStatus::PartlyUnobservable => 1,
+        RlsStatus::NoData => 2,
+        RlsStatus::Singular => 3,
+        RlsStatus::Overflow => 4,
+    };
+    if rank(b) > rank(a) {
+        b
+    } else {
+        a
+    }
+}
+
+/// `x^n` by repeated squaring.
+pub fn pow_u32<S: Scalar>(x: S, n: u32) -> S {
+    let mut result = S::ONE;
+    let mut base = x;
+    let mut n = n;
+    while n > 0 {
+        if n & 1 == 1 {
+            result = result.times(base);
+        }
+        base = base.times(base);
+        n >>= 1;
+    }
+    result
+}

@@ -1,0 +1,410 @@
+//! The number type the kernel is generic over, with an `f32` and a `fixed`-crate impl.
+//!
+//! # Contract (what generic kernel code may assume, and what an impl must provide)
+//!
+//! * `+ - *` and unary `-` never panic. Fixed impls **saturate** at the format's limits
+//!   (a saturated value is caught by the range analysis and the status checks, it is never
+//!   wrapped into a plausible-looking wrong number). `f32` follows IEEE.
+//! * Division only through [`Scalar::checked_div`], which returns `None` for a zero divisor
+//!   or a quotient that does not fit: the kernel turns that into a status.
+//! * Every comparison or branch condition goes through a trait method ([`Scalar::lt`],
+//!   [`Scalar::is_valid`], [`Scalar::abs`]), never `PartialOrd`, so that an interval type can
+//!   give them a conservative meaning: `lt(a, b)` must return `true` only if `a < b` holds
+//!   for every value the operands may stand for. Kernel code is written so that the
+//!   `false` branch of `lt` is always the safe one (e.g. "pivot not known to be large
+//!   enough" => singular status).
+//! * Constants enter only through [`Scalar::from_f32`] (model parameters at
+//!   initialisation) and [`Scalar::from_int_pow2`] (integer accumulators scaled by a power of
+//!   two). There is no other hidden conversion; [`Scalar::to_f32`] is for reporting only and
+//!   never feeds back into the computation.
+//! * [`Scalar::mul_pow2`] scales by `2^e` exactly (a shift for fixed, exact for `f32` in
+//!   range); the kernel uses it for block-floating-point normalisation of the RLS
+//!   information and the Kalman-filter accumulators (see `kernel/README.md`).
+//!
+//! Implement this trait outside the crate for an interval/affine type to run the same
+//! generic code as a range analysis (task `proofs/`).
+
+use core::ops::{Add, Mul, Neg, Sub};
+use fixed::types::extra::LeEqU32;
+use fixed::FixedI32;
+
+/// The number type of the kernel. See the module docs for the contract.
+pub trait Scalar:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+{
+    /// Additive identity.
+    const ZERO: Self;
+    /// Multiplicative identity.
+    const ONE: Self;
+    /// `m * 2^e`, saturating if it does not fit (rounding toward zero below resolution).
+    fn from_int_pow2(m: i32, e: i32) -> Self;
+    /// A model constant (called at initialisation, not per tick). Saturates; NaN maps to zero
+    /// and makes [`Scalar::is_valid`] of derived values meaningful only through the status checks.
+    fn from_f32(v: f32) -> Self;
+    /// For reporting only (never fed back into the kernel's arithmetic).
+    fn to_f32(self) -> f32;
+    /// `self / rhs`, or `None` if `rhs` may be zero or the quotient does not fit.
+    fn checked_div(self, rhs: Self) -> Option<Self>;
+    /// Absolute value (saturating for the most negative fixed value).
+    fn abs(self) -> Self;
+    /// `true` only if `self < rhs` certainly holds (interval impls: for all represented values).
+    fn lt(self, rhs: Self) -> bool;
+    /// `self * 2^e`, exact when representable; saturates on overflow, truncates toward zero below resolution.
+    fn mul_pow2(self, e: i32) -> Self;
+    /// `true` if the value is a finite number that did not hit a saturation limit.
+    fn is_valid(self) -> bool;
+    /// The largest `v` such that `v` and `-v` are safely representable, as a bound for
+    /// normalisation (`f32`: a large power of two; fixed: a quarter of the format's range).
+    fn headroom() -> Self;
+
+    /// `self + rhs` (the contract makes the operators panic-free: saturating for fixed,
+    /// IEEE for f32). Generic kernel code calls these named forms so that the crate-wide
+    /// `clippy::arithmetic_side_effects` lint stays on for every integer operation.
+    #[inline]
+    #[allow(clippy::arithmetic_side_effects)]
+    fn plus(self, rhs: Self) -> Self {
+        self + rhs
+    }
+    /// `self - rhs` (see [`Scalar::plus`]).
+    #[inline]
+    #[allow(clippy::arithmetic_side_effects)]
+    fn minus(self, rhs: Self) -> Self {
+        self - rhs
+    }
+    /// `self * rhs` (see [`Scalar::plus`]).
+    #[inline]
+    #[allow(clippy::arithmetic_side_effects)]
+    fn times(self, rhs: Self) -> Self {
+        self * rhs
+    }
+    /// `-self` (see [`Scalar::plus`]).
+    #[inline]
+    #[allow(clippy::arithmetic_side_effects)]
+    fn negate(self) -> Self {
+        -self
+    }
+    /// `self + a * b`.
+    #[inline]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        self.plus(a.times(b))
+    }
+}
+
+/// The larger of two magnitudes, through the trait's comparison.
+#[inline]
+pub fn max_abs<S: Scalar>(a: S, b: S) -> S {
+    let (a, b) = (a.abs(), b.abs());
+    if a.lt(b) {
+        b
+    } else {
+        a
+    }
+}
+
+impl Scalar for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    #[inline]
+    fn from_int_pow2(m: i32, e: i32) -> Self {
+        (m as f32) * pow2_f32(e)
+    }
+    #[inline]
+    fn from_f32(v: f32) -> Self {
+        if v.is_nan() {
+            0.0
+        } else {
+            v
+        }
+    }
+    #[inline]
+    fn to_f32(self) -> f32 {
+        self
+    }
+    #[inline]
+    fn checked_div(self, rhs: Self) -> Option<Self> {
+        if rhs == 0.0 {
+            return None;
+        }
+        let q = self / rhs;
+        if q.is_finite() {
+            Some(q)
+        } else {
+            None
+        }
+    }
+    #[inline]
+    fn abs(self) -> Self {
+        if self < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+    #[inline]
+    fn lt(self, rhs: Self) -> bool {
+        self < rhs
+    }
+    #[inline]
+    fn mul_pow2(self, e: i32) -> Self {
+        self * pow2_f32(e)
+    }
+    #[inline]
+    fn is_valid(self) -> bool {
+        self.is_finite()
+    }
+    #[inline]
+    fn headroom() -> Self {
+        1.0e30
+    }
+}
+
+/// `2^e` as f32 built from its bit pattern (no libm in `no_std`); clamps to the normal range.
+#[inline]
+fn pow2_f32(e: i32) -> f32 {
+    let e = e.clamp(-126, 127);
+    // e + 127 is in 1..=254, so the cast and shift are exact.
+    let biased = e.saturating_add(127) as u32;
+    f32::from_bits(biased << 23)
+}
+
+/// A `fixed`-crate 32-bit signed number with `FRAC` fractional bits and saturating arithmetic.
+///
+/// The kernel's fixed instantiation is [`Q8_24`] (range +-128, resolution 6e-8): every
+/// quantity is expressed in units that make it O(1) (see `kernel/README.md`, range analysis),
+/// and the quantities whose dynamic range is too wide for any 32-bit format (Kalman
+/// information, RLS information) are carried as integer accumulators or as block floating
+/// point (a `Fx` mantissa plus a shared `i32` exponent).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Default)]
+#[repr(transparent)]
+pub struct Fx<Frac: LeEqU32>(pub FixedI32<Frac>);
+
+/// The kernel's fixed-point scalar: 8 integer bits (sign included), 24 fractional bits.
+pub type Q8_24 = Fx<fixed::types::extra::U24>;
+/// A 16.16 scalar (too coarse for the CoM terms: kept for the range-analysis comparison).
+pub type Q16_16 = Fx<fixed::types::extra::U16>;
+
+impl<Frac: LeEqU32> Add for Fx<Frac> {
+    type Output = Self;
+    #[inline]
+    fn add(self, rhs: Self) -> Self {
+        Fx(self.0.saturating_add(rhs.0))
+    }
+}
+impl<Frac: LeEqU32> Sub for Fx<Frac> {
+    type Output = Self;
+    #[inline]
+    fn sub(self, rhs: Self) -> Self {
+        Fx(self.0.saturating_sub(rhs.0))
+    }
+}
+impl<Frac: LeEqU32> Mul for Fx<Frac> {
+    type Output = Self;
+    #[inline]
+    fn mul(self, rhs: Self) -> Self {
+        Fx(self.0.saturating_mul(rhs.0))
+    }
+}
+impl<Frac: LeEqU32> Neg for Fx<Frac> {
+    type Output = Self;
+    #[inline]
+    fn neg(self) -> Self {
+        Fx(self.0.saturating_neg())
+    }
+}
+
+impl<Frac: LeEqU32> Scalar for Fx<Frac> {
+    const ZERO: Self = Fx(FixedI32::ZERO);
+    // Valid for FRAC <= 30 (the shift is checked at compile time when instantiated).
+    const ONE: Self = Fx(FixedI32::from_bits(1 << Frac::U32));
+    #[inline]
+    fn from_int_pow2(m: i32, e: i32) -> Self {
+        // value = m * 2^e; bits = m * 2^(e + FRAC)
+        let sh = e.saturating_add(Frac::I32);
+        Fx(FixedI32::from_bits(shift_sat_i64(i64::from(m), sh)))
+    }
+    #[inline]
+    fn from_f32(v: f32) -> Self {
+        Fx(FixedI32::saturating_from_num(if v.is_nan() { 0.0 } else { v }))
+    }
+    #[inline]
+    fn to_f32(self) -> f32 {
+        self.0.to_num::<f32>()
+    }
+    #[inline]
+    fn checked_div(self, rhs: Self) -> Option<Self> {
+        self.0.checked_div(rhs.0).map(Fx)
+    }
+    #[inline]
+    fn abs(self) -> Self {
+        Fx(self.0.saturating_abs())
+    }
+    #[inline]
+    fn lt(self, rhs: Self) -> bool {
+        self.0 < rhs.0
+    }
+    #[inline]
+    fn mul_pow2(self, e: i32) -> Self {
+        Fx(FixedI32::from_bits(shift_sat_i64(i64::from(self.0.to_bits()), e)))
+    }
+    #[inline]
+    fn is_valid(self) -> bool {
+        self.0 != FixedI32::<Frac>::MAX && self.0 != FixedI32::<Frac>::MIN
+    }
+    #[inline]
+    fn headroom() -> Self {
+        Fx(FixedI32::from_bits(i32::MAX >> 2))
+    }
+}
+
+/// `v * 2^sh` saturated to i32 (arithmetic shift right for negative `sh`, rounding toward -inf).
+#[inline]
+fn shift_sat_i64(v: i64, sh: i32) -> i32 {
+    let shifted: i64 = if sh >= 0 {
+        if sh >= 62 {
+            if v == 0 {
+                0
+            } else if v > 0 {
+                i64::MAX
+            } else {
+                i64::MIN
+            }
+        } else {
+            v.checked_shl(sh as u32)
+                .filter(|r| r >> sh == v)
+                .unwrap_or(if v > 0 { i64::MAX } else { i64::MIN })
+        }
+    } else {
+        let r = sh.unsigned_abs();
+        if r >= 63 {
+            if v < 0 {
+                -1
+            } else {
+                0
+            }
+        } else {
+            v >> r
+        }
+    };
+    i32::try_from(shifted).unwrap_or(if shifted > 0 { i32::MAX } else { i32::MIN })
+}
+
+/// A block-floating-point value `m * 2^e`: an O(1) [`Scalar`] mantissa with an integer
+/// exponent. Used for the quantities whose dynamic range no 32-bit fixed format holds
+/// (Kalman information ~ 3e9, its covariance ~ 3e-10, RLS weights).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scaled<S> {
+    /// Mantissa (kept O(1) by the code that builds it).
+    pub m: S,
+    /// Power-of-two exponent.
+    pub e: i32,
+}
+
+impl<S: Scalar> Scaled<S> {
+    /// Zero.
+    pub fn zero() -> Self {
+        Scaled { m: S::ZERO, e: 0 }
+    }
+    /// The value re-expressed with exponent `e` (the mantissa shifted accordingly).
+    #[inline]
+    pub fn mantissa_at(self, e: i32) -> S {
+        self.m.mul_pow2(self.e.saturating_sub(e))
+    }
+    /// For reporting: the value as f64 (`m * 2^e`).
+    pub fn to_f64(self) -> f64 {
+        let mut v = f64::from(self.m.to_f32());
+        let mut e = self.e.clamp(-1100, 1100);
+        while e > 0 {
+            v *= 2.0;
+            e = e.saturating_sub(1);
+        }
+        while e < 0 {
+            v *= 0.5;
+            e = e.saturating_add(1);
+        }
+        v
+    }
+}
+
+/// Splits a non-negative or negative integer into `(mantissa, exponent)` with
+/// `|mantissa| < 2^bits` and `v ~= mantissa * 2^exponent` (truncating low bits).
+#[inline]
+pub fn split_i64(v: i64, bits: u32) -> (i32, i32) {
+    let mag = v.unsigned_abs();
+    let len = 64u32.saturating_sub(mag.leading_zeros());
+    let sh = len.saturating_sub(bits.min(31));
+    // sh <= 64 - bits, so the shifted value fits in `bits` bits.
+    let m = (v >> sh.min(63)) as i32;
+    (m, sh as i32)
+}
+
+impl<S: Scalar> Scaled<S> {
+    /// A constant given in f64 at initialisation, with its mantissa in [1, 2).
+    pub fn from_f64(v: f64) -> Self {
+        if !v.is_finite() || v == 0.0 {
+            return Scaled::zero();
+        }
+        let mut m = v;
+        let mut e = 0i32;
+        let mut guard = 0u32;
+        while (m >= 2.0 || m <= -2.0) && guard < 2100 {
+            m *= 0.5;
+            e = e.saturating_add(1);
+            guard = guard.saturating_add(1);
+        }
+        while m < 1.0 && m > -1.0 && guard < 2100 {
+            m *= 2.0;
+            e = e.saturating_sub(1);
+            guard = guard.saturating_add(1);
+        }
+        Scaled { m: S::from_f32(m as f32), e }
+    }
+
+    /// Brings the mantissa into [1, 2) in magnitude (at most 64 steps each way; zero stays zero).
+    pub fn normalized(self) -> Self {
+        let one = S::ONE;
+        let two = S::from_int_pow2(2, 0);
+        let mut m = self.m;
+        let mut e = self.e;
+        for _ in 0..64 {
+            if m.abs().lt(two) {
+                break;
+            }
+            m = m.mul_pow2(-1);
+            e = e.saturating_add(1);
+        }
+        for _ in 0..64 {
+            if !m.abs().lt(one) || !S::ZERO.lt(m.abs()) {
+                break;
+            }
+            m = m.mul_pow2(1);
+            e = e.saturating_sub(1);
+        }
+        Scaled { m, e }
+    }
+}
+
+impl<S: Scalar> Scaled<S> {
+    /// Product (mantissas multiplied, exponents added; the result is renormalised).
+    pub fn times(self, rhs: Self) -> Self {
+        let a = self.normalized();
+        let b = rhs.normalized();
+        Scaled { m: a.m.times(b.m), e: a.e.saturating_add(b.e) }.normalized()
+    }
+    /// Quotient, `None` for a zero divisor.
+    pub fn over(self, rhs: Self) -> Option<Self> {
+        let a = self.normalized();
+        let b = rhs.normalized();
+        Some(Scaled { m: a.m.checked_div(b.m)?, e: a.e.saturating_sub(b.e) }.normalized())
+    }
+    /// Sum (aligned to the larger exponent).
+    pub fn plus(self, rhs: Self) -> Self {
+        let a = self.normalized();
+        let b = rhs.normalized();
+        let e = a.e.max(b.e).saturating_add(1);
+        Scaled { m: a.mantissa_at(e).plus(b.mantissa_at(e)), e }.normalized()
+    }
+    /// The value at exponent 0 (saturating), e.g. to compare with a plain threshold.
+    pub fn value(self) -> S {
+        self.mantissa_at(0)
+    }
+}

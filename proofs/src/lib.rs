@@ -1,1 +1,11 @@
 //! Proof harnesses and the envelope they assume.
+//!
+//! * [`envelope`]: every input range, once.
+//! * [`engine`]: the `any`/`assume`/`cover!` abstraction; Kani under `cfg(kani)`, else an
+//!   executing shim with random and exhaustive modes and cover counting.
+//! * [`interval`]: a sound interval scalar for the range analysis.
+//! * [`budget`]: the error budget of every kernel output against `reference_f64`, in one table.
+pub mod budget;
+pub mod engine;
+pub mod envelope;
+pub mod interval;

@@ -1,0 +1,29 @@
+//! Picks the memory map for the QEMU machine of the target and links with cortex-m-rt's
+//! `link.x`: `thumbv6m-none-eabi` runs on `-machine microbit` (nRF51822: 256 KB flash at 0,
+//! 16 KB RAM), `thumbv7em-none-eabihf` on `-machine mps2-an386` (Cortex-M4F; 4 MB SSRAM1 at
+//! 0 used as flash, SSRAM2 at 0x2000_0000, of which 64 KB are used as RAM).
+use std::env;
+use std::fs;
+use std::path::PathBuf;
+
+fn main() {
+    let target = env::var("TARGET").unwrap_or_default();
+    let memory = if target.starts_with("thumbv6m") {
+        "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 256K\n  RAM : ORIGIN = 0x20000000, LENGTH = 16K\n}\n"
+    } else {
+        "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 4M\n  RAM : ORIGIN = 0x20000000, LENGTH = 64K\n}\n"
+    };
+    let out = PathBuf::from(env::var("OUT_DIR").unwrap_or_default());
+    // Keep the per-function stack sizes that `-Z emit-stack-sizes` produces (non-allocated).
+    let extra = "SECTIONS\n{\n  .stack_sizes (INFO) :\n  {\n    KEEP(*(.stack_sizes));\n  }\n}\nINSERT AFTER .got;\n";
+    if let Err(e) = fs::write(out.join("memory.x"), memory).and_then(|()| fs::write(out.join("stack_sizes.x"), extra)) {
+        eprintln!("massid-qemu-firmware build: writing the linker scripts to {}: {e}", out.display());
+        std::process::exit(1);
+    }
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed=build.rs");
+    if target.starts_with("thumb") {
+        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+        println!("cargo:rustc-link-arg-bins=-Tstack_sizes.x");
+    }
+}

@@ -1,0 +1,71 @@
+//! Runs the kernel over the embedded sequence and prints its outputs over semihosting, then
+//! exits QEMU (status 0, or 1 on a write error or a panic).
+#![no_std]
+#![no_main]
+
+use core::fmt::{self, Write};
+use cortex_m_rt::entry;
+use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
+use cortex_m_semihosting::hio;
+
+/// Line-buffered semihosting stdout (one host call per line, not per `write_str`).
+struct Semihosted {
+    stream: hio::HostStream,
+    line: [u8; 256],
+    len: usize,
+}
+
+impl Semihosted {
+    fn flush(&mut self) -> fmt::Result {
+        let n = self.len;
+        self.len = 0;
+        self.stream.write_all(self.line.get(..n).unwrap_or(&[])).map_err(|()| fmt::Error)
+    }
+}
+
+impl Write for Semihosted {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        for &b in s.as_bytes() {
+            if self.len == self.line.len() {
+                self.flush()?;
+            }
+            if let Some(slot) = self.line.get_mut(self.len) {
+                *slot = b;
+                self.len += 1;
+            }
+            if b == b'\n' {
+                self.flush()?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let status = match hio::hstdout() {
+        Ok(stream) => {
+            let mut out = Semihosted { stream, line: [0; 256], len: 0 };
+            match massid_qemu_runner::run_all(&mut out).and_then(|()| out.flush()) {
+                Ok(()) => EXIT_SUCCESS,
+                Err(_) => EXIT_FAILURE,
+            }
+        }
+        Err(()) => EXIT_FAILURE,
+    };
+    debug::exit(status);
+    loop {
+        cortex_m::asm::nop();
+    }
+}
+
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo) -> ! {
+    if let Ok(mut err) = hio::hstderr() {
+        let _ = err.write_all(b"PANIC in firmware\n");
+    }
+    debug::exit(EXIT_FAILURE);
+    loop {
+        cortex_m::asm::nop();
+    }
+}

@@ -1,0 +1,128 @@
+//! Runs the kernel, fixed ([`Q8_24`]) then `f32`, over a recorded sequence embedded at build
+//! time, and writes its outputs as text lines. The same code runs in the QEMU firmware
+//! (output over semihosting) and natively on the host (stdout), so the two outputs can be
+//! compared line by line: fixed bit for bit, `f32` within the budget of `massid-qemu-host
+//! compare`.
+//!
+//! Every number is printed as the hex of its raw bits (fixed: the `i32` bits of the Q8.24
+//! value; `f32`: `to_bits`), so the comparison never goes through decimal formatting.
+//!
+//! Each kernel call of interest is bracketed by [`markers`] so that a QEMU instruction trace
+//! can be cut into per-call instruction counts (see `massid-qemu-host count`).
+#![no_std]
+
+pub mod markers;
+pub mod sequence;
+
+use core::fmt::{self, Write};
+use massid_kernel::model::SPH2;
+use massid_kernel::{Estimates, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
+
+use markers::Kind;
+
+/// Raw bits of a kernel scalar, for exact printing.
+pub trait RawBits: Scalar {
+    /// Name printed at the start of each output line.
+    const NAME: &'static str;
+    /// `true` if the outputs must match the host bit for bit.
+    const EXACT: bool;
+    /// The value's raw bits.
+    fn raw_bits(self) -> u32;
+}
+
+impl RawBits for Q8_24 {
+    const NAME: &'static str = "fixed";
+    const EXACT: bool = true;
+    fn raw_bits(self) -> u32 {
+        self.0.to_bits() as u32
+    }
+}
+
+impl RawBits for f32 {
+    const NAME: &'static str = "f32";
+    const EXACT: bool = false;
+    fn raw_bits(self) -> u32 {
+        self.to_bits()
+    }
+}
+
+/// Runs both kernels over the embedded sequence, writing their outputs to `out`.
+pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
+    writeln!(
+        out,
+        "# sequence {} {} {}..{} ms ({} samples)",
+        sequence::SOURCE,
+        sequence::SATELLITE,
+        sequence::START_MS,
+        sequence::START_MS as usize + sequence::LEN,
+        sequence::LEN
+    )?;
+    // An empty bracket: the trace counter subtracts its count (the markers' own instructions).
+    markers::begin();
+    markers::end();
+    markers::kind(Kind::Calibration);
+    run::<Q8_24, W>(out)?;
+    run::<f32, W>(out)?;
+    writeln!(out, "# done")
+}
+
+/// Runs one kernel over the sequence.
+pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
+    let Ok(mut pipeline) = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)) else {
+        return writeln!(out, "{} init-error", S::NAME);
+    };
+    writeln!(out, "{} state-bytes {}", S::NAME, core::mem::size_of::<Pipeline<S>>())?;
+    let mut prev_word = 0u16;
+    let mut firings = 0u32;
+    for (i, (gyro, word)) in sequence::samples().enumerate() {
+        let t = sequence::START_MS as usize + i;
+        if word != prev_word && prev_word != 0 {
+            // The firing that is ending: its last angular-acceleration estimate.
+            if let Some(est) = pipeline.omega_dot() {
+                write!(out, "{} t={t} firing={firings} omega_dot", S::NAME)?;
+                write_bits(out, &est.omega_dot)?;
+                writeln!(out, " updates={}", est.updates)?;
+            }
+        }
+        if word != prev_word && word != 0 {
+            firings += 1;
+        }
+        prev_word = word;
+        markers::begin();
+        let report = pipeline.tick(gyro, word);
+        markers::end();
+        let rls_active = firings > 2;
+        markers::kind(match report.event {
+            TickEvent::Coasting | TickEvent::Transient => Kind::Idle,
+            TickEvent::Updated if rls_active => Kind::KfRls,
+            TickEvent::Updated => Kind::Kf,
+            TickEvent::Solved => Kind::Solve,
+            TickEvent::KfOverflow | TickEvent::FiringTooLong => Kind::Other,
+        });
+        if report.event == TickEvent::Solved {
+            write_estimates(out, t, &pipeline.estimates())?;
+        }
+        if !matches!(report.event, TickEvent::Coasting | TickEvent::Transient | TickEvent::Updated | TickEvent::Solved) {
+            writeln!(out, "{} t={t} event={:?} status={:?}", S::NAME, report.event, report.status)?;
+        }
+    }
+    let status = pipeline.finish();
+    let t = sequence::START_MS as usize + sequence::LEN;
+    writeln!(out, "{} t={t} finish status={:?}", S::NAME, status)?;
+    write_estimates(out, t, &pipeline.estimates())
+}
+
+fn write_estimates<S: RawBits, W: Write>(out: &mut W, t: usize, e: &Estimates<S>) -> fmt::Result {
+    write!(out, "{} t={t} estimates status={:?} firings={} updates={} resets={} com", S::NAME, e.status, e.firings, e.updates, e.resets)?;
+    write_bits(out, &e.delta_com_m)?;
+    write!(out, " theta")?;
+    write_bits(out, &e.theta_inertia)?;
+    writeln!(out, " unobs={:?}{:?}", e.unobservable_com, e.unobservable_inertia)
+}
+
+fn write_bits<S: RawBits, W: Write>(out: &mut W, v: &[S]) -> fmt::Result {
+    for x in v {
+        write!(out, " {:08x}", x.raw_bits())?;
+    }
+    Ok(())
+}

@@ -1,0 +1,88 @@
+//! Marker functions for instruction counting in a QEMU trace.
+//!
+//! `massid_mark_begin` and `massid_mark_end` bracket one kernel call; the `massid_mark_kind_*`
+//! function called right after says what the call did. The trace counter
+//! (`massid-qemu-host count`) finds these symbols in the ELF, counts executed instructions
+//! from the first instruction of `begin` to the first of `end`, and files the count under the
+//! kind that follows. Each function stores a different constant, so LLVM cannot merge them
+//! into one address; `#[inline(never)]` + `#[no_mangle]` keep them as real, named calls.
+use core::ptr::{addr_of_mut, write_volatile};
+
+static mut SINK: u32 = 0;
+
+macro_rules! marker {
+    ($(#[$doc:meta])* $name:ident = $value:expr) => {
+        $(#[$doc])*
+        #[no_mangle]
+        #[inline(never)]
+        pub extern "C" fn $name() {
+            // SAFETY: a volatile store to a private static; the firmware is single-threaded and
+            // the value is never read (it only makes the function bodies distinct).
+            unsafe { write_volatile(addr_of_mut!(SINK), $value) }
+        }
+    };
+}
+
+marker!(/// Start of a measured call.
+    massid_mark_begin = 0x4d42_0001);
+marker!(/// End of a measured call.
+    massid_mark_end = 0x4d42_0002);
+marker!(/// The empty bracket measured once at start-up (marker overhead).
+    massid_mark_kind_calibration = 0x4d42_0010);
+marker!(/// A tick with thrusters off or in the valve transient.
+    massid_mark_kind_idle = 0x4d42_0011);
+marker!(/// A Kalman-filter tick during the batch firings (no RLS measurement).
+    massid_mark_kind_kf = 0x4d42_0012);
+marker!(/// A Kalman-filter tick that also folds an RLS measurement in (firing 3 on).
+    massid_mark_kind_kf_rls = 0x4d42_0013);
+marker!(/// A tick at the end of a firing that solves the batch or RLS estimate (LU).
+    massid_mark_kind_solve = 0x4d42_0014);
+marker!(/// A mixer call (force/torque command to thruster on/off times).
+    massid_mark_kind_mixer = 0x4d42_0015);
+marker!(/// Anything else (overflow events).
+    massid_mark_kind_other = 0x4d42_0016);
+
+/// What a measured call did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Marker overhead.
+    Calibration,
+    /// Thrusters off / transient.
+    Idle,
+    /// Kalman filter only.
+    Kf,
+    /// Kalman filter + RLS measurement.
+    KfRls,
+    /// End of firing: batch or RLS solve.
+    Solve,
+    /// Mixer.
+    Mixer,
+    /// Other.
+    Other,
+}
+
+/// Marks the start of a measured call.
+#[inline(always)]
+pub fn begin() {
+    massid_mark_begin();
+}
+
+/// Marks the end of a measured call.
+#[inline(always)]
+pub fn end() {
+    massid_mark_end();
+}
+
+/// Files the call just measured under `k`.
+#[inline(always)]
+pub fn kind(k: Kind) {
+    match k {
+        Kind::Calibration => massid_mark_kind_calibration(),
+        Kind::Idle => massid_mark_kind_idle(),
+        Kind::Kf => massid_mark_kind_kf(),
+        Kind::KfRls => massid_mark_kind_kf_rls(),
+        Kind::Solve => massid_mark_kind_solve(),
+        Kind::Mixer => massid_mark_kind_mixer(),
+        Kind::Other => massid_mark_kind_other(),
+    }
+}

@@ -1,0 +1,502 @@
+//! The whole diagnosis: nominal prediction, noise, localisation, forward selection of
+//! mechanisms by BIC, and the contract output.
+
+use serde_json::Map;
+
+use crate::effects::{self, Kind};
+use crate::fit::{self, Family, Problem};
+use crate::locate;
+use crate::model::{Params, Plant, NT};
+use crate::noise::{self, NoiseModel};
+use crate::output::{num, nums, DataIssues, DiagnosisOutput, EffectReport, FORMAT};
+use crate::ringing::{self, RingingFit};
+use crate::select::{self, Settings};
+use crate::series::Series;
+use crate::stats::{self, ResidualTests};
+
+/// One candidate's score in one selection round.
+#[derive(Clone, Debug)]
+pub struct Score {
+    pub round: usize,
+    pub effect: &'static str,
+    pub delta_bic: f64,
+}
+
+/// Everything the reports need.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    pub output: DiagnosisOutput,
+    pub residual_before: Vec<[f64; 3]>,
+    pub residual_after: Vec<[f64; 3]>,
+    pub noise: NoiseModel,
+    pub tests_before: ResidualTests,
+    pub tests_after: ResidualTests,
+    /// Post-edge residual spectrum of the nominal model (frequency Hz, power).
+    pub spectrum_before: Vec<(f64, f64)>,
+    /// Apparent tone and the true frequencies it could fold from.
+    pub alias_marks: (f64, Vec<f64>),
+    pub scores: Vec<Score>,
+    pub by_condition_before: Vec<(locate::Condition, usize, [f64; 3])>,
+    pub by_condition_after: Vec<(locate::Condition, usize, [f64; 3])>,
+}
+
+struct Accepted {
+    kind: Kind,
+    theta: Vec<f64>,
+    stderr: Vec<f64>,
+    delta_bic: f64,
+    rms_after: [f64; 3],
+    windows: Vec<[i64; 2]>,
+    evidence: String,
+}
+
+fn fit_omega0(prob: &Problem, omega0: [f64; 3]) -> Option<fit::FitResult> {
+    let fam = Family {
+        apply: Box::new(|th: &[f64]| Some(Params { omega0: [th[0], th[1], th[2]], ..Params::default() })),
+        step: vec![1e-5; 3],
+        lo: vec![-3.0; 3],
+        hi: vec![3.0; 3],
+    };
+    fit::fit(prob, &fam, &omega0, 10)
+}
+
+/// Mean of the first samples as the starting initial rate.
+fn initial_rate(series: &Series) -> [f64; 3] {
+    let n = series.len().min(5);
+    let mut w = [0.0; 3];
+    for i in 0..n {
+        for a in 0..3 {
+            w[a] += series.rate[i][a] / n as f64;
+        }
+    }
+    w
+}
+
+/// Low-frequency peaks of the nominal residual (slosh starting points), Hz.
+fn slosh_hints(series: &Series, r: &[[f64; 3]]) -> Vec<f64> {
+    let mask = noise::coasting_mask(series, 100);
+    let step = (series.sample_rate_hz / 20.0).max(1.0) as usize;
+    let mut t = vec![];
+    let mut y: [Vec<f64>; 3] = Default::default();
+    for i in (0..series.len()).step_by(step) {
+        if mask[i] {
+            t.push(series.t_ms[i] as f64 * 1e-3);
+            for a in 0..3 {
+                y[a].push(r[i][a]);
+            }
+        }
+    }
+    if t.len() < 50 {
+        return vec![0.4];
+    }
+    let freqs = crate::spectrum::grid(0.05, 5.0, 400);
+    let mut tot = vec![0.0; freqs.len()];
+    for a in 0..3 {
+        // remove a linear trend per axis so drift does not dominate
+        let p = crate::spectrum::lomb_scargle(&t, &detrend(&t, &y[a]), &freqs);
+        for (x, v) in tot.iter_mut().zip(p) {
+            *x += v;
+        }
+    }
+    let mut idx: Vec<usize> = (1..freqs.len() - 1).filter(|&i| tot[i] >= tot[i - 1] && tot[i] >= tot[i + 1]).collect();
+    idx.sort_by(|&a, &b| tot[b].partial_cmp(&tot[a]).unwrap());
+    let mut out: Vec<f64> = idx.iter().take(2).map(|&i| freqs[i]).collect();
+    if out.is_empty() {
+        out.push(0.4);
+    }
+    out
+}
+
+fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
+    let n = t.len() as f64;
+    let mt = t.iter().sum::<f64>() / n;
+    let my = y.iter().sum::<f64>() / n;
+    let sxy: f64 = t.iter().zip(y).map(|(a, b)| (a - mt) * (b - my)).sum();
+    let sxx: f64 = t.iter().map(|a| (a - mt).powi(2)).sum();
+    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    t.iter().zip(y).map(|(a, v)| v - my - b * (a - mt)).collect()
+}
+
+fn ringing_theta(r: &RingingFit) -> Vec<f64> {
+    let mut th = vec![r.freq_hz, r.decay_ms];
+    for a in 0..3 {
+        th.extend(r.amp[a]);
+    }
+    th
+}
+
+/// Runs the diagnosis of `series` against the satellite `plant`.
+pub fn diagnose(
+    series: &Series,
+    plant: &Plant,
+    recording: &str,
+    model: &str,
+    issues: DataIssues,
+    settings: &Settings,
+) -> Analysis {
+    let fired = effects::fired_thrusters(series);
+    // 1. nominal prediction with the initial rate fitted, noise from its residual
+    let provisional = NoiseModel { var: [1e-6; 3], long_run_var: [1e-6; 3], rho1: [0.0; 3], pairs: 0 };
+    let prob0 = Problem::new(plant, series, &provisional);
+    let w0 = fit_omega0(&prob0, initial_rate(series)).map(|f| f.theta).unwrap_or(initial_rate(series).to_vec());
+    let r0 = prob0.residual(&Params { omega0: [w0[0], w0[1], w0[2]], ..Params::default() }).unwrap_or_default();
+    let noise = noise::estimate(series, &r0);
+    let mut prob = Problem::new(plant, series, &noise);
+    prob.stride = (series.sample_rate_hz / 200.0).round().max(1.0) as usize;
+    let nominal = fit_omega0(&prob, [w0[0], w0[1], w0[2]]);
+    let mut omega0 = nominal.as_ref().map(|f| [f.theta[0], f.theta[1], f.theta[2]]).unwrap_or([w0[0], w0[1], w0[2]]);
+    let nominal_params = Params { omega0, ..Params::default() };
+    let residual_before = prob.residual(&nominal_params).unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
+    let chi2_nominal = prob.chi2(&nominal_params).unwrap_or(f64::INFINITY);
+    let n_obs = prob.n_obs() as f64;
+    let ln_n = n_obs.max(2.0).ln();
+    let slosh_hint = slosh_hints(series, &residual_before);
+    let spectrum_before = ringing::post_edge_spectrum(series, &residual_before, 100);
+    let rweight: [f64; 3] = prob.weight;
+
+    // 2. forward selection
+    let mut accepted: Vec<Accepted> = vec![];
+    let mut chi2_cur = chi2_nominal;
+    let mut k_cur = 0usize;
+    let mut scores = vec![];
+    let mut residual_cur = residual_before.clone();
+    let mut alias_marks = (0.0, vec![]);
+    let mut joint_stderr: Vec<f64> = vec![];
+    let mut sizes: Vec<usize> = vec![];
+    for round in 0..settings.max_effects {
+        let acc_pairs: Vec<(Kind, Vec<f64>)> = accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
+        let mut best: Option<(f64, Kind, Vec<f64>, f64, String)> = None; // (dbic, kind, theta, chi2, note)
+        for &kind in Kind::ALL.iter() {
+            if accepted.iter().any(|a| a.kind == kind) {
+                continue;
+            }
+            // mechanisms that share parameters cannot be combined
+            if (kind == Kind::MassPropertyChange || kind == Kind::Inertia || kind == Kind::ComOffset)
+                && accepted.iter().any(|a| matches!(a.kind, Kind::MassPropertyChange))
+            {
+                continue;
+            }
+            let k_new = effects::n_params(kind, &fired);
+            if k_new == 0 {
+                continue;
+            }
+            let (chi2, theta, note) = if kind == Kind::GyroRinging {
+                let Some(rf) = ringing::fit(series, &residual_cur, &rweight, settings.ringing_prior_hz) else { continue };
+                alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
+                (chi2_cur - rf.delta_chi2, ringing_theta(&rf), rf.evidence.clone())
+            } else {
+                let Some((fr, sz)) =
+                    select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), omega0, &slosh_hint, settings.max_iter)
+                else {
+                    continue;
+                };
+                let off: usize = sz[..sz.len() - 1].iter().sum();
+                (fr.chi2, fr.theta[off..off + k_new].to_vec(), String::new())
+            };
+            let dbic = chi2 - chi2_cur + k_new as f64 * ln_n;
+            scores.push(Score { round, effect: kind.name(), delta_bic: dbic });
+            if best.as_ref().map(|b| dbic < b.0).unwrap_or(true) {
+                best = Some((dbic, kind, theta, chi2, note));
+            }
+        }
+        let Some((dbic, kind, theta, _chi2, note)) = best else { break };
+        if dbic > -settings.accept_margin {
+            break;
+        }
+        // accept, then refit everything jointly
+        let mut pairs = acc_pairs.clone();
+        pairs.push((kind, theta.clone()));
+        let (new_pairs, chi2_new, w_new, se, sz) = refit_all(&prob, &fired, &pairs, omega0, &slosh_hint, settings);
+        omega0 = w_new;
+        let params = select::build(&fired, &new_pairs, omega0);
+        let residual_new = prob.residual(&params).unwrap_or_else(|| residual_cur.clone());
+        k_cur += effects::n_params(kind, &fired);
+        let delta_bic_total = chi2_new - chi2_nominal + k_cur as f64 * ln_n;
+        let width = match kind {
+            Kind::ThrusterLatency | Kind::GyroRinging => 20,
+            Kind::PressureDrop | Kind::ThrustScale => 200,
+            _ => 1000,
+        };
+        let windows = locate::top_windows(series, &residual_cur, &residual_new, width, 3);
+        let evidence = describe(kind, series, &residual_cur, &residual_new, dbic, &note, &scores, round);
+        for (a, (_, th)) in accepted.iter_mut().zip(new_pairs.iter()) {
+            a.theta = th.clone();
+        }
+        accepted.push(Accepted {
+            kind,
+            theta: new_pairs.last().unwrap().1.clone(),
+            stderr: vec![],
+            delta_bic: delta_bic_total,
+            rms_after: locate::rms(&residual_new, &series.valid),
+            windows,
+            evidence,
+        });
+        joint_stderr = se;
+        sizes = sz;
+        chi2_cur = chi2_new;
+        residual_cur = residual_new;
+    }
+    // standard errors from the final joint fit (ringing keeps its own)
+    let mut off = 0;
+    let non_ringing: Vec<usize> = (0..accepted.len()).filter(|&i| accepted[i].kind != Kind::GyroRinging).collect();
+    for (j, &i) in non_ringing.iter().enumerate() {
+        let n = sizes.get(j).copied().unwrap_or(0);
+        accepted[i].stderr = joint_stderr.get(off..off + n).map(|s| s.to_vec()).unwrap_or_default();
+        off += n;
+    }
+    // final ringing: refit on the final residual of the rigid part for its uncertainty
+    for a in accepted.iter_mut().filter(|a| a.kind == Kind::GyroRinging) {
+        if let Some(rf) = ringing::fit(series, &residual_with_ringing_removed(series, &residual_cur, &a.theta), &rweight, settings.ringing_prior_hz) {
+            a.stderr = vec![rf.freq_stderr, rf.decay_stderr];
+        }
+    }
+
+    let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
+    let output = DiagnosisOutput {
+        format: FORMAT.into(),
+        recording: recording.into(),
+        model: model.into(),
+        samples: series.len() as u64,
+        residual_rms_before: locate::rms(&residual_before, &series.valid),
+        residual_rms_after: locate::rms(&residual_cur, &series.valid),
+        effects: effects_out,
+        data_issues: issues,
+    };
+    Analysis {
+        output,
+        tests_before: stats::residual_tests(series, &residual_before),
+        tests_after: stats::residual_tests(series, &residual_cur),
+        by_condition_before: locate::by_condition(series, &residual_before),
+        by_condition_after: locate::by_condition(series, &residual_cur),
+        residual_before,
+        residual_after: residual_cur,
+        noise,
+        spectrum_before,
+        alias_marks,
+        scores,
+    }
+}
+
+/// Adds the fitted ringing back into a residual (so it can be re-fitted for its errors).
+fn residual_with_ringing_removed(series: &Series, r: &[[f64; 3]], theta: &[f64]) -> Vec<[f64; 3]> {
+    let b = crate::model::ringing_basis(series, theta[0], theta[1]);
+    r.iter()
+        .zip(b.iter())
+        .map(|(x, bb)| std::array::from_fn(|a| x[a] + theta[2 + 2 * a] * bb[0] + theta[3 + 2 * a] * bb[1]))
+        .collect()
+}
+
+type Refit = (Vec<(Kind, Vec<f64>)>, f64, [f64; 3], Vec<f64>, Vec<usize>);
+
+/// Joint refit of every accepted effect (ringing held, then re-regressed on the result).
+fn refit_all(
+    prob: &Problem,
+    fired: &[bool; NT],
+    pairs: &[(Kind, Vec<f64>)],
+    omega0: [f64; 3],
+    hint: &[f64],
+    settings: &Settings,
+) -> Refit {
+    let res = select::fit_joint(prob, fired, pairs, None, omega0, hint, settings.max_iter * 2);
+    let Some((fr, sizes)) = res else {
+        let p = select::build(fired, pairs, omega0);
+        return (pairs.to_vec(), prob.chi2(&p).unwrap_or(f64::INFINITY), omega0, vec![], vec![]);
+    };
+    let mut out = vec![];
+    let mut off = 0;
+    let mut j = 0;
+    for (k, th) in pairs {
+        if *k == Kind::GyroRinging {
+            out.push((*k, th.clone()));
+        } else {
+            let n = sizes[j];
+            out.push((*k, fr.theta[off..off + n].to_vec()));
+            off += n;
+            j += 1;
+        }
+    }
+    let w = [fr.theta[off], fr.theta[off + 1], fr.theta[off + 2]];
+    // re-regress ringing amplitudes on the new rigid residual
+    if let Some(pos) = out.iter().position(|p| p.0 == Kind::GyroRinging) {
+        let mut rigid = out.clone();
+        rigid.remove(pos);
+        let p = select::build(fired, &rigid, w);
+        if let Some(r) = prob.residual(&p) {
+            if let Some(rf) = ringing::fit(prob.series, &r, &prob.weight, settings.ringing_prior_hz) {
+                out[pos].1 = ringing_theta(&rf);
+            }
+        }
+    }
+    let p = select::build(fired, &out, w);
+    let chi2 = prob.chi2(&p).unwrap_or(fr.chi2);
+    (out, chi2, w, fr.stderr, sizes)
+}
+
+fn axes_label(gain: [f64; 3]) -> String {
+    let tot: f64 = gain.iter().map(|g| g.max(0.0)).sum();
+    if tot <= 0.0 {
+        return "no axis".into();
+    }
+    let names = ["x", "y", "z"];
+    let mut v: Vec<String> = (0..3)
+        .filter(|&a| gain[a] > 0.15 * tot)
+        .map(|a| format!("{} ({:.0} %)", names[a], 100.0 * gain[a] / tot))
+        .collect();
+    if v.is_empty() {
+        v.push("spread over axes".into());
+    }
+    v.join(", ")
+}
+
+/// Evidence sentence: what structure the effect explains, where, and what it beat.
+#[allow(clippy::too_many_arguments)]
+fn describe(
+    kind: Kind,
+    series: &Series,
+    before: &[[f64; 3]],
+    after: &[[f64; 3]],
+    dbic: f64,
+    note: &str,
+    scores: &[Score],
+    round: usize,
+) -> String {
+    let cb = locate::by_condition(series, before);
+    let ca = locate::by_condition(series, after);
+    let mut gain_axis = [0.0; 3];
+    let mut best_cond = (f64::MIN, String::new());
+    for (b, a) in cb.iter().zip(ca.iter()) {
+        let g: f64 = (0..3).map(|x| (b.2[x] - a.2[x]) * b.1 as f64).sum();
+        for x in 0..3 {
+            gain_axis[x] += (b.2[x] - a.2[x]) * b.1 as f64;
+        }
+        let per_sample = g / b.1.max(1) as f64;
+        if per_sample > best_cond.0 {
+            best_cond = (per_sample, b.0.label());
+        }
+    }
+    let mut runner: Vec<&Score> = scores.iter().filter(|s| s.round == round && s.effect != kind.name()).collect();
+    runner.sort_by(|a, b| a.delta_bic.partial_cmp(&b.delta_bic).unwrap());
+    let alt = runner
+        .first()
+        .map(|s| format!("; next best mechanism {} at delta BIC {:.0}", s.effect, s.delta_bic))
+        .unwrap_or_default();
+    let what = match kind {
+        Kind::ThrusterLatency => "residual concentrates at valve edges: torque arrives later than commanded",
+        Kind::PressureDrop => "torque deficit grows with the number of valves open together",
+        Kind::Blowdown => "torque deficit grows with time in the run after a start time, for every thruster",
+        Kind::ThrustScale => "torque error tied to the firings of particular thrusters",
+        Kind::ComOffset => "torque error on translation firings (opposed pairs) consistent with a moved CoM",
+        Kind::Inertia => "rate response to all torques scaled consistently with a different inertia",
+        Kind::MassPropertyChange => "torque response changes at one time in the run",
+        Kind::FuelSlosh => "lightly damped low-frequency oscillation excited by firings, continuing while coasting",
+        Kind::GyroBias => "constant offset of the measured rate",
+        Kind::GyroScale => "rate error proportional to the rate itself",
+        Kind::GyroRinging => "decaying tone after valve edges",
+        Kind::DisturbanceTorque => "rate drifts steadily even while coasting",
+    };
+    let mut s = format!(
+        "{what}; explained residual on {}; most per sample {}; delta BIC {:.0} when added{alt}",
+        axes_label(gain_axis),
+        best_cond.1,
+        dbic
+    );
+    if !note.is_empty() {
+        s = format!("{note}; {s}");
+    }
+    s
+}
+
+fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectReport {
+    let th = &a.theta;
+    let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
+    let mut p = Map::new();
+    let mut s = Map::new();
+    match a.kind {
+        Kind::ThrusterLatency => {
+            p.insert("open_ms".into(), num(th[0]));
+            p.insert("close_ms".into(), num(th[1]));
+            s.insert("open_ms".into(), num(se(0)));
+            s.insert("close_ms".into(), num(se(1)));
+        }
+        Kind::PressureDrop => {
+            p.insert("newton_per_extra_thruster".into(), num(th[0]));
+            s.insert("newton_per_extra_thruster".into(), num(se(0)));
+        }
+        Kind::Blowdown => {
+            let tau = 1.0 / th[1].max(1e-12);
+            p.insert("start_s".into(), num(th[0]));
+            p.insert("tau_s".into(), num(tau));
+            s.insert("start_s".into(), num(se(0)));
+            s.insert("tau_s".into(), num(se(1) * tau * tau));
+        }
+        Kind::ThrustScale => {
+            let mut v = [1.0; NT];
+            let mut e = [0.0; NT];
+            let mut j = 0;
+            for i in 0..NT {
+                if fired[i] {
+                    v[i] = th[j];
+                    e[i] = se(j);
+                    j += 1;
+                } else {
+                    e[i] = f64::INFINITY;
+                }
+            }
+            p.insert("scale".into(), nums(&v));
+            s.insert("scale".into(), nums(&e));
+        }
+        Kind::ComOffset => {
+            p.insert("offset_mm".into(), nums(&th[..3]));
+            s.insert("offset_mm".into(), nums(&[se(0), se(1), se(2)]));
+        }
+        Kind::Inertia => {
+            p.insert("inertia_kgm2".into(), nums(&th[..6]));
+            s.insert("inertia_kgm2".into(), nums(&(0..6).map(se).collect::<Vec<_>>()));
+        }
+        Kind::MassPropertyChange => {
+            p.insert("at_s".into(), num(th[0]));
+            p.insert("offset_mm".into(), nums(&th[1..4]));
+            p.insert("inertia_kgm2".into(), nums(&th[4..10]));
+            s.insert("at_s".into(), num(se(0)));
+            s.insert("offset_mm".into(), nums(&(1..4).map(se).collect::<Vec<_>>()));
+            s.insert("inertia_kgm2".into(), nums(&(4..10).map(se).collect::<Vec<_>>()));
+        }
+        Kind::FuelSlosh => {
+            p.insert("freq_hz".into(), num(th[0]));
+            p.insert("damping_ratio".into(), num(th[1]));
+            p.insert("fluid_inertia_fraction".into(), num(th[2]));
+            s.insert("freq_hz".into(), num(se(0)));
+            s.insert("damping_ratio".into(), num(se(1)));
+            s.insert("fluid_inertia_fraction".into(), num(se(2)));
+        }
+        Kind::GyroBias => {
+            p.insert("counts".into(), nums(&th[..3]));
+            s.insert("counts".into(), nums(&[se(0), se(1), se(2)]));
+        }
+        Kind::GyroScale => {
+            p.insert("scale".into(), nums(&th[..3]));
+            s.insert("scale".into(), nums(&[se(0), se(1), se(2)]));
+        }
+        Kind::DisturbanceTorque => {
+            p.insert("torque_nm".into(), nums(&th[..3]));
+            s.insert("torque_nm".into(), nums(&[se(0), se(1), se(2)]));
+        }
+        Kind::GyroRinging => {
+            p.insert("freq_hz".into(), num(th[0]));
+            p.insert("decay_ms".into(), num(th[1]));
+            p.insert("apparent_hz".into(), num(crate::alias::apparent(th[0], series.sample_rate_hz)));
+            s.insert("freq_hz".into(), num(se(0)));
+            s.insert("decay_ms".into(), num(se(1)));
+            s.insert("apparent_hz".into(), num(se(0)));
+        }
+    }
+    EffectReport {
+        effect: a.kind.name().into(),
+        params: p,
+        stderr: s,
+        evidence: a.evidence.clone(),
+        windows_ms: a.windows.clone(),
+        rms_after: a.rms_after,
+        delta_bic: a.delta_bic,
+    }
+}

@@ -1,0 +1,201 @@
+//! Output-error fitting: Levenberg-Marquardt over the prediction of the whole recording,
+//! with a forward-difference Jacobian (the model is a simulation, not a formula), and
+//! standard errors from the Gauss-Newton normal matrix scaled by the noise's long-run
+//! variance (so coloured noise does not make them too small).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::model::{self, Params, Plant, NT};
+use crate::noise::NoiseModel;
+use crate::series::Series;
+
+/// Everything needed to evaluate a model against the recording.
+pub struct Problem<'a> {
+    pub plant: &'a Plant,
+    pub series: &'a Series,
+    /// Per-axis weight 1/sqrt(long-run variance).
+    pub weight: [f64; 3],
+    /// Use every `stride`-th sample in the fit (speed); the prediction still runs at 1 ms.
+    pub stride: usize,
+    duty_cache: std::cell::RefCell<Option<((f64, f64), std::rc::Rc<Vec<[f32; NT]>>)>>,
+}
+
+impl<'a> Problem<'a> {
+    pub fn new(plant: &'a Plant, series: &'a Series, noise: &NoiseModel) -> Problem<'a> {
+        let weight = std::array::from_fn(|a| 1.0 / noise.long_run_var[a].sqrt());
+        Problem { plant, series, weight, stride: 1, duty_cache: Default::default() }
+    }
+
+    fn duty(&self, open: f64, close: f64) -> std::rc::Rc<Vec<[f32; NT]>> {
+        let mut c = self.duty_cache.borrow_mut();
+        if let Some((key, d)) = c.as_ref() {
+            if *key == (open, close) {
+                return d.clone();
+            }
+        }
+        let d = std::rc::Rc::new(model::duty_grid(self.series, open, close));
+        *c = Some(((open, close), d.clone()));
+        d
+    }
+
+    /// Predicted gyro output per sample.
+    pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
+        let d = self.duty(p.open_ms, p.close_ms);
+        model::predict(self.plant, self.series, &d, p)
+    }
+
+    /// Unweighted residual (measured minus predicted) per sample.
+    pub fn residual(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
+        let y = self.predict(p)?;
+        Some(self.series.rate.iter().zip(y.iter()).map(|(m, y)| [m[0] - y[0], m[1] - y[1], m[2] - y[2]]).collect())
+    }
+
+    /// Weighted residual vector over the usable samples (stride applied).
+    pub fn weighted(&self, p: &Params) -> Option<DVector<f64>> {
+        let r = self.residual(p)?;
+        let mut v = Vec::with_capacity(r.len() * 3 / self.stride + 3);
+        for (i, ri) in r.iter().enumerate().step_by(self.stride) {
+            for a in 0..3 {
+                if self.series.valid[i][a] {
+                    v.push(ri[a] * self.weight[a]);
+                }
+            }
+        }
+        Some(DVector::from_vec(v))
+    }
+
+    /// Chi-square (sum of weighted squares) of `p` at full resolution.
+    pub fn chi2(&self, p: &Params) -> Option<f64> {
+        let r = self.residual(p)?;
+        let mut s = 0.0;
+        for (i, ri) in r.iter().enumerate() {
+            for a in 0..3 {
+                if self.series.valid[i][a] {
+                    s += (ri[a] * self.weight[a]).powi(2);
+                }
+            }
+        }
+        Some(s)
+    }
+
+    /// Number of usable scalar residuals at full resolution.
+    pub fn n_obs(&self) -> usize {
+        self.series.valid.iter().map(|v| v.iter().filter(|&&b| b).count()).sum()
+    }
+}
+
+/// A parameterised family of models: `theta -> Params`.
+pub struct Family<'f> {
+    pub apply: Box<dyn Fn(&[f64]) -> Option<Params> + 'f>,
+    /// Finite-difference step per parameter.
+    pub step: Vec<f64>,
+    /// Lower and upper bounds per parameter (the fit is clamped inside them).
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+}
+
+/// Result of a fit.
+#[derive(Clone, Debug)]
+pub struct FitResult {
+    pub theta: Vec<f64>,
+    pub stderr: Vec<f64>,
+    pub params: Params,
+    /// Chi-square at full resolution.
+    pub chi2: f64,
+    pub iterations: usize,
+}
+
+/// Levenberg-Marquardt from `theta0`. Returns None when the start is not predictable.
+pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Option<FitResult> {
+    let k = theta0.len();
+    let clamp = |t: &mut Vec<f64>| {
+        for j in 0..k {
+            t[j] = t[j].clamp(fam.lo[j], fam.hi[j]);
+        }
+    };
+    let mut theta = theta0.to_vec();
+    clamp(&mut theta);
+    let mut r = prob.weighted(&(fam.apply)(&theta)?)?;
+    let mut cost = r.norm_squared();
+    let mut lambda = 1e-3;
+    let mut it = 0;
+    let mut jac = DMatrix::zeros(r.len(), k);
+    let mut have_jac = false;
+    while it < max_iter {
+        it += 1;
+        if !have_jac {
+            jac = jacobian(prob, fam, &theta, &r)?;
+            have_jac = true;
+        }
+        let jtj = jac.transpose() * &jac;
+        let jtr = jac.transpose() * &r;
+        let mut improved = false;
+        for _ in 0..8 {
+            let mut a = jtj.clone();
+            for j in 0..k {
+                a[(j, j)] += lambda * jtj[(j, j)].max(1e-12);
+            }
+            let Some(delta) = a.cholesky().map(|c| c.solve(&(-&jtr))) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut cand: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
+            clamp(&mut cand);
+            let rc = (fam.apply)(&cand).and_then(|p| prob.weighted(&p));
+            if let Some(rc) = rc {
+                let c = rc.norm_squared();
+                if c < cost {
+                    let rel = (cost - c) / cost.max(1e-300);
+                    theta = cand;
+                    r = rc;
+                    cost = c;
+                    lambda = (lambda / 5.0).max(1e-9);
+                    improved = true;
+                    have_jac = false;
+                    if rel < 1e-7 {
+                        it = max_iter;
+                    }
+                    break;
+                }
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    if !have_jac {
+        jac = jacobian(prob, fam, &theta, &r)?;
+    }
+    let jtj = jac.transpose() * &jac;
+    let cov = jtj.clone().try_inverse().unwrap_or_else(|| DMatrix::from_diagonal_element(k, k, f64::INFINITY));
+    // weights already use the long-run variance; the stride thins the data, so the
+    // information is scaled back up by the stride; residual excess over 1 inflates.
+    let dof = (r.len() as f64 - k as f64).max(1.0);
+    let excess = (cost / dof).max(1.0);
+    let scale = excess / prob.stride as f64;
+    let stderr = (0..k).map(|j| (cov[(j, j)] * scale).max(0.0).sqrt()).collect();
+    let params = (fam.apply)(&theta)?;
+    let chi2 = prob.chi2(&params)?;
+    Some(FitResult { theta, stderr, params, chi2, iterations: it })
+}
+
+fn jacobian(prob: &Problem, fam: &Family, theta: &[f64], r0: &DVector<f64>) -> Option<DMatrix<f64>> {
+    let k = theta.len();
+    let mut jac = DMatrix::zeros(r0.len(), k);
+    for j in 0..k {
+        let mut t = theta.to_vec();
+        let mut h = fam.step[j];
+        if t[j] + h > fam.hi[j] {
+            h = -h;
+        }
+        t[j] += h;
+        let rj = prob.weighted(&(fam.apply)(&t)?)?;
+        if rj.len() != r0.len() {
+            return None;
+        }
+        let col = (rj - r0) / h;
+        jac.set_column(j, &col);
+    }
+    Some(jac)
+}

@@ -1,0 +1,318 @@
+//! The parametric forward model: nominal rigid-body rotation driven by the commanded
+//! thrusters, with every mechanism of the effect vocabulary as an optional modification.
+//! The diagnosis predicts the gyro output with it (output-error fitting), so it must be
+//! fast (one 60 s run at 1 kHz in a few milliseconds) and smooth in every parameter
+//! (valve latency enters through the fraction of each 1 ms step a valve is open).
+
+use nalgebra::{Matrix3, Vector3};
+use reference_f64::satellite::Satellite;
+
+use crate::series::Series;
+
+/// Number of thrusters.
+pub const NT: usize = 12;
+
+/// A gyro tone excited at every valve edge (seed ch. 3 and App. A).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ringing {
+    /// True frequency, Hz.
+    pub freq_hz: f64,
+    /// Exponential decay time constant, ms.
+    pub decay_ms: f64,
+    /// Per axis: cosine and sine amplitude, rad/s, per valve that changes state.
+    pub amp: [[f64; 2]; 3],
+}
+
+/// Every parameter of the model. `Default` is "no effect" (the nominal model).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub thrust_scale: [f64; NT],
+    pub open_ms: f64,
+    pub close_ms: f64,
+    /// Extra thrust lost per other open thruster, N (on top of the satellite's own).
+    pub pressure_drop: f64,
+    /// (start_s, tau_s)
+    pub blowdown: Option<(f64, f64)>,
+    /// True CoM minus the model's, mm.
+    pub com_offset_mm: [f64; 3],
+    /// True inertia (replaces the model's), kg m^2, xx yy zz xy xz yz.
+    pub inertia: Option<[f64; 6]>,
+    /// (at_s, CoM offset from the model's in mm, inertia after the change)
+    pub mass_change: Option<(f64, [f64; 3], [f64; 6])>,
+    /// (freq_hz, damping_ratio, fluid inertia fraction)
+    pub slosh: Option<(f64, f64, f64)>,
+    /// True gyro bias minus the model's, counts.
+    pub gyro_bias_counts: [f64; 3],
+    pub gyro_scale: [f64; 3],
+    pub ringing: Option<Ringing>,
+    pub disturbance_nm: [f64; 3],
+    /// Body rate at the first sample, rad/s (a nuisance parameter, always fitted).
+    pub omega0: [f64; 3],
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            thrust_scale: [1.0; NT],
+            open_ms: 0.0,
+            close_ms: 0.0,
+            pressure_drop: 0.0,
+            blowdown: None,
+            com_offset_mm: [0.0; 3],
+            inertia: None,
+            mass_change: None,
+            slosh: None,
+            gyro_bias_counts: [0.0; 3],
+            gyro_scale: [1.0; 3],
+            ringing: None,
+            disturbance_nm: [0.0; 3],
+            omega0: [0.0; 3],
+        }
+    }
+}
+
+/// Per-step open fraction of every valve on a 1 ms grid, for given latencies.
+pub fn duty_grid(series: &Series, open_ms: f64, close_ms: f64) -> Vec<[f32; NT]> {
+    let n = series.word_ms.len();
+    let mut duty = vec![[0f32; NT]; n];
+    for th in 0..NT {
+        let bit = 1u16 << th;
+        let mut on_start: Option<f64> = None;
+        let mut prev = false;
+        for (k, &w) in series.word_ms.iter().enumerate() {
+            let on = w & bit != 0;
+            if on && !prev {
+                on_start = Some(k as f64 + open_ms);
+            } else if !on && prev {
+                if let Some(s) = on_start.take() {
+                    add_interval(&mut duty, th, s, k as f64 + close_ms);
+                }
+            }
+            prev = on;
+        }
+        if let Some(s) = on_start {
+            add_interval(&mut duty, th, s, n as f64 + close_ms);
+        }
+    }
+    duty
+}
+
+fn add_interval(duty: &mut [[f32; NT]], th: usize, a: f64, b: f64) {
+    let n = duty.len() as f64;
+    let a = a.max(0.0);
+    let b = b.min(n);
+    if b <= a {
+        return;
+    }
+    let ka = a.floor() as usize;
+    let kb = (b.ceil() as usize).min(duty.len());
+    for k in ka..kb {
+        let lo = (k as f64).max(a);
+        let hi = ((k + 1) as f64).min(b);
+        if hi > lo {
+            duty[k][th] += (hi - lo) as f32;
+        }
+    }
+}
+
+/// The rigid-body part of the satellite the model needs, precomputed.
+#[derive(Clone, Debug)]
+pub struct Plant {
+    pos: [Vector3<f64>; NT],
+    force: [Vector3<f64>; NT],
+    com: Vector3<f64>,
+    inertia: [f64; 6],
+    base_pressure_drop: f64,
+    pub counts_per_rad_s: [f64; 3],
+}
+
+impl Plant {
+    pub fn new(sat: &Satellite) -> Plant {
+        Plant {
+            pos: std::array::from_fn(|i| sat.pos_m(i)),
+            force: std::array::from_fn(|i| sat.force_n(i)),
+            com: sat.com_m(),
+            inertia: sat.inertia_kgm2,
+            base_pressure_drop: sat.pressure_drop_n_per_extra,
+            counts_per_rad_s: sat.gyro_counts_per_rad_s,
+        }
+    }
+
+    pub fn nominal_inertia(&self) -> [f64; 6] {
+        self.inertia
+    }
+
+    /// Nominal force magnitude of thruster i, N.
+    pub fn thrust_n(&self, i: usize) -> f64 {
+        self.force[i].norm()
+    }
+
+    /// Torque of thruster i at unit scale for a CoM `com`.
+    fn torque(&self, i: usize, com: &Vector3<f64>) -> Vector3<f64> {
+        (self.pos[i] - com).cross(&self.force[i])
+    }
+}
+
+fn inertia_matrix(i: &[f64; 6]) -> Matrix3<f64> {
+    Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2])
+}
+
+/// Mass properties in force over one stretch of time.
+struct MassProps {
+    inertia: Matrix3<f64>,
+    inv_rigid: Matrix3<f64>,
+    torque: [Vector3<f64>; NT],
+    slosh_inertia: Vector3<f64>,
+}
+
+impl MassProps {
+    fn new(plant: &Plant, p: &Params, inertia6: &[f64; 6], dcom_mm: &[f64; 3]) -> Option<MassProps> {
+        let inertia = inertia_matrix(inertia6);
+        let com = plant.com + Vector3::from(*dcom_mm) * 1e-3;
+        let torque = std::array::from_fn(|i| plant.torque(i, &com));
+        let mu = p.slosh.map(|s| s.2).unwrap_or(0.0);
+        let slosh_inertia = Vector3::new(inertia[(0, 0)], inertia[(1, 1)], inertia[(2, 2)]) * mu;
+        let rigid = inertia - Matrix3::from_diagonal(&slosh_inertia);
+        let inv_rigid = rigid.try_inverse()?;
+        Some(MassProps { inertia, inv_rigid, torque, slosh_inertia })
+    }
+}
+
+/// Predicted gyro output (rad/s, nominal conversion) at every sample of `series`.
+/// `duty` must come from [`duty_grid`] with the same latencies as `p`.
+/// Returns None for parameters that make no physical sense (singular inertia, NaN).
+pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -> Option<Vec<[f64; 3]>> {
+    let inertia0 = p.inertia.unwrap_or(plant.inertia);
+    let props_a = MassProps::new(plant, p, &inertia0, &p.com_offset_mm)?;
+    let props_b = match &p.mass_change {
+        Some((_, off, inr)) => Some(MassProps::new(plant, p, inr, off)?),
+        None => None,
+    };
+    let change_ms = p.mass_change.map(|m| m.0 * 1e3).unwrap_or(f64::INFINITY);
+    let (wn, zeta) = match p.slosh {
+        Some((f, z, _)) => (2.0 * std::f64::consts::PI * f, z),
+        None => (0.0, 0.0),
+    };
+    let slosh_on = p.slosh.is_some();
+    let dist = Vector3::from(p.disturbance_nm);
+    let pd = plant.base_pressure_drop + p.pressure_drop;
+
+    // state: omega (3), slosh q (3), slosh qdot (3)
+    let mut w = Vector3::from(p.omega0);
+    let mut q = Vector3::zeros();
+    let mut qd = Vector3::zeros();
+    let n_ms = duty.len();
+    let t0 = series.t_ms[0];
+    let mut out = Vec::with_capacity(series.len());
+    let mut si = 0usize;
+    // Samples before the first sample time do not exist; the state starts at t0.
+    let emit = |w: &Vector3<f64>, out: &mut Vec<[f64; 3]>| {
+        let mut y = [0.0; 3];
+        for a in 0..3 {
+            y[a] = p.gyro_scale[a] * w[a] + p.gyro_bias_counts[a] / plant.counts_per_rad_s[a];
+        }
+        out.push(y);
+    };
+    let mut k = t0.max(0) as usize;
+    while si < series.len() {
+        let ts = series.t_ms[si] as usize;
+        while k < ts {
+            // one 1 ms step from k to k+1 with the torque averaged over the step
+            let props = if (k as f64) + 0.5 >= change_ms { props_b.as_ref().unwrap() } else { &props_a };
+            let d = if k < n_ms { &duty[k] } else { &duty[n_ms - 1] };
+            let n_open: f64 = d.iter().map(|&x| x as f64).sum();
+            let mut scale_t = 1.0;
+            if let Some((start, tau)) = p.blowdown {
+                let t = (k as f64 + 0.5) * 1e-3;
+                if t > start {
+                    scale_t = (-(t - start) / tau).exp();
+                }
+            }
+            let mut tau_c = dist;
+            if n_open > 0.0 {
+                for i in 0..NT {
+                    let di = d[i] as f64;
+                    if di > 0.0 {
+                        let f = p.thrust_scale[i] - pd * (n_open - di) / plant.thrust_n(i);
+                        tau_c += props.torque[i] * (di * f.max(0.0) * scale_t);
+                    }
+                }
+            }
+            let h = 1e-3;
+            let deriv = |w: &Vector3<f64>, q: &Vector3<f64>, qd: &Vector3<f64>| {
+                let iw = props.inertia * w;
+                let mut torque = tau_c - w.cross(&iw);
+                let mut qdd = Vector3::zeros();
+                if slosh_on {
+                    let spring = q * (wn * wn) + qd * (2.0 * zeta * wn);
+                    torque += props.slosh_inertia.component_mul(&spring);
+                    let wd = props.inv_rigid * torque;
+                    qdd = -spring - wd;
+                    (wd, *qd, qdd)
+                } else {
+                    let wd = props.inv_rigid * torque;
+                    let _ = &mut qdd;
+                    (wd, Vector3::zeros(), qdd)
+                }
+            };
+            let (k1w, k1q, k1d) = deriv(&w, &q, &qd);
+            let (k2w, k2q, k2d) = deriv(&(w + k1w * (h / 2.0)), &(q + k1q * (h / 2.0)), &(qd + k1d * (h / 2.0)));
+            let (k3w, k3q, k3d) = deriv(&(w + k2w * (h / 2.0)), &(q + k2q * (h / 2.0)), &(qd + k2d * (h / 2.0)));
+            let (k4w, k4q, k4d) = deriv(&(w + k3w * h), &(q + k3q * h), &(qd + k3d * h));
+            w += (k1w + k2w * 2.0 + k3w * 2.0 + k4w) * (h / 6.0);
+            if slosh_on {
+                q += (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
+                qd += (k1d + k2d * 2.0 + k3d * 2.0 + k4d) * (h / 6.0);
+            }
+            k += 1;
+        }
+        if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) || w.norm() > 1e3 {
+            return None;
+        }
+        emit(&w, &mut out);
+        si += 1;
+    }
+    if let Some(r) = &p.ringing {
+        add_ringing(series, r, &mut out);
+    }
+    Some(out)
+}
+
+/// Per sample, the ringing basis (decaying cosine and sine summed over the past valve
+/// edges, each weighted by the number of valves that changed state).
+pub fn ringing_basis(series: &Series, freq_hz: f64, decay_ms: f64) -> Vec<[f64; 2]> {
+    let edges = series.edges();
+    let mut out = vec![[0.0; 2]; series.len()];
+    let horizon = decay_ms * 8.0;
+    let mut first = 0usize;
+    for (si, &t) in series.t_ms.iter().enumerate() {
+        let t = t as f64;
+        while first < edges.len() && (edges[first].0 as f64) < t - horizon {
+            first += 1;
+        }
+        let mut c = 0.0;
+        let mut s = 0.0;
+        for e in &edges[first..] {
+            let dt = t - e.0 as f64;
+            if dt < 0.0 {
+                break;
+            }
+            let n = (e.1 ^ e.2).count_ones() as f64;
+            let env = n * (-dt / decay_ms).exp();
+            let ph = 2.0 * std::f64::consts::PI * freq_hz * dt * 1e-3;
+            c += env * ph.cos();
+            s += env * ph.sin();
+        }
+        out[si] = [c, s];
+    }
+    out
+}
+
+fn add_ringing(series: &Series, r: &Ringing, out: &mut [[f64; 3]]) {
+    let b = ringing_basis(series, r.freq_hz, r.decay_ms);
+    for (o, bb) in out.iter_mut().zip(b.iter()) {
+        for a in 0..3 {
+            o[a] += r.amp[a][0] * bb[0] + r.amp[a][1] * bb[1];
+        }
+    }
+}

@@ -1,0 +1,52 @@
+//! The machine-readable result, exactly `massid-diagnosis/1`
+//! (`shared/contracts/diagnosis-output.md`).
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+pub const FORMAT: &str = "massid-diagnosis/1";
+
+/// One accepted effect.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct EffectReport {
+    pub effect: String,
+    pub params: Map<String, Value>,
+    pub stderr: Map<String, Value>,
+    pub evidence: String,
+    pub windows_ms: Vec<[i64; 2]>,
+    pub rms_after: [f64; 3],
+    pub delta_bic: f64,
+}
+
+/// Data artefacts (never effects).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub struct DataIssues {
+    pub gaps: u64,
+    pub missing_samples: u64,
+    pub duplicates: u64,
+    pub saturated: u64,
+}
+
+/// The whole document.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct DiagnosisOutput {
+    pub format: String,
+    pub recording: String,
+    pub model: String,
+    pub samples: u64,
+    pub residual_rms_before: [f64; 3],
+    pub residual_rms_after: [f64; 3],
+    pub effects: Vec<EffectReport>,
+    pub data_issues: DataIssues,
+}
+
+/// A number JSON can carry: non-finite uncertainties become 1e9 ("unbounded").
+pub fn num(x: f64) -> Value {
+    let x = if x.is_finite() { x } else { 1e9 };
+    serde_json::Number::from_f64(x).map(Value::Number).unwrap_or(Value::Null)
+}
+
+/// A JSON array of numbers.
+pub fn nums(xs: &[f64]) -> Value {
+    Value::Array(xs.iter().map(|&x| num(x)).collect())
+}

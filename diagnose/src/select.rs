@@ -1,0 +1,222 @@
+//! Forward selection: starting from the nominal model (initial rate fitted), fit every
+//! mechanism of the vocabulary on top of the accepted ones, take the one with the lowest
+//! BIC, refit all accepted jointly, and stop when no candidate lowers BIC by more than
+//! the acceptance margin.
+
+use crate::effects::{self, Kind};
+use crate::fit::{self, Family, FitResult, Problem};
+use crate::model::{Params, NT};
+
+/// An accepted (or candidate) effect with its fitted parameter vector.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    pub kind: Kind,
+    pub theta: Vec<f64>,
+    pub stderr: Vec<f64>,
+    /// Chi-square of the model with this and all earlier effects.
+    pub chi2: f64,
+    /// BIC change against the model before this effect.
+    pub delta_bic: f64,
+    /// Free-text notes from the fit (alias choice, ...).
+    pub note: String,
+}
+
+/// Settings of the selection.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// A candidate is accepted only if it lowers BIC by more than this (beyond the
+    /// k ln N penalty already in BIC), calibrated on nominal simulated recordings.
+    pub accept_margin: f64,
+    pub max_effects: usize,
+    pub max_iter: usize,
+    /// Prior for the true gyro ringing frequency, Hz (seed App. A: 338 Hz).
+    pub ringing_prior_hz: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings { accept_margin: 25.0, max_effects: 3, max_iter: 12, ringing_prior_hz: 338.0 }
+    }
+}
+
+/// Parameters of a model made of `accepted` effects and initial rate `omega0`.
+pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], omega0: [f64; 3]) -> Params {
+    let mut p = Params { omega0, ..Params::default() };
+    for (k, th) in accepted {
+        if *k == Kind::GyroRinging {
+            p.ringing = Some(crate::model::Ringing { freq_hz: th[0], decay_ms: th[1], amp: [[0.0; 2]; 3] });
+        }
+        effects::apply(*k, th, fired, &mut p);
+    }
+    p
+}
+
+/// Bounds, steps and starting points of one effect's parameters.
+pub struct Spec {
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+    pub step: Vec<f64>,
+    pub starts: Vec<Vec<f64>>,
+}
+
+/// Parameter space of `kind` for this recording.
+pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64]) -> Spec {
+    let dur = prob.series.duration_s();
+    let nominal_i = prob.plant.nominal_inertia();
+    match kind {
+        Kind::ThrusterLatency => Spec {
+            lo: vec![0.0, 0.0],
+            hi: vec![50.0, 50.0],
+            step: vec![0.05, 0.05],
+            starts: vec![vec![2.0, 2.0]],
+        },
+        Kind::PressureDrop => Spec { lo: vec![0.0], hi: vec![0.05], step: vec![1e-5], starts: vec![vec![0.002]] },
+        Kind::Blowdown => Spec {
+            lo: vec![0.0, 0.0],
+            hi: vec![dur, 20.0 / dur.max(1.0)],
+            step: vec![0.01 * dur, 0.02 / dur.max(1.0)],
+            starts: [0.2, 0.45, 0.7].iter().map(|f| vec![f * dur, 1.0 / dur.max(1.0)]).collect(),
+        },
+        Kind::ThrustScale => {
+            let n = effects::n_params(kind, fired);
+            Spec { lo: vec![0.0; n], hi: vec![2.0; n], step: vec![1e-3; n], starts: vec![vec![1.0; n]] }
+        }
+        Kind::ComOffset => Spec {
+            lo: vec![-50.0; 3],
+            hi: vec![50.0; 3],
+            step: vec![0.05; 3],
+            starts: vec![vec![0.0; 3]],
+        },
+        Kind::Inertia => {
+            let mut lo = vec![0.0; 6];
+            let mut hi = vec![0.0; 6];
+            for i in 0..3 {
+                lo[i] = nominal_i[i] * 0.3;
+                hi[i] = nominal_i[i] * 3.0;
+                lo[3 + i] = -0.02;
+                hi[3 + i] = 0.02;
+            }
+            Spec { lo, hi, step: vec![2e-5; 6], starts: vec![nominal_i.to_vec()] }
+        }
+        Kind::MassPropertyChange => {
+            let mut lo = vec![0.0; 10];
+            let mut hi = vec![0.0; 10];
+            lo[0] = 0.0;
+            hi[0] = dur;
+            for i in 0..3 {
+                lo[1 + i] = -50.0;
+                hi[1 + i] = 50.0;
+            }
+            for i in 0..3 {
+                lo[4 + i] = nominal_i[i] * 0.3;
+                hi[4 + i] = nominal_i[i] * 3.0;
+                lo[7 + i] = -0.02;
+                hi[7 + i] = 0.02;
+            }
+            let mut step = vec![0.05; 10];
+            step[0] = 0.01;
+            for s in step.iter_mut().skip(4) {
+                *s = 2e-5;
+            }
+            let starts = [0.25, 0.5, 0.75]
+                .iter()
+                .map(|f| {
+                    let mut s = vec![f * dur, 0.0, 0.0, 0.0];
+                    s.extend_from_slice(&nominal_i);
+                    s
+                })
+                .collect();
+            Spec { lo, hi, step, starts }
+        }
+        Kind::FuelSlosh => {
+            let mut starts: Vec<Vec<f64>> = slosh_hint_hz.iter().map(|&f| vec![f, 0.01, 0.03]).collect();
+            if starts.is_empty() {
+                starts.push(vec![0.4, 0.01, 0.03]);
+            }
+            Spec { lo: vec![0.02, 0.0, 0.001], hi: vec![20.0, 0.5, 0.5], step: vec![1e-3, 2e-4, 1e-3], starts }
+        }
+        Kind::GyroBias => Spec { lo: vec![-300.0; 3], hi: vec![300.0; 3], step: vec![0.05; 3], starts: vec![vec![0.0; 3]] },
+        Kind::GyroScale => Spec { lo: vec![0.5; 3], hi: vec![1.5; 3], step: vec![1e-4; 3], starts: vec![vec![1.0; 3]] },
+        Kind::DisturbanceTorque => Spec {
+            lo: vec![-0.01; 3],
+            hi: vec![0.01; 3],
+            step: vec![1e-7; 3],
+            starts: vec![vec![0.0; 3]],
+        },
+        Kind::GyroRinging => Spec { lo: vec![], hi: vec![], step: vec![], starts: vec![] },
+    }
+}
+
+/// Fits the effects `kinds` (new one last) jointly with the initial rate, starting from
+/// `fixed` (earlier effects' current values) and each start of the new effect.
+pub fn fit_joint(
+    prob: &Problem,
+    fired: &[bool; NT],
+    accepted: &[(Kind, Vec<f64>)],
+    new: Option<Kind>,
+    omega0: [f64; 3],
+    slosh_hint: &[f64],
+    max_iter: usize,
+) -> Option<(FitResult, Vec<usize>)> {
+    // assemble the parameter layout: each accepted effect, then the new one, then omega0
+    let mut kinds: Vec<Kind> = accepted.iter().map(|a| a.0).collect();
+    if let Some(k) = new {
+        kinds.push(k);
+    }
+    let ringing_fixed: Vec<(Kind, Vec<f64>)> =
+        accepted.iter().filter(|a| a.0 == Kind::GyroRinging).cloned().collect();
+    kinds.retain(|k| *k != Kind::GyroRinging);
+    let mut lo = vec![];
+    let mut hi = vec![];
+    let mut step = vec![];
+    let mut base = vec![];
+    let mut sizes = vec![];
+    let mut new_starts = vec![vec![]];
+    for (idx, k) in kinds.iter().enumerate() {
+        let s = spec(*k, prob, fired, slosh_hint);
+        lo.extend(s.lo);
+        hi.extend(s.hi);
+        step.extend(s.step);
+        sizes.push(s.starts[0].len());
+        let is_new = new == Some(*k) && idx == kinds.len() - 1;
+        if is_new {
+            new_starts = s.starts;
+        } else {
+            let th = &accepted.iter().find(|a| a.0 == *k).unwrap().1;
+            base.extend(th.iter().cloned());
+        }
+    }
+    lo.extend([-3.0; 3]);
+    hi.extend([3.0; 3]);
+    step.extend([1e-5; 3]);
+    let kinds2 = kinds.clone();
+    let sizes2 = sizes.clone();
+    let fired2 = *fired;
+    let fam = Family {
+        apply: Box::new(move |th: &[f64]| {
+            let mut acc: Vec<(Kind, Vec<f64>)> = ringing_fixed.clone();
+            let mut off = 0;
+            for (k, &n) in kinds2.iter().zip(sizes2.iter()) {
+                acc.push((*k, th[off..off + n].to_vec()));
+                off += n;
+            }
+            let w0 = [th[off], th[off + 1], th[off + 2]];
+            Some(build(&fired2, &acc, w0))
+        }),
+        step,
+        lo,
+        hi,
+    };
+    let mut best: Option<FitResult> = None;
+    for st in &new_starts {
+        let mut th0 = base.clone();
+        th0.extend(st.iter().cloned());
+        th0.extend(omega0);
+        if let Some(r) = fit::fit(prob, &fam, &th0, max_iter) {
+            if best.as_ref().map(|b| r.chi2 < b.chi2).unwrap_or(true) {
+                best = Some(r);
+            }
+        }
+    }
+    best.map(|b| (b, sizes))
+}

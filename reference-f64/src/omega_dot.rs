@@ -1,1 +1,317 @@
-//! (owned by the reference-pipeline work; being written)
+//! Angular-acceleration estimators (seed section 4.4.2): line fits (centred
+//! non-overlapping, centred sliding, causal backward) and the constant-state Kalman filter
+//! of seed Fig. 4.6 / eq. 3.12. Each returns its variance.
+//!
+//! Variances are the formal ones for white measurement noise of variance `r` per sample:
+//! a least-squares line fit over `n` points spaced `dt` has slope variance
+//! `r / sum((t_i - t_mean)^2) = 12 r / (dt^2 n (n^2 - 1))`, whether windows overlap or not;
+//! the Kalman filter carries its own `P`.
+use crate::preprocess::Rates;
+use crate::satellite::Satellite;
+use nalgebra::{Matrix3, Vector3};
+
+/// Seed Fig. 4.5: variance of the 50 Hz-filtered gyro signal per axis, (rad/s)^2,
+/// the Kalman filter's measurement covariance `R` (`R = 1e-7 * diag(9.5661, 2.7365, 2.3044)`).
+pub const SEED_R0: [f64; 3] = [9.5661e-7, 2.7365e-7, 2.3044e-7];
+/// The Kalman filter's covariance at every reset (seed `P_inv_minus = 2*eye(3)`), rad^2/s^4.
+pub const SEED_KF_P0: f64 = 0.5;
+/// Valve transient skipped after every thruster-word change, s (seed: 10 updates at 1 kHz).
+pub const VALVE_TRANSIENT_S: f64 = 0.010;
+/// The seed skips the transient only when sampling faster than this period, s.
+pub const SKIP_ONLY_BELOW_DT_S: f64 = 0.005;
+/// The seed's printed Kalman-filter variance "at the end of this data set", rad^2/s^4.
+pub const SEED_KF_FINAL_VARIANCE: f64 = 5.4508e-5;
+
+/// Slope variance of a least-squares line fit over `n` equally spaced points.
+pub fn line_fit_variance(r: f64, dt: f64, n: usize) -> f64 {
+    let n = n as f64;
+    12.0 * r / (dt * dt * n * (n * n - 1.0))
+}
+
+/// Least-squares slope of `y` over equally spaced points `dt` apart.
+pub fn line_fit_slope(y: &[f64], dt: f64) -> f64 {
+    let n = y.len() as f64;
+    let c = (n - 1.0) / 2.0;
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for (i, v) in y.iter().enumerate() {
+        let d = i as f64 - c;
+        num += d * v;
+        den += d * d;
+    }
+    num / (den * dt)
+}
+
+/// One line-fit estimate: the slope and the sample index it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineFitEstimate {
+    /// Sample the estimate is attributed to (window centre, or its last sample when causal).
+    pub index: usize,
+    pub omega_dot: f64,
+}
+
+/// Centred non-overlapping line fit: windows of odd length `n` laid end to end, one
+/// estimate per window at its centre. Acausal (offline only).
+pub fn line_fit_non_overlapping(y: &[f64], dt: f64, n: usize) -> Vec<LineFitEstimate> {
+    assert!(n >= 2, "a line fit needs at least 2 points");
+    y.chunks_exact(n)
+        .enumerate()
+        .map(|(w, chunk)| LineFitEstimate { index: w * n + n / 2, omega_dot: line_fit_slope(chunk, dt) })
+        .collect()
+}
+
+/// Centred sliding ("overlapping") line fit: a window of odd length `n` centred on every
+/// sample that has `n/2` neighbours on both sides. Acausal (offline only).
+pub fn line_fit_sliding(y: &[f64], dt: f64, n: usize) -> Vec<LineFitEstimate> {
+    assert!(n >= 2, "a line fit needs at least 2 points");
+    y.windows(n)
+        .enumerate()
+        .map(|(s, w)| LineFitEstimate { index: s + n / 2, omega_dot: line_fit_slope(w, dt) })
+        .collect()
+}
+
+/// Causal backward line fit: at every sample, the slope of the last `n` samples
+/// (usable online; it estimates the acceleration `(n-1)/2` samples in the past).
+pub fn line_fit_backward(y: &[f64], dt: f64, n: usize) -> Vec<LineFitEstimate> {
+    assert!(n >= 2, "a line fit needs at least 2 points");
+    y.windows(n)
+        .enumerate()
+        .map(|(s, w)| LineFitEstimate { index: s + n - 1, omega_dot: line_fit_slope(w, dt) })
+        .collect()
+}
+
+/// The Kalman filter of seed Fig. 4.6 with eq. 3.12: the state is the angular
+/// acceleration, constant during a firing (`phi = 1`, `Q = 0`); the measurement is the
+/// rate change since the firing began, `z_k = omega_k - omega_0 = H_k x + v`,
+/// `H_k = k dt I` (here `k dt` is the time since the thruster word changed), `R = R0`.
+/// Written in the seed's information form:
+/// `P_k^-1 = P_k^-^-1 + H' R^-1 H`, `K = P_k H' R^-1`, `x_k = x_k^- + K (z_k - H x_k^-)`.
+#[derive(Clone, Debug)]
+pub struct OmegaDotKalman {
+    /// Current estimate, rad/s^2.
+    pub x: Vector3<f64>,
+    /// Current information (inverse covariance).
+    pub p_inv: Matrix3<f64>,
+    /// Measurement covariance (rad/s)^2.
+    pub r: Matrix3<f64>,
+    /// Rate at the reset, the zero of the measurement.
+    pub omega0: Vector3<f64>,
+    /// Updates since the last reset.
+    pub updates: usize,
+}
+
+impl OmegaDotKalman {
+    pub fn new(r0: [f64; 3]) -> Self {
+        OmegaDotKalman {
+            x: Vector3::zeros(),
+            p_inv: Matrix3::identity() / SEED_KF_P0,
+            r: Matrix3::from_diagonal(&Vector3::from(r0)),
+            omega0: Vector3::zeros(),
+            updates: 0,
+        }
+    }
+
+    /// Reset at a thruster-word change: the prior is the nominal model's prediction with a
+    /// conservative covariance `p0 I`; `omega0` is the rate at the change.
+    pub fn reset(&mut self, prior: Vector3<f64>, p0: f64, omega0: Vector3<f64>) {
+        self.x = prior;
+        self.p_inv = Matrix3::identity() / p0;
+        self.omega0 = omega0;
+        self.updates = 0;
+    }
+
+    /// One measurement update with rate `omega` taken `t_since_reset` seconds after the
+    /// change (`H = t I`). Propagation is the identity (`phi = 1`, `Q = 0`).
+    pub fn update(&mut self, omega: Vector3<f64>, t_since_reset: f64) {
+        let h = Matrix3::identity() * t_since_reset;
+        let r_inv = Matrix3::from_diagonal(&self.r.diagonal().map(|v| 1.0 / v));
+        self.p_inv += h.transpose() * r_inv * h;
+        let p = self.covariance();
+        let k = p * h.transpose() * r_inv;
+        let z = omega - self.omega0;
+        self.x += k * (z - h * self.x);
+        self.updates += 1;
+    }
+
+    /// Estimate covariance `P = (P^-1)^-1`.
+    pub fn covariance(&self) -> Matrix3<f64> {
+        // P^-1 is diagonal-dominant and positive definite by construction
+        self.p_inv.try_inverse().unwrap_or_else(|| Matrix3::from_diagonal_element(f64::INFINITY))
+    }
+
+    /// Per-axis variance of the estimate, rad^2/s^4.
+    pub fn variance(&self) -> [f64; 3] {
+        let p = self.covariance();
+        [p[(0, 0)], p[(1, 1)], p[(2, 2)]]
+    }
+}
+
+/// Closed form of the filter's variance after `n` updates at spacing `dt` from a reset
+/// with covariance `p0`: `1 / (1/p0 + dt^2 n(n+1)(2n+1) / (6 r))` (sum of `(k dt)^2 / r`).
+pub fn kalman_variance_after(r: f64, p0: f64, dt: f64, n: usize) -> f64 {
+    let n = n as f64;
+    1.0 / (1.0 / p0 + dt * dt * n * (n + 1.0) * (2.0 * n + 1.0) / (6.0 * r))
+}
+
+/// Options of the per-firing Kalman run.
+#[derive(Clone, Copy, Debug)]
+pub struct KalmanConfig {
+    /// Measurement variance per axis, (rad/s)^2.
+    pub r0: [f64; 3],
+    /// Covariance at every reset.
+    pub p0: f64,
+    /// Samples this long after a word change are not used (valve transient), s.
+    pub transient_s: f64,
+    /// The transient is skipped only when the sample period is below this, s.
+    pub skip_only_below_dt_s: f64,
+}
+
+impl Default for KalmanConfig {
+    fn default() -> Self {
+        KalmanConfig {
+            r0: SEED_R0,
+            p0: SEED_KF_P0,
+            transient_s: VALVE_TRANSIENT_S,
+            skip_only_below_dt_s: SKIP_ONLY_BELOW_DT_S,
+        }
+    }
+}
+
+impl KalmanConfig {
+    /// Number of samples after a change that are skipped at sample period `dt`.
+    pub fn skip_samples(&self, dt: f64) -> usize {
+        if dt < self.skip_only_below_dt_s {
+            (self.transient_s / dt).round() as usize
+        } else {
+            0
+        }
+    }
+}
+
+/// One angular-acceleration estimate of the Kalman filter, at one sample of a firing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OmegaDotEstimate {
+    /// Sample index in the `Rates` it came from.
+    pub index: usize,
+    pub t_s: f64,
+    /// Thruster word during this firing.
+    pub word: u16,
+    /// Index of the firing (run of constant non-zero word) this estimate belongs to.
+    pub firing: usize,
+    /// Filtered body rate at this sample, rad/s.
+    pub omega: [f64; 3],
+    /// Angular acceleration estimate, rad/s^2.
+    pub omega_dot: [f64; 3],
+    /// Its variance per axis (diagonal of P), rad^2/s^4.
+    pub variance: [f64; 3],
+}
+
+/// The nominal model's prediction of the angular acceleration for a thruster word at
+/// rate `omega` (seed: `x_minus = inv(I_nom) * cross(L, D) * Fk'`, plus the gyroscopic
+/// term of eq. 3.1): `I^-1 (tau - omega x I omega)`.
+pub fn nominal_omega_dot(sat: &Satellite, word: u16, omega: Vector3<f64>) -> Vector3<f64> {
+    let i = sat.inertia_matrix();
+    let (_, tau) = sat.force_torque_for_word(word);
+    let rhs = tau - omega.cross(&(i * omega));
+    i.lu().solve(&rhs).unwrap_or_else(Vector3::zeros)
+}
+
+/// Runs the Kalman filter over every firing of `rates` (seed `wdotkalman.m`): reset at
+/// each change of the thruster word to the nominal prediction, skip the valve transient,
+/// one update per remaining sample with a non-zero word. `omega0` is the rate at the
+/// sample of the change (the last rate before the new word can act on it).
+pub fn kalman_per_firing(rates: &Rates, sat: &Satellite, cfg: &KalmanConfig) -> Vec<OmegaDotEstimate> {
+    let mut out = Vec::new();
+    let mut kf = OmegaDotKalman::new(cfg.r0);
+    let skip = cfg.skip_samples(rates.dt);
+    let mut current: Option<(u16, usize)> = None; // (word, index of the change)
+    for k in 0..rates.len() {
+        let word = rates.words[k] & 0x0fff;
+        let omega = Vector3::from(rates.omega[k]);
+        if word == 0 {
+            current = None;
+            continue;
+        }
+        let start = match current {
+            Some((w, s)) if w == word => s,
+            _ => {
+                let omega0 = if k > 0 { Vector3::from(rates.omega[k - 1]) } else { omega };
+                kf.reset(nominal_omega_dot(sat, word, omega0), cfg.p0, omega0);
+                current = Some((word, k));
+                k
+            }
+        };
+        let since = k - start + 1; // samples since the change (the change's own sample is 1)
+        if since <= skip {
+            continue;
+        }
+        kf.update(omega, since as f64 * rates.dt);
+        out.push(OmegaDotEstimate {
+            index: k,
+            t_s: rates.t_s[k],
+            word,
+            firing: 0,
+            omega: rates.omega[k],
+            omega_dot: kf.x.into(),
+            variance: kf.variance(),
+        });
+    }
+    renumber_firings(&mut out);
+    out
+}
+
+/// Numbers firings 0, 1, 2, ... by (word, start) runs of consecutive estimates.
+fn renumber_firings(est: &mut [OmegaDotEstimate]) {
+    let mut n = 0;
+    for i in 0..est.len() {
+        if i > 0 {
+            let (a, b) = (est[i - 1], est[i]);
+            if a.word != b.word || b.index != a.index + 1 {
+                n += 1;
+            }
+        }
+        est[i].firing = n;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_fits_are_exact_on_a_line() {
+        let dt = 0.01;
+        let y: Vec<f64> = (0..40).map(|k| 1.0 + 0.37 * k as f64 * dt).collect();
+        for n in [3, 5, 15] {
+            for e in line_fit_sliding(&y, dt, n).iter().chain(&line_fit_non_overlapping(&y, dt, n)).chain(&line_fit_backward(&y, dt, n)) {
+                assert!((e.omega_dot - 0.37).abs() < 1e-10);
+            }
+        }
+        let s = line_fit_sliding(&y, dt, 5);
+        assert_eq!(s[0].index, 2);
+        let b = line_fit_backward(&y, dt, 5);
+        assert_eq!(b[0].index, 4);
+        let no = line_fit_non_overlapping(&y, dt, 5);
+        assert_eq!(no.len(), 8);
+        assert_eq!(no[1].index, 7);
+    }
+
+    #[test]
+    fn kalman_variance_matches_closed_form_and_converges() {
+        let dt = 0.001;
+        let mut kf = OmegaDotKalman::new(SEED_R0);
+        let truth = Vector3::new(0.8, -0.2, 0.05);
+        kf.reset(Vector3::zeros(), SEED_KF_P0, Vector3::new(0.1, 0.2, 0.3));
+        for k in 1..=1000 {
+            let t = k as f64 * dt;
+            kf.update(Vector3::new(0.1, 0.2, 0.3) + truth * t, t);
+            let v = kf.variance();
+            for a in 0..3 {
+                let c = kalman_variance_after(SEED_R0[a], SEED_KF_P0, dt, k);
+                assert!((v[a] - c).abs() <= 1e-9 * c, "k={k} a={a}");
+            }
+        }
+        // noise-free data: the prior's weight (1/p0 = 2) against ~3e8 of data information
+        assert!((kf.x - truth).norm() < 1e-6);
+    }
+}

@@ -183,6 +183,8 @@ fn with_source<R>(f: impl FnOnce(&mut Source) -> R) -> R {
 pub trait Drawable: Copy + PartialOrd {
     fn offset(lo: Self, hi: Self) -> u64;
     fn add(lo: Self, k: u64) -> Self;
+    /// `-lo` as an offset when `lo < 0`.
+    fn zero_offset_from(lo: Self) -> Option<u64>;
 }
 
 #[cfg(not(kani))]
@@ -191,6 +193,7 @@ macro_rules! drawable {
         impl Drawable for $t {
             fn offset(lo: Self, hi: Self) -> u64 { (hi as i128 - lo as i128) as u64 }
             fn add(lo: Self, k: u64) -> Self { (lo as i128 + k as i128) as $t }
+            fn zero_offset_from(lo: Self) -> Option<u64> { ((lo as i128) < 0).then(|| (-(lo as i128)) as u64) }
         }
     )*};
 }
@@ -201,7 +204,13 @@ drawable!(u8, u16, u32, u64, usize, i8, i16, i32, i64);
 #[cfg(not(kani))]
 pub fn any_in<T: Drawable>(lo: T, hi: T) -> T {
     assert!(lo <= hi, "any_in: empty range");
-    let k = with_source(|s| s.choose(T::offset(lo, hi)));
+    let span = T::offset(lo, hi);
+    // Zero strictly inside a signed range is drawn one time in eight, like the ends.
+    let zero = T::zero_offset_from(lo).filter(|&z| z < span);
+    let k = with_source(|s| match zero {
+        Some(z) if s.is_random() && s.choose(7) == 0 => z,
+        _ => s.choose(span),
+    });
     T::add(lo, k)
 }
 

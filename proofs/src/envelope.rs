@@ -36,6 +36,11 @@ pub const THRUST_N: (f64, f64) = (0.05, 0.2);
 pub const PRESSURE_DROP_N: (f64, f64) = (0.0, 0.0106);
 /// Components of a thrust direction unit vector (seed Table C.4 norms 0.997..1.000).
 pub const DIRECTION_COMPONENT: (f64, f64) = (-1.0, 1.0);
+/// The main (nominal-axis) component of a thrust direction, in magnitude (seed Table C.4:
+/// the smallest over SPH1..SPH5 is 0.9957).
+pub const DIRECTION_MAIN: (f64, f64) = (0.99, 1.0);
+/// The off-axis components of a thrust direction (seed Table C.4: largest |.| is 0.0835).
+pub const DIRECTION_OFF_AXIS: (f64, f64) = (-0.09, 0.09);
 /// Thruster position components from the geometric centre, m (seed Table 3.2: |x| <= 0.0965).
 pub const THRUSTER_POSITION_M: (f64, f64) = (-0.0965, 0.0965);
 /// Principal moments of inertia, kg m^2 (seed Table C.2 spans 0.0194..0.0275; a proof mass

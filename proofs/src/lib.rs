@@ -7,5 +7,6 @@
 //! * [`budget`]: the error budget of every kernel output against `reference_f64`, in one table.
 pub mod budget;
 pub mod engine;
+pub mod harness;
 pub mod envelope;
 pub mod interval;

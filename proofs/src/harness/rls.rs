@@ -1,0 +1,142 @@
+//! `rls::InfoLs::add` (the RLS information update, block floating point): for any sequence of
+//! weighted measurements in the envelope the information mantissa stays symmetric and
+//! positive semidefinite within its rounding, is positive definite whenever the exact
+//! information is well conditioned, tracks the exact (f64) information within the rounding
+//! bound, and `solve` returns a status or a valid estimate.
+
+use super::Harness;
+use crate::cover;
+use crate::engine::{any_f64_in, any_in};
+use massid_kernel::model::inertia_rows;
+use massid_kernel::rls::InfoLs;
+use massid_kernel::{Scalar, Scaled, Q8_24};
+
+/// Most updates drawn per sequence (Kani unwinds this far).
+const MAX_UPDATES: usize = 8;
+/// Largest regressor entry in kernel units (torques in cN m: 12 x 0.2 N x 0.19 m x 100 = 46;
+/// CoM rows I^-1 [c]x: 91 x 0.6 N = 55): 64.
+const ROW_MAX: f64 = 64.0;
+
+/// Cholesky of `m` succeeds (all pivots > 0).
+pub fn cholesky_ok<const N: usize>(m: &[[f64; N]; N]) -> bool {
+    let mut l = [[0.0f64; N]; N];
+    for j in 0..N {
+        let d = m[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
+        if !(d > 0.0) {
+            return false;
+        }
+        l[j][j] = d.sqrt();
+        for i in j + 1..N {
+            l[i][j] = (m[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>()) / l[j][j];
+        }
+    }
+    true
+}
+
+fn shifted<const N: usize>(m: &[[f64; N]; N], s: f64) -> [[f64; N]; N] {
+    let mut o = *m;
+    for (i, row) in o.iter_mut().enumerate() {
+        row[i] += s;
+    }
+    o
+}
+
+fn rows<const N: usize>(row_max: f64) -> [[f64; N]; 3] {
+    if N == 6 {
+        // The inverse-inertia regressor structure of seed eq. 3.8.
+        let a = [0; 3].map(|_| any_f64_in(-row_max, row_max));
+        let r = inertia_rows(&a.map(|v| v as f32));
+        core::array::from_fn(|i| core::array::from_fn(|j| r[i][j] as f64))
+    } else {
+        core::array::from_fn(|_| core::array::from_fn(|_| any_f64_in(-row_max, row_max)))
+    }
+}
+
+fn information_update<S: Scalar, const N: usize>() {
+    let mut ls = InfoLs::<S, N>::new();
+    let mut exact = [[0.0f64; N]; N];
+    let n = any_in(1usize, MAX_UPDATES);
+    // Regressor size: the envelope's largest, or smaller ones (where the rounding allowance
+    // is small enough for the positive-definiteness check to bite).
+    let row_max = [ROW_MAX, 8.0, 1.0][any_in(0usize, 2)];
+    let step = crate::budget::fixed_step::<S>();
+    let u = if step < 1e-30 { f32::EPSILON as f64 } else { 0.0 };
+    let mut err_bound = 0.0f64; // in units of 2^exp, accumulated per add
+    for _ in 0..n {
+        let a = rows::<N>(row_max);
+        let b = [0; 3].map(|_| any_f64_in(-50.0, 50.0));
+        // Weights 1/variance of the Kalman estimate: 2^-10 .. 2^31.
+        let w: [Scaled<S>; 3] = [0; 3].map(|_| Scaled { m: S::from_f32(any_f64_in(1.0, 1.99) as f32), e: any_in(-10i32, 30) });
+        let a_s = a.map(|r| r.map(|v| S::from_f32(v as f32)));
+        let b_s = b.map(|v| S::from_f32(v as f32));
+        ls.add(&a_s, &b_s, &w);
+        for r in 0..3 {
+            let wr = w[r].to_f64();
+            let ar = a_s[r].map(|v| v.to_f32() as f64);
+            for i in 0..N {
+                for j in 0..N {
+                    exact[i][j] += wr * ar[i] * ar[j];
+                }
+            }
+            let r1: f64 = ar.iter().map(|v| v.abs()).sum();
+            err_bound += 4.0 * (r1 * r1 + r1 + 2.0);
+        }
+        err_bound += 64.0;
+    }
+    if ls.is_saturated() {
+        cover!(true, "saturated status");
+        return;
+    }
+    let m = ls.information();
+    let mf = m.map(|r| r.map(|v| v.to_f32() as f64));
+    for i in 0..N {
+        for j in 0..N {
+            assert_eq!(mf[i][j], mf[j][i], "not symmetric");
+        }
+    }
+    let scale = (2.0f64).powi(ls.exponent());
+    let max_diag = (0..N).map(|i| mf[i][i]).fold(0.0, f64::max);
+    // Rounding allowance in mantissa units: absolute steps (fixed) or relative (f32).
+    let tol = err_bound * step + 8.0 * (N * N) as f64 * u * max_diag * n as f64;
+    // Tracks the exact information.
+    for i in 0..N {
+        for j in 0..N {
+            let d = (mf[i][j] - exact[i][j] / scale).abs();
+            assert!(d <= tol, "info[{i}][{j}] off by {d:e} > {tol:e}");
+        }
+    }
+    // Positive semidefinite within its rounding.
+    assert!(cholesky_ok(&shifted(&mf, N as f64 * tol + 1e-300)), "information not PSD within {tol:e}");
+    // Positive definite whenever the exact information is well conditioned.
+    let ex = exact.map(|r| r.map(|v| v / scale));
+    let margin = 1e-3 * max_diag;
+    if margin > N as f64 * tol && cholesky_ok(&shifted(&ex, -margin)) {
+        cover!(true, "well conditioned: PD");
+        assert!(cholesky_ok(&mf), "information not positive definite although exact lambda_min > {margin:e}");
+    } else {
+        cover!(true, "rank deficient or ill conditioned");
+    }
+    // The solve gives a status or valid numbers.
+    let prior = [S::ZERO; N];
+    if let Ok(sol) = ls.solve(&prior, S::from_int_pow2(1, -14), S::from_int_pow2(1, -20)) {
+        cover!(true, "solved");
+        assert!(sol.x.iter().all(|v| v.is_valid()));
+    }
+}
+
+#[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(9))]
+pub fn rls_inertia_q8_24() {
+    information_update::<Q8_24, 6>()
+}
+#[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(9))]
+pub fn rls_com_f32() {
+    information_update::<f32, 3>()
+}
+
+const COVERS: &[&str] = &["well conditioned: PD", "rank deficient or ill conditioned", "solved"];
+pub const HARNESSES: [Harness; 2] = [
+    Harness { name: "rls_inertia_q8_24", body: rls_inertia_q8_24, covers: COVERS, random_runs: 10_000, exhaustive_limit: None },
+    Harness { name: "rls_com_f32", body: rls_com_f32, covers: COVERS, random_runs: 10_000, exhaustive_limit: None },
+];

@@ -49,11 +49,12 @@ pub const INERTIA_PRINCIPAL: (f64, f64) = (0.015, 0.040);
 /// Products of inertia, kg m^2 (seed Table C.2: |I_ij| <= 3e-4; margin to 2e-3, which keeps
 /// the inertia matrix diagonally dominant and so positive definite over the whole box).
 pub const INERTIA_PRODUCT: (f64, f64) = (-0.002, 0.002);
-/// Inverse-inertia entries implied by the inertia box: the diagonal of inv(I) lies in
-/// 1/0.040 .. 1/(0.015 - 2*0.002) and the off-diagonals are bounded by Gershgorin.
-pub const INV_INERTIA_DIAG: (f64, f64) = (1.0 / 0.040, 1.0 / 0.011);
-/// Off-diagonal inverse-inertia magnitude bound (|inv(I)_ij| <= 1/lambda_min(I) = 1/0.011).
-pub const INV_INERTIA_OFFDIAG: (f64, f64) = (-1.0 / 0.011, 1.0 / 0.011);
+/// Inverse-inertia entries implied by the inertia box: its eigenvalues lie in
+/// [0.015 - 2*0.002, 0.040 + 2*0.002] = [0.011, 0.044] (Gershgorin), so the diagonal of
+/// inv(I) lies in [1/0.044, 1/0.011] ...
+pub const INV_INERTIA_DIAG: (f64, f64) = (1.0 / 0.044, 1.0 / 0.011);
+/// ... and each off-diagonal in +-(1/0.011 - 1/0.044)/2 (see `range::inertia_inverse_box`).
+pub const INV_INERTIA_OFFDIAG: (f64, f64) = (-(1.0 / 0.011 - 1.0 / 0.044) / 2.0, (1.0 / 0.011 - 1.0 / 0.044) / 2.0);
 /// Centre-of-mass offset from the geometric centre, m, per axis (seed Table C.1: <= 1.7 mm;
 /// the demo's proof mass can move it further: margin to +-30 mm).
 pub const COM_OFFSET_M: (f64, f64) = (-0.03, 0.03);

@@ -10,3 +10,4 @@ pub mod engine;
 pub mod harness;
 pub mod envelope;
 pub mod interval;
+pub mod range;

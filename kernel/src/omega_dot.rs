@@ -26,7 +26,7 @@
 //! valve opening transient of seed sec. 3.4) are skipped; the sample after them anchors
 //! `c_0`.
 
-use crate::scalar::{split_i64, Scalar, Scaled};
+use crate::scalar::{Scalar, Scaled};
 
 /// Longest firing the filter accumulates, in ticks (2^18 = 262 s at 1 kHz). Beyond it the
 /// estimate is frozen and [`KfStatus::Saturated`] is reported, so the integer sums can never overflow.
@@ -218,14 +218,16 @@ impl<S: Scalar> OmegaDotKf<S> {
                 updates: 0,
             });
         }
-        // Common power-of-two normalisation of S2 and every Sz: mantissas below 2^30.
+        // Common power-of-two normalisation of S2 and every Sz: the largest becomes a
+        // value in [8, 16) (integers of up to 30 significant bits keep full precision).
         let s2 = i64::try_from(self.s2).unwrap_or(i64::MAX);
         let biggest = self.sz.iter().fold(s2, |m, v| m.max(v.saturating_abs()));
-        let (_, sh) = split_i64(biggest, 30);
-        let e_norm = sh.saturating_add(26); // true value = scaled value * 2^e_norm
+        let len = 64i32.saturating_sub(biggest.unsigned_abs().leading_zeros() as i32);
+        let sh = len.saturating_sub(30).clamp(0, 63);
+        let e_norm = len.saturating_sub(4); // true value = scaled value * 2^e_norm
         let to_s = |v: i64| -> S {
-            let m = (v >> sh.clamp(0, 63)) as i32; // |v >> sh| < 2^30 by construction
-            S::from_int_pow2(m, -26)
+            let m = (v >> sh) as i32; // |v >> sh| < 2^30 by construction
+            S::from_int_pow2(m, sh.saturating_sub(e_norm))
         };
         let s2_s = to_s(s2);
         let mut omega_dot = [S::ZERO; 3];

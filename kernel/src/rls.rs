@@ -99,13 +99,33 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         self.exp = self.exp.saturating_add(k);
     }
 
+    /// The magnitude normalisation acts on: the largest diagonal or information-vector
+    /// mantissa (`eta` can exceed the diagonal when a problem alone is ill-posed, e.g. the
+    /// inertia rows of a pure translation).
+    fn magnitude(&self) -> S {
+        self.eta.iter().fold(self.max_diag(), |m, v| max_abs(m, *v))
+    }
+
+    /// Keeps [`InfoLs::magnitude`] in [2^(L-2), 2^L) so precision is neither lost to
+    /// underflow nor to overflow, whatever the true magnitude (the exponent absorbs it).
     fn renormalise(&mut self) {
         let limit = S::from_int_pow2(1, DIAG_LIMIT_LOG2);
+        let low = S::from_int_pow2(1, DIAG_LIMIT_LOG2.saturating_sub(2));
         for _ in 0..64 {
-            if self.max_diag().lt(limit) {
+            if self.magnitude().lt(limit) {
                 break;
             }
             self.shift_down(1);
+        }
+        for _ in 0..64 {
+            let d = self.magnitude();
+            if !d.lt(low) || !S::ZERO.lt(d) {
+                break;
+            }
+            for v in self.lam.iter_mut().flatten().chain(self.eta.iter_mut()) {
+                *v = v.mul_pow2(1);
+            }
+            self.exp = self.exp.saturating_sub(1);
         }
     }
 
@@ -137,7 +157,8 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
                 wi.times(ri)
             });
             let small = t.iter().all(|ti| ti.lt(one));
-            let bound = t.iter().zip(r.iter()).fold(self.max_diag(), |acc, (ti, ri)| acc.mul_add(*ti, *ri));
+            let rb = b.iter().zip(r.iter()).fold(S::ZERO, |m, (bi, ri)| max_abs(m, max_abs(*bi, *ri)));
+            let bound = t.iter().fold(self.magnitude(), |acc, ti| acc.mul_add(*ti, rb));
             if small && bound.lt(budget) {
                 break;
             }

@@ -164,6 +164,13 @@ pub struct KalmanConfig {
     pub transient_s: f64,
     /// The transient is skipped only when the sample period is below this, s.
     pub skip_only_below_dt_s: f64,
+    /// Lag of the rates behind the body (a causal filter's group delay), s: the
+    /// measurement model becomes `H = (t - t_change - delay)`. 0 for zero-phase rates.
+    pub measurement_delay_s: f64,
+    /// For zero-phase filtered rates: how far the filtered rate at a kink overshoots
+    /// ([`crate::preprocess::LowPass2::zero_phase_kink_offset_s`]); the reference rate at a
+    /// word change is corrected by `(new - old acceleration) x this`. 0 = no correction.
+    pub kink_offset_s: f64,
 }
 
 impl Default for KalmanConfig {
@@ -173,6 +180,8 @@ impl Default for KalmanConfig {
             p0: SEED_KF_P0,
             transient_s: VALVE_TRANSIENT_S,
             skip_only_below_dt_s: SKIP_ONLY_BELOW_DT_S,
+            measurement_delay_s: 0.0,
+            kink_offset_s: 0.0,
         }
     }
 }
@@ -218,34 +227,48 @@ pub fn nominal_omega_dot(sat: &Satellite, word: u16, omega: Vector3<f64>) -> Vec
 
 /// Runs the Kalman filter over every firing of `rates` (seed `wdotkalman.m`): reset at
 /// each change of the thruster word to the nominal prediction, skip the valve transient,
-/// one update per remaining sample with a non-zero word. `omega0` is the rate at the
-/// sample of the change (the last rate before the new word can act on it).
+/// one update per remaining sample with a non-zero word.
+///
+/// Timing convention (as the recordings are made: the word of sample `k` acts over
+/// `[t_k, t_k+1)`, measured on `o01`: the extrapolated rate ramps start within 0.5 ms of the
+/// word's first sample): the zero of the measurement is the rate at the change sample,
+/// and `H = (k - k_change) dt`. The seed's listing takes the sample before the change and
+/// restarts `H` after the skipped transient; both bias the estimate by ~1 % on a 1 s firing.
 pub fn kalman_per_firing(rates: &Rates, sat: &Satellite, cfg: &KalmanConfig) -> Vec<OmegaDotEstimate> {
     let mut out = Vec::new();
     let mut kf = OmegaDotKalman::new(cfg.r0);
     let skip = cfg.skip_samples(rates.dt);
     let mut current: Option<(u16, usize)> = None; // (word, index of the change)
+    let mut last_omega_dot = Vector3::zeros(); // acceleration just before the change
     for k in 0..rates.len() {
         let word = rates.words[k] & 0x0fff;
         let omega = Vector3::from(rates.omega[k]);
         if word == 0 {
             current = None;
+            last_omega_dot = Vector3::zeros();
             continue;
         }
         let start = match current {
             Some((w, s)) if w == word => s,
             _ => {
-                let omega0 = if k > 0 { Vector3::from(rates.omega[k - 1]) } else { omega };
-                kf.reset(nominal_omega_dot(sat, word, omega0), cfg.p0, omega0);
+                let prior = nominal_omega_dot(sat, word, omega);
+                let omega0 = omega - (prior - last_omega_dot) * cfg.kink_offset_s;
+                kf.reset(prior, cfg.p0, omega0);
                 current = Some((word, k));
                 k
             }
         };
-        let since = k - start + 1; // samples since the change (the change's own sample is 1)
-        if since <= skip {
+        // samples since the change; the change's own sample (H = 0) carries no information
+        let since = k - start;
+        if since == 0 || since <= skip {
             continue;
         }
-        kf.update(omega, since as f64 * rates.dt);
+        let h = since as f64 * rates.dt - cfg.measurement_delay_s;
+        if h <= 0.0 {
+            continue;
+        }
+        kf.update(omega, h);
+        last_omega_dot = kf.x;
         out.push(OmegaDotEstimate {
             index: k,
             t_s: rates.t_s[k],

@@ -1,1 +1,499 @@
-//! (owned by the reference-pipeline work; being written)
+//! The whole identification (seed `massid_kc1.m` and the flight code of section 4.4.4):
+//! recording -> pre-processing -> Kalman filter per firing -> batch LS over the first two
+//! firings -> RLS over the rest; offline (zero-phase filter, whole recording) and online
+//! (causal filter, one sample at a time, as flight code would run it).
+//!
+//! Both forms feed the same [`MassIdAccumulator`], so they differ only in the gyro filter
+//! and in the offline form knowing in advance which terms the maneuver leaves unobservable
+//! (they are then held at the nominal values, seed eq. 3.13's reduction).
+use crate::mass_id::{
+    com_row, inertia_from_inverse, inertia_row, nominal_inverse_inertia, BatchLs, ChangeDetector, Excitation,
+    LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
+};
+use crate::omega_dot::{kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
+use crate::preprocess::{preprocess_offline, sample_rate_rad_s, CausalLowPass, LowPass2, Rates};
+use crate::recording::{Recording, Sample};
+use crate::satellite::Satellite;
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+/// Change-detector settings (see [`ChangeDetector`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChangeDetectorConfig {
+    /// Allowed excess of the normalised innovation over its learnt level per update.
+    pub drift: f64,
+    /// CUSUM level that declares a change.
+    pub threshold: f64,
+    /// Factor applied to the data information at a detection (0 = forget all data).
+    pub shrink: f64,
+    /// Updates used to learn the innovation level after the batch.
+    pub warmup: usize,
+}
+
+impl Default for ChangeDetectorConfig {
+    fn default() -> Self {
+        ChangeDetectorConfig { drift: 2.0, threshold: 200.0, shrink: 1e-3, warmup: 2000 }
+    }
+}
+
+/// Everything the pipeline can be told. `Default` is the seed's pipeline.
+#[derive(Clone, Debug)]
+pub struct PipelineConfig {
+    pub kalman: KalmanConfig,
+    /// Firings in the batch that seeds the RLS (seed: 2).
+    pub batch_firings: usize,
+    /// Prior standard deviation of each inverse-inertia term, as a fraction of the mean
+    /// nominal diagonal of `I^-1` (weak: the data outweighs it by orders of magnitude).
+    pub prior_inverse_inertia_rel_std: f64,
+    /// Prior standard deviation of each CoM offset term, m.
+    pub prior_com_std_m: f64,
+    /// A term is observable when the maneuver gave it at least this many seconds' worth
+    /// of reference excitation (see [`Excitation`]).
+    pub min_excitation_s: f64,
+    /// Exponential forgetting factor per RLS update (None = the seed's RLS, no forgetting).
+    pub forgetting: Option<f64>,
+    /// Change detector on the RLS innovations (None = off, as in the seed).
+    pub change_detector: Option<ChangeDetectorConfig>,
+    /// Keep the per-update convergence history.
+    pub keep_history: bool,
+    /// Keep one history point every this many updates.
+    pub history_every: usize,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        PipelineConfig {
+            kalman: KalmanConfig::default(),
+            batch_firings: 2,
+            prior_inverse_inertia_rel_std: 1.0,
+            prior_com_std_m: 0.02,
+            min_excitation_s: 0.05,
+            forgetting: None,
+            change_detector: None,
+            keep_history: true,
+            history_every: 1,
+        }
+    }
+}
+
+/// One point of the convergence history (seed Figs. 4.9, 4.13): the estimate and its
+/// 1-sigma after an update.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HistoryPoint {
+    pub t_s: f64,
+    pub update: usize,
+    pub com_offset_mm: [f64; 3],
+    pub com_sigma_mm: [f64; 3],
+    pub inertia_kgm2: [f64; 6],
+    pub inertia_sigma_kgm2: [f64; 6],
+}
+
+/// The result: what `contracts/estimate-output.md` needs, and more.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Estimated CoM minus the model's, mm, body axes.
+    pub com_offset_mm: [f64; 3],
+    pub com_offset_stderr_mm: [f64; 3],
+    /// Inertia about the CoM, xx yy zz xy xz yz, kg m^2.
+    pub inertia_kgm2: [f64; 6],
+    pub inertia_stderr_kgm2: [f64; 6],
+    /// Terms the excitation left unobservable (values are then the nominal model's).
+    pub unobservable: Vec<String>,
+    /// Angular-acceleration updates used (batch + RLS).
+    pub updates: usize,
+    /// "ok", "unobservable_terms", "no_firings" or "singular_information".
+    pub status: String,
+    /// Convergence history of the RLS (empty unless kept).
+    pub history: Vec<HistoryPoint>,
+    /// The batch LS over all updates (the RLS must end here without forgetting).
+    pub batch_all_com_offset_mm: [f64; 3],
+    pub batch_all_inertia_kgm2: [f64; 6],
+    /// Ratio of the observed to the predicted weighted residual (CoM, inertia problems);
+    /// the stderrs above are scaled by its square root when it exceeds 1, since the
+    /// Kalman filter's variances are optimistic (its errors are correlated in time).
+    pub variance_factor: [f64; 2],
+    /// Times (s) at which the change detector reset the covariance.
+    pub detections_s: Vec<f64>,
+}
+
+/// Accumulates angular-acceleration updates into the mass-property estimate: batch over
+/// the first `batch_firings` firings, then RLS. Shared by the offline and online forms.
+pub struct MassIdAccumulator {
+    sat: Satellite,
+    cfg: PipelineConfig,
+    com_batch: BatchLs<3>,
+    inertia_batch: BatchLs<6>,
+    com_all: BatchLs<3>,
+    inertia_all: BatchLs<6>,
+    rls: Option<(Rls<3>, Rls<6>)>,
+    firings_seen: usize,
+    last_firing: Option<usize>,
+    excitation: Excitation,
+    updates: usize,
+    history: Vec<HistoryPoint>,
+    error: Option<LsError>,
+    /// Terms held at the prior (offline: known unobservable over the whole run).
+    pinned: Vec<String>,
+    weak_std_com: SVector<f64, 3>,
+    weak_std_inertia: SVector<f64, 6>,
+    detections_s: Vec<f64>,
+}
+
+impl MassIdAccumulator {
+    /// A fresh accumulator; `pinned` names terms held at their nominal value.
+    pub fn new(sat: &Satellite, cfg: &PipelineConfig, pinned: &[String]) -> Self {
+        let x0_inertia = nominal_inverse_inertia(sat);
+        let mean_diag = (x0_inertia[0] + x0_inertia[1] + x0_inertia[2]) / 3.0;
+        let weak_std_inertia = SVector::<f64, 6>::repeat(cfg.prior_inverse_inertia_rel_std * mean_diag);
+        let weak_std_com = SVector::<f64, 3>::repeat(cfg.prior_com_std_m);
+        // pinned terms get a prior a million times tighter than any plausible estimate
+        let mut std_i = weak_std_inertia;
+        for (j, n) in INERTIA_TERMS.iter().enumerate() {
+            if pinned.iter().any(|p| p == n) {
+                std_i[j] *= 1e-9;
+            }
+        }
+        let mut std_c = weak_std_com;
+        for (j, n) in COM_TERMS.iter().enumerate() {
+            if pinned.iter().any(|p| p == n) {
+                std_c[j] *= 1e-9;
+            }
+        }
+        let com_batch = BatchLs::with_prior(SVector::<f64, 3>::zeros(), std_c);
+        let inertia_batch = BatchLs::with_prior(x0_inertia, std_i);
+        MassIdAccumulator {
+            sat: sat.clone(),
+            cfg: cfg.clone(),
+            com_all: com_batch.clone(),
+            inertia_all: inertia_batch.clone(),
+            com_batch,
+            inertia_batch,
+            rls: None,
+            firings_seen: 0,
+            last_firing: None,
+            excitation: Excitation::new(sat),
+            updates: 0,
+            history: Vec::new(),
+            error: None,
+            pinned: pinned.to_vec(),
+            weak_std_com,
+            weak_std_inertia,
+            detections_s: Vec::new(),
+        }
+    }
+
+    /// The seed's two observations for one angular-acceleration estimate (eqs. 3.7-3.8),
+    /// each with `R = diag(P)` of the Kalman filter (seed `R_acc = diag(diag(P))`).
+    pub fn observations(sat: &Satellite, e: &OmegaDotEstimate) -> (Observation<3>, Observation<6>) {
+        let omega = Vector3::from(e.omega);
+        let wd = Vector3::from(e.omega_dot);
+        let r = Matrix3::from_diagonal(&Vector3::from(e.variance));
+        let (a1, b1) = com_row(sat, e.word, &omega, &wd);
+        let (a2, b2) = inertia_row(sat, e.word, &omega, &wd);
+        (Observation { a: a1, b: b1, r }, Observation { a: a2, b: b2, r })
+    }
+
+    /// Adds one Kalman-filter estimate.
+    pub fn push(&mut self, e: &OmegaDotEstimate) {
+        if self.error.is_some() {
+            return;
+        }
+        if self.last_firing != Some(e.firing) {
+            self.last_firing = Some(e.firing);
+            self.firings_seen += 1;
+        }
+        let (oc, oi) = Self::observations(&self.sat, e);
+        self.excitation.add(&self.sat, e.word, &Vector3::from(e.omega));
+        self.com_all.add(&oc);
+        self.inertia_all.add(&oi);
+        self.updates += 1;
+        if self.rls.is_none() {
+            if self.firings_seen <= self.cfg.batch_firings {
+                self.com_batch.add(&oc);
+                self.inertia_batch.add(&oi);
+                return;
+            }
+            match self.start_rls() {
+                Ok(()) => {}
+                Err(err) => {
+                    self.error = Some(err);
+                    return;
+                }
+            }
+        }
+        let Some((rc, ri)) = self.rls.as_mut() else { return };
+        let result = rc.update(&oc).and_then(|a| ri.update(&oi).map(|b| a || b));
+        match result {
+            Ok(changed) => {
+                if changed {
+                    self.detections_s.push(e.t_s);
+                }
+            }
+            Err(err) => {
+                self.error = Some(err);
+                return;
+            }
+        }
+        if self.cfg.keep_history && self.updates % self.cfg.history_every.max(1) == 0 {
+            if let Some(p) = self.history_point(e.t_s) {
+                self.history.push(p);
+            }
+        }
+    }
+
+    fn start_rls(&mut self) -> Result<(), LsError> {
+        let mut rc = Rls::from_batch(&self.com_batch)?;
+        let mut ri = Rls::from_batch(&self.inertia_batch)?;
+        if let Some(l) = self.cfg.forgetting {
+            rc.forgetting = l;
+            ri.forgetting = l;
+        }
+        if let Some(d) = self.cfg.change_detector {
+            // one detector on the inertia problem drives both covariance resets
+            ri.detector = Some(ChangeDetector::new(d.drift, d.threshold, d.shrink, d.warmup));
+            rc.detector = Some(ChangeDetector::new(d.drift, d.threshold, d.shrink, d.warmup));
+        }
+        self.rls = Some((rc, ri));
+        Ok(())
+    }
+
+    fn history_point(&self, t_s: f64) -> Option<HistoryPoint> {
+        let (rc, ri) = self.rls.as_ref()?;
+        let cc = rc.covariance().ok()?;
+        let ci = ri.covariance().ok()?;
+        let (ivec, icov) = inertia_from_inverse(&ri.x, &ci)?;
+        Some(HistoryPoint {
+            t_s,
+            update: self.updates,
+            com_offset_mm: (rc.x * 1e3).into(),
+            com_sigma_mm: [0, 1, 2].map(|j| cc[(j, j)].sqrt() * 1e3),
+            inertia_kgm2: ivec.into(),
+            inertia_sigma_kgm2: [0, 1, 2, 3, 4, 5].map(|j| icov[(j, j)].sqrt()),
+        })
+    }
+
+    /// Terms the updates so far left unobservable.
+    pub fn unobservable(&self, dt: f64) -> Vec<String> {
+        self.excitation.unobservable(self.cfg.min_excitation_s / dt)
+    }
+
+    /// The final estimate. `dt` is the sample period (for the observability threshold).
+    pub fn finish(mut self, dt: f64) -> Estimate {
+        let mut unobservable = self.unobservable(dt);
+        for p in &self.pinned {
+            if !unobservable.contains(p) {
+                unobservable.push(p.clone());
+            }
+        }
+        order_terms(&mut unobservable);
+        let nominal = Estimate {
+            com_offset_mm: [0.0; 3],
+            com_offset_stderr_mm: [0.0; 3],
+            inertia_kgm2: self.sat.inertia_kgm2,
+            inertia_stderr_kgm2: [0.0; 6],
+            unobservable: unobservable.clone(),
+            updates: self.updates,
+            status: String::new(),
+            history: Vec::new(),
+            batch_all_com_offset_mm: [0.0; 3],
+            batch_all_inertia_kgm2: self.sat.inertia_kgm2,
+            variance_factor: [1.0; 2],
+            detections_s: self.detections_s.clone(),
+        };
+        if self.updates == 0 {
+            let all: Vec<String> = COM_TERMS.iter().chain(INERTIA_TERMS.iter()).map(|s| s.to_string()).collect();
+            return Estimate { status: "no_firings".into(), unobservable: all, ..nominal };
+        }
+        if self.rls.is_none() && self.error.is_none() {
+            // fewer firings than the batch needs: the batch is the estimate
+            if let Err(e) = self.start_rls() {
+                self.error = Some(e);
+            }
+        }
+        if let Some(e) = &self.error {
+            return Estimate { status: e.to_string(), ..nominal };
+        }
+        let result = (|| -> Result<Estimate, LsError> {
+            let (rc, ri) = self.rls.as_ref().ok_or(LsError::SingularInformation)?;
+            let m = 3.0 * self.updates as f64;
+            let vf_c = (rc.innovation_ss / (m - 3.0).max(1.0)).max(1.0);
+            let vf_i = (ri.innovation_ss / (m - 6.0).max(1.0)).max(1.0);
+            let mut cc = rc.covariance()? * vf_c;
+            let mut ci = ri.covariance()? * vf_i;
+            // unobservable terms: their honest uncertainty is the weak prior's
+            for (j, n) in COM_TERMS.iter().enumerate() {
+                if unobservable.iter().any(|u| u == n) {
+                    cc[(j, j)] = self.weak_std_com[j].powi(2);
+                }
+            }
+            for (j, n) in INERTIA_TERMS.iter().enumerate() {
+                if unobservable.iter().any(|u| u == n) {
+                    ci[(j, j)] = self.weak_std_inertia[j].powi(2);
+                }
+            }
+            let (ivec, icov) = inertia_from_inverse(&ri.x, &ci).ok_or(LsError::SingularInformation)?;
+            let xb_c = self.com_all.solve()?;
+            let xb_i = self.inertia_all.solve()?;
+            let (ib, _) = inertia_from_inverse(&xb_i, &SMatrix::<f64, 6, 6>::zeros()).ok_or(LsError::SingularInformation)?;
+            let status = if unobservable.is_empty() { "ok" } else { "unobservable_terms" };
+            Ok(Estimate {
+                com_offset_mm: (rc.x * 1e3).into(),
+                com_offset_stderr_mm: [0, 1, 2].map(|j| cc[(j, j)].sqrt() * 1e3),
+                inertia_kgm2: ivec.into(),
+                inertia_stderr_kgm2: [0, 1, 2, 3, 4, 5].map(|j| icov[(j, j)].max(0.0).sqrt()),
+                unobservable: unobservable.clone(),
+                updates: self.updates,
+                status: status.into(),
+                history: std::mem::take(&mut self.history),
+                batch_all_com_offset_mm: (xb_c * 1e3).into(),
+                batch_all_inertia_kgm2: ib.into(),
+                variance_factor: [vf_c, vf_i],
+                detections_s: self.detections_s.clone(),
+            })
+        })();
+        result.unwrap_or_else(|e| Estimate { status: e.to_string(), ..nominal })
+    }
+}
+
+/// Sorts term names into the canonical order cm_x cm_y cm_z Ixx Iyy Izz Ixy Ixz Iyz.
+fn order_terms(v: &mut [String]) {
+    let rank = |s: &String| COM_TERMS.iter().chain(INERTIA_TERMS.iter()).position(|t| t == s).unwrap_or(usize::MAX);
+    v.sort_by_key(rank);
+}
+
+/// The offline pipeline from already pre-processed rates.
+pub fn estimate_from_rates(rates: &Rates, sat: &Satellite, cfg: &PipelineConfig) -> Estimate {
+    let est = kalman_per_firing(rates, sat, &cfg.kalman);
+    // the whole run's excitation decides which terms are held at the nominal values
+    let mut ex = Excitation::new(sat);
+    for e in &est {
+        ex.add(sat, e.word, &Vector3::from(e.omega));
+    }
+    let dt = if rates.dt > 0.0 { rates.dt } else { 0.001 };
+    let pinned = ex.unobservable(cfg.min_excitation_s / dt);
+    let mut acc = MassIdAccumulator::new(sat, cfg, &pinned);
+    for e in &est {
+        acc.push(e);
+    }
+    acc.finish(dt)
+}
+
+/// The offline pipeline (seed `massid_kc1.m`): interpolate, filter forward-backward,
+/// Kalman filter per firing, batch over the first two firings, RLS over the rest.
+/// The Kalman filter's reference rate at each word change is corrected for the zero-phase
+/// filter's kink overshoot ([`LowPass2::zero_phase_kink_offset_s`]).
+pub fn estimate_offline(rec: &Recording, sat: &Satellite, cfg: &PipelineConfig) -> Estimate {
+    let rates = preprocess_offline(rec, sat);
+    let mut cfg = cfg.clone();
+    if rates.dt > 0.0 {
+        cfg.kalman.kink_offset_s = LowPass2::seed(rates.dt).zero_phase_kink_offset_s(rates.dt);
+        cfg.kalman.measurement_delay_s = 0.0;
+    }
+    estimate_from_rates(&rates, sat, &cfg)
+}
+
+/// The online form, one sample at a time as flight code runs it: causal filter, Kalman
+/// filter reset at every word change, batch over the first two firings, then RLS.
+/// Samples are taken as arriving at the nominal period (flight code sees no telemetry gaps).
+pub struct OnlineEstimator {
+    sat: Satellite,
+    cfg: PipelineConfig,
+    dt: f64,
+    filters: Option<[CausalLowPass; 3]>,
+    kf: OmegaDotKalman,
+    current: Option<(u16, usize)>,
+    sample_no: usize,
+    firing: usize,
+    acc: MassIdAccumulator,
+    last_estimate: Option<OmegaDotEstimate>,
+}
+
+impl OnlineEstimator {
+    /// The Kalman filter's measurement model accounts for the causal filter's delay
+    /// ([`LowPass2::dc_delay_s`], 2/wc = 6.4 ms), which would otherwise bias the
+    /// acceleration low by ~1 % on a 1 s firing.
+    pub fn new(sat: &Satellite, cfg: &PipelineConfig, sample_rate_hz: f64) -> Self {
+        let dt = 1.0 / sample_rate_hz;
+        let mut cfg = cfg.clone();
+        cfg.kalman.measurement_delay_s = LowPass2::seed(dt).dc_delay_s(dt);
+        cfg.kalman.kink_offset_s = 0.0;
+        OnlineEstimator {
+            sat: sat.clone(),
+            cfg: cfg.clone(),
+            dt,
+            filters: None,
+            kf: OmegaDotKalman::new(cfg.kalman.r0),
+            current: None,
+            sample_no: 0,
+            firing: 0,
+            acc: MassIdAccumulator::new(sat, &cfg, &[]),
+            last_estimate: None,
+        }
+    }
+
+    /// Processes one sample; returns the angular-acceleration update it produced, if any.
+    pub fn push(&mut self, s: &Sample) -> Option<OmegaDotEstimate> {
+        let raw = sample_rate_rad_s(&self.sat, s);
+        let filters = self.filters.get_or_insert_with(|| {
+            let lp = LowPass2::seed(self.dt);
+            [0, 1, 2].map(|a| {
+                let mut f = CausalLowPass::new(lp);
+                f.settle(raw[a]);
+                f
+            })
+        });
+        let omega = Vector3::new(filters[0].step(raw[0]), filters[1].step(raw[1]), filters[2].step(raw[2]));
+        let k = self.sample_no;
+        self.sample_no += 1;
+        let word = s.thrusters & 0x0fff;
+        if word == 0 {
+            self.current = None;
+            return None;
+        }
+        let start = match self.current {
+            Some((w, st)) if w == word => st,
+            _ => {
+                if self.last_estimate.is_some() {
+                    self.firing += 1;
+                }
+                self.kf.reset(nominal_omega_dot(&self.sat, word, omega), self.cfg.kalman.p0, omega);
+                self.current = Some((word, k));
+                k
+            }
+        };
+        let since = k - start;
+        if since == 0 || since <= self.cfg.kalman.skip_samples(self.dt) {
+            return None;
+        }
+        let h = since as f64 * self.dt - self.cfg.kalman.measurement_delay_s;
+        if h <= 0.0 {
+            return None;
+        }
+        self.kf.update(omega, h);
+        let e = OmegaDotEstimate {
+            index: k,
+            t_s: s.time_ms as f64 / 1000.0,
+            word,
+            firing: self.firing,
+            omega: omega.into(),
+            omega_dot: self.kf.x.into(),
+            variance: self.kf.variance(),
+        };
+        self.acc.push(&e);
+        self.last_estimate = Some(e);
+        Some(e)
+    }
+
+    /// The estimate after the samples so far.
+    pub fn finish(self) -> Estimate {
+        self.acc.finish(self.dt)
+    }
+}
+
+/// The online form over a whole recording.
+pub fn estimate_online(rec: &Recording, sat: &Satellite, cfg: &PipelineConfig) -> Estimate {
+    let mut on = OnlineEstimator::new(sat, cfg, rec.sample_rate_hz());
+    for s in &rec.samples {
+        on.push(s);
+    }
+    on.finish()
+}

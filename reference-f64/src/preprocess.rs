@@ -124,6 +124,22 @@ impl LowPass2 {
         self.b.iter().sum::<f64>() / self.a.iter().sum::<f64>()
     }
 
+    /// Group delay at DC, s: how far the causal output lags a ramp (`2/wc` for this design).
+    pub fn dc_delay_s(&self, dt: f64) -> f64 {
+        let moment = |c: &[f64; 3]| (c[1] + 2.0 * c[2]) / c.iter().sum::<f64>();
+        (moment(&self.b) - moment(&self.a)) * dt
+    }
+
+    /// How far the zero-phase output at a kink (slope 0 -> 1 per s) sits above the kink,
+    /// s: the forward-backward kernel is symmetric, so it reaches half a kernel into the
+    /// coming ramp. A Kalman filter that measures rate changes from the filtered rate at a
+    /// thruster-word change must subtract `slope change x this` from that rate.
+    pub fn zero_phase_kink_offset_s(&self, dt: f64) -> f64 {
+        let n = 4 * self.settling_samples().max(50);
+        let x: Vec<f64> = (0..2 * n).map(|k| if k > n { (k - n) as f64 * dt } else { 0.0 }).collect();
+        self.filtfilt(&x)[n]
+    }
+
     /// Causal filtering of a whole series, state started at rest on the first value
     /// (so a constant input passes unchanged from the first sample).
     pub fn filter(&self, x: &[f64]) -> Vec<f64> {

@@ -1,8 +1,137 @@
-//! `massid mix` (being written).
+//! `massid mix`: one force/torque command through the f64 reference PWM mixer (seed 3.3,
+//! Fig. 3.2), printing each thruster's ON/OFF time in ms within the control period.
+use anyhow::{anyhow, bail, Context};
+use std::fmt::Write as _;
+use reference_f64::mixer::{Mixer, DEFAULT_PERIOD_MS};
+use reference_f64::satellite::{Satellite, N_THRUSTERS};
+use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(
+    about = "Turn a body-frame force/torque command into per-thruster PWM on/off times",
+    long_about = "Runs the seed's PWM mixer (section 3.3, Fig. 3.2): mixing matrix from the calibrated \
+thrusters about the CoM, pseudo-inverse, opposing/negative resolution, scaling by the maximum, \
+pulse centring, multi-thruster pressure-drop correction (the model's parameter; 0 for the \
+built-in sph1..sph5), 10 ms minimum pulse, 1 ms resolution. The command is the average force (N) \
+and torque about the CoM (N m) wanted over one control period.",
+    group(clap::ArgGroup::new("craft").required(true).args(["satellite", "model"]))
+)]
+pub struct Args {
+    /// Built-in satellite: sph1..sph5.
+    #[arg(long)]
+    satellite: Option<String>,
+    /// Satellite model file (TOML), instead of --satellite.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// Force command, N, body axes: FX,FY,FZ.
+    #[arg(long, value_name = "FX,FY,FZ", allow_hyphen_values = true, value_parser = parse_triple, default_value = "0,0,0")]
+    force: [f64; 3],
+    /// Torque command about the CoM, N m, body axes: TX,TY,TZ.
+    #[arg(long, value_name = "TX,TY,TZ", allow_hyphen_values = true, value_parser = parse_triple, default_value = "0,0,0")]
+    torque: [f64; 3],
+    /// CoM estimate from the geometric centre, mm (default: the model's); lever arms are
+    /// taken about it, so identified mass properties change firing times.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_triple)]
+    com_mm: Option<[f64; 3]>,
+    /// Control period, ms.
+    #[arg(long, default_value_t = DEFAULT_PERIOD_MS)]
+    period_ms: u32,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`massid mix` is not available in this build yet")
+/// Parses "a,b,c" into three finite numbers.
+pub fn parse_triple(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected three comma-separated numbers, got {s:?}"));
+    }
+    let mut out = [0.0; 3];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        let v: f64 = p.parse().map_err(|_| format!("{p:?} is not a number (in {s:?})"))?;
+        if !v.is_finite() {
+            return Err(format!("{p:?} is not finite (in {s:?})"));
+        }
+        *o = v;
+    }
+    Ok(out)
+}
+
+fn load_satellite(args: &Args) -> anyhow::Result<Satellite> {
+    match (&args.satellite, &args.model) {
+        (Some(name), None) => Satellite::builtin(name).ok_or_else(|| {
+            anyhow!("unknown satellite {name:?}; built-in models are {}", Satellite::BUILTIN_NAMES.join(", "))
+        }),
+        (None, Some(path)) => Satellite::from_toml_file(path).map_err(|e| anyhow!("{e}")),
+        _ => bail!("give exactly one of --satellite or --model"),
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let sat = load_satellite(&args)?;
+    let com = args.com_mm.map(|c| nalgebra::Vector3::from(c) * 1e-3);
+    let mixer = Mixer::from_satellite(&sat, com, args.period_ms).context("cannot build the mixer")?;
+    let force = nalgebra::Vector3::from(args.force);
+    let torque = nalgebra::Vector3::from(args.torque);
+    let firing = mixer.mix(force, torque).context("cannot mix the command")?;
+    let (jf, jt) = firing.impulse(mixer.geometry());
+    let mut text = String::new();
+    if args.json {
+        let thrusters: Vec<_> = (0..N_THRUSTERS)
+            .map(|i| {
+                serde_json::json!({
+                    "thruster": i + 1,
+                    "on_ms": firing.on_ms[i],
+                    "off_ms": firing.off_ms[i],
+                    "duration_ms": firing.duration_ms(i),
+                })
+            })
+            .collect();
+        let out = serde_json::json!({
+            "satellite": sat.name,
+            "period_ms": firing.period_ms,
+            "min_pulse_ms": firing.min_pulse_ms,
+            "pressure_drop_n_per_extra": mixer.config().pressure_drop_n_per_extra,
+            "com_mm": (com.unwrap_or_else(|| sat.com_m()) * 1e3).as_slice(),
+            "force_n": args.force,
+            "torque_nm": args.torque,
+            "scale": firing.scale,
+            "thrusters": thrusters,
+            "force_impulse_n_s": jf.as_slice(),
+            "torque_impulse_n_m_s": jt.as_slice(),
+        });
+        text.push_str(&serde_json::to_string_pretty(&out)?);
+        text.push('\n');
+    } else {
+        writeln!(
+            text,
+            "satellite {}  period {} ms  minimum pulse {} ms  pressure drop {} N/extra thruster",
+            sat.name, firing.period_ms, firing.min_pulse_ms, mixer.config().pressure_drop_n_per_extra
+        )?;
+        if firing.scale < 1.0 {
+            writeln!(text, "command beyond the thrusters' reach: scaled by {:.6} (direction kept)", firing.scale)?;
+        }
+        writeln!(text, "thruster  on_ms  off_ms  duration_ms")?;
+        for i in 0..N_THRUSTERS {
+            writeln!(text, "{:>8}  {:>5}  {:>6}  {:>11}", i + 1, firing.on_ms[i], firing.off_ms[i], firing.duration_ms(i))?;
+        }
+        writeln!(
+            text,
+            "delivered impulse: force [{:.6e}, {:.6e}, {:.6e}] N s, torque [{:.6e}, {:.6e}, {:.6e}] N m s",
+            jf.x, jf.y, jf.z, jt.x, jt.y, jt.z
+        )?;
+    }
+    emit(&text)
+}
+
+/// Writes `text` to stdout; a closed pipe (e.g. `| head`) is not an error, other write
+/// failures are reported instead of panicking.
+pub fn emit(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(anyhow!("cannot write to stdout: {e}")),
+        _ => Ok(()),
+    }
 }

@@ -19,7 +19,10 @@
 )]
 #![warn(missing_docs)]
 
+#[cfg(feature = "capi")]
+pub mod capi;
 pub mod lu;
+pub mod mixer;
 pub mod model;
 pub mod omega_dot;
 pub mod pipeline;

@@ -56,6 +56,10 @@ pub trait Scalar:
     /// The largest `v` such that `v` and `-v` are safely representable, as a bound for
     /// normalisation (`f32`: a large power of two; fixed: a quarter of the format's range).
     fn headroom() -> Self;
+    /// `floor(self * k)` computed exactly (wider integer or f64 arithmetic inside the impl),
+    /// or `None` if it does not fit or is not decided (an interval straddling an integer).
+    /// The mixer's integer-millisecond rounding rests on this.
+    fn floor_times(self, k: u32) -> Option<i64>;
 
     /// `self + rhs` (the contract makes the operators panic-free: saturating for fixed,
     /// IEEE for f32). Generic kernel code calls these named forms so that the crate-wide
@@ -156,6 +160,16 @@ impl Scalar for f32 {
     fn headroom() -> Self {
         1.0e30
     }
+    #[inline]
+    fn floor_times(self, k: u32) -> Option<i64> {
+        // f32 (24-bit mantissa) times a u32 is exact in f64 (53 bits).
+        let x = f64::from(self) * f64::from(k);
+        if !x.is_finite() || x.abs() >= 9.0e15 {
+            return None;
+        }
+        let t = x as i64; // truncation toward zero, exact here
+        Some(if (t as f64) > x { t.saturating_sub(1) } else { t })
+    }
 }
 
 /// `2^e` as f32 built from its bit pattern (no libm in `no_std`); clamps to the normal range.
@@ -253,6 +267,12 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     #[inline]
     fn headroom() -> Self {
         Fx(FixedI32::from_bits(i32::MAX >> 2))
+    }
+    #[inline]
+    fn floor_times(self, k: u32) -> Option<i64> {
+        // bits * k fits in i64 (32 + 32 bits); the arithmetic shift floors.
+        let prod = i64::from(self.0.to_bits()).checked_mul(i64::from(k))?;
+        Some(prod >> Frac::U32.min(63))
     }
 }
 

@@ -1,9 +1,140 @@
-//! Error budgets: how far each kernel output may be from `reference_f64`, in one table.
+//! Error budgets: how far each kernel output may be from `reference_f64`, in one table
+//! (in the manner of libm's test crate, which keeps every function's ULP allowance in one
+//! place). The differential tests (`proofs/tests/differential_*.rs`), the divergence run and
+//! C1's kernel tests all call [`check`]; the README prints [`TABLE`].
+//!
+//! Every allowance is derived from the kernel's arithmetic (how many rounded operations feed
+//! the output and by what they are multiplied), in units of the format's step `s`
+//! (Q8.24: absolute 2^-24) or unit roundoff `u` (f32: relative 2^-24). The derivation is in
+//! each row's `why`.
 
 use massid_kernel::Scalar;
 
+/// A number format the kernel is instantiated with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fmt {
+    F32,
+    Q8_24,
+}
+
+/// One output's allowance: `|kernel - reference| <= abs + rel * |reference|`, plus for the
+/// Kalman estimate a term `per_info * (6 + 2 |x|) / S2` (see `why`).
+#[derive(Clone, Copy, Debug)]
+pub struct Budget {
+    pub output: &'static str,
+    pub unit: &'static str,
+    pub fmt: Fmt,
+    pub abs: f64,
+    pub rel: f64,
+    /// Coefficient of `(6 + 2|x|) / S2` (Kalman estimate only; 0 elsewhere).
+    pub per_info: f64,
+    pub why: &'static str,
+}
+
+const S: f64 = 1.0 / 16_777_216.0; // 2^-24: Q8.24 step and f32 unit roundoff alike
+
+/// The table. One row per (output, format).
+pub const TABLE: &[Budget] = &[
+    Budget { output: "firing.force_n", unit: "N", fmt: Fmt::Q8_24, abs: 64.0 * S, rel: 0.0, per_info: 0.0,
+        why: "<= 12 terms d*f, each 2 rounded inputs + product + sum: 48 s, rounded up to 64 s" },
+    Budget { output: "firing.force_n", unit: "N", fmt: Fmt::F32, abs: 64.0 * S * 2.4, rel: 0.0, per_info: 0.0,
+        why: "same 48 operations, each within u of sum|d f| <= 12 x 0.2 N" },
+    Budget { output: "firing.torque_cnm", unit: "cN m", fmt: Fmt::Q8_24, abs: 100.0 * 64.0 * S, rel: 0.0, per_info: 0.0,
+        why: "the N m sum as force_n (64 s), times 100 for cN m" },
+    Budget { output: "firing.torque_cnm", unit: "cN m", fmt: Fmt::F32, abs: 100.0 * 64.0 * S * 0.5, rel: 0.0, per_info: 0.0,
+        why: "48 operations within u of sum|lxd f| <= 12 x 0.2 x 0.19 N m, x100" },
+    Budget { output: "firing.omega_dot_nominal", unit: "rad/s^2", fmt: Fmt::Q8_24, abs: 16384.0 * S, rel: 16384.0 * S, per_info: 0.0,
+        why: "I^-1 (<= 91 per entry, rounded 1 s) times a (64 s) over 3 terms: 91 x 64 x 3 = 17472 s; 2^14 s (1+|x|)" },
+    Budget { output: "firing.omega_dot_nominal", unit: "rad/s^2", fmt: Fmt::F32, abs: 1024.0 * S, rel: 1024.0 * S, per_info: 0.0,
+        why: "3 products + sums of relative u each over 12-term torques: < 2^10 u (1+|x|)" },
+    Budget { output: "firing.a_com", unit: "rad/s^2/m", fmt: Fmt::Q8_24, abs: 16384.0 * S, rel: 16384.0 * S, per_info: 0.0,
+        why: "I^-1 (<= 91) times [c]x (64 s) over 3 terms: < 2^14 s (1+|x|)" },
+    Budget { output: "firing.a_com", unit: "rad/s^2/m", fmt: Fmt::F32, abs: 1024.0 * S, rel: 1024.0 * S, per_info: 0.0,
+        why: "as omega_dot_nominal" },
+    Budget { output: "kf.omega_dot", unit: "rad/s^2", fmt: Fmt::Q8_24, abs: 2.0 * S, rel: 0.0, per_info: 4.0,
+        why: "estimate = num/den with den = S2 2^-26 (S2 < 2^30): num carries <= 6 s, den <= 2 s, so |dx| <= (6 + 2|x|) s/den + s = (6 + 2|x|) 4/S2 + s" },
+    Budget { output: "kf.omega_dot", unit: "rad/s^2", fmt: Fmt::F32, abs: 0.0, rel: 64.0 * S, per_info: 4.0 * 1e-7,
+        why: "f32 mantissa 24 bits on the scaled sums (<= 8 roundings, 2^6 u), and the 2^-26-scaled S2 truncated to f32 only below 2^-126: negligible" },
+    Budget { output: "lu.solution", unit: "1", fmt: Fmt::Q8_24, abs: 4096.0 * S, rel: 0.0, per_info: 0.0,
+        why: "test matrices diagonally dominant (cond_inf <= 4), |x| <= 8: LU residual bound 2^(n-1) 4 n^2 s (1 + |x|_1) n for n <= 6 is ~ 2^11 s before cond; 2^12 s" },
+    Budget { output: "lu.solution", unit: "1", fmt: Fmt::F32, abs: 0.0, rel: 1024.0 * S, per_info: 0.0,
+        why: "backward error 2^(n-1) 4 n^2 u for n = 3..6 times cond_inf <= 4: < 2^10 u relative to |x|_inf" },
+];
+
+/// The budget row for `output` in `fmt`.
+pub fn budget(output: &str, fmt: Fmt) -> &'static Budget {
+    TABLE
+        .iter()
+        .find(|b| b.output == output && b.fmt == fmt)
+        .unwrap_or_else(|| panic!("no budget for {output} in {fmt:?}"))
+}
+
+/// The allowance for one value (`s2` only matters for `kf.omega_dot`).
+pub fn allowance(output: &str, fmt: Fmt, reference: f64, s2: f64) -> f64 {
+    let b = budget(output, fmt);
+    let info = if b.per_info > 0.0 && s2 > 0.0 { b.per_info * (6.0 + 2.0 * reference.abs()) / s2 } else { 0.0 };
+    b.abs + b.rel * reference.abs() + info
+}
+
+/// `Ok` when `got` is within the budget of `reference`; the error names the output.
+pub fn check(output: &str, fmt: Fmt, got: f64, reference: f64, s2: f64) -> Result<(), String> {
+    let a = allowance(output, fmt, reference, s2);
+    let e = (got - reference).abs();
+    if e <= a && got.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{output} ({fmt:?}): kernel {got} vs reference {reference}: error {e:e} > budget {a:e}"))
+    }
+}
+
+/// Tracks the largest error seen relative to the budget, for the README figures.
+#[derive(Clone, Debug, Default)]
+pub struct Worst {
+    pub output: String,
+    pub max_err: f64,
+    pub max_ratio: f64,
+    pub count: u64,
+}
+
+impl Worst {
+    pub fn new(output: &str) -> Self {
+        Worst { output: output.into(), ..Default::default() }
+    }
+    /// Records one comparison; `Err` if it is over budget.
+    pub fn record(&mut self, fmt: Fmt, got: f64, reference: f64, s2: f64) -> Result<(), String> {
+        let a = allowance(&self.output, fmt, reference, s2);
+        let e = (got - reference).abs();
+        self.count += 1;
+        self.max_err = self.max_err.max(e);
+        self.max_ratio = self.max_ratio.max(e / a);
+        check(&self.output, fmt, got, reference, s2)
+    }
+}
+
+impl core::fmt::Display for Worst {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{}: {} comparisons, max error {:.3e}, max error/budget {:.3}", self.output, self.count, self.max_err, self.max_ratio)
+    }
+}
+
+/// The exact value of a kernel scalar as f64 (`Scalar::to_f32` rounds a Q8.24 value above 1
+/// to 24 significant bits, up to 16 steps of the format: too coarse to measure its errors).
+pub trait Exact: Scalar {
+    fn exact(self) -> f64;
+}
+impl Exact for f32 {
+    fn exact(self) -> f64 {
+        self as f64
+    }
+}
+impl<Frac: fixed::types::extra::LeEqU32> Exact for massid_kernel::Fx<Frac> {
+    fn exact(self) -> f64 {
+        self.0.to_num::<f64>()
+    }
+}
+
 /// The absolute resolution of `S` measured through the trait: the smallest `2^-k` that is
-/// not zero (fixed: the format step; f32: below 2^-64, reported as 0 scale).
+/// not zero (fixed: the format step; f32: 0, i.e. no absolute step above 2^-64).
 pub fn fixed_step<S: Scalar>() -> f64 {
     let mut step = 1.0f64;
     for k in 1..=64 {
@@ -13,4 +144,40 @@ pub fn fixed_step<S: Scalar>() -> f64 {
         step *= 0.5;
     }
     0.0
+}
+
+/// The [`Fmt`] of a kernel scalar type (by its resolution).
+pub fn fmt_of<S: Scalar>() -> Fmt {
+    if fixed_step::<S>() == 0.0 {
+        Fmt::F32
+    } else {
+        Fmt::Q8_24
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_output_has_both_formats() {
+        for b in TABLE {
+            budget(b.output, Fmt::F32);
+            budget(b.output, Fmt::Q8_24);
+        }
+    }
+
+    #[test]
+    fn resolution_is_measured_through_the_trait() {
+        assert_eq!(fixed_step::<massid_kernel::Q8_24>(), S);
+        assert_eq!(fixed_step::<massid_kernel::Q16_16>(), 1.0 / 65536.0);
+        assert_eq!(fixed_step::<f32>(), 0.0);
+    }
+
+    #[test]
+    fn check_rejects_errors_over_budget() {
+        let a = allowance("firing.force_n", Fmt::Q8_24, 0.3, 0.0);
+        assert!(check("firing.force_n", Fmt::Q8_24, 0.3 + 0.9 * a, 0.3, 0.0).is_ok());
+        assert!(check("firing.force_n", Fmt::Q8_24, 0.3 + 1.1 * a, 0.3, 0.0).is_err());
+    }
 }

@@ -178,6 +178,17 @@ fn with_source<R>(f: impl FnOnce(&mut Source) -> R) -> R {
     })
 }
 
+/// True inside [`check`] (a draw source is available).
+#[cfg(not(kani))]
+pub fn active() -> bool {
+    CTX.with(|c| c.borrow().is_some())
+}
+/// Under Kani every draw is symbolic.
+#[cfg(kani)]
+pub fn active() -> bool {
+    true
+}
+
 /// Integers the shim can draw over a closed range.
 #[cfg(not(kani))]
 pub trait Drawable: Copy + PartialOrd {

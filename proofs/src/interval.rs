@@ -257,14 +257,18 @@ impl Interval {
             Some(a as i64)
         } else {
             WATCH.with(|w| w.borrow_mut().undecided += 1);
-            Some(crate::engine::any_in(a as i64, b as i64))
+            // Inside the engine every integer in range is explored; outside, the kernel
+            // contract's "not decided" answer.
+            crate::engine::active().then(|| crate::engine::any_in(a as i64, b as i64))
         }
     }
 }
 
+/// An undecided comparison: inside the engine both outcomes are explored; outside it the
+/// kernel contract's conservative answer (`false`, "not certainly") is given.
 fn undecided() -> bool {
     WATCH.with(|w| w.borrow_mut().undecided += 1);
-    crate::engine::any_bool()
+    crate::engine::active() && crate::engine::any_bool()
 }
 
 impl Add for Interval {
@@ -359,6 +363,10 @@ impl massid_kernel::Scalar for Interval {
         } else {
             undecided()
         }
+    }
+    fn floor_times(self, k: u32) -> Option<i64> {
+        let k = Interval::point(k as f64);
+        (self * k).floor_i64()
     }
     fn headroom() -> Self {
         let f = format();

@@ -6,10 +6,11 @@ use super::Harness;
 use crate::cover;
 use crate::engine::{any_f64_in, any_in};
 use massid_kernel::lu::{Lu, LuError};
-use massid_kernel::{Scalar, Q8_24};
+use massid_kernel::Q8_24;
+use crate::budget::Exact;
 
 /// Unit roundoff and absolute step of the scalar, measured through the trait.
-fn roundoff<S: Scalar>() -> (f64, f64) {
+fn roundoff<S: Exact>() -> (f64, f64) {
     let step = crate::budget::fixed_step::<S>();
     // f32 has no absolute step worth the name (subnormals): relative 2^-24; fixed: absolute.
     if step < 1e-30 { (f32::EPSILON as f64 / 2.0, 0.0) } else { (0.0, step) }
@@ -23,7 +24,7 @@ pub fn residual_bound(n: usize, a_inf: f64, x_inf: f64, x_1: f64, b_inf: f64, u:
     c * (u * (a_inf * x_inf + b_inf) + s * (1.0 + x_1) * n as f64)
 }
 
-fn factor_solve<S: Scalar, const N: usize>() {
+fn factor_solve<S: Exact, const N: usize>() {
     // Entries O(1) (the kernel's information mantissas are kept below 2^4), with a chance of
     // a repeated row (exactly singular) or a tiny column (near-singular).
     let scale = [1.0, 4.0, 1.0 / 64.0][any_in(0usize, 2)];
@@ -61,9 +62,9 @@ fn factor_solve<S: Scalar, const N: usize>() {
         Ok(x) => {
             cover!(true, "solved");
             // Residual of the format's own matrix (what the kernel saw) in f64.
-            let af = a_s.map(|r| r.map(|v| v.to_f32() as f64));
-            let bf = b_s.map(|v| v.to_f32() as f64);
-            let xf = x.map(|v| v.to_f32() as f64);
+            let af = a_s.map(|r| r.map(|v| v.exact()));
+            let bf = b_s.map(|v| v.exact());
+            let xf = x.map(|v| v.exact());
             assert!(x.iter().all(|v| v.is_valid()));
             let a_inf = af.iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
             let x_inf = xf.iter().fold(0.0f64, |m, v| m.max(v.abs()));

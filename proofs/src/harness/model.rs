@@ -6,9 +6,10 @@
 use super::{draw, Harness};
 use crate::cover;
 use crate::envelope as env;
-use massid_kernel::{Scalar, Q8_24};
+use massid_kernel::Q8_24;
+use crate::budget::Exact;
 
-fn firing_terms<S: Scalar>() {
+fn firing_terms<S: Exact>() {
     let p = draw::params_or_sph2();
     let word = draw::word();
     let terms = p.terms::<S>();
@@ -27,7 +28,7 @@ fn firing_terms<S: Scalar>() {
         assert!(v.is_valid(), "invalid regressor for word {word:#x}");
     }
     for v in ft.omega_dot_nominal {
-        let v = v.to_f32() as f64;
+        let v = v.exact();
         assert!(env::within(v, env::OMEGA_DOT_RAD_S2), "omega_dot nominal {v} outside the envelope");
     }
     // Each output equals the f64 computation from the same parameters within the rounding
@@ -36,14 +37,14 @@ fn firing_terms<S: Scalar>() {
     let exact = exact_firing_terms(&p, word);
     let step = crate::budget::fixed_step::<S>();
     let u = if step == 0.0 { f32::EPSILON as f64 / 2.0 } else { step };
-    let got: Vec<f64> = all_outputs(&ft).map(|v| v.to_f32() as f64).collect();
+    let got: Vec<f64> = all_outputs(&ft).map(|v| v.exact()).collect();
     for (k, (g, e)) in got.iter().zip(exact.iter()).enumerate() {
         let tol = 16384.0 * u * (1.0 + e.abs());
         assert!((g - e).abs() <= tol, "word {word:#x} output {k}: {g} vs exact {e}");
     }
 }
 
-fn all_outputs<S: Scalar>(ft: &massid_kernel::model::FiringTerms<S>) -> impl Iterator<Item = S> + '_ {
+fn all_outputs<S: Exact>(ft: &massid_kernel::model::FiringTerms<S>) -> impl Iterator<Item = S> + '_ {
     ft.force_n.iter().chain(ft.torque_cnm.iter()).chain(ft.omega_dot_nominal.iter()).chain(ft.a_com.iter().flatten()).copied()
 }
 

@@ -9,12 +9,13 @@ use crate::cover;
 use crate::engine::{any_bool, any_f64_in, any_in};
 use crate::envelope as env;
 use massid_kernel::omega_dot::{KfConfig, KfStatus, OmegaDotKf};
-use massid_kernel::{Scalar, Q8_24};
+use massid_kernel::Q8_24;
+use crate::budget::Exact;
 
 /// Longest sequence drawn (Kani unwinds this far).
 const MAX_SAMPLES: u32 = 40;
 
-fn any_sequence<S: Scalar>() {
+fn any_sequence<S: Exact>() {
     let cfg = KfConfig::seed(1);
     let mut kf = OmegaDotKf::<S>::new(&cfg);
     let prior = [0; 3].map(|_| S::from_f32(any_f64_in(env::OMEGA_DOT_RAD_S2.0, env::OMEGA_DOT_RAD_S2.1) as f32));
@@ -49,7 +50,7 @@ fn any_sequence<S: Scalar>() {
 
 /// A ramp `c_k = c_0 + round(k * slope)` with `|slope|` counts per sample: the estimate is
 /// the slope converted to rad/s^2 within what the count rounding allows.
-fn ramp<S: Scalar>() {
+fn ramp<S: Exact>() {
     let cfg = KfConfig::seed(1);
     let mut kf = OmegaDotKf::<S>::new(&cfg);
     kf.reset([S::ZERO; 3]);
@@ -67,7 +68,7 @@ fn ramp<S: Scalar>() {
         // Exact data: the estimate is the information-weighted mean of the prior (0) and
         // the slope; the prior's weight alpha = R/(P0 dt^2) is < 2 against S2 >= 1.
         let truth = slope[i] as f64 / (cfg.counts_per_rad_s[i] * cfg.dt_s);
-        let got = e.omega_dot[i].to_f32() as f64;
+        let got = e.omega_dot[i].exact();
         let s2 = kf.sums().0 as f64;
         let alpha = cfg.r_rad2_s2[i] / (cfg.p0 * cfg.dt_s * cfg.dt_s);
         let expect = truth * s2 / (s2 + alpha);
@@ -81,7 +82,7 @@ fn ramp<S: Scalar>() {
 /// largest below 2^30) into the format, so with an absolute step `s` the numerator carries
 /// <= 6 s and the denominator `den = (alpha + S2) 2^-e_norm` <= 2 s of error, giving
 /// `|dx| <= (6 + 2|x|) s / den + s`; for f32 a relative 16 eps.
-pub fn estimate_tolerance<S: Scalar>(sums: (u64, [i64; 3]), x: f64) -> f64 {
+pub fn estimate_tolerance<S: Exact>(sums: (u64, [i64; 3]), x: f64) -> f64 {
     let step = crate::budget::fixed_step::<S>();
     if step == 0.0 {
         return 16.0 * f32::EPSILON as f64 * x.abs().max(1.0);

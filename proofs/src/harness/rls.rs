@@ -9,7 +9,8 @@ use crate::cover;
 use crate::engine::{any_f64_in, any_in};
 use massid_kernel::model::inertia_rows;
 use massid_kernel::rls::InfoLs;
-use massid_kernel::{Scalar, Scaled, Q8_24};
+use massid_kernel::{Scaled, Q8_24};
+use crate::budget::Exact;
 
 /// Most updates drawn per sequence (Kani unwinds this far).
 const MAX_UPDATES: usize = 8;
@@ -52,7 +53,7 @@ fn rows<const N: usize>(row_max: f64) -> [[f64; N]; 3] {
     }
 }
 
-fn information_update<S: Scalar, const N: usize>() {
+fn information_update<S: Exact, const N: usize>() {
     let mut ls = InfoLs::<S, N>::new();
     let mut exact = [[0.0f64; N]; N];
     let n = any_in(1usize, MAX_UPDATES);
@@ -72,7 +73,7 @@ fn information_update<S: Scalar, const N: usize>() {
         ls.add(&a_s, &b_s, &w);
         for r in 0..3 {
             let wr = w[r].to_f64();
-            let ar = a_s[r].map(|v| v.to_f32() as f64);
+            let ar = a_s[r].map(|v| v.exact());
             for i in 0..N {
                 for j in 0..N {
                     exact[i][j] += wr * ar[i] * ar[j];
@@ -88,7 +89,7 @@ fn information_update<S: Scalar, const N: usize>() {
         return;
     }
     let m = ls.information();
-    let mf = m.map(|r| r.map(|v| v.to_f32() as f64));
+    let mf = m.map(|r| r.map(|v| v.exact()));
     for i in 0..N {
         for j in 0..N {
             assert_eq!(mf[i][j], mf[j][i], "not symmetric");

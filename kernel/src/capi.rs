@@ -1,0 +1,598 @@
+//! C ABI (feature `capi`): `extern "C"` functions over opaque, fixed-size state structs, for
+//! flight software written in C. The header is `kernel/include/massid_kernel.h`; the static
+//! library is built by `kernel/capi-test/` (crate `massid-kernel-capi`).
+//!
+//! Two instantiations with the same functions: `massid_fixed_*` (Q8.24: every scalar crosses
+//! the ABI as the raw `int32_t` bits, value = bits / 2^24) and `massid_f32_*` (`float`).
+//!
+//! Design (why):
+//! * The caller owns the memory (no allocation): state structs are plain byte blocks of a
+//!   size fixed in the header, with room to spare so that the kernel's internals can change
+//!   without changing the ABI; a compile-time assertion below fails the build if the kernel's
+//!   state outgrows them.
+//! * Every function returns a [`MassidStatus`] and checks its pointers; a state block that
+//!   was never initialised (no magic word) is refused rather than read.
+//! * Nothing panics: bad numbers and bad parameters become status codes.
+#![allow(unsafe_code)]
+
+use core::mem::{align_of, size_of};
+
+use crate::mixer::{Firing, Mixer, MixerConfig, MixerError};
+use crate::model::{SatelliteParams, N_THRUSTERS, SPH2};
+use crate::pipeline::{Estimates, Pipeline, PipelineConfig, PipelineStatus, TickEvent, TickReport};
+use crate::scalar::{Fx, Q8_24};
+use crate::Scalar;
+
+/// Status of every C ABI call.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MassidStatus {
+    /// Success.
+    Ok = 0,
+    /// A pointer argument was NULL.
+    NullPointer = 1,
+    /// The state block was not initialised by the matching `*_init` function.
+    NotInitialised = 2,
+    /// Satellite parameters or settings are invalid (non-finite, singular inertia, zero period).
+    BadParameters = 3,
+    /// The thrusters cannot produce every axis (singular mixing matrix).
+    Singular = 4,
+    /// A value did not fit the number format.
+    Overflow = 5,
+    /// A mixer command was not a valid number.
+    BadCommand = 6,
+    /// With this many open thrusters the pressure drop exceeds a thruster's thrust.
+    PressureDropExceedsThrust = 7,
+}
+
+/// Satellite parameters (mirror of [`SatelliteParams`] with C layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MassidSatelliteParams {
+    /// Thruster positions from the geometric centre, m.
+    pub thruster_pos_m: [[f32; 3]; N_THRUSTERS],
+    /// Force directions.
+    pub thrust_dir: [[f32; 3]; N_THRUSTERS],
+    /// Thrust strength, N.
+    pub thrust_n: [f32; N_THRUSTERS],
+    /// Inertia about the CoM, kg m^2, order xx yy zz xy xz yz.
+    pub inertia_kgm2: [f32; 6],
+    /// CoM minus geometric centre, mm.
+    pub com_offset_mm: [f32; 3],
+    /// Gyro scale, counts per rad/s.
+    pub gyro_counts_per_rad_s: [f32; 3],
+    /// Thrust lost per extra open thruster, N.
+    pub pressure_drop_n_per_extra: f32,
+}
+
+impl From<&MassidSatelliteParams> for SatelliteParams {
+    fn from(p: &MassidSatelliteParams) -> Self {
+        SatelliteParams {
+            thruster_pos_m: p.thruster_pos_m,
+            thrust_dir: p.thrust_dir,
+            thrust_n: p.thrust_n,
+            inertia_kgm2: p.inertia_kgm2,
+            com_offset_mm: p.com_offset_mm,
+            gyro_counts_per_rad_s: p.gyro_counts_per_rad_s,
+            pressure_drop_n_per_extra: p.pressure_drop_n_per_extra,
+        }
+    }
+}
+
+impl From<&SatelliteParams> for MassidSatelliteParams {
+    fn from(p: &SatelliteParams) -> Self {
+        MassidSatelliteParams {
+            thruster_pos_m: p.thruster_pos_m,
+            thrust_dir: p.thrust_dir,
+            thrust_n: p.thrust_n,
+            inertia_kgm2: p.inertia_kgm2,
+            com_offset_mm: p.com_offset_mm,
+            gyro_counts_per_rad_s: p.gyro_counts_per_rad_s,
+            pressure_drop_n_per_extra: p.pressure_drop_n_per_extra,
+        }
+    }
+}
+
+/// What one tick did (codes of [`TickEvent`] and [`PipelineStatus`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MassidTickReport {
+    /// 0 coasting, 1 transient, 2 updated, 3 solved, 4 KF overflow, 5 firing too long.
+    pub event: u8,
+    /// Pipeline status: 0 idle, 1 batch, 2 ok, 3 partly unobservable, 4 singular, 5 overflow.
+    pub status: u8,
+}
+
+impl From<TickReport> for MassidTickReport {
+    fn from(r: TickReport) -> Self {
+        let event = match r.event {
+            TickEvent::Coasting => 0,
+            TickEvent::Transient => 1,
+            TickEvent::Updated => 2,
+            TickEvent::Solved => 3,
+            TickEvent::KfOverflow => 4,
+            TickEvent::FiringTooLong => 5,
+        };
+        MassidTickReport { event, status: r.status as u8 }
+    }
+}
+
+/// Current estimates; `T` is `int32_t` (Q8.24 bits) or `float`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MassidEstimates<T> {
+    /// CoM offset from the model's CoM, m.
+    pub delta_com_m: [T; 3],
+    /// Inverse-inertia parameters xx yy zz xy xz yz, 1/(kg m^2)/100.
+    pub theta_inertia: [T; 6],
+    /// Non-zero: the CoM term is held at the model (unobservable so far).
+    pub unobservable_com: [u8; 3],
+    /// Non-zero: the inverse-inertia term is held at the model.
+    pub unobservable_inertia: [u8; 6],
+    /// Pipeline status code (as in [`MassidTickReport::status`]).
+    pub status: u8,
+    /// Measurement updates folded in.
+    pub updates: u32,
+    /// Firings seen.
+    pub firings: u32,
+    /// Covariance resets by the change detector.
+    pub resets: u32,
+}
+
+/// ON/OFF times of one control period, ms from the period start (`on == off == 0`: off).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MassidFiring {
+    /// ON time per thruster, ms.
+    pub on_ms: [u32; N_THRUSTERS],
+    /// OFF time per thruster, ms.
+    pub off_ms: [u32; N_THRUSTERS],
+}
+
+impl From<Firing> for MassidFiring {
+    fn from(f: Firing) -> Self {
+        MassidFiring { on_ms: f.on_ms, off_ms: f.off_ms }
+    }
+}
+
+impl From<MixerError> for MassidStatus {
+    fn from(e: MixerError) -> Self {
+        match e {
+            MixerError::BadPeriod | MixerError::BadThruster => MassidStatus::BadParameters,
+            MixerError::SingularMixingMatrix => MassidStatus::Singular,
+            MixerError::BadCommand => MassidStatus::BadCommand,
+            MixerError::PressureDropExceedsThrust => MassidStatus::PressureDropExceedsThrust,
+            MixerError::Overflow => MassidStatus::Overflow,
+        }
+    }
+}
+
+/// Bytes reserved for a pipeline state (header: `MASSID_PIPELINE_BYTES`).
+pub const PIPELINE_BYTES: usize = 2560;
+/// Bytes reserved for a mixer state (header: `MASSID_MIXER_BYTES`).
+pub const MIXER_BYTES: usize = 1024;
+
+const MAGIC_FIXED_PIPELINE: u32 = 0x4d49_4650; // "MIFP"
+const MAGIC_F32_PIPELINE: u32 = 0x4d49_5350;
+const MAGIC_FIXED_MIXER: u32 = 0x4d49_464d;
+const MAGIC_F32_MIXER: u32 = 0x4d49_534d;
+
+/// Opaque pipeline state block (the C side sees only its size and alignment).
+#[repr(C, align(8))]
+pub struct MassidPipeline {
+    bytes: [u8; PIPELINE_BYTES],
+}
+
+/// Opaque mixer state block.
+#[repr(C, align(8))]
+pub struct MassidMixer {
+    bytes: [u8; MIXER_BYTES],
+}
+
+/// What is stored in a block: a magic word naming the instantiation, then the value.
+#[repr(C)]
+struct Slot<T> {
+    magic: u32,
+    value: T,
+}
+
+// The kernel's state must fit the blocks the header promises (raise the reservation and the
+// header's constants together if this fails).
+const _: () = assert!(size_of::<Slot<Pipeline<Q8_24>>>() <= PIPELINE_BYTES);
+const _: () = assert!(size_of::<Slot<Pipeline<f32>>>() <= PIPELINE_BYTES);
+const _: () = assert!(align_of::<Slot<Pipeline<Q8_24>>>() <= 8 && align_of::<Slot<Pipeline<f32>>>() <= 8);
+const _: () = assert!(size_of::<Slot<Mixer<Q8_24>>>() <= MIXER_BYTES);
+const _: () = assert!(size_of::<Slot<Mixer<f32>>>() <= MIXER_BYTES);
+const _: () = assert!(align_of::<Slot<Mixer<Q8_24>>>() <= 8 && align_of::<Slot<Mixer<f32>>>() <= 8);
+
+/// Stores `value` in the block behind `block` (which has room and alignment, see the asserts).
+///
+/// # Safety
+/// `block` must point to a writable block of at least `size_of::<Slot<T>>()` bytes aligned to 8.
+unsafe fn store<T>(block: *mut u8, magic: u32, value: T) {
+    // SAFETY: guaranteed by the caller and the compile-time size/alignment assertions.
+    unsafe { block.cast::<Slot<T>>().write(Slot { magic, value }) }
+}
+
+/// The value in an initialised block, or `None` if the magic word does not match.
+///
+/// # Safety
+/// `block` must point to a readable block of at least `size_of::<Slot<T>>()` bytes aligned to
+/// 8, which holds a `Slot<T>` whenever its first word equals `magic`.
+unsafe fn load<'a, T>(block: *mut u8, magic: u32) -> Option<&'a mut Slot<T>> {
+    // SAFETY: the magic word is read as plain bytes (always initialised memory of the caller);
+    // the value is only referenced when it was written by `store` with the same magic.
+    unsafe {
+        if block.cast::<u32>().read() == magic {
+            block.cast::<Slot<T>>().as_mut()
+        } else {
+            None
+        }
+    }
+}
+
+/// A scalar as it crosses the ABI.
+pub trait CScalar: Scalar {
+    /// The C type (`int32_t` Q8.24 bits, or `float`).
+    type C: Copy + Default;
+    /// To the C representation.
+    fn to_c(self) -> Self::C;
+    /// From the C representation.
+    fn from_c(c: Self::C) -> Self;
+}
+
+impl CScalar for Q8_24 {
+    type C = i32;
+    fn to_c(self) -> i32 {
+        self.0.to_bits()
+    }
+    fn from_c(c: i32) -> Self {
+        Fx(fixed::FixedI32::from_bits(c))
+    }
+}
+
+impl CScalar for f32 {
+    type C = f32;
+    fn to_c(self) -> f32 {
+        self
+    }
+    fn from_c(c: f32) -> Self {
+        c
+    }
+}
+
+fn estimates_to_c<S: CScalar>(e: &Estimates<S>) -> MassidEstimates<S::C> {
+    MassidEstimates {
+        delta_com_m: e.delta_com_m.map(S::to_c),
+        theta_inertia: e.theta_inertia.map(S::to_c),
+        unobservable_com: e.unobservable_com.map(u8::from),
+        unobservable_inertia: e.unobservable_inertia.map(u8::from),
+        status: e.status as u8,
+        updates: e.updates,
+        firings: e.firings,
+        resets: e.resets,
+    }
+}
+
+fn fill_params(out: *mut MassidSatelliteParams, p: &SatelliteParams) -> MassidStatus {
+    // SAFETY: `out` is NULL or points to a writable MassidSatelliteParams (caller's contract).
+    match unsafe { out.as_mut() } {
+        Some(o) => {
+            *o = MassidSatelliteParams::from(p);
+            MassidStatus::Ok
+        }
+        None => MassidStatus::NullPointer,
+    }
+}
+
+/// Fills `out` with the built-in SPH2 parameters (seed App. C, contract `satellites.md`).
+#[no_mangle]
+pub extern "C" fn massid_params_sph2(out: *mut MassidSatelliteParams) -> MassidStatus {
+    fill_params(out, &SPH2)
+}
+
+/// Size of the Rust state inside a pipeline block, bytes (for reports and checks).
+#[no_mangle]
+pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
+    let n = if fixed_point != 0 { size_of::<Pipeline<Q8_24>>() } else { size_of::<Pipeline<f32>>() };
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// Size in bytes of an ABI type as Rust lays it out, so that C code can check the header:
+/// 0 params, 1 tick report, 2 fixed estimates, 3 f32 estimates, 4 firing, 5 pipeline block,
+/// 6 mixer block; 0 for any other code.
+#[no_mangle]
+pub extern "C" fn massid_type_size(which: u32) -> u32 {
+    let n = match which {
+        0 => size_of::<MassidSatelliteParams>(),
+        1 => size_of::<MassidTickReport>(),
+        2 => size_of::<MassidEstimates<i32>>(),
+        3 => size_of::<MassidEstimates<f32>>(),
+        4 => size_of::<MassidFiring>(),
+        5 => size_of::<MassidPipeline>(),
+        6 => size_of::<MassidMixer>(),
+        _ => 0,
+    };
+    u32::try_from(n).unwrap_or(0)
+}
+
+/// Size of the Rust state inside a mixer block, bytes.
+#[no_mangle]
+pub extern "C" fn massid_mixer_state_bytes(fixed_point: u8) -> u32 {
+    let n = if fixed_point != 0 { size_of::<Mixer<Q8_24>>() } else { size_of::<Mixer<f32>>() };
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+fn pipeline_init<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    params: *const MassidSatelliteParams,
+    sample_period_ms: u32,
+) -> MassidStatus {
+    if block.is_null() || params.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    if sample_period_ms == 0 {
+        return MassidStatus::BadParameters;
+    }
+    // SAFETY: checked non-NULL; the caller passes a valid parameter struct.
+    let p = SatelliteParams::from(unsafe { &*params });
+    match Pipeline::<S>::new(&p, PipelineConfig::seed(sample_period_ms)) {
+        Ok(pipe) => {
+            // SAFETY: `block` is a non-NULL MassidPipeline (size/alignment asserted above).
+            unsafe { store(block.cast::<u8>(), magic, pipe) };
+            MassidStatus::Ok
+        }
+        Err(_) => MassidStatus::BadParameters,
+    }
+}
+
+fn with_pipeline<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    f: impl FnOnce(&mut Pipeline<S>) -> MassidStatus,
+) -> MassidStatus {
+    if block.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    // SAFETY: non-NULL MassidPipeline; only a block written by `pipeline_init` has the magic.
+    match unsafe { load::<Pipeline<S>>(block.cast::<u8>(), magic) } {
+        Some(slot) => f(&mut slot.value),
+        None => MassidStatus::NotInitialised,
+    }
+}
+
+fn write_out<T>(out: *mut T, value: T) {
+    // SAFETY: `out` is NULL (ignored) or points to a writable T (caller's contract).
+    if let Some(o) = unsafe { out.as_mut() } {
+        *o = value;
+    }
+}
+
+fn pipeline_tick<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    gyro_counts: *const u16,
+    thrusters: u16,
+    report: *mut MassidTickReport,
+) -> MassidStatus {
+    if gyro_counts.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    // SAFETY: checked non-NULL; the caller passes three gyro counts.
+    let g = unsafe { gyro_counts.cast::<[u16; 3]>().read_unaligned() };
+    with_pipeline::<S>(block, magic, |p| {
+        write_out(report, MassidTickReport::from(p.tick(g, thrusters)));
+        MassidStatus::Ok
+    })
+}
+
+fn pipeline_tick_gap<S: CScalar>(block: *mut MassidPipeline, magic: u32, report: *mut MassidTickReport) -> MassidStatus {
+    with_pipeline::<S>(block, magic, |p| {
+        write_out(report, MassidTickReport::from(p.tick_gap()));
+        MassidStatus::Ok
+    })
+}
+
+fn pipeline_finish<S: CScalar>(block: *mut MassidPipeline, magic: u32, status: *mut u8) -> MassidStatus {
+    with_pipeline::<S>(block, magic, |p| {
+        let s: PipelineStatus = p.finish();
+        write_out(status, s as u8);
+        MassidStatus::Ok
+    })
+}
+
+fn pipeline_estimates<S: CScalar>(block: *mut MassidPipeline, magic: u32, out: *mut MassidEstimates<S::C>) -> MassidStatus {
+    if out.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    with_pipeline::<S>(block, magic, |p| {
+        write_out(out, estimates_to_c(&p.estimates()));
+        MassidStatus::Ok
+    })
+}
+
+fn mixer_store<S: CScalar>(
+    block: *mut MassidMixer,
+    magic: u32,
+    params: *const MassidSatelliteParams,
+    com_delta_m: [S; 3],
+    period_ms: u32,
+    min_pulse_ms: u32,
+) -> MassidStatus {
+    if block.is_null() || params.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    // SAFETY: checked non-NULL; the caller passes a valid parameter struct.
+    let p = SatelliteParams::from(unsafe { &*params });
+    let cfg = MixerConfig { period_ms, min_pulse_ms, pressure_drop_n: S::from_f32(p.pressure_drop_n_per_extra) };
+    match Mixer::<S>::new(&p, com_delta_m, cfg) {
+        Ok(m) => {
+            // SAFETY: `block` is a non-NULL MassidMixer (size/alignment asserted above).
+            unsafe { store(block.cast::<u8>(), magic, m) };
+            MassidStatus::Ok
+        }
+        Err(e) => MassidStatus::from(e),
+    }
+}
+
+fn mixer_init<S: CScalar>(
+    block: *mut MassidMixer,
+    magic: u32,
+    params: *const MassidSatelliteParams,
+    com_delta_m: *const S::C,
+    period_ms: u32,
+    min_pulse_ms: u32,
+) -> MassidStatus {
+    let delta = if com_delta_m.is_null() {
+        [S::ZERO; 3]
+    } else {
+        // SAFETY: non-NULL; the caller passes three values.
+        unsafe { com_delta_m.cast::<[S::C; 3]>().read_unaligned() }.map(S::from_c)
+    };
+    mixer_store::<S>(block, magic, params, delta, period_ms, min_pulse_ms)
+}
+
+fn mixer_from_pipeline<S: CScalar>(
+    block: *mut MassidMixer,
+    magic: u32,
+    params: *const MassidSatelliteParams,
+    pipeline: *mut MassidPipeline,
+    pipeline_magic: u32,
+    period_ms: u32,
+    min_pulse_ms: u32,
+) -> MassidStatus {
+    let mut delta = [S::ZERO; 3];
+    let s = with_pipeline::<S>(pipeline, pipeline_magic, |p| {
+        delta = p.estimates().delta_com_m;
+        MassidStatus::Ok
+    });
+    if s != MassidStatus::Ok {
+        return s;
+    }
+    mixer_store::<S>(block, magic, params, delta, period_ms, min_pulse_ms)
+}
+
+fn mixer_mix<S: CScalar>(
+    block: *mut MassidMixer,
+    magic: u32,
+    force_n: *const S::C,
+    torque_nm: *const S::C,
+    out: *mut MassidFiring,
+) -> MassidStatus {
+    if block.is_null() || force_n.is_null() || torque_nm.is_null() || out.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    // SAFETY: non-NULL; the caller passes three values each.
+    let (f, t) = unsafe {
+        (force_n.cast::<[S::C; 3]>().read_unaligned(), torque_nm.cast::<[S::C; 3]>().read_unaligned())
+    };
+    // SAFETY: non-NULL MassidMixer; only a block written by `mixer_store` has the magic.
+    match unsafe { load::<Mixer<S>>(block.cast::<u8>(), magic) } {
+        Some(slot) => match slot.value.mix(f.map(S::from_c), t.map(S::from_c)) {
+            Ok(firing) => {
+                write_out(out, MassidFiring::from(firing));
+                MassidStatus::Ok
+            }
+            Err(e) => MassidStatus::from(e),
+        },
+        None => MassidStatus::NotInitialised,
+    }
+}
+
+macro_rules! flavour {
+    ($S:ty, $C:ty, $pm:expr, $mm:expr,
+     $init:ident, $tick:ident, $gap:ident, $finish:ident, $est:ident,
+     $minit:ident, $mfrom:ident, $mix:ident) => {
+        /// Initialises a pipeline block for `params` with the seed's settings at the given
+        /// sample period (1 for 1 kHz).
+        #[no_mangle]
+        pub extern "C" fn $init(
+            block: *mut MassidPipeline,
+            params: *const MassidSatelliteParams,
+            sample_period_ms: u32,
+        ) -> MassidStatus {
+            pipeline_init::<$S>(block, $pm, params, sample_period_ms)
+        }
+
+        /// One sample period: three raw gyro counts and the commanded thruster word
+        /// (bit i = thruster i+1). `report` may be NULL.
+        #[no_mangle]
+        pub extern "C" fn $tick(
+            block: *mut MassidPipeline,
+            gyro_counts: *const u16,
+            thrusters: u16,
+            report: *mut MassidTickReport,
+        ) -> MassidStatus {
+            pipeline_tick::<$S>(block, $pm, gyro_counts, thrusters, report)
+        }
+
+        /// One sample period without a sample (telemetry gap). `report` may be NULL.
+        #[no_mangle]
+        pub extern "C" fn $gap(block: *mut MassidPipeline, report: *mut MassidTickReport) -> MassidStatus {
+            pipeline_tick_gap::<$S>(block, $pm, report)
+        }
+
+        /// Ends the current firing (end of data); writes the pipeline status code if `status`
+        /// is not NULL.
+        #[no_mangle]
+        pub extern "C" fn $finish(block: *mut MassidPipeline, status: *mut u8) -> MassidStatus {
+            pipeline_finish::<$S>(block, $pm, status)
+        }
+
+        /// Reads the current estimates.
+        #[no_mangle]
+        pub extern "C" fn $est(block: *mut MassidPipeline, out: *mut MassidEstimates<$C>) -> MassidStatus {
+            pipeline_estimates::<$S>(block, $pm, out)
+        }
+
+        /// Builds a mixer for `params` with lever arms about the model CoM plus `com_delta_m`
+        /// (three values, m; NULL for the model CoM).
+        #[no_mangle]
+        pub extern "C" fn $minit(
+            block: *mut MassidMixer,
+            params: *const MassidSatelliteParams,
+            com_delta_m: *const $C,
+            period_ms: u32,
+            min_pulse_ms: u32,
+        ) -> MassidStatus {
+            mixer_init::<$S>(block, $mm, params, com_delta_m, period_ms, min_pulse_ms)
+        }
+
+        /// Rebuilds a mixer from the pipeline's current CoM estimate (the seed's point:
+        /// identified mass properties change the firing times).
+        #[no_mangle]
+        pub extern "C" fn $mfrom(
+            block: *mut MassidMixer,
+            params: *const MassidSatelliteParams,
+            pipeline: *mut MassidPipeline,
+            period_ms: u32,
+            min_pulse_ms: u32,
+        ) -> MassidStatus {
+            mixer_from_pipeline::<$S>(block, $mm, params, pipeline, $pm, period_ms, min_pulse_ms)
+        }
+
+        /// Mixes a force (N, 3 values) and torque (N m about the CoM, 3 values) command into
+        /// integer-millisecond ON/OFF times.
+        #[no_mangle]
+        pub extern "C" fn $mix(
+            block: *mut MassidMixer,
+            force_n: *const $C,
+            torque_nm: *const $C,
+            out: *mut MassidFiring,
+        ) -> MassidStatus {
+            mixer_mix::<$S>(block, $mm, force_n, torque_nm, out)
+        }
+    };
+}
+
+flavour!(
+    Q8_24, i32, MAGIC_FIXED_PIPELINE, MAGIC_FIXED_MIXER,
+    massid_fixed_init, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_finish, massid_fixed_estimates,
+    massid_fixed_mixer_init, massid_fixed_mixer_from_pipeline, massid_fixed_mix
+);
+flavour!(
+    f32, f32, MAGIC_F32_PIPELINE, MAGIC_F32_MIXER,
+    massid_f32_init, massid_f32_tick, massid_f32_tick_gap, massid_f32_finish, massid_f32_estimates,
+    massid_f32_mixer_init, massid_f32_mixer_from_pipeline, massid_f32_mix
+);

@@ -13,3 +13,9 @@ pub mod valves;
 
 pub use effects::{Effect, PlantConfig, Truth};
 pub use predict::{predict, predict_gyro_rates, PredictOptions, Prediction, Predictor};
+pub mod maneuvers;
+pub mod model_file;
+pub mod sensors;
+pub mod simulate;
+
+pub use simulate::{simulate, Maneuver, SimError, SimOutput, SimSpec};

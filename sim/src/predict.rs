@@ -81,7 +81,7 @@ impl Predictor {
             p.specific_force.push(s.derivative.specific_force.into());
             p.valves_open.push(s.valves);
         });
-        let ringing = ringing_at(&self.plant.cfg, &p.edges, &times_ms[..n]);
+        let ringing = ringing_at(&self.plant.cfg, &shock_times_ms(&p.edges), &times_ms[..n], |_, _, _| 0.0);
         let cfg = &self.plant.cfg;
         p.gyro_rad_s = (0..n)
             .map(|k| {
@@ -95,24 +95,38 @@ impl Predictor {
     }
 }
 
-/// The gyro ringing (rad/s, per axis) at each sample instant: every actual valve edge starts
-/// a decaying tone of every ringing effect (tones older than 12 decay times are dropped:
-/// below 1e-5 of their peak).
-pub fn ringing_at(cfg: &PlantConfig, edges: &[ValveEdge], times_ms: &[u64]) -> Vec<[f64; 3]> {
+/// The distinct instants (ms) at which valves actually open or close: each is one shock.
+pub fn shock_times_ms(edges: &[ValveEdge]) -> Vec<f64> {
+    let mut t: Vec<f64> = edges.iter().map(|e| e.t_ms).collect();
+    t.sort_by(f64::total_cmp);
+    t.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    t
+}
+
+/// The gyro ringing (rad/s, per axis) at each sample instant: every shock starts a decaying
+/// tone of every ringing effect; `phase(ringing, shock, axis)` gives its phase. Tones older
+/// than 12 decay times (below 1e-5 of their peak) are dropped.
+pub fn ringing_at(
+    cfg: &PlantConfig,
+    shocks_ms: &[f64],
+    times_ms: &[u64],
+    mut phase: impl FnMut(usize, usize, usize) -> f64,
+) -> Vec<[f64; 3]> {
     let mut out = vec![[0.0; 3]; times_ms.len()];
-    for r in &cfg.ringing {
+    for (ri, r) in cfg.ringing.iter().enumerate() {
+        let phases: Vec<[f64; 3]> = (0..shocks_ms.len()).map(|s| std::array::from_fn(|a| phase(ri, s, a))).collect();
         let horizon_ms = 12.0 * r.decay_ms;
         let mut first = 0usize;
         for (k, &t) in times_ms.iter().enumerate() {
             let t = t as f64;
-            while first < edges.len() && edges[first].t_ms < t - horizon_ms {
+            while first < shocks_ms.len() && shocks_ms[first] < t - horizon_ms {
                 first += 1;
             }
             let mut j = first;
-            while j < edges.len() && edges[j].t_ms <= t {
-                let dt_s = (t - edges[j].t_ms) * 1e-3;
+            while j < shocks_ms.len() && shocks_ms[j] <= t {
+                let dt_s = (t - shocks_ms[j]) * 1e-3;
                 for a in 0..3 {
-                    out[k][a] += r.response(a, dt_s);
+                    out[k][a] += r.response(a, dt_s, phases[j][a]);
                 }
                 j += 1;
             }

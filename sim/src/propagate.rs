@@ -1,9 +1,11 @@
-//! Runs the plant through a sequence of commanded thruster words, stepping RK4 between the
-//! sample instants and splitting steps at every actual valve edge and every mass-property or
-//! blowdown breakpoint, so no input changes inside a step. Shared by the fast prediction
-//! (rates only) and the full simulation (attitude and translation too).
+//! Runs the plant through commanded thruster words, stepping RK4 between instants and
+//! splitting steps at every actual valve edge and every mass-property or blowdown
+//! breakpoint, so no input changes inside a step. [`Propagator`] takes commands one instant
+//! at a time (closed loop needs that); [`propagate`] runs a whole command sequence. Shared
+//! by the fast prediction (rates only) and the full simulation (attitude and translation).
 use crate::dynamics::{derivative, rk4_step, Derivative, Plant, Segment, State};
-use crate::valves::{valve_edges, ValveEdge};
+use crate::valves::ValveEdge;
+use reference_f64::satellite::N_THRUSTERS;
 
 /// Time comparisons in ms are made with this slack (edges come from integer ms plus delays).
 const EPS_MS: f64 = 1e-9;
@@ -33,8 +35,159 @@ pub struct SampleView<'a> {
     pub valves: u16,
 }
 
-/// Integrates from `x0` at `times_ms[0]` through every sample, calling `on_sample` at each
-/// one. Returns the actual valve edges used (for sensor effects excited by them).
+/// The plant moving through time under streamed commands.
+pub struct Propagator<'a> {
+    plant: &'a Plant,
+    opts: StepOptions,
+    x: State,
+    t_ms: f64,
+    /// Commanded word in force.
+    command: u16,
+    /// Actual valve state.
+    valves: u16,
+    /// Scheduled edges not yet reached, sorted by time.
+    pending: Vec<ValveEdge>,
+    /// Edges already applied, in time order.
+    applied: Vec<ValveEdge>,
+    breaks: Vec<f64>,
+    next_break: usize,
+    cache: Option<(u16, usize, Segment)>,
+}
+
+impl<'a> Propagator<'a> {
+    /// Starts at `t0_ms` in state `x0`, every valve closed.
+    pub fn new(plant: &'a Plant, x0: State, t0_ms: f64, opts: StepOptions) -> Self {
+        let mut breaks: Vec<f64> = plant.cfg.changes.iter().map(|(at, _)| at * 1e3).collect();
+        breaks.extend(plant.cfg.blowdowns.iter().map(|b| b.start_s * 1e3));
+        breaks.sort_by(f64::total_cmp);
+        let opts = StepOptions { max_step_ms: if opts.max_step_ms > 0.0 { opts.max_step_ms } else { 1.0 }, ..opts };
+        Propagator {
+            plant,
+            opts,
+            x: x0,
+            t_ms: t0_ms,
+            command: 0,
+            valves: 0,
+            pending: Vec::new(),
+            applied: Vec::new(),
+            breaks,
+            next_break: 0,
+            cache: None,
+        }
+    }
+
+    pub fn state(&self) -> &State {
+        &self.x
+    }
+    pub fn time_ms(&self) -> f64 {
+        self.t_ms
+    }
+    pub fn valves(&self) -> u16 {
+        self.valves
+    }
+    /// Actual valve edges so far.
+    pub fn edges(&self) -> &[ValveEdge] {
+        &self.applied
+    }
+    pub fn into_edges(mut self) -> Vec<ValveEdge> {
+        self.applied.extend(self.pending.drain(..));
+        self.applied
+    }
+
+    /// Commands `word` from now on: schedules the valve edges its changes cause (a valve
+    /// opens `open_delay_ms` after a commanded rising edge and closes `close_delay_ms` after
+    /// a falling one; a close that would come before its pending open cancels that open).
+    pub fn command(&mut self, word: u16) {
+        let changed = (word ^ self.command) & 0x0fff;
+        if changed != 0 {
+            let cfg = &self.plant.cfg;
+            for th in 0..N_THRUSTERS {
+                let bit = 1u16 << th;
+                if changed & bit == 0 {
+                    continue;
+                }
+                let opens = word & bit != 0;
+                let t = self.t_ms + if opens { cfg.open_delay_ms } else { cfg.close_delay_ms };
+                if !opens {
+                    if let Some(i) = self.pending.iter().position(|e| e.thruster == th as u8 && e.opens && e.t_ms >= t) {
+                        self.pending.remove(i);
+                        continue;
+                    }
+                }
+                let e = ValveEdge { t_ms: t, thruster: th as u8, opens };
+                let at = self.pending.partition_point(|p| p.t_ms <= t);
+                self.pending.insert(at, e);
+            }
+            self.command = word;
+        }
+        self.apply_due_edges();
+    }
+
+    fn apply_due_edges(&mut self) {
+        let mut n = 0;
+        for e in &self.pending {
+            if e.t_ms > self.t_ms + EPS_MS {
+                break;
+            }
+            if e.opens {
+                self.valves |= 1 << e.thruster;
+            } else {
+                self.valves &= !(1 << e.thruster);
+            }
+            n += 1;
+        }
+        self.applied.extend(self.pending.drain(..n));
+    }
+
+    fn segment(&mut self, t_ms: f64) -> Segment {
+        let phase = self.plant.cfg.changes.iter().filter(|(at, _)| at * 1e3 <= t_ms).count();
+        match self.cache {
+            Some((v, ph, s)) if v == self.valves && ph == phase => s,
+            _ => {
+                let s = self.plant.segment(self.valves, t_ms);
+                self.cache = Some((self.valves, phase, s));
+                s
+            }
+        }
+    }
+
+    /// The state derivative now (inputs right after any edge at this instant).
+    pub fn derivative_now(&mut self) -> Derivative {
+        let seg = self.segment(self.t_ms + EPS_MS);
+        derivative(&self.x, self.t_ms, &seg, &self.plant.cfg, self.opts.full)
+    }
+
+    /// Integrates to `t_end_ms` under the current command.
+    pub fn advance_to(&mut self, t_end_ms: f64) {
+        while self.t_ms < t_end_ms - EPS_MS {
+            self.apply_due_edges();
+            let t = self.t_ms;
+            let mut next = t_end_ms.min(t + self.opts.max_step_ms);
+            if let Some(e) = self.pending.first() {
+                if e.t_ms < next {
+                    next = e.t_ms;
+                }
+            }
+            while self.next_break < self.breaks.len() && self.breaks[self.next_break] <= t + EPS_MS {
+                self.next_break += 1;
+            }
+            if let Some(&b) = self.breaks.get(self.next_break) {
+                if b < next {
+                    next = b;
+                }
+            }
+            let seg = self.segment(0.5 * (t + next));
+            self.x = rk4_step(&self.x, t, next - t, &seg, &self.plant.cfg, self.opts.full);
+            self.t_ms = next;
+        }
+        self.t_ms = self.t_ms.max(t_end_ms);
+        self.apply_due_edges();
+    }
+}
+
+/// Integrates from `x0` at `times_ms[0]` through every sample (word k commanded at
+/// `times_ms[k]` and held until the next sample), calling `on_sample` at each one.
+/// Returns every actual valve edge (for sensor effects they excite).
 pub fn propagate(
     plant: &Plant,
     times_ms: &[u64],
@@ -43,75 +196,17 @@ pub fn propagate(
     opts: StepOptions,
     mut on_sample: impl FnMut(&SampleView),
 ) -> Vec<ValveEdge> {
-    let cfg = &plant.cfg;
     let n = times_ms.len().min(words.len());
-    let edges = valve_edges(&times_ms[..n], &words[..n], cfg.open_delay_ms, cfg.close_delay_ms);
-    let mut breaks: Vec<f64> = cfg.changes.iter().map(|(at, _)| at * 1e3).collect();
-    breaks.extend(cfg.blowdowns.iter().map(|b| b.start_s * 1e3));
-    breaks.sort_by(f64::total_cmp);
-    let phase_index = |t_ms: f64| breaks_before(&cfg.changes, t_ms);
-    let max_step = if opts.max_step_ms > 0.0 { opts.max_step_ms } else { 1.0 };
-
-    let mut x = x0;
-    let mut valves: u16 = 0;
-    let mut ei = 0usize;
-    let mut bi = 0usize;
-    let mut cache: Option<(u16, usize, Segment)> = None;
-    let segment_for = |valves: u16, t_ms: f64, cache: &mut Option<(u16, usize, Segment)>| -> Segment {
-        let p = phase_index(t_ms);
-        match cache {
-            Some((v, ph, s)) if *v == valves && *ph == p => *s,
-            _ => {
-                let s = plant.segment(valves, t_ms);
-                *cache = Some((valves, p, s));
-                s
-            }
-        }
-    };
-    let apply_edges = |t: f64, ei: &mut usize, valves: &mut u16| {
-        while *ei < edges.len() && edges[*ei].t_ms <= t + EPS_MS {
-            let e = edges[*ei];
-            if e.opens {
-                *valves |= 1 << e.thruster;
-            } else {
-                *valves &= !(1 << e.thruster);
-            }
-            *ei += 1;
-        }
-    };
-
+    if n == 0 {
+        return Vec::new();
+    }
+    let mut p = Propagator::new(plant, x0, times_ms[0] as f64, opts);
     for k in 0..n {
         let t_k = times_ms[k] as f64;
-        apply_edges(t_k, &mut ei, &mut valves);
-        let seg = segment_for(valves, t_k + EPS_MS, &mut cache);
-        let d = derivative(&x, t_k, &seg, cfg, opts.full);
-        on_sample(&SampleView { index: k, t_ms: t_k, state: &x, derivative: &d, valves });
-        if k + 1 == n {
-            break;
-        }
-        let t_end = times_ms[k + 1] as f64;
-        let mut t = t_k;
-        while t < t_end - EPS_MS {
-            apply_edges(t, &mut ei, &mut valves);
-            let mut next = t_end.min(t + max_step);
-            if ei < edges.len() && edges[ei].t_ms < next {
-                next = edges[ei].t_ms;
-            }
-            while bi < breaks.len() && breaks[bi] <= t + EPS_MS {
-                bi += 1;
-            }
-            if bi < breaks.len() && breaks[bi] < next {
-                next = breaks[bi];
-            }
-            let seg = segment_for(valves, 0.5 * (t + next), &mut cache);
-            x = rk4_step(&x, t, next - t, &seg, cfg, opts.full);
-            t = next;
-        }
+        p.advance_to(t_k);
+        p.command(words[k]);
+        let d = p.derivative_now();
+        on_sample(&SampleView { index: k, t_ms: t_k, state: &p.x, derivative: &d, valves: p.valves });
     }
-    edges
-}
-
-/// How many mass-property changes have happened by `t_ms`.
-fn breaks_before(changes: &[(f64, crate::effects::MassPhase)], t_ms: f64) -> usize {
-    changes.iter().filter(|(at, _)| at * 1e3 <= t_ms).count()
+    p.into_edges()
 }

@@ -1,0 +1,330 @@
+//! The full simulation: maneuver -> 6-DOF plant with effects -> sensors -> recording + truth.
+//! Deterministic: the same spec and seed give the same bytes (ChaCha8 streams, fixed order).
+use crate::dynamics::{Plant, State};
+use crate::effects::{Effect, PlantConfig, Truth};
+use crate::maneuvers;
+use crate::predict::{ringing_at, shock_times_ms};
+use crate::propagate::{Propagator, StepOptions};
+use crate::sensors::{accel_noise, quantise, Artefacts, GyroNoise, SensorConfig};
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use reference_f64::mixer::Mixer;
+use reference_f64::recording::{Recording, Sample};
+use reference_f64::satellite::Satellite;
+
+/// Which commands to fly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Maneuver {
+    Rga12,
+    Single,
+    Combo,
+    RandomPwm,
+    /// Rate commands about each axis through the PWM mixer, then attitude hold.
+    ClosedLoop,
+}
+
+impl Maneuver {
+    pub const NAMES: [&'static str; 5] = ["rga12", "single", "combo", "random-pwm", "closed-loop"];
+
+    pub fn parse(s: &str) -> Option<Maneuver> {
+        Some(match s {
+            "rga12" => Maneuver::Rga12,
+            "single" => Maneuver::Single,
+            "combo" => Maneuver::Combo,
+            "random-pwm" | "random_pwm" => Maneuver::RandomPwm,
+            "closed-loop" | "closed_loop" => Maneuver::ClosedLoop,
+            _ => return None,
+        })
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Maneuver::Rga12 => "rga12",
+            Maneuver::Single => "single",
+            Maneuver::Combo => "combo",
+            Maneuver::RandomPwm => "random-pwm",
+            Maneuver::ClosedLoop => "closed-loop",
+        }
+    }
+
+    /// Default length, s (rga12 and single have a fixed script length).
+    pub fn default_seconds(&self) -> f64 {
+        match self {
+            Maneuver::Rga12 => 28.0,
+            Maneuver::Single => 25.0,
+            Maneuver::Combo | Maneuver::RandomPwm => 40.0,
+            Maneuver::ClosedLoop => 30.0,
+        }
+    }
+}
+
+/// Everything a simulation needs.
+#[derive(Clone, Debug)]
+pub struct SimSpec {
+    pub satellite: Satellite,
+    pub effects: Vec<Effect>,
+    pub sensors: SensorConfig,
+    pub artefacts: Artefacts,
+    pub maneuver: Maneuver,
+    /// Recording sample rate, Hz; must divide 1000 (1000, 500, 100, 50, ...).
+    pub rate_hz: f64,
+    /// Length, s: firing time for combo / random-pwm / closed-loop; rga12 and single are
+    /// truncated to it when shorter.
+    pub seconds: Option<f64>,
+    pub seed: u64,
+    /// Largest RK4 step, ms.
+    pub max_step_ms: f64,
+    pub initial_rate: [f64; 3],
+}
+
+impl SimSpec {
+    /// Defaults: 1 kHz, the maneuver's own length, seed 0, 1 ms steps, at rest.
+    pub fn new(satellite: Satellite, effects: Vec<Effect>, maneuver: Maneuver) -> Self {
+        SimSpec {
+            satellite,
+            effects,
+            sensors: SensorConfig::default(),
+            artefacts: Artefacts::default(),
+            maneuver,
+            rate_hz: 1000.0,
+            seconds: None,
+            seed: 0,
+            max_step_ms: 1.0,
+            initial_rate: [0.0; 3],
+        }
+    }
+}
+
+/// Why a simulation cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("sample rate {0} Hz: must be a divisor of 1000 (e.g. 1000, 100, 50)")]
+    BadRate(f64),
+    #[error("length {0} s: must be positive and at most 86400 s")]
+    BadSeconds(f64),
+    #[error("effect {0}")]
+    BadEffect(String),
+    #[error("satellite model: {0}")]
+    BadSatellite(String),
+    #[error("closed loop: mixer: {0}")]
+    Mixer(String),
+}
+
+/// A finished simulation.
+#[derive(Clone, Debug)]
+pub struct SimOutput {
+    pub recording: Recording,
+    pub truth: Truth,
+    /// Commanded word per millisecond from t = 0.
+    pub commands: Vec<u16>,
+    /// True body rate at every recorded sample (before artefacts), rad/s.
+    pub body_rate: Vec<[f64; 3]>,
+    /// Final attitude and CoM position/velocity (inertial).
+    pub final_state: State,
+}
+
+/// ChaCha stream numbers: one per random purpose, so adding one never shifts another.
+const STREAM_MANEUVER: u64 = 1;
+const STREAM_GYRO: u64 = 2;
+const STREAM_ACCEL: u64 = 3;
+const STREAM_RINGING: u64 = 4;
+const STREAM_ARTEFACTS: u64 = 5;
+const STREAM_CONTROLLER: u64 = 6;
+
+fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(stream);
+    r
+}
+
+/// Runs the simulation.
+pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
+    let period_ms = 1000.0 / spec.rate_hz;
+    if !(spec.rate_hz.is_finite() && spec.rate_hz > 0.0 && period_ms >= 1.0 && (period_ms - period_ms.round()).abs() < 1e-9) {
+        return Err(SimError::BadRate(spec.rate_hz));
+    }
+    let period_ms = period_ms.round() as usize;
+    if let Some(s) = spec.seconds {
+        if !(s.is_finite() && s > 0.0 && s <= 86_400.0) {
+            return Err(SimError::BadSeconds(s));
+        }
+    }
+    spec.satellite.validate().map_err(SimError::BadSatellite)?;
+    for e in &spec.effects {
+        e.validate().map_err(SimError::BadEffect)?;
+    }
+    let sat = &spec.satellite;
+    let mut cfg = PlantConfig::new(sat, &spec.effects);
+    cfg.pressure_drop_n += sat.pressure_drop_n_per_extra;
+    let plant = Plant::new(sat, cfg);
+    let seconds = spec.seconds.unwrap_or(spec.maneuver.default_seconds());
+
+    let mut maneuver_rng = rng(spec.seed, STREAM_MANEUVER);
+    let open_loop: Option<Vec<u16>> = match spec.maneuver {
+        Maneuver::Rga12 => Some(maneuvers::rga12()),
+        Maneuver::Single => Some(maneuvers::single()),
+        Maneuver::Combo => Some(maneuvers::combo(seconds, &mut maneuver_rng)),
+        Maneuver::RandomPwm => Some(maneuvers::random_pwm(seconds, &mut maneuver_rng)),
+        Maneuver::ClosedLoop => None,
+    };
+    let total_ms = match (&open_loop, spec.maneuver) {
+        (Some(w), Maneuver::Rga12 | Maneuver::Single) => match spec.seconds {
+            Some(s) => ((s * 1000.0).round() as usize).min(w.len()),
+            None => w.len(),
+        },
+        (Some(w), _) => w.len(),
+        (None, _) => (seconds * 1000.0).round() as usize,
+    };
+    let mut controller = match spec.maneuver {
+        Maneuver::ClosedLoop => Some(Controller::new(sat, total_ms)?),
+        _ => None,
+    };
+
+    let mut gyro_rng = rng(spec.seed, STREAM_GYRO);
+    let mut accel_rng = rng(spec.seed, STREAM_ACCEL);
+    let mut ctrl_rng = rng(spec.seed, STREAM_CONTROLLER);
+    let mut gyro_noise = GyroNoise::new(&spec.sensors);
+    let mut ctrl_noise = GyroNoise::new(&spec.sensors);
+    let r_acc = Vector3::from(spec.sensors.accel_location_m);
+
+    let mut prop = Propagator::new(
+        &plant,
+        State::with_rates(spec.initial_rate),
+        0.0,
+        StepOptions { max_step_ms: spec.max_step_ms, full: true },
+    );
+    let mut commands = Vec::with_capacity(total_ms);
+    let mut times = Vec::new();
+    let mut words = Vec::new();
+    let mut rates: Vec<[f64; 3]> = Vec::new();
+    let mut accel: Vec<[f64; 3]> = Vec::new();
+    let mut gyro_n: Vec<[f64; 3]> = Vec::new();
+    let mut word = 0u16;
+    for t in 0..total_ms {
+        prop.advance_to(t as f64);
+        if let Some(c) = controller.as_mut() {
+            if t % maneuvers::PERIOD_MS == 0 {
+                let x = prop.state();
+                let noise = ctrl_noise.sample(t as f64, &mut ctrl_rng);
+                let sensed = x.w + Vector3::from(noise);
+                c.plan(t, &sensed, &x.attitude())?;
+            }
+            word = c.word_at(t);
+        } else if let Some(w) = &open_loop {
+            word = w[t];
+        }
+        prop.command(word);
+        commands.push(word);
+        if t % period_ms == 0 {
+            let d = prop.derivative_now();
+            let x = prop.state();
+            // Specific force at the accelerometer: thrust / m + w_dot x r + w x (w x r).
+            let f = d.specific_force + d.w_dot.cross(&r_acc) + x.w.cross(&x.w.cross(&r_acc));
+            times.push(t as u64);
+            words.push(word);
+            rates.push(x.w.into());
+            accel.push(f.into());
+            gyro_n.push(gyro_noise.sample(t as f64, &mut gyro_rng));
+        }
+    }
+    prop.advance_to(total_ms as f64);
+    let final_state = *prop.state();
+    let edges = prop.into_edges();
+
+    // Ringing at the sample instants with a random phase per shock and axis.
+    let mut ring_rng = rng(spec.seed, STREAM_RINGING);
+    let shocks = shock_times_ms(&edges);
+    let ringing = ringing_at(&plant.cfg, &shocks, &times, |_, _, _| ring_rng.gen_range(0.0..std::f64::consts::TAU));
+
+    let c = &plant.cfg;
+    let mut samples = Vec::with_capacity(times.len());
+    for k in 0..times.len() {
+        let gyro: [u16; 3] = std::array::from_fn(|a| {
+            let sensed = c.gyro_scale[a] * (rates[k][a] + ringing[k][a] + gyro_n[k][a]);
+            let bias = sat.gyro_bias_counts[a] + c.gyro_bias_counts[a];
+            quantise(bias + sensed * sat.gyro_counts_per_rad_s[a])
+        });
+        let an = accel_noise(&spec.sensors, &mut accel_rng);
+        let acc: [u16; 3] =
+            std::array::from_fn(|a| quantise(sat.accel_bias_counts[a] + (accel[k][a] + an[a]) / sat.accel_m_s2_per_count));
+        samples.push(Sample { time_ms: times[k], gyro, accel: acc, thrusters: words[k] });
+    }
+    let mut recording = Recording::new("massid-sim", Some(&sat.name), Some(spec.rate_hz), samples);
+    recording.set_meta("generator", "massid-sim");
+    recording.set_meta("maneuver", spec.maneuver.name());
+    recording.set_meta("seed", &spec.seed.to_string());
+    let mut art_rng = rng(spec.seed, STREAM_ARTEFACTS);
+    if spec.artefacts.gaps > 0 || spec.artefacts.duplicates > 0 {
+        let rows = spec.artefacts.apply(std::mem::take(&mut recording.samples), &mut art_rng);
+        let clean = Recording::new("massid-sim", None, Some(spec.rate_hz), rows.clone());
+        recording.issues = clean.issues;
+        recording.samples = rows;
+    }
+    Ok(SimOutput {
+        recording,
+        truth: Truth { satellite: sat.name.clone(), effects: spec.effects.clone() },
+        commands,
+        body_rate: rates,
+        final_state,
+    })
+}
+
+/// The closed-loop maneuver's controller (runs every 200 ms control period, seed 3.3): rate
+/// commands about x, y, z in turn (see `target`), then attitude hold on the starting
+/// attitude; torque = I * gain * error, through the nominal model's PWM mixer (the
+/// controller knows only the nominal satellite, like flight software). It senses the body
+/// rate with gyro noise and the attitude exactly (SPHERES' global metrology is not modelled).
+struct Controller {
+    mixer: Mixer,
+    inertia: nalgebra::Matrix3<f64>,
+    total_ms: usize,
+    firing: Option<(usize, reference_f64::mixer::Firing)>,
+}
+
+/// Rate command, rad/s.
+const RATE_CMD: f64 = 0.15;
+
+impl Controller {
+    fn new(sat: &Satellite, total_ms: usize) -> Result<Self, SimError> {
+        let mixer = Mixer::from_satellite(sat, None, maneuvers::PERIOD_MS as u32).map_err(|e| SimError::Mixer(e.to_string()))?;
+        Ok(Controller { mixer, inertia: sat.inertia_matrix(), total_ms, firing: None })
+    }
+
+    /// Rate command at `t` (None = attitude hold): the first 60% of the run is split into
+    /// six legs (+x, -x, +y, -y, +z, -z), the rest holds attitude.
+    fn target(&self, t: usize) -> Option<Vector3<f64>> {
+        let leg_ms = (self.total_ms * 6 / 10 / 6).max(1);
+        let leg = t / leg_ms;
+        if leg >= 6 {
+            return None;
+        }
+        let mut w = Vector3::zeros();
+        w[leg / 2] = if leg % 2 == 0 { RATE_CMD } else { -RATE_CMD };
+        Some(w)
+    }
+
+    fn plan(&mut self, t: usize, w: &Vector3<f64>, q: &UnitQuaternion<f64>) -> Result<(), SimError> {
+        let period_s = maneuvers::PERIOD_MS as f64 * 1e-3;
+        let alpha = match self.target(t) {
+            // Remove half the rate error per period.
+            Some(cmd) => (cmd - w) * (0.5 / period_s),
+            // PD on the attitude error (small-angle vector part), ~2 s time constant.
+            None => {
+                let e = q.quaternion().vector() * (2.0 * q.w.signum());
+                -(e * 0.8 + w * 1.6)
+            }
+        };
+        let torque = self.inertia * alpha;
+        let firing = self.mixer.mix(Vector3::zeros(), torque).map_err(|e| SimError::Mixer(e.to_string()))?;
+        self.firing = Some((t, firing));
+        Ok(())
+    }
+
+    fn word_at(&self, t: usize) -> u16 {
+        match &self.firing {
+            Some((t0, f)) => f.word_at((t - t0) as u32),
+            None => 0,
+        }
+    }
+}

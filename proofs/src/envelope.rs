@@ -69,7 +69,7 @@ pub const GYRO_NOISE_VAR: (f64, f64) = (1e-8, 1e-3);
 /// integer ms; 1000 ms = the seed's one-second firings).
 pub const MIXER_PERIOD_MS: (u32, u32) = (20, 1000);
 /// Minimum pulse, ms: "minimum impulse bit of 10ms" (seed Fig. 3.2 text); the flight test
-/// code uses `min_pulse = 20`.
+/// code uses `min_pulse = 20`. A period holds at least two minimum pulses (period >= 2 x min).
 pub const MIN_PULSE_MS: (u32, u32) = (10, 20);
 /// Mixer force command per body axis, N, and torque command per axis, N m: anything the
 /// thrusters can do twice over (2 x 0.2 N x 4 thrusters per axis; torque x 0.1 m lever),

@@ -7,6 +7,7 @@
 
 pub mod draw;
 pub mod lu;
+pub mod mixer;
 pub mod model;
 pub mod omega_dot;
 pub mod pipeline;
@@ -57,4 +58,7 @@ pub const ALL: &[Harness] = &[
     rls::HARNESSES[1],
     pipeline::HARNESSES[0],
     pipeline::HARNESSES[1],
+    mixer::HARNESSES[0],
+    mixer::HARNESSES[1],
+    mixer::HARNESSES[2],
 ];

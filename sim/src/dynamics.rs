@@ -177,7 +177,9 @@ pub fn derivative(x: &State, t_ms: f64, seg: &Segment, cfg: &PlantConfig, full: 
     let w_dot;
     if seg.has_slosh {
         let spring = seg.slosh_k.component_mul(&x.phi) + seg.slosh_c.component_mul(&x.dphi);
-        tau += spring;
+        // The gyroscopic term carries the liquid's angular momentum too (see fuel_slosh.rs).
+        let liquid_momentum = seg.slosh_j.component_mul(&(x.w + x.dphi));
+        tau += spring - x.w.cross(&liquid_momentum);
         w_dot = seg.i_body_inv * tau;
         for a in 0..3 {
             if seg.slosh_j[a] > 0.0 {

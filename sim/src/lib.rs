@@ -19,3 +19,4 @@ pub mod sensors;
 pub mod simulate;
 
 pub use simulate::{simulate, Maneuver, SimError, SimOutput, SimSpec};
+pub mod reproduce;

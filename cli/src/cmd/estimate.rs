@@ -1,8 +1,229 @@
-//! `massid estimate` (being written).
+//! `massid estimate REC.csv [--satellite sphN | --model FILE] --kernel f64|f32|fixed|all
+//! [--json OUT.json]`: runs a recording through the mass-property identification and
+//! prints (and optionally writes, as `contracts/estimate-output.md`) the estimate.
+//!
+//! The f64 path is the reference's offline pipeline. The f32 and fixed-point kernels plug
+//! in at [`run_kernel`]; until they do, asking for them is a clear error.
+use anyhow::{anyhow, bail, Context};
+use reference_f64::pipeline::{estimate_offline, Estimate, PipelineConfig};
+use reference_f64::recording::Recording;
+use reference_f64::satellite::Satellite;
+use serde_json::{json, Map, Value};
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Recording to identify (massid-recording/1 CSV).
+    recording: PathBuf,
+    /// Built-in satellite model (sph1..sph5); default: the recording's `satellite` metadata.
+    #[arg(long, conflicts_with = "model")]
+    satellite: Option<String>,
+    /// Satellite model file (TOML, the fields of reference-f64's `Satellite`, or a
+    /// simulator model file with a `[satellite]` table).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Implementation(s) to run: f64 (reference), f32, fixed, or all.
+    #[arg(long, default_value = "f64")]
+    kernel: String,
+    /// Write the estimate as JSON (estimate-output v1) here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`massid estimate` is not available in this build yet")
+/// The implementations `--kernel` may name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    F64,
+    F32,
+    Fixed,
+}
+
+impl Kernel {
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::F64 => "f64",
+            Kernel::F32 => "f32",
+            Kernel::Fixed => "fixed",
+        }
+    }
+}
+
+fn parse_kernels(s: &str) -> anyhow::Result<Vec<Kernel>> {
+    Ok(match s {
+        "f64" => vec![Kernel::F64],
+        "f32" => vec![Kernel::F32],
+        "fixed" => vec![Kernel::Fixed],
+        "all" => vec![Kernel::F64, Kernel::F32, Kernel::Fixed],
+        other => bail!("--kernel {other:?}: expected f64, f32, fixed or all"),
+    })
+}
+
+/// Loads the satellite: `--model` (reference TOML, else a simulator model file), else
+/// `--satellite`, else the recording's `satellite` metadata.
+pub fn load_satellite(rec: &Recording, satellite: Option<&str>, model: Option<&Path>) -> anyhow::Result<Satellite> {
+    if let Some(path) = model {
+        return match Satellite::from_toml_file(path) {
+            Ok(s) => Ok(s),
+            Err(plain) => match massid_sim::model_file::ModelFile::read(path) {
+                Ok(m) => Ok(m.satellite),
+                Err(sim) => Err(anyhow!("{plain}\n(also not a simulator model file: {sim})")),
+            },
+        };
+    }
+    let name = match satellite {
+        Some(n) => n.to_string(),
+        None => rec.satellite().map(str::to_string).ok_or_else(|| {
+            anyhow!("{}: no `satellite` metadata; pass --satellite sphN or --model FILE", rec.source)
+        })?,
+    };
+    Satellite::builtin(&name).ok_or_else(|| {
+        anyhow!(
+            "unknown satellite {name:?} (built-in: {}); pass --model FILE for other craft",
+            Satellite::BUILTIN_NAMES.join(", ")
+        )
+    })
+}
+
+/// The f32 / fixed-point kernel runs plug in here (the kernel team adds them): run the
+/// recording through `kernel::Pipeline::tick` sample by sample and return the same
+/// [`Estimate`] fields. Until then these kernels are a clear error.
+pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite) -> anyhow::Result<Estimate> {
+    match kernel {
+        Kernel::F64 => Ok(estimate_offline(rec, sat, &PipelineConfig { keep_history: false, ..PipelineConfig::default() })),
+        Kernel::F32 | Kernel::Fixed => bail!(
+            "--kernel {}: this implementation is not wired into `massid estimate` yet (use --kernel f64)",
+            kernel.name()
+        ),
+    }
+}
+
+/// One implementation's result as the contract's JSON object.
+pub fn result_json(e: &Estimate) -> Value {
+    json!({
+        "com_offset_mm": e.com_offset_mm,
+        "com_offset_stderr_mm": e.com_offset_stderr_mm,
+        "inertia_kgm2": e.inertia_kgm2,
+        "inertia_stderr_kgm2": e.inertia_stderr_kgm2,
+        "unobservable": e.unobservable,
+        "updates": e.updates,
+        "status": e.status,
+    })
+}
+
+/// Largest absolute difference of each field from the f64 result.
+pub fn max_diff_json(e: &Estimate, f64_result: &Estimate) -> Value {
+    let maxdiff = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    json!({
+        "com_offset_mm": maxdiff(&e.com_offset_mm, &f64_result.com_offset_mm),
+        "com_offset_stderr_mm": maxdiff(&e.com_offset_stderr_mm, &f64_result.com_offset_stderr_mm),
+        "inertia_kgm2": maxdiff(&e.inertia_kgm2, &f64_result.inertia_kgm2),
+        "inertia_stderr_kgm2": maxdiff(&e.inertia_stderr_kgm2, &f64_result.inertia_stderr_kgm2),
+        "updates": (e.updates as i64 - f64_result.updates as i64).abs(),
+    })
+}
+
+/// The whole estimate-output v1 document.
+pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Estimate)]) -> Value {
+    let mut res = Map::new();
+    for (k, e) in results {
+        res.insert(k.name().to_string(), result_json(e));
+    }
+    let mut doc = Map::new();
+    doc.insert("format".into(), json!("massid-estimate/1"));
+    doc.insert("recording".into(), json!(recording));
+    doc.insert("model".into(), json!(model));
+    doc.insert("results".into(), Value::Object(res));
+    if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
+        if results.len() > 1 {
+            let mut diffs = Map::new();
+            for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
+                diffs.insert(k.name().to_string(), max_diff_json(e, base));
+            }
+            doc.insert("max_diff_vs_f64".into(), Value::Object(diffs));
+        }
+    }
+    Value::Object(doc)
+}
+
+fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
+    println!("[{}] status {}  updates {}", kernel.name(), e.status, e.updates);
+    let c = e.com_offset_mm;
+    let cs = e.com_offset_stderr_mm;
+    println!(
+        "  CoM offset (mm, vs model): x {:+.3} +- {:.3}  y {:+.3} +- {:.3}  z {:+.3} +- {:.3}",
+        c[0], cs[0], c[1], cs[1], c[2], cs[2]
+    );
+    for (j, name) in reference_f64::mass_id::INERTIA_TERMS.iter().enumerate() {
+        println!(
+            "  {name}: {:.6e} +- {:.1e} kg m^2  (model {:.6e})",
+            e.inertia_kgm2[j], e.inertia_stderr_kgm2[j], sat.inertia_kgm2[j]
+        );
+    }
+    if !e.unobservable.is_empty() {
+        println!("  unobservable (held at the model's values): {}", e.unobservable.join(", "));
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let kernels = parse_kernels(&args.kernel)?;
+    let rec = Recording::read(&args.recording)?;
+    let sat = load_satellite(&rec, args.satellite.as_deref(), args.model.as_deref())?;
+    if let Some(out) = &args.json {
+        let mut inputs: Vec<&Path> = vec![args.recording.as_path()];
+        if let Some(m) = &args.model {
+            inputs.push(m.as_path());
+        }
+        crate::cmd::check_output(out, &inputs)?;
+    }
+    let mut results = Vec::new();
+    for k in kernels {
+        let e = run_kernel(k, &rec, &sat)?;
+        print_result(k, &e, &sat);
+        results.push((k, e));
+    }
+    if let Some(out) = &args.json {
+        let file_name = args
+            .recording
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_else(|| rec.source.clone());
+        let model = match &args.model {
+            Some(m) => m.display().to_string(),
+            None => sat.name.clone(),
+        };
+        let doc = output_json(&file_name, &model, &results);
+        let text = serde_json::to_string_pretty(&doc)? + "\n";
+        let tmp = out.with_extension("json.tmp");
+        std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
+        std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kernels_parse_and_unknown_is_an_error() {
+        assert_eq!(parse_kernels("all").unwrap(), vec![Kernel::F64, Kernel::F32, Kernel::Fixed]);
+        assert!(parse_kernels("f16").unwrap_err().to_string().contains("f16"));
+    }
+
+    #[test]
+    fn json_has_the_contract_fields() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let rec = Recording::new("r.csv", Some("sph2"), Some(1000.0), Vec::new());
+        let e = run_kernel(Kernel::F64, &rec, &sat).unwrap();
+        assert_eq!(e.status, "no_firings");
+        let doc = output_json("r.csv", "sph2", &[(Kernel::F64, e.clone()), (Kernel::F64, e)]);
+        assert_eq!(doc["format"], "massid-estimate/1");
+        let r = &doc["results"]["f64"];
+        for k in ["com_offset_mm", "com_offset_stderr_mm", "inertia_kgm2", "inertia_stderr_kgm2", "unobservable", "updates", "status"] {
+            assert!(!r[k].is_null(), "missing {k}");
+        }
+        assert_eq!(r["inertia_kgm2"].as_array().unwrap().len(), 6);
+        assert!(run_kernel(Kernel::Fixed, &rec, &sat).unwrap_err().to_string().contains("--kernel fixed"));
+    }
 }

@@ -47,6 +47,9 @@ const POS: [[f32; 3]; 12] = [
     [0.0, -0.0965, 0.0516],
 ];
 
+/// SPH2's gyro zero-rate output, counts (contract `satellites.md`).
+pub const SPH2_GYRO_BIAS_COUNTS: [f32; 3] = [2077.0, 2070.0, 2058.0];
+
 /// SPH2 (seed App. C; contract `satellites.md`).
 pub const SPH2: SatelliteParams = SatelliteParams {
     thruster_pos_m: POS,
@@ -92,6 +95,8 @@ pub struct ModelTerms<S> {
     pub inertia_inv: [[S; 3]; 3],
     /// Nominal inverse-inertia parameters (xx yy zz xy xz yz), 1/(kg m^2)/100.
     pub theta_inertia_nominal: [S; 6],
+    /// The same as a matrix: rad/s^2 per cN m.
+    pub theta_inertia_matrix: [[S; 3]; 3],
 }
 
 /// Why the parameters were rejected.
@@ -165,6 +170,7 @@ impl SatelliteParams {
         let inertia_inv = inv.map(|row| row.map(|v| S::from_f32(v as f32)));
         let theta = [inv[0][0], inv[1][1], inv[2][2], inv[0][1], inv[0][2], inv[1][2]]
             .map(|v| S::from_f32((v * 0.01) as f32));
+        let theta_inertia_matrix = inv.map(|row| row.map(|v| S::from_f32((v * 0.01) as f32)));
         Ok(ModelTerms {
             dir,
             lever_x_dir: lxd,
@@ -172,6 +178,7 @@ impl SatelliteParams {
             pressure_drop_n: S::from_f32(self.pressure_drop_n_per_extra),
             inertia_inv,
             theta_inertia_nominal: theta,
+            theta_inertia_matrix,
         })
     }
 }

@@ -12,8 +12,11 @@
 //!   estimate weighted by its information); the estimate is re-solved (LU) when the firing
 //!   ends, after the optional change test and forgetting.
 
-use crate::model::{inertia_rows, FiringTerms, ModelError, ModelTerms, SatelliteParams};
-use crate::omega_dot::{KfConfig, KfStatus, OmegaDotEstimate, OmegaDotKf};
+use crate::gyro_filter::{GyroLowPass, LowPassCoefs, COUNT_FRAC_BITS};
+
+const _: () = assert!(COUNT_FRAC_BITS == 12, "Gyroscopic::omega assumes Q12 counts");
+use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
+use crate::omega_dot::{KfConfig, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
 use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use crate::scalar::Scalar;
 
@@ -24,15 +27,25 @@ pub struct PipelineConfig<S> {
     pub kf: KfConfig,
     /// RLS options.
     pub rls: RlsConfig<S>,
-    /// Firings whose final estimates form the batch (the seed: 2).
+    /// Firings that form the batch (the seed: 2).
     pub batch_firings: u32,
+    /// Gyro zero-rate counts per axis. When given, the gyroscopic torque `omega x I omega`
+    /// of the nominal inertia enters the regressors and the Kalman prior (as the f64
+    /// reference does); `None` = the seed's flight code, which neglects it.
+    pub gyro_bias_counts: Option<[f32; 3]>,
 }
 
 impl<S: Scalar> PipelineConfig<S> {
     /// The seed's settings at sample period `dt_ms`: R0 of Fig. 4.5, P0 = 0.5, 10 ms transient,
     /// batch over two firings, RLS without forgetting or change detection.
     pub fn seed(dt_ms: u32) -> Self {
-        PipelineConfig { kf: KfConfig::seed(dt_ms), rls: RlsConfig::default(), batch_firings: 2 }
+        PipelineConfig { kf: KfConfig::seed(dt_ms), rls: RlsConfig::default(), batch_firings: 2, gyro_bias_counts: None }
+    }
+
+    /// [`PipelineConfig::seed`] plus the gyroscopic terms (gyro bias `bias_counts`), the
+    /// form the f64 reference's online pipeline runs.
+    pub fn with_gyroscopic(dt_ms: u32, bias_counts: [f32; 3]) -> Self {
+        PipelineConfig { gyro_bias_counts: Some(bias_counts), ..Self::seed(dt_ms) }
     }
 }
 
@@ -85,11 +98,16 @@ pub struct TickReport {
 pub struct Pipeline<S> {
     cfg: PipelineConfig<S>,
     terms: ModelTerms<S>,
+    filter: GyroLowPass,
+    gyro: Option<Gyroscopic<S>>,
+    filtered: [i32; 3],
     kf: OmegaDotKf<S>,
     mass: MassId<S>,
     word: u16,
     firing_terms: FiringTerms<S>,
     firings: u32,
+    firings_with_data: u32,
+    firing_has_data: bool,
     last: Option<Measurement<S>>,
     last_estimate: Option<OmegaDotEstimate<S>>,
     status: PipelineStatus,
@@ -101,14 +119,23 @@ impl<S: Scalar> Pipeline<S> {
     pub fn new(params: &SatelliteParams, cfg: PipelineConfig<S>) -> Result<Self, ModelError> {
         let terms = params.terms::<S>()?;
         let firing_terms = terms.firing_terms(0);
+        let gyro = match cfg.gyro_bias_counts {
+            Some(bias) => Some(Gyroscopic::new(params, bias)?),
+            None => None,
+        };
         Ok(Pipeline {
             cfg,
             terms,
+            filter: GyroLowPass::new(LowPassCoefs::design(GYRO_FILTER_HZ, cfg.kf.dt_s)),
+            gyro,
+            filtered: [0; 3],
             kf: OmegaDotKf::new(&cfg.kf),
             mass: MassId::new(cfg.rls, terms.theta_inertia_nominal),
             word: 0,
             firing_terms,
             firings: 0,
+            firings_with_data: 0,
+            firing_has_data: false,
             last: None,
             last_estimate: None,
             status: PipelineStatus::Idle,
@@ -128,14 +155,20 @@ impl<S: Scalar> Pipeline<S> {
 
     fn step(&mut self, gyro: Option<[u16; 3]>, word: u16) -> TickReport {
         self.ticks = self.ticks.saturating_add(1);
+        let filtered = gyro.map(|c| self.filter.step(c));
+        if let Some(f) = filtered {
+            self.filtered = f;
+        }
         let mut solved = false;
         if word != self.word {
             solved = self.end_firing();
             self.word = word;
             if word != 0 {
                 self.firings = self.firings.saturating_add(1);
+                self.firing_has_data = false;
                 self.firing_terms = self.terms.firing_terms(word);
-                self.kf.reset(self.firing_terms.omega_dot_nominal);
+                let prior = self.nominal_omega_dot();
+                self.kf.reset(prior);
                 self.last = None;
                 self.last_estimate = None;
                 if self.status == PipelineStatus::Idle {
@@ -146,7 +179,7 @@ impl<S: Scalar> Pipeline<S> {
         let event = if self.word == 0 {
             TickEvent::Coasting
         } else {
-            match self.kf.update(gyro) {
+            match self.kf.update(filtered) {
                 KfStatus::Skipping => TickEvent::Transient,
                 KfStatus::Anchored | KfStatus::Missing => TickEvent::Coasting,
                 KfStatus::Saturated => TickEvent::FiringTooLong,
@@ -157,29 +190,53 @@ impl<S: Scalar> Pipeline<S> {
         TickReport { event, status: self.status }
     }
 
+    /// Torque the thrusters of the current word give beyond the gyroscopic term, cN m.
+    fn effective_torque_cnm(&self) -> [S; 3] {
+        let tau = self.firing_terms.torque_cnm;
+        match &self.gyro {
+            Some(g) => {
+                let gt = g.torque_cnm(&self.filtered);
+                [tau[0].minus(gt[0]), tau[1].minus(gt[1]), tau[2].minus(gt[2])]
+            }
+            None => tau,
+        }
+    }
+
+    fn nominal_omega_dot(&self) -> [S; 3] {
+        mat_vec(&self.terms.theta_inertia_matrix, &self.effective_torque_cnm())
+    }
+
     fn after_kf_update(&mut self) -> TickEvent {
         let Some(est) = self.kf.estimate() else {
             return TickEvent::KfOverflow;
         };
+        if !self.firing_has_data {
+            self.firing_has_data = true;
+            self.firings_with_data = self.firings_with_data.saturating_add(1);
+        }
         let m = self.measurement(&est);
         self.last = Some(m);
         self.last_estimate = Some(est);
-        if self.firings > self.cfg.batch_firings {
+        if self.firings_with_data > self.cfg.batch_firings {
             self.mass.add_tick(&m);
+        } else {
+            self.mass.add_batch(&m);
         }
         TickEvent::Updated
     }
 
     fn measurement(&self, est: &OmegaDotEstimate<S>) -> Measurement<S> {
         let ft = &self.firing_terms;
+        let a = self.effective_torque_cnm();
+        let pred = mat_vec(&self.terms.theta_inertia_matrix, &a);
         let mut b_com = [S::ZERO; 3];
-        for ((b, w), n) in b_com.iter_mut().zip(est.omega_dot.iter()).zip(ft.omega_dot_nominal.iter()) {
+        for ((b, w), n) in b_com.iter_mut().zip(est.omega_dot.iter()).zip(pred.iter()) {
             *b = w.minus(*n);
         }
         Measurement {
             a_com: ft.a_com,
             b_com,
-            a_inertia: inertia_rows(&ft.torque_cnm),
+            a_inertia: inertia_rows(&a),
             b_inertia: est.omega_dot,
             weight: est.information,
             variance: est.variance,
@@ -188,19 +245,15 @@ impl<S: Scalar> Pipeline<S> {
 
     /// Returns true if a solve happened.
     fn end_firing(&mut self) -> bool {
-        if self.word == 0 || self.firings == 0 {
+        if self.word == 0 || !self.firing_has_data {
             return false;
         }
         let last = self.last.take();
-        let rls_status = if self.firings <= self.cfg.batch_firings {
-            if let Some(m) = last {
-                self.mass.add_batch(&m);
-            }
-            if self.firings == self.cfg.batch_firings {
-                Some(self.mass.solve())
-            } else {
-                None
-            }
+        let n = self.firings_with_data;
+        let rls_status = if n < self.cfg.batch_firings {
+            None
+        } else if n == self.cfg.batch_firings {
+            Some(self.mass.solve())
         } else {
             Some(self.mass.end_firing(last.as_ref()))
         };
@@ -222,10 +275,19 @@ impl<S: Scalar> Pipeline<S> {
     /// Ends the current firing (if any) as if the thrusters had turned off, e.g. at the end
     /// of a recording, so its data is folded in.
     pub fn finish(&mut self) -> PipelineStatus {
-        if self.end_firing() {
-            self.word = 0;
+        if !self.end_firing() && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
+            // Fewer firings than the batch needs: the batch so far is the estimate.
+            let s = self.mass.solve();
+            self.status = match s {
+                RlsStatus::Ok => PipelineStatus::Ok,
+                RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
+                RlsStatus::Singular => PipelineStatus::Singular,
+                RlsStatus::Overflow => PipelineStatus::Overflow,
+                RlsStatus::NoData => self.status,
+            };
         }
         self.word = 0;
+        self.firing_has_data = false;
         self.status
     }
 
@@ -256,6 +318,53 @@ impl<S: Scalar> Pipeline<S> {
     /// The derived model terms.
     pub fn model_terms(&self) -> &ModelTerms<S> {
         &self.terms
+    }
+}
+
+/// The gyroscopic torque `omega x (I_nom omega)` from filtered gyro counts.
+#[derive(Clone, Copy, Debug)]
+struct Gyroscopic<S> {
+    /// Zero-rate counts in Q12.
+    bias_q12: [i32; 3],
+    /// rad/s per 2^11 counts (counts are scaled by 2^-11 first so they fit every format).
+    rad_s_per_2k_counts: [S; 3],
+    /// Nominal inertia in cN m per rad/s^2 (i.e. kg m^2 * 100).
+    inertia_c: [[S; 3]; 3],
+}
+
+impl<S: Scalar> Gyroscopic<S> {
+    fn new(params: &SatelliteParams, bias: [f32; 3]) -> Result<Self, ModelError> {
+        if !bias.iter().chain(params.gyro_counts_per_rad_s.iter()).all(|v| v.is_finite()) {
+            return Err(ModelError::NotFinite);
+        }
+        let q = (1u32 << COUNT_FRAC_BITS) as f32;
+        let [xx, yy, zz, xy, xz, yz] = params.inertia_kgm2.map(|v| S::from_f32(v * 100.0));
+        Ok(Gyroscopic {
+            bias_q12: bias.map(|b| (b * q) as i32),
+            rad_s_per_2k_counts: params.gyro_counts_per_rad_s.map(|g| S::from_f32(if g != 0.0 { 2048.0 / g } else { 0.0 })),
+            inertia_c: [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
+        })
+    }
+
+    fn omega(&self, filtered_q12: &[i32; 3]) -> [S; 3] {
+        core::array::from_fn(|a| {
+            let c = filtered_q12.get(a).copied().unwrap_or(0);
+            let b = self.bias_q12.get(a).copied().unwrap_or(0);
+            let d = c.saturating_sub(b);
+            // counts / 2048 (Q12 counts: a further 2^-12)
+            let scaled = S::from_int_pow2(d, -23); // 2^-12 (Q12) * 2^-11
+            scaled.times(self.rad_s_per_2k_counts.get(a).copied().unwrap_or(S::ZERO))
+        })
+    }
+
+    fn torque_cnm(&self, filtered_q12: &[i32; 3]) -> [S; 3] {
+        let w = self.omega(filtered_q12);
+        let h = mat_vec(&self.inertia_c, &w);
+        [
+            w[1].times(h[2]).minus(w[2].times(h[1])),
+            w[2].times(h[0]).minus(w[0].times(h[2])),
+            w[0].times(h[1]).minus(w[1].times(h[0])),
+        ]
     }
 }
 

@@ -180,6 +180,29 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         self.check_valid();
     }
 
+    /// Adds a diagonal prior: information `info_j` about `x0_j` for each term.
+    pub fn add_diag(&mut self, info: &[Scaled<S>; N], x0: &[S; N]) {
+        let info = info.map(|v| v.normalized());
+        let we = info.iter().fold(i32::MIN, |m, v| m.max(v.e));
+        if self.empty {
+            self.exp = we;
+            self.empty = false;
+        } else if we > self.exp {
+            self.shift_down(we.saturating_sub(self.exp));
+        }
+        for (j, (w, x)) in info.iter().zip(x0.iter()).enumerate() {
+            let wm = w.mantissa_at(self.exp);
+            if let Some(d) = self.lam.get_mut(j).and_then(|r| r.get_mut(j)) {
+                *d = d.plus(wm);
+            }
+            if let Some(e) = self.eta.get_mut(j) {
+                *e = e.mul_add(wm, *x);
+            }
+        }
+        self.renormalise();
+        self.check_valid();
+    }
+
     /// Exponential forgetting: information times `lambda` (0 < lambda <= 1).
     pub fn forget(&mut self, lambda: S) {
         for v in self.lam.iter_mut().flatten().chain(self.eta.iter_mut()) {
@@ -342,6 +365,11 @@ pub struct RlsConfig<S> {
     pub unobservable_rel: S,
     /// LU pivot threshold relative to the matrix scale.
     pub pivot_rel: S,
+    /// Weak prior on each inverse-inertia term: standard deviation as a fraction of the mean
+    /// nominal diagonal of `I^-1` (the f64 reference's 1.0; 0 = no prior).
+    pub prior_inertia_rel_std: f32,
+    /// Weak prior on each CoM offset term: standard deviation, m (reference: 0.02; 0 = none).
+    pub prior_com_std_m: f32,
 }
 
 impl<S: Scalar> Default for RlsConfig<S> {
@@ -351,6 +379,8 @@ impl<S: Scalar> Default for RlsConfig<S> {
             detector: None,
             unobservable_rel: S::from_int_pow2(1, -14),
             pivot_rel: S::from_int_pow2(1, -20),
+            prior_inertia_rel_std: 1.0,
+            prior_com_std_m: 0.02,
         }
     }
 }
@@ -402,10 +432,26 @@ pub struct MassId<S> {
 impl<S: Scalar> MassId<S> {
     /// Empty state; `prior_inertia` are the nominal parameters unobservable terms fall back to.
     pub fn new(cfg: RlsConfig<S>, prior_inertia: [S; 6]) -> Self {
+        let mut com = InfoLs::new();
+        let mut inertia = InfoLs::new();
+        // Weak priors (variance^-1), in the kernel's units: CoM in m, inverse inertia / 100.
+        let mean_diag = prior_inertia
+            .iter()
+            .take(3)
+            .fold(0.0f64, |acc, v| acc + f64::from(v.to_f32()))
+            / 3.0;
+        let si = f64::from(cfg.prior_inertia_rel_std) * mean_diag;
+        if si > 0.0 && si.is_finite() {
+            inertia.add_diag(&[Scaled::from_f64(1.0 / (si * si)); 6], &prior_inertia);
+        }
+        let sc = f64::from(cfg.prior_com_std_m);
+        if sc > 0.0 && sc.is_finite() {
+            com.add_diag(&[Scaled::from_f64(1.0 / (sc * sc)); 3], &[S::ZERO; 3]);
+        }
         MassId {
             cfg,
-            com: InfoLs::new(),
-            inertia: InfoLs::new(),
+            com,
+            inertia,
             pending_com: InfoLs::new(),
             pending_inertia: InfoLs::new(),
             pending_updates: 0,

@@ -428,3 +428,23 @@ impl<S: Scalar> Scaled<S> {
         self.mantissa_at(0)
     }
 }
+
+impl<S: Scalar> Scaled<S> {
+    /// An exact-integer accumulator as block floating point: mantissa in [0.5, 1) in
+    /// magnitude carrying its top 30 bits.
+    pub fn from_i64(v: i64) -> Self {
+        let len = 64u32.saturating_sub(v.unsigned_abs().leading_zeros());
+        let sh = len.saturating_sub(30).min(63);
+        let m = (v >> sh) as i32; // |v >> sh| < 2^30
+        let len = len as i32;
+        Scaled { m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)), e: len }
+    }
+    /// Product with a plain scalar.
+    pub fn scale(self, k: S) -> Self {
+        Scaled { m: self.m.times(k), e: self.e }.normalized()
+    }
+    /// Difference.
+    pub fn minus(self, rhs: Self) -> Self {
+        self.plus(Scaled { m: rhs.m.negate(), e: rhs.e })
+    }
+}

@@ -26,6 +26,8 @@ pub struct Score {
 #[derive(Clone, Debug)]
 pub struct Analysis {
     pub output: DiagnosisOutput,
+    /// The recording as diagnosed (for plots).
+    pub series: Series,
     pub residual_before: Vec<[f64; 3]>,
     pub residual_after: Vec<[f64; 3]>,
     pub noise: NoiseModel,
@@ -166,6 +168,7 @@ pub fn diagnose(
     for round in 0..settings.max_effects {
         let acc_pairs: Vec<(Kind, Vec<f64>)> = accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
         let mut best: Option<(f64, Kind, Vec<f64>, f64, String)> = None; // (dbic, kind, theta, chi2, note)
+        let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String)> = vec![];
         for &kind in Kind::ALL.iter() {
             if accepted.iter().any(|a| a.kind == kind) {
                 continue;
@@ -180,13 +183,14 @@ pub fn diagnose(
             if k_new == 0 {
                 continue;
             }
+            let screen_iter = settings.max_iter.min(3);
             let (chi2, theta, note) = if kind == Kind::GyroRinging {
                 let Some(rf) = ringing::fit(series, &residual_cur, &rweight, settings.ringing_prior_hz) else { continue };
                 alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
                 (chi2_cur - rf.delta_chi2, ringing_theta(&rf), rf.evidence.clone())
             } else {
                 let Some((fr, sz)) =
-                    select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), omega0, &slosh_hint, settings.max_iter)
+                    select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), omega0, &slosh_hint, screen_iter)
                 else {
                     continue;
                 };
@@ -194,6 +198,23 @@ pub fn diagnose(
                 (fr.chi2, fr.theta[off..off + k_new].to_vec(), String::new())
             };
             let dbic = chi2 - chi2_cur + k_new as f64 * ln_n;
+            screened.push((dbic, kind, theta, chi2, note));
+        }
+        // full fits for the best screened candidates
+        screened.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        for (i, (dbic, kind, theta, chi2, note)) in screened.into_iter().enumerate() {
+            let (dbic, theta, chi2) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
+                let k_new = effects::n_params(kind, &fired);
+                match select::fit_from(&prob, &fired, &acc_pairs, kind, &theta, omega0, &slosh_hint, settings.max_iter) {
+                    Some((fr, sz)) if fr.chi2 < chi2 => {
+                        let off: usize = sz[..sz.len() - 1].iter().sum();
+                        (fr.chi2 - chi2_cur + k_new as f64 * ln_n, fr.theta[off..off + k_new].to_vec(), fr.chi2)
+                    }
+                    _ => (dbic, theta, chi2),
+                }
+            } else {
+                (dbic, theta, chi2)
+            };
             scores.push(Score { round, effect: kind.name(), delta_bic: dbic });
             if best.as_ref().map(|b| dbic < b.0).unwrap_or(true) {
                 best = Some((dbic, kind, theta, chi2, note));
@@ -264,6 +285,7 @@ pub fn diagnose(
     };
     Analysis {
         output,
+        series: series.clone(),
         tests_before: stats::residual_tests(series, &residual_before),
         tests_after: stats::residual_tests(series, &residual_cur),
         by_condition_before: locate::by_condition(series, &residual_before),

@@ -9,6 +9,9 @@ use reference_f64::satellite::Satellite;
 
 use crate::series::Series;
 
+/// How many predictions ran in this process (for the benchmark and profiling).
+pub static PREDICTIONS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
 /// Number of thrusters.
 pub const NT: usize = 12;
 
@@ -182,6 +185,7 @@ impl MassProps {
 /// `duty` must come from [`duty_grid`] with the same latencies as `p`.
 /// Returns None for parameters that make no physical sense (singular inertia, NaN).
 pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -> Option<Vec<[f64; 3]>> {
+    PREDICTIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let inertia0 = p.inertia.unwrap_or(plant.inertia);
     let props_a = MassProps::new(plant, p, &inertia0, &p.com_offset_mm)?;
     let props_b = match &p.mass_change {
@@ -214,6 +218,7 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
         out.push(y);
     };
     let mut k = t0.max(0) as usize;
+    let mut last_tau = dist;
     while si < series.len() {
         let ts = series.t_ms[si] as usize;
         while k < ts {
@@ -228,8 +233,12 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
                     scale_t = (-(t - start) / tau).exp();
                 }
             }
+            let same = k > 0 && k < n_ms && k - 1 < n_ms && duty[k - 1] == duty[k] && p.blowdown.is_none()
+                && !((k as f64) - 0.5 < change_ms && (k as f64) + 0.5 >= change_ms);
             let mut tau_c = dist;
-            if n_open > 0.0 {
+            if same {
+                tau_c = last_tau;
+            } else if n_open > 0.0 {
                 for i in 0..NT {
                     let di = d[i] as f64;
                     if di > 0.0 {
@@ -238,6 +247,7 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
                     }
                 }
             }
+            last_tau = tau_c;
             let h = 1e-3;
             let deriv = |w: &Vector3<f64>, q: &Vector3<f64>, qd: &Vector3<f64>| {
                 let iw = props.inertia * w;

@@ -158,6 +158,35 @@ pub fn fit_joint(
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
+    fit_with_starts(prob, fired, accepted, new, None, omega0, slosh_hint, max_iter)
+}
+
+/// Continues the fit of `new` from `theta_new` (e.g. after a short screening fit).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_from(
+    prob: &Problem,
+    fired: &[bool; NT],
+    accepted: &[(Kind, Vec<f64>)],
+    new: Kind,
+    theta_new: &[f64],
+    omega0: [f64; 3],
+    slosh_hint: &[f64],
+    max_iter: usize,
+) -> Option<(FitResult, Vec<usize>)> {
+    fit_with_starts(prob, fired, accepted, Some(new), Some(vec![theta_new.to_vec()]), omega0, slosh_hint, max_iter)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn fit_with_starts(
+    prob: &Problem,
+    fired: &[bool; NT],
+    accepted: &[(Kind, Vec<f64>)],
+    new: Option<Kind>,
+    starts: Option<Vec<Vec<f64>>>,
+    omega0: [f64; 3],
+    slosh_hint: &[f64],
+    max_iter: usize,
+) -> Option<(FitResult, Vec<usize>)> {
     // assemble the parameter layout: each accepted effect, then the new one, then omega0
     let mut kinds: Vec<Kind> = accepted.iter().map(|a| a.0).collect();
     if let Some(k) = new {
@@ -180,7 +209,7 @@ pub fn fit_joint(
         sizes.push(s.starts[0].len());
         let is_new = new == Some(*k) && idx == kinds.len() - 1;
         if is_new {
-            new_starts = s.starts;
+            new_starts = starts.clone().unwrap_or(s.starts);
         } else {
             let th = &accepted.iter().find(|a| a.0 == *k).unwrap().1;
             base.extend(th.iter().cloned());

@@ -103,3 +103,13 @@ fn infer_rate(t_ms: &[i64]) -> f64 {
     d.sort_unstable();
     1000.0 / d[d.len() / 2].max(1) as f64
 }
+
+impl Series {
+    /// The recording's samples with `sat`'s gyro calibration. None for an empty recording.
+    pub fn from_recording(rec: &reference_f64::recording::Recording, sat: &reference_f64::satellite::Satellite) -> Option<Series> {
+        let t: Vec<i64> = rec.samples.iter().map(|s| s.time_ms as i64).collect();
+        let g: Vec<[i32; 3]> = rec.samples.iter().map(|s| s.gyro.map(|c| c as i32)).collect();
+        let w: Vec<u16> = rec.samples.iter().map(|s| s.thrusters).collect();
+        Series::from_counts(&t, &g, &w, sat.gyro_bias_counts, sat.gyro_counts_per_rad_s, Some(rec.sample_rate_hz()))
+    }
+}

@@ -17,8 +17,9 @@ pub enum Fmt {
     Q8_24,
 }
 
-/// One output's allowance: `|kernel - reference| <= abs + rel * |reference|`, plus for the
-/// Kalman estimate a term `per_info * (6 + 2 |x|) / S2` (see `why`).
+/// One output's allowance: `|kernel - reference| <= abs + rel * |reference| + per_ctx * (1 + |reference|) * ctx`,
+/// where `ctx` is an output-specific conditioning figure the caller passes (Kalman estimate:
+/// the cancellation ratio of its sums; 0 elsewhere).
 #[derive(Clone, Copy, Debug)]
 pub struct Budget {
     pub output: &'static str,
@@ -26,8 +27,8 @@ pub struct Budget {
     pub fmt: Fmt,
     pub abs: f64,
     pub rel: f64,
-    /// Coefficient of `(6 + 2|x|) / S2` (Kalman estimate only; 0 elsewhere).
-    pub per_info: f64,
+    /// Coefficient of `(1 + |x|) * ctx` (see the struct doc).
+    pub per_ctx: f64,
     pub why: &'static str,
 }
 
@@ -35,30 +36,34 @@ const S: f64 = 1.0 / 16_777_216.0; // 2^-24: Q8.24 step and f32 unit roundoff al
 
 /// The table. One row per (output, format).
 pub const TABLE: &[Budget] = &[
-    Budget { output: "firing.force_n", unit: "N", fmt: Fmt::Q8_24, abs: 64.0 * S, rel: 0.0, per_info: 0.0,
+    Budget { output: "firing.force_n", unit: "N", fmt: Fmt::Q8_24, abs: 64.0 * S, rel: 0.0, per_ctx: 0.0,
         why: "<= 12 terms d*f, each 2 rounded inputs + product + sum: 48 s, rounded up to 64 s" },
-    Budget { output: "firing.force_n", unit: "N", fmt: Fmt::F32, abs: 64.0 * S * 2.4, rel: 0.0, per_info: 0.0,
+    Budget { output: "firing.force_n", unit: "N", fmt: Fmt::F32, abs: 64.0 * S * 2.4, rel: 0.0, per_ctx: 0.0,
         why: "same 48 operations, each within u of sum|d f| <= 12 x 0.2 N" },
-    Budget { output: "firing.torque_cnm", unit: "cN m", fmt: Fmt::Q8_24, abs: 100.0 * 64.0 * S, rel: 0.0, per_info: 0.0,
+    Budget { output: "firing.torque_cnm", unit: "cN m", fmt: Fmt::Q8_24, abs: 100.0 * 64.0 * S, rel: 0.0, per_ctx: 0.0,
         why: "the N m sum as force_n (64 s), times 100 for cN m" },
-    Budget { output: "firing.torque_cnm", unit: "cN m", fmt: Fmt::F32, abs: 100.0 * 64.0 * S * 0.5, rel: 0.0, per_info: 0.0,
+    Budget { output: "firing.torque_cnm", unit: "cN m", fmt: Fmt::F32, abs: 100.0 * 64.0 * S * 0.5, rel: 0.0, per_ctx: 0.0,
         why: "48 operations within u of sum|lxd f| <= 12 x 0.2 x 0.19 N m, x100" },
-    Budget { output: "firing.omega_dot_nominal", unit: "rad/s^2", fmt: Fmt::Q8_24, abs: 16384.0 * S, rel: 16384.0 * S, per_info: 0.0,
+    Budget { output: "firing.omega_dot_nominal", unit: "rad/s^2", fmt: Fmt::Q8_24, abs: 16384.0 * S, rel: 16384.0 * S, per_ctx: 0.0,
         why: "I^-1 (<= 91 per entry, rounded 1 s) times a (64 s) over 3 terms: 91 x 64 x 3 = 17472 s; 2^14 s (1+|x|)" },
-    Budget { output: "firing.omega_dot_nominal", unit: "rad/s^2", fmt: Fmt::F32, abs: 1024.0 * S, rel: 1024.0 * S, per_info: 0.0,
+    Budget { output: "firing.omega_dot_nominal", unit: "rad/s^2", fmt: Fmt::F32, abs: 1024.0 * S, rel: 1024.0 * S, per_ctx: 0.0,
         why: "3 products + sums of relative u each over 12-term torques: < 2^10 u (1+|x|)" },
-    Budget { output: "firing.a_com", unit: "rad/s^2/m", fmt: Fmt::Q8_24, abs: 16384.0 * S, rel: 16384.0 * S, per_info: 0.0,
+    Budget { output: "firing.a_com", unit: "rad/s^2/m", fmt: Fmt::Q8_24, abs: 16384.0 * S, rel: 16384.0 * S, per_ctx: 0.0,
         why: "I^-1 (<= 91) times [c]x (64 s) over 3 terms: < 2^14 s (1+|x|)" },
-    Budget { output: "firing.a_com", unit: "rad/s^2/m", fmt: Fmt::F32, abs: 1024.0 * S, rel: 1024.0 * S, per_info: 0.0,
+    Budget { output: "firing.a_com", unit: "rad/s^2/m", fmt: Fmt::F32, abs: 1024.0 * S, rel: 1024.0 * S, per_ctx: 0.0,
         why: "as omega_dot_nominal" },
-    Budget { output: "kf.omega_dot", unit: "rad/s^2", fmt: Fmt::Q8_24, abs: 2.0 * S, rel: 0.0, per_info: 4.0,
-        why: "estimate = num/den with den = S2 2^-26 (S2 < 2^30): num carries <= 6 s, den <= 2 s, so |dx| <= (6 + 2|x|) s/den + s = (6 + 2|x|) 4/S2 + s" },
-    Budget { output: "kf.omega_dot", unit: "rad/s^2", fmt: Fmt::F32, abs: 64.0 * S, rel: 64.0 * S, per_info: 0.0,
-        why: "the sums (< 2^30) scaled by powers of two into f32 lose <= 2^-24 relative each; num and den <= 4 roundings each, the quotient 1: < 2^6 u (|x| + 1)" },
-    Budget { output: "lu.solution", unit: "1", fmt: Fmt::Q8_24, abs: 4096.0 * S, rel: 0.0, per_info: 0.0,
+    Budget { output: "kf.omega_dot", unit: "rad/s^2", fmt: Fmt::Q8_24, abs: 2.0 * S, rel: 0.0, per_ctx: 64.0 * S,
+        why: "block floating point: every sum and product is a mantissa in [1, 2) with step s (relative <= s); S2 and Sz subtract kappa terms, so their relative error is <= 16 s times the cancellation ratio c = (sum k^2 + 2 kappa sum k + kappa^2 n) / S2; num/den/value add 4 roundings: |dx| <= 64 s c (1 + |x|) + 2 s" },
+    Budget { output: "kf.omega_dot", unit: "rad/s^2", fmt: Fmt::F32, abs: 2.0 * S, rel: 0.0, per_ctx: 64.0 * S,
+        why: "as Q8.24 with the f32 mantissa's relative u = 2^-24 in place of s" },
+    Budget { output: "lu.solution", unit: "1", fmt: Fmt::Q8_24, abs: 4096.0 * S, rel: 0.0, per_ctx: 0.0,
         why: "test matrices diagonally dominant (cond_inf <= 4), |x| <= 8: LU residual bound 2^(n-1) 4 n^2 s (1 + |x|_1) n for n <= 6 is ~ 2^11 s before cond; 2^12 s" },
-    Budget { output: "lu.solution", unit: "1", fmt: Fmt::F32, abs: 0.0, rel: 1024.0 * S, per_info: 0.0,
+    Budget { output: "lu.solution", unit: "1", fmt: Fmt::F32, abs: 0.0, rel: 1024.0 * S, per_ctx: 0.0,
         why: "backward error 2^(n-1) 4 n^2 u for n = 3..6 times cond_inf <= 4: < 2^10 u relative to |x|_inf" },
+    Budget { output: "rls.estimate", unit: "1 (norm-wise, x cond)", fmt: Fmt::Q8_24, abs: 0.0, rel: 256.0 * S, per_ctx: 0.0,
+        why: "information mantissas < 2^4 with absolute step s accumulate < 2^8 s relative backward error over a run (renormalisation truncates once per shift); forward error <= cond(Lambda) x that, norm-wise: |dx|_inf <= 2^8 s cond |x|_inf" },
+    Budget { output: "rls.estimate", unit: "1 (norm-wise, x cond)", fmt: Fmt::F32, abs: 0.0, rel: 256.0 * S, per_ctx: 0.0,
+        why: "f32: relative u per accumulation, the information sums are renormalised (no growth of the absolute error): < 2^8 u backward, times cond" },
 ];
 
 /// The budget row for `output` in `fmt`.
@@ -69,16 +74,16 @@ pub fn budget(output: &str, fmt: Fmt) -> &'static Budget {
         .unwrap_or_else(|| panic!("no budget for {output} in {fmt:?}"))
 }
 
-/// The allowance for one value (`s2` only matters for `kf.omega_dot`).
-pub fn allowance(output: &str, fmt: Fmt, reference: f64, s2: f64) -> f64 {
+/// The allowance for one value (`ctx`: see [`Budget`]; 0 for outputs without one).
+pub fn allowance(output: &str, fmt: Fmt, reference: f64, ctx: f64) -> f64 {
     let b = budget(output, fmt);
-    let info = if b.per_info > 0.0 && s2 > 0.0 { b.per_info * (6.0 + 2.0 * reference.abs()) / s2 } else { 0.0 };
-    b.abs + b.rel * reference.abs() + info
+    let c = if b.per_ctx > 0.0 { b.per_ctx * (1.0 + reference.abs()) * ctx } else { 0.0 };
+    b.abs + b.rel * reference.abs() + c
 }
 
 /// `Ok` when `got` is within the budget of `reference`; the error names the output.
-pub fn check(output: &str, fmt: Fmt, got: f64, reference: f64, s2: f64) -> Result<(), String> {
-    let a = allowance(output, fmt, reference, s2);
+pub fn check(output: &str, fmt: Fmt, got: f64, reference: f64, ctx: f64) -> Result<(), String> {
+    let a = allowance(output, fmt, reference, ctx);
     let e = (got - reference).abs();
     if e <= a && got.is_finite() {
         Ok(())
@@ -101,13 +106,13 @@ impl Worst {
         Worst { output: output.into(), ..Default::default() }
     }
     /// Records one comparison; `Err` if it is over budget.
-    pub fn record(&mut self, fmt: Fmt, got: f64, reference: f64, s2: f64) -> Result<(), String> {
-        let a = allowance(&self.output, fmt, reference, s2);
+    pub fn record(&mut self, fmt: Fmt, got: f64, reference: f64, ctx: f64) -> Result<(), String> {
+        let a = allowance(&self.output, fmt, reference, ctx);
         let e = (got - reference).abs();
         self.count += 1;
         self.max_err = self.max_err.max(e);
         self.max_ratio = self.max_ratio.max(e / a);
-        check(&self.output, fmt, got, reference, s2)
+        check(&self.output, fmt, got, reference, ctx)
     }
 
     /// As [`Worst::record`] for a norm-wise budget: the relative part applies to `scale`

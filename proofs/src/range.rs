@@ -103,6 +103,7 @@ pub fn envelope_terms() -> ModelTerms<Interval> {
         pressure_drop_n: round(iv(env::PRESSURE_DROP_N)),
         inertia_inv: inv.map(|r| r.map(round)),
         theta_inertia_nominal: [inv[0][0], inv[1][1], inv[2][2], inv[0][1], inv[0][2], inv[1][2]].map(|v| round(v * hundredth)),
+        theta_inertia_matrix: inv.map(|r| r.map(|v| round(v * hundredth))),
     }
 }
 

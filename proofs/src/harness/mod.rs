@@ -51,6 +51,7 @@ pub const ALL: &[Harness] = &[
     model::HARNESSES[1],
     omega_dot::HARNESSES[0],
     omega_dot::HARNESSES[1],
+    omega_dot::HARNESSES[2],
     lu::HARNESSES[0],
     lu::HARNESSES[1],
     lu::HARNESSES[2],

@@ -342,16 +342,37 @@ pub struct Measurement<S> {
     pub variance: [Scaled<S>; 3],
 }
 
-/// Change detector on the RLS innovations (a one-sided CUSUM of the normalised innovation
-/// squared, evaluated once per firing from the firing's final angular acceleration).
+/// Change detector on the RLS innovations, evaluated once per firing from the firing's
+/// final angular acceleration: the normalised innovation squared
+/// `nis = sum_i nu_i^2 / (P_i + (A Q A')_ii)` of the inertia equations against the estimate
+/// from before the firing, divided by its learnt level (the Kalman filter's formal variances
+/// are optimistic, so the level is learnt over `warmup_firings` firings and then tracked),
+/// feeds a one-sided CUSUM `g = max(0, g + ratio - 1 - drift)`; an alarm (`g > threshold`)
+/// divides the information by `2^deflate_bits` (a covariance reset that keeps the estimate)
+/// and restarts the level learning while the estimate re-converges.
 #[derive(Clone, Copy, Debug)]
 pub struct DetectorConfig<S> {
-    /// Subtracted from each firing's statistic (its expected value is 3 for a consistent model).
+    /// Allowed excess of the ratio over 1 per firing.
     pub drift: S,
-    /// Alarm when the cumulative sum exceeds this.
+    /// Alarm when the cumulative excess exceeds this.
     pub threshold: S,
     /// On alarm, the information is divided by 2^deflate_bits (covariance reset).
     pub deflate_bits: i32,
+    /// Firings (with every term observable) that only learn the innovation level.
+    pub warmup_firings: u32,
+}
+
+impl<S: Scalar> DetectorConfig<S> {
+    /// Drift 3, threshold 30, information divided by 2^10 (~1e-3, the reference's shrink),
+    /// level learnt over 6 firings.
+    pub fn standard() -> Self {
+        DetectorConfig {
+            drift: S::from_int_pow2(3, 0),
+            threshold: S::from_int_pow2(30, 0),
+            deflate_bits: 10,
+            warmup_firings: 6,
+        }
+    }
 }
 
 /// RLS options.
@@ -425,8 +446,10 @@ pub struct MassId<S> {
     /// Covariance resets by the change detector.
     pub resets: u32,
     cusum: S,
-    /// Last firing's detector statistic (normalised innovation squared), for telemetry.
-    pub last_nis: S,
+    level: Scaled<S>,
+    level_firings: u32,
+    /// Last firing's detector statistic (normalised innovation squared over its level), for telemetry.
+    pub last_ratio: S,
 }
 
 impl<S: Scalar> MassId<S> {
@@ -464,7 +487,9 @@ impl<S: Scalar> MassId<S> {
             updates: 0,
             resets: 0,
             cusum: S::ZERO,
-            last_nis: S::ZERO,
+            level: Scaled::zero(),
+            level_firings: 0,
+            last_ratio: S::ZERO,
         }
     }
 
@@ -492,15 +517,7 @@ impl<S: Scalar> MassId<S> {
     pub fn end_firing(&mut self, last: Option<&Measurement<S>>) -> RlsStatus {
         if let (Some(det), Some(m)) = (self.cfg.detector, last) {
             if let Some(nis) = self.innovation_nis(m) {
-                self.last_nis = nis;
-                let s = self.cusum.plus(nis).minus(det.drift);
-                self.cusum = if S::ZERO.lt(s) { s } else { S::ZERO };
-                if det.threshold.lt(self.cusum) {
-                    self.com.deflate(det.deflate_bits);
-                    self.inertia.deflate(det.deflate_bits);
-                    self.cusum = S::ZERO;
-                    self.resets = self.resets.saturating_add(1);
-                }
+                self.detect(&det, nis);
             }
         }
         if let Some(l) = self.cfg.forgetting {
@@ -517,20 +534,55 @@ impl<S: Scalar> MassId<S> {
         self.solve()
     }
 
+    fn detect(&mut self, det: &DetectorConfig<S>, nis: Scaled<S>) {
+        if self.level_firings < det.warmup_firings {
+            // Learning: the level is the running mean of the statistic.
+            let n = self.level_firings.saturating_add(1);
+            let w = Scaled::from_i64(i64::from(n));
+            let sum = self.level.times(Scaled::from_i64(i64::from(self.level_firings))).plus(nis);
+            if let Some(mean) = sum.over(w) {
+                self.level = mean;
+            }
+            self.level_firings = n;
+            return;
+        }
+        let Some(ratio) = nis.over(self.level) else { return };
+        let ratio = ratio.value(); // saturates for a huge excess: still an alarm
+        self.last_ratio = ratio;
+        let s = self.cusum.plus(ratio).minus(S::ONE).minus(det.drift);
+        self.cusum = if S::ZERO.lt(s) { s } else { S::ZERO };
+        if det.threshold.lt(self.cusum) {
+            self.com.deflate(det.deflate_bits);
+            self.inertia.deflate(det.deflate_bits);
+            self.cusum = S::ZERO;
+            self.resets = self.resets.saturating_add(1);
+            // The estimate has to re-converge on the new configuration: learn the level again
+            // (no further alarm meanwhile, so one change gives one reset).
+            self.level = Scaled::zero();
+            self.level_firings = 0;
+        } else if ratio.lt(S::ONE.plus(det.drift)) {
+            // Track slow changes of the level with the in-control firings (weight 1/8).
+            self.level = self.level.times(Scaled::from_f64(0.875)).plus(nis.times(Scaled::from_f64(0.125)));
+        }
+    }
+
     /// Normalised innovation squared of the inertia equations for `m` against the current estimate.
-    fn innovation_nis(&self, m: &Measurement<S>) -> Option<S> {
+    fn innovation_nis(&self, m: &Measurement<S>) -> Option<Scaled<S>> {
         if self.inertia.is_empty() {
             return None;
         }
         let sol = self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel).ok()?;
-        let mut total = S::ZERO;
+        if sol.unobservable.iter().any(|u| *u) {
+            // Terms held at the prior have no meaningful predicted variance: no test yet.
+            return None;
+        }
+        let mut total = Scaled::zero();
         for ((row, b), var) in m.a_inertia.iter().zip(m.b_inertia.iter()).zip(m.variance.iter()) {
             let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
             let nu = b.minus(pred);
             let s = sol.predicted_variance(row)?.plus(*var);
             let nu_s = Scaled { m: nu, e: 0 }.normalized();
-            let term = nu_s.times(nu_s).over(s)?;
-            total = total.plus(term.value());
+            total = total.plus(nu_s.times(nu_s).over(s)?);
         }
         Some(total)
     }

@@ -397,12 +397,7 @@ pub fn average_thrust_tests(tests: &[ThrustVector]) -> Result<ThrustAverage> {
     }
     let n = tests.len() as f64;
     let mean_mag = tests.iter().map(|t| t.magnitude_n).sum::<f64>() / n;
-    let mut mean_dir = [0.0; 3];
-    for t in tests {
-        for j in 0..3 {
-            mean_dir[j] += t.direction[j] / n;
-        }
-    }
+    let mean_dir: [f64; 3] = std::array::from_fn(|j| tests.iter().map(|t| t.direction[j]).sum::<f64>() / n);
     let var = |f: &dyn Fn(&ThrustVector) -> f64, m: f64| tests.iter().map(|t| (f(t) - m).powi(2)).sum::<f64>() / (n - 1.0);
     let magnitude_stdev_n = var(&|t| t.magnitude_n, mean_mag).sqrt();
     let direction_stdev = std::array::from_fn(|j| var(&|t: &ThrustVector| t.direction[j], mean_dir[j]).sqrt());

@@ -234,7 +234,7 @@ impl Mixer {
     /// produce all six axes.
     pub fn new(geometry: ThrusterGeometry, config: MixerConfig) -> Result<Mixer, MixerError> {
         geometry.validate()?;
-        if config.min_pulse_ms == 0 || config.period_ms < 2 * config.min_pulse_ms {
+        if config.min_pulse_ms == 0 || config.period_ms / 2 < config.min_pulse_ms {
             return Err(MixerError::BadPeriod { period_ms: config.period_ms, min_pulse_ms: config.min_pulse_ms });
         }
         let p = config.pressure_drop_n_per_extra;
@@ -342,14 +342,13 @@ pub fn resolve_opposing_thrust(duty: &[f64; N_THRUSTERS], thrust_n: &[f64; N_THR
     let mut out = *duty;
     for &(a, b) in OPPOSING_PAIRS.iter() {
         if out[a] > 0.0 && out[b] > 0.0 {
-            let common = (out[a] * thrust_n[a]).min(out[b] * thrust_n[b]);
-            out[a] -= common / thrust_n[a];
-            out[b] -= common / thrust_n[b];
-            // exact zero for the smaller one (no round-off residue)
-            if out[a] * thrust_n[a] <= out[b] * thrust_n[b] {
-                out[a] = 0.0;
-            } else {
+            let (fa, fb) = (out[a] * thrust_n[a], out[b] * thrust_n[b]);
+            if fa >= fb {
+                out[a] = (fa - fb) / thrust_n[a];
                 out[b] = 0.0;
+            } else {
+                out[a] = 0.0;
+                out[b] = (fb - fa) / thrust_n[b];
             }
         }
     }
@@ -517,6 +516,23 @@ mod tests {
         assert_eq!((f.on_ms[1], f.off_ms[1]), (90, 110));
         assert_eq!((f.on_ms[2], f.off_ms[2]), (0, 0));
         assert_eq!((f.on_ms[11], f.off_ms[11]), (0, 200));
+    }
+
+    #[test]
+    fn absurd_configs_are_errors() {
+        let sat = Satellite::builtin("sph1").unwrap();
+        let g = ThrusterGeometry::from_satellite(&sat, None);
+        for (period_ms, min_pulse_ms) in [(19, 10), (200, 0), (u32::MAX, u32::MAX), (0, 10)] {
+            let c = MixerConfig { period_ms, min_pulse_ms, pressure_drop_n_per_extra: 0.0 };
+            assert!(matches!(Mixer::new(g.clone(), c), Err(MixerError::BadPeriod { .. })));
+        }
+        let c = MixerConfig { pressure_drop_n_per_extra: f64::NAN, ..MixerConfig::default() };
+        assert!(matches!(Mixer::new(g.clone(), c), Err(MixerError::BadPressureDrop(_))));
+        // a drop larger than the thrust with several valves open is reported, not mixed
+        let c = MixerConfig { pressure_drop_n_per_extra: 0.2, ..MixerConfig::default() };
+        let m = Mixer::new(g, c).unwrap();
+        let r = m.mix(Vector3::new(0.1, 0.1, 0.1), Vector3::zeros());
+        assert!(matches!(r, Err(MixerError::PressureDropExceedsThrust { .. })));
     }
 
     #[test]

@@ -135,3 +135,16 @@ pub fn emit(text: &str) -> anyhow::Result<()> {
         _ => Ok(()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::parse_triple;
+
+    #[test]
+    fn triples_parse_or_explain() {
+        assert_eq!(parse_triple("-0.1, 0,2e-3"), Ok([-0.1, 0.0, 2e-3]));
+        assert!(parse_triple("1,2").unwrap_err().contains("three"));
+        assert!(parse_triple("1,x,2").unwrap_err().contains("\"x\" is not a number"));
+        assert!(parse_triple("1,inf,2").unwrap_err().contains("not finite"));
+    }
+}

@@ -140,6 +140,7 @@ pub struct OmegaDotKf<S> {
     ticks: u32,
     anchor_tick: u32,
     anchor: [i32; 3],
+    anchor_offset: [i32; 3],
     anchored: bool,
     k_sq: u64,
     sums: KfSums,
@@ -171,6 +172,7 @@ impl<S: Scalar> OmegaDotKf<S> {
             ticks: 0,
             anchor_tick: 0,
             anchor: [0; 3],
+            anchor_offset: [0; 3],
             anchored: false,
             k_sq: 0,
             sums: KfSums::default(),
@@ -180,6 +182,14 @@ impl<S: Scalar> OmegaDotKf<S> {
     /// Restarts the filter for a new thruster configuration at the nominal prediction
     /// `prior` (rad/s^2) with the conservative covariance `P0`.
     pub fn reset(&mut self, prior: [S; 3]) {
+        self.reset_with_offset(prior, [0; 3]);
+    }
+
+    /// [`OmegaDotKf::reset`] with `offset_q12` added to the zero of the measurement: the
+    /// filtered rate at the change still lags the body by the filter delay, so after a firing
+    /// the reference rate is extrapolated by that firing's acceleration times the delay.
+    pub fn reset_with_offset(&mut self, prior: [S; 3], offset_q12: [i32; 3]) {
+        self.anchor_offset = offset_q12;
         self.prior = prior;
         self.ticks = 0;
         self.anchor_tick = 0;
@@ -195,7 +205,10 @@ impl<S: Scalar> OmegaDotKf<S> {
         if !self.anchored {
             return match filtered_q12 {
                 Some(c) => {
-                    self.anchor = c;
+                    self.anchor = [0, 1, 2].map(|a| {
+                        let v = c.get(a).copied().unwrap_or(0);
+                        v.saturating_add(self.anchor_offset.get(a).copied().unwrap_or(0))
+                    });
                     self.anchor_tick = tick;
                     self.anchored = true;
                     KfStatus::Anchored

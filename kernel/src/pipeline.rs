@@ -101,6 +101,10 @@ pub struct Pipeline<S> {
     filter: GyroLowPass,
     gyro: Option<Gyroscopic<S>>,
     filtered: [i32; 3],
+    /// The last acceleration estimate of the current run of firings (zero after a coast).
+    accel_before: [S; 3],
+    /// Filter delay times the gyro scale, counts per rad/s^2, per axis.
+    lag_counts: [S; 3],
     kf: OmegaDotKf<S>,
     mass: MassId<S>,
     word: u16,
@@ -129,6 +133,11 @@ impl<S: Scalar> Pipeline<S> {
             filter: GyroLowPass::new(LowPassCoefs::design(GYRO_FILTER_HZ, cfg.kf.dt_s)),
             gyro,
             filtered: [0; 3],
+            accel_before: [S::ZERO; 3],
+            lag_counts: core::array::from_fn(|a| {
+                let g = cfg.kf.counts_per_rad_s.get(a).copied().unwrap_or(0.0);
+                S::from_f32((cfg.kf.delay_ticks * cfg.kf.dt_s * g) as f32)
+            }),
             kf: OmegaDotKf::new(&cfg.kf),
             mass: MassId::new(cfg.rls, terms.theta_inertia_nominal),
             word: 0,
@@ -168,7 +177,15 @@ impl<S: Scalar> Pipeline<S> {
                 self.firing_has_data = false;
                 self.firing_terms = self.terms.firing_terms(word);
                 let prior = self.nominal_omega_dot();
-                self.kf.reset(prior);
+                // Extrapolate the lagging filtered rate by the previous firing's acceleration.
+                let offset: [i32; 3] = core::array::from_fn(|a| {
+                    let acc = self.accel_before.get(a).copied().unwrap_or(S::ZERO);
+                    let lag = self.lag_counts.get(a).copied().unwrap_or(S::ZERO);
+                    let q = acc.times(lag).floor_times(1 << COUNT_FRAC_BITS).unwrap_or(0);
+                    i32::try_from(q).unwrap_or(0)
+                });
+                self.kf.reset_with_offset(prior, offset);
+                self.accel_before = [S::ZERO; 3];
                 self.last = None;
                 self.last_estimate = None;
                 if self.status == PipelineStatus::Idle {
@@ -177,6 +194,7 @@ impl<S: Scalar> Pipeline<S> {
             }
         }
         let event = if self.word == 0 {
+            self.accel_before = [S::ZERO; 3];
             TickEvent::Coasting
         } else {
             match self.kf.update(filtered) {
@@ -214,6 +232,7 @@ impl<S: Scalar> Pipeline<S> {
             self.firing_has_data = true;
             self.firings_with_data = self.firings_with_data.saturating_add(1);
         }
+        self.accel_before = est.omega_dot;
         let m = self.measurement(&est);
         self.last = Some(m);
         self.last_estimate = Some(est);

@@ -18,10 +18,10 @@ fn params(sat: &Satellite) -> SatelliteParams {
     }
 }
 
-/// Runs a recording through the kernel as flight code would: one tick per sample (the
-/// reference's online form also takes samples as arriving at the nominal period).
+/// Runs a recording through the kernel as flight code would: one tick per sample period,
+/// a telemetry gap as gap ticks (time advances without a sample).
 fn run<S: Scalar>(rec: &Recording, sat: &Satellite) -> massid_kernel::Estimates<S> {
-    run_with(rec, sat, false)
+    run_with(rec, sat, true)
 }
 
 fn kernel_config<S: Scalar>(rec: &Recording, sat: &Satellite) -> PipelineConfig<S> {

@@ -18,7 +18,17 @@ fn main() {
         }
     };
     let name = args.get(2).cloned().or_else(|| rec.satellite().map(str::to_string)).unwrap_or("sph2".into());
-    let Some(sat) = Satellite::builtin(&name) else {
+    let sat = if let Some(model) = name.strip_suffix(".toml").map(|_| name.clone()) {
+        match Satellite::from_toml_file(std::path::Path::new(&model)) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("{e}");
+                std::process::exit(1);
+            }
+        }
+    } else if let Some(s) = Satellite::builtin(&name) {
+        s
+    } else {
         eprintln!("unknown satellite {name}");
         std::process::exit(1);
     };

@@ -201,42 +201,52 @@ impl<const N: usize> BatchLs<N> {
     }
 }
 
-/// Change detector on the RLS innovations: a one-sided CUSUM of the normalised innovation
-/// squared `e = nu' S^-1 nu / m` (`S = A Q A' + R`, `m = 3`) relative to its running
-/// median level, `g = max(0, g + e/e_ref - 1 - drift)`; when `g > threshold` the estimate
-/// covariance is inflated (`Q^-1 <- prior info + (Q^-1 - prior info) * shrink`) so that
-/// new data dominates, e.g. after a proof mass is attached mid-run (seed Fig. 4.4).
-/// `e_ref` is learnt over the first `warmup` updates (their mean), because the Kalman
-/// filter's variances are optimistic by a roughly constant factor.
+/// Change detector on the RLS innovations, one value per firing: a one-sided CUSUM
+/// `g = max(0, g + e/e_ref - 1 - drift)` of the firing's relative innovation
+/// `e = |b - A x| / |b|` (its last, best Kalman estimate against the RLS prediction from
+/// before the firing), with `e_ref` the mean of the first `warmup` firings' values. When
+/// `g > threshold` a change is declared (the caller inflates the covariance so new data
+/// dominates, e.g. after a proof mass is attached mid-run, seed Fig. 4.4) and the
+/// detector rests for `refractory` firings while every axis is re-excited.
+/// Per firing rather than per update because within a firing the Kalman filter's
+/// variance shrinks like `1/n^3` while its error does not, so per-update normalised
+/// innovations are not stationary.
 #[derive(Clone, Debug)]
 pub struct ChangeDetector {
     pub drift: f64,
     pub threshold: f64,
-    pub shrink: f64,
     pub warmup: usize,
+    pub refractory: usize,
     g: f64,
     seen: usize,
     e_sum: f64,
-    pub detections: Vec<usize>,
+    rest: usize,
 }
 
 impl ChangeDetector {
-    pub fn new(drift: f64, threshold: f64, shrink: f64, warmup: usize) -> Self {
-        ChangeDetector { drift, threshold, shrink, warmup, g: 0.0, seen: 0, e_sum: 0.0, detections: Vec::new() }
+    pub fn new(drift: f64, threshold: f64, warmup: usize, refractory: usize) -> Self {
+        ChangeDetector { drift, threshold, warmup, refractory, g: 0.0, seen: 0, e_sum: 0.0, rest: 0 }
     }
 
-    /// Feeds one normalised innovation; true when a change is declared.
-    pub fn feed(&mut self, e: f64, update_no: usize) -> bool {
+    /// Feeds one firing's relative innovation; true when a change is declared.
+    pub fn feed(&mut self, e: f64) -> bool {
+        if !e.is_finite() {
+            return false;
+        }
         self.seen += 1;
         if self.seen <= self.warmup {
             self.e_sum += e;
+            return false;
+        }
+        if self.rest > 0 {
+            self.rest -= 1;
             return false;
         }
         let e_ref = (self.e_sum / self.warmup.max(1) as f64).max(1e-12);
         self.g = (self.g + e / e_ref - 1.0 - self.drift).max(0.0);
         if self.g > self.threshold {
             self.g = 0.0;
-            self.detections.push(update_no);
+            self.rest = self.refractory;
             return true;
         }
         false
@@ -255,7 +265,6 @@ pub struct Rls<const N: usize> {
     pub prior_info: SMatrix<f64, N, N>,
     /// Exponential forgetting factor per update (1 = none).
     pub forgetting: f64,
-    pub detector: Option<ChangeDetector>,
     /// Sum of `nu' S^-1 nu` (equals the batch's weighted residual without forgetting).
     pub innovation_ss: f64,
     pub updates: usize,
@@ -269,14 +278,19 @@ impl<const N: usize> Rls<N> {
             info: batch.info,
             prior_info: batch.prior_info,
             forgetting: 1.0,
-            detector: None,
             innovation_ss: batch.weighted_rss()?,
             updates: 0,
         })
     }
 
-    /// One update (eqs. 3.9-3.10). Returns true when the change detector fired.
-    pub fn update(&mut self, o: &Observation<N>) -> Result<bool, LsError> {
+    /// Keeps the estimate but scales the data's information by `shrink` (the prior's
+    /// stays), so that the next data dominate: the reset after a detected change.
+    pub fn reset_covariance(&mut self, shrink: f64) {
+        self.info = self.prior_info + (self.info - self.prior_info) * shrink;
+    }
+
+    /// One update (eqs. 3.9-3.10).
+    pub fn update(&mut self, o: &Observation<N>) -> Result<(), LsError> {
         let r_inv = o.r.try_inverse().ok_or(LsError::SingularInformation)?;
         let nu = o.b - o.a * self.x;
         // innovation statistics before the update (predictive residual)
@@ -284,13 +298,6 @@ impl<const N: usize> Rls<N> {
         let s = o.a * q * o.a.transpose() + o.r;
         let e = s.try_inverse().map(|si| (nu.transpose() * si * nu)[0]).unwrap_or(0.0);
         self.innovation_ss += e;
-        let mut changed = false;
-        if let Some(d) = self.detector.as_mut() {
-            if d.feed(e / 3.0, self.updates) {
-                self.info = self.prior_info + (self.info - self.prior_info) * d.shrink;
-                changed = true;
-            }
-        }
         if self.forgetting < 1.0 {
             self.info = self.prior_info + (self.info - self.prior_info) * self.forgetting;
         }
@@ -298,7 +305,7 @@ impl<const N: usize> Rls<N> {
         let dx = lu_solve(&self.info, &(o.a.transpose() * r_inv * nu)).ok_or(LsError::SingularInformation)?;
         self.x += dx;
         self.updates += 1;
-        Ok(changed)
+        Ok(())
     }
 
     pub fn covariance(&self) -> Result<SMatrix<f64, N, N>, LsError> {
@@ -306,12 +313,12 @@ impl<const N: usize> Rls<N> {
     }
 }
 
-/// How much a maneuver excited each term: for column `j` of the unweighted design
-/// matrices, `sum_k |A_k e_j|^2` divided by a reference level squared, i.e. the number of
-/// updates' worth of a reference-size excitation. The reference is half the weakest
+/// How much a maneuver excited each term: the number of updates in which column `j` of
+/// the unweighted design matrix, `|A_k e_j|`, reached a reference level: half the weakest
 /// single-thruster force (CoM: the net force perpendicular to the axis) or torque
-/// (inertia: the torque component that multiplies the term), so a term is observable when
-/// it saw at least `min_updates` of them. Rotations (force couples) leave the CoM
+/// (inertia: the torque components that multiply the term). A term is observable when
+/// it saw at least `min_updates` of them; small leftovers (a couple's net force from
+/// unequal thrusters, off-axis torque from direction errors) never count, however long. Rotations (force couples) leave the CoM
 /// unobservable; single-axis rotations leave the other axes' inertias unobservable (seed
 /// eq. 3.13 and the discussion before it).
 #[derive(Clone, Debug)]
@@ -334,11 +341,15 @@ impl Excitation {
         let (c, _) = force_and_nominal_torque(sat, word);
         let sc = skew(&c);
         for j in 0..3 {
-            self.com[j] += sc.column(j).norm_squared() / (self.force_ref * self.force_ref);
+            if sc.column(j).norm() >= self.force_ref {
+                self.com[j] += 1.0;
+            }
         }
         let (a2, _) = inertia_row(sat, word, omega, &Vector3::zeros());
         for j in 0..6 {
-            self.inertia[j] += a2.column(j).norm_squared() / (self.torque_ref * self.torque_ref);
+            if a2.column(j).norm() >= self.torque_ref {
+                self.inertia[j] += 1.0;
+            }
         }
     }
 

@@ -19,19 +19,21 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 /// Change-detector settings (see [`ChangeDetector`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ChangeDetectorConfig {
-    /// Allowed excess of the normalised innovation over its learnt level per update.
+    /// Allowed excess of a firing's relative innovation over its learnt level.
     pub drift: f64,
     /// CUSUM level that declares a change.
     pub threshold: f64,
     /// Factor applied to the data information at a detection (0 = forget all data).
     pub shrink: f64,
-    /// Updates used to learn the innovation level after the batch.
-    pub warmup: usize,
+    /// Firings after the batch used to learn the innovation level.
+    pub warmup_firings: usize,
+    /// Firings the detector rests after a detection (time to re-excite every axis).
+    pub refractory_firings: usize,
 }
 
 impl Default for ChangeDetectorConfig {
     fn default() -> Self {
-        ChangeDetectorConfig { drift: 2.0, threshold: 200.0, shrink: 1e-3, warmup: 2000 }
+        ChangeDetectorConfig { drift: 2.0, threshold: 10.0, shrink: 1e-3, warmup_firings: 4, refractory_firings: 6 }
     }
 }
 
@@ -107,9 +109,10 @@ pub struct Estimate {
     /// The batch LS over all updates (the RLS must end here without forgetting).
     pub batch_all_com_offset_mm: [f64; 3],
     pub batch_all_inertia_kgm2: [f64; 6],
-    /// Ratio of the observed to the predicted weighted residual (CoM, inertia problems);
-    /// the stderrs above are scaled by its square root when it exceeds 1, since the
-    /// Kalman filter's variances are optimistic (its errors are correlated in time).
+    /// Ratio of the observed to the predicted weighted residual (CoM, inertia problems).
+    /// The stderrs above are the LS covariance scaled by this factor when it exceeds 1
+    /// (the Kalman filter's variances are optimistic) and by the updates per firing (a
+    /// firing's cumulative Kalman estimates share one error, so a firing counts once).
     pub variance_factor: [f64; 2],
     /// Times (s) at which the change detector reset the covariance.
     pub detections_s: Vec<f64>,
@@ -136,6 +139,9 @@ pub struct MassIdAccumulator {
     weak_std_com: SVector<f64, 3>,
     weak_std_inertia: SVector<f64, 6>,
     detections_s: Vec<f64>,
+    detector: Option<ChangeDetector>,
+    x_at_firing_start: Option<SVector<f64, 6>>,
+    last_in_firing: Option<OmegaDotEstimate>,
 }
 
 impl MassIdAccumulator {
@@ -178,6 +184,9 @@ impl MassIdAccumulator {
             weak_std_com,
             weak_std_inertia,
             detections_s: Vec::new(),
+            detector: None,
+            x_at_firing_start: None,
+            last_in_firing: None,
         }
     }
 
@@ -198,9 +207,12 @@ impl MassIdAccumulator {
             return;
         }
         if self.last_firing != Some(e.firing) {
+            self.end_of_firing();
             self.last_firing = Some(e.firing);
             self.firings_seen += 1;
+            self.x_at_firing_start = self.rls.as_ref().map(|(_, ri)| ri.x);
         }
+        self.last_in_firing = Some(*e);
         let (oc, oi) = Self::observations(&self.sat, e);
         self.excitation.add(&self.sat, e.word, &Vector3::from(e.omega));
         self.com_all.add(&oc);
@@ -221,22 +233,36 @@ impl MassIdAccumulator {
             }
         }
         let Some((rc, ri)) = self.rls.as_mut() else { return };
-        let result = rc.update(&oc).and_then(|a| ri.update(&oi).map(|b| a || b));
-        match result {
-            Ok(changed) => {
-                if changed {
-                    self.detections_s.push(e.t_s);
-                }
-            }
-            Err(err) => {
-                self.error = Some(err);
-                return;
-            }
+        if let Err(err) = rc.update(&oc).and_then(|_| ri.update(&oi)) {
+            self.error = Some(err);
+            return;
         }
         if self.cfg.keep_history && self.updates % self.cfg.history_every.max(1) == 0 {
             if let Some(p) = self.history_point(e.t_s) {
                 self.history.push(p);
             }
+        }
+    }
+
+    /// Change detection at the end of a firing: its last (best) Kalman estimate against
+    /// the inertia RLS prediction from before the firing.
+    fn end_of_firing(&mut self) {
+        let (Some(d), Some(x0), Some(last)) = (self.detector.as_mut(), self.x_at_firing_start, self.last_in_firing) else {
+            return;
+        };
+        let (_, oi) = Self::observations(&self.sat, &last);
+        let b = oi.b.norm();
+        if b <= 0.0 {
+            return;
+        }
+        let e = (oi.b - oi.a * x0).norm() / b;
+        if d.feed(e) {
+            let shrink = self.cfg.change_detector.map(|c| c.shrink).unwrap_or(1e-3);
+            if let Some((rc, ri)) = self.rls.as_mut() {
+                rc.reset_covariance(shrink);
+                ri.reset_covariance(shrink);
+            }
+            self.detections_s.push(last.t_s);
         }
     }
 
@@ -249,8 +275,7 @@ impl MassIdAccumulator {
         }
         if let Some(d) = self.cfg.change_detector {
             // one detector on the inertia problem drives both covariance resets
-            ri.detector = Some(ChangeDetector::new(d.drift, d.threshold, d.shrink, d.warmup));
-            rc.detector = Some(ChangeDetector::new(d.drift, d.threshold, d.shrink, d.warmup));
+            self.detector = Some(ChangeDetector::new(d.drift, d.threshold, d.warmup_firings, d.refractory_firings));
         }
         self.rls = Some((rc, ri));
         Ok(())
@@ -278,6 +303,7 @@ impl MassIdAccumulator {
 
     /// The final estimate. `dt` is the sample period (for the observability threshold).
     pub fn finish(mut self, dt: f64) -> Estimate {
+        self.end_of_firing();
         let mut unobservable = self.unobservable(dt);
         for p in &self.pinned {
             if !unobservable.contains(p) {
@@ -317,8 +343,12 @@ impl MassIdAccumulator {
             let m = 3.0 * self.updates as f64;
             let vf_c = (rc.innovation_ss / (m - 3.0).max(1.0)).max(1.0);
             let vf_i = (ri.innovation_ss / (m - 6.0).max(1.0)).max(1.0);
-            let mut cc = rc.covariance()? * vf_c;
-            let mut ci = ri.covariance()? * vf_i;
+            // Within a firing the Kalman estimates are cumulative, so their errors are
+            // almost fully correlated: a firing is one independent measurement, not
+            // `updates / firings` of them. Scale the LS covariance by that count too.
+            let per_firing = (self.updates as f64 / self.firings_seen.max(1) as f64).max(1.0);
+            let mut cc = rc.covariance()? * vf_c * per_firing;
+            let mut ci = ri.covariance()? * vf_i * per_firing;
             // unobservable terms: their honest uncertainty is the weak prior's
             for (j, n) in COM_TERMS.iter().enumerate() {
                 if unobservable.iter().any(|u| u == n) {
@@ -400,8 +430,10 @@ pub struct OnlineEstimator {
     dt: f64,
     filters: Option<[CausalLowPass; 3]>,
     kf: OmegaDotKalman,
-    current: Option<(u16, usize)>,
+    /// (word, time_ms of the change)
+    current: Option<(u16, u64)>,
     sample_no: usize,
+    accel_before: Vector3<f64>,
     firing: usize,
     acc: MassIdAccumulator,
     last_estimate: Option<OmegaDotEstimate>,
@@ -424,6 +456,7 @@ impl OnlineEstimator {
             kf: OmegaDotKalman::new(cfg.kalman.r0),
             current: None,
             sample_no: 0,
+            accel_before: Vector3::zeros(),
             firing: 0,
             acc: MassIdAccumulator::new(sat, &cfg, &[]),
             last_estimate: None,
@@ -447,28 +480,37 @@ impl OnlineEstimator {
         let word = s.thrusters & 0x0fff;
         if word == 0 {
             self.current = None;
+            self.accel_before = Vector3::zeros();
             return None;
         }
-        let start = match self.current {
+        let start_ms = match self.current {
             Some((w, st)) if w == word => st,
             _ => {
                 if self.last_estimate.is_some() {
                     self.firing += 1;
                 }
-                self.kf.reset(nominal_omega_dot(&self.sat, word, omega), self.cfg.kalman.p0, omega);
-                self.current = Some((word, k));
-                k
+                // The causal rate lags the body by `delay`: at the change it still reads
+                // `delay` seconds into the past, so the reference rate is extrapolated by
+                // the acceleration of the firing that just ended (0 after a coast).
+                let omega0 = omega + self.accel_before * self.cfg.kalman.measurement_delay_s;
+                self.kf.reset(nominal_omega_dot(&self.sat, word, omega0), self.cfg.kalman.p0, omega0);
+                self.accel_before = Vector3::zeros();
+                self.current = Some((word, s.time_ms));
+                s.time_ms
             }
         };
-        let since = k - start;
-        if since == 0 || since <= self.cfg.kalman.skip_samples(self.dt) {
+        // time since the change from the timestamps (a telemetry gap keeps its length)
+        let since_s = s.time_ms.saturating_sub(start_ms) as f64 / 1000.0;
+        let skip_s = self.cfg.kalman.skip_samples(self.dt) as f64 * self.dt;
+        if since_s <= 0.0 || since_s <= skip_s + 1e-9 {
             return None;
         }
-        let h = since as f64 * self.dt - self.cfg.kalman.measurement_delay_s;
+        let h = since_s - self.cfg.kalman.measurement_delay_s;
         if h <= 0.0 {
             return None;
         }
         self.kf.update(omega, h);
+        self.accel_before = self.kf.x;
         let e = OmegaDotEstimate {
             index: k,
             t_s: s.time_ms as f64 / 1000.0,
@@ -496,4 +538,115 @@ pub fn estimate_online(rec: &Recording, sat: &Satellite, cfg: &PipelineConfig) -
         on.push(s);
     }
     on.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    /// Rotation firings of seed section 4.3 (+ and - about x, y, z; 1 s each, 0.5 s coast).
+    fn rotation_schedule(cycles: usize) -> Vec<(u64, u64, u16)> {
+        let words = [2064u16, 1056, 129, 66, 516, 264];
+        let mut out = Vec::new();
+        let mut t = 500;
+        for _ in 0..cycles {
+            for w in words {
+                out.push((t, t + 1000, w));
+                t += 1500;
+            }
+        }
+        out
+    }
+
+    /// A small rigid-body generator: Euler's equation (RK4, 0.1 ms steps), the word of
+    /// sample k acting over [t_k, t_k+1), gyro counts with Gaussian noise, 1 kHz.
+    /// `inertia_at(t_ms)` gives the true inertia (a proof mass may be attached mid-run).
+    fn simulate(model: &Satellite, schedule: &[(u64, u64, u16)], inertia_at: impl Fn(u64) -> Matrix3<f64>, seed: u64) -> Recording {
+        let end = schedule.last().map(|s| s.1 + 500).unwrap_or(1000);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, 0.6).unwrap();
+        let mut omega = Vector3::zeros();
+        let mut samples = Vec::new();
+        for t in 0..end {
+            let word = schedule.iter().find(|s| s.0 <= t && t < s.1).map(|s| s.2).unwrap_or(0);
+            let gyro = [0, 1, 2].map(|a| {
+                let c = model.rad_s_to_gyro_counts(a, omega[a]) + noise.sample(&mut rng);
+                c.round().clamp(0.0, 4095.0) as u16
+            });
+            samples.push(Sample { time_ms: t, gyro, accel: [2048; 3], thrusters: word });
+            let i = inertia_at(t);
+            let i_inv = i.try_inverse().unwrap();
+            let (_, tau) = model.force_torque_for_word(word);
+            let f = |w: Vector3<f64>| i_inv * (tau - w.cross(&(i * w)));
+            let h = 1e-4;
+            for _ in 0..10 {
+                let k1 = f(omega);
+                let k2 = f(omega + k1 * (h / 2.0));
+                let k3 = f(omega + k2 * (h / 2.0));
+                let k4 = f(omega + k3 * h);
+                omega += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+            }
+        }
+        Recording::new("synthetic.csv", Some(&model.name), Some(1000.0), samples)
+    }
+
+    fn proof_mass_inertia() -> Matrix3<f64> {
+        // 0.5 kg at (70, 50, 0) mm from the CoM: m (|r|^2 I - r r')
+        let r = Vector3::new(0.07, 0.05, 0.0);
+        (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * 0.5
+    }
+
+    fn principal_rel_err(e: &Estimate, truth: &Matrix3<f64>) -> f64 {
+        (0..3).map(|j| (e.inertia_kgm2[j] / truth[(j, j)] - 1.0).abs()).fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn synthetic_nominal_run_is_identified_offline_and_online() {
+        let sat = Satellite::builtin("sph1").unwrap();
+        let rec = simulate(&sat, &rotation_schedule(2), |_| sat.inertia_matrix(), 1);
+        let cfg = PipelineConfig::default();
+        for e in [estimate_offline(&rec, &sat, &cfg), estimate_online(&rec, &sat, &cfg)] {
+            assert!(principal_rel_err(&e, &sat.inertia_matrix()) < 0.005, "{:?}", e.inertia_kgm2);
+            // rotations only: the CoM is not observable, and is said to be
+            assert_eq!(e.unobservable, vec!["cm_x", "cm_y", "cm_z"]);
+            assert_eq!(e.status, "unobservable_terms");
+            // the RLS ends at the batch
+            for j in 0..6 {
+                assert!((e.inertia_kgm2[j] - e.batch_all_inertia_kgm2[j]).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn proof_mass_mid_run_is_tracked_with_detector_or_forgetting_only() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let schedule = rotation_schedule(6);
+        let change_ms = schedule[18].0 - 250; // half way, during a coast
+        let after = sat.inertia_matrix() + proof_mass_inertia();
+        let rec = simulate(&sat, &schedule, |t| if t < change_ms { sat.inertia_matrix() } else { after }, 2);
+
+        let plain = estimate_offline(&rec, &sat, &PipelineConfig::default());
+        assert!(plain.detections_s.is_empty());
+        let blend_err = principal_rel_err(&plain, &after);
+        assert!(blend_err > 0.03, "without tracking the estimate blends before and after: {blend_err}");
+
+        let det = PipelineConfig { change_detector: Some(ChangeDetectorConfig::default()), ..PipelineConfig::default() };
+        let tracked = estimate_offline(&rec, &sat, &det);
+        let first = *tracked.detections_s.first().expect("a detection");
+        // within the first three firings after the change (each 1.5 s apart)
+        assert!(first > change_ms as f64 / 1000.0 && first < change_ms as f64 / 1000.0 + 4.6, "detected at {first}");
+        assert!(principal_rel_err(&tracked, &after) < 0.01, "{:?}", tracked.inertia_kgm2);
+
+        let forget = PipelineConfig { forgetting: Some(1.0 - 1.0 / 3000.0), ..PipelineConfig::default() };
+        let f = estimate_offline(&rec, &sat, &forget);
+        assert!(principal_rel_err(&f, &after) < 0.02, "{:?}", f.inertia_kgm2);
+
+        // and no false alarm on a run without a change
+        let steady = simulate(&sat, &schedule, |_| sat.inertia_matrix(), 3);
+        let quiet = estimate_offline(&steady, &sat, &det);
+        assert!(quiet.detections_s.is_empty(), "false alarms at {:?}", quiet.detections_s);
+    }
 }

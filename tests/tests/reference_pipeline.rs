@@ -58,6 +58,13 @@ fn o01_nominal_recovers_sph2_principal_inertias_and_rls_ends_at_batch() {
     // the history converges: its last point is the final estimate
     let last = e.history.last().expect("history");
     assert!((last.inertia_kgm2[0] - e.inertia_kgm2[0]).abs() < 1e-4 * e.inertia_kgm2[0]);
+    // the change detector (off by default) raises no false alarm on this nominal run
+    let det = PipelineConfig {
+        change_detector: Some(reference_f64::pipeline::ChangeDetectorConfig::default()),
+        ..cfg()
+    };
+    let quiet = estimate_offline(&rec, &sat, &det);
+    assert!(quiet.detections_s.is_empty(), "false alarms at {:?}", quiet.detections_s);
     // the online (causal filter) form gets there too
     let on = estimate_online(&rec, &sat, &cfg());
     assert_eq!(on.status, "ok");

@@ -329,6 +329,11 @@ impl<S: Scalar> Pipeline<S> {
         self.last_estimate
     }
 
+    /// The angular-acceleration Kalman filter (its exact sums, for tests and range analysis).
+    pub fn kalman(&self) -> &OmegaDotKf<S> {
+        &self.kf
+    }
+
     /// The identification state (covariances, information).
     pub fn mass_id(&self) -> &MassId<S> {
         &self.mass

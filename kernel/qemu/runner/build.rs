@@ -1,11 +1,12 @@
 //! Converts a window of a `massid-recording/1` CSV into a compact binary blob embedded in the
-//! firmware (8 bytes per sample: gyro x, y, z counts and the thruster word, u16 little endian).
+//! firmware (6 bytes per sample: gyro x, y, z counts and the thruster word, four 12-bit values
+//! packed little endian into 48 bits), so that the window fits the micro:bit's 256 KB flash.
 //!
 //! Inputs (environment, all optional):
 //! - `MASSID_QEMU_RECORDING`: the CSV (default: `shared/data/open/o01_nominal_rga12.csv`
 //!   beside the repository).
-//! - `MASSID_QEMU_WINDOW_MS`: `START..END` in the recording's `time_ms` (default `900..12000`:
-//!   eight 1 s firings, small enough for the micro:bit's 256 KB flash).
+//! - `MASSID_QEMU_WINDOW_MS`: `START..END` in the recording's `time_ms` (default `900..10200`:
+//!   five 1 s firings: the batch pair and three RLS firings, small enough for the micro:bit's 256 KB flash).
 //!
 //! The window must be gap-free (one sample per millisecond): the kernel is called once per
 //! sample as by a 1 kHz interrupt, so a gap would silently change the sequence.
@@ -22,7 +23,7 @@ fn main() {
         manifest.join("../../../../shared/data/open/o01_nominal_rga12.csv")
     });
     println!("cargo:rerun-if-changed={}", csv_path.display());
-    let window = env::var("MASSID_QEMU_WINDOW_MS").unwrap_or_else(|_| "900..12000".to_string());
+    let window = env::var("MASSID_QEMU_WINDOW_MS").unwrap_or_else(|_| "900..10200".to_string());
     let (start, end) = parse_window(&window).unwrap_or_else(|e| fail(&format!("MASSID_QEMU_WINDOW_MS={window:?}: {e}")));
 
     let text = fs::read_to_string(&csv_path)
@@ -67,13 +68,15 @@ fn main() {
             fail(&format!("{}: time_ms {time} but the window needs {expected_time} (gap or duplicate)", where_()));
         }
         expected_time += 1;
-        for i in [1, 2, 3, 7] {
+        let mut packed = 0u64;
+        for (slot, i) in [1, 2, 3, 7].into_iter().enumerate() {
             let v = num(i);
             if v > 4095 {
                 fail(&format!("{}: field {} = {v} is out of 0..4095", where_(), i + 1));
             }
-            blob.extend_from_slice(&(v as u16).to_le_bytes());
+            packed |= u64::from(v) << (12 * slot);
         }
+        blob.extend_from_slice(&packed.to_le_bytes()[..6]);
     }
     if expected_time != end {
         fail(&format!("{}: the recording ends at {expected_time} ms, before the window end {end} ms", csv_path.display()));

@@ -15,6 +15,7 @@ pub mod markers;
 pub mod sequence;
 
 use core::fmt::{self, Write};
+use massid_kernel::mixer::{Mixer, MixerConfig};
 use massid_kernel::model::SPH2;
 use massid_kernel::{Estimates, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
 
@@ -71,7 +72,9 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     let Ok(mut pipeline) = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)) else {
         return writeln!(out, "{} init-error", S::NAME);
     };
-    writeln!(out, "{} state-bytes {}", S::NAME, core::mem::size_of::<Pipeline<S>>())?;
+    // Target-dependent (alignment of 64-bit fields): not compared, see `compare`.
+    writeln!(out, "info {} state-bytes {}", S::NAME, core::mem::size_of::<Pipeline<S>>())?;
+    markers::flavour(S::EXACT);
     let mut prev_word = 0u16;
     let mut firings = 0u32;
     for (i, (gyro, word)) in sequence::samples().enumerate() {
@@ -87,20 +90,23 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
         if word != prev_word && word != 0 {
             firings += 1;
         }
-        prev_word = word;
         markers::begin();
         let report = pipeline.tick(gyro, word);
         markers::end();
         let rls_active = firings > 2;
+        let edge = word != prev_word;
         markers::kind(match report.event {
+            TickEvent::Coasting | TickEvent::Transient if edge => Kind::Edge,
             TickEvent::Coasting | TickEvent::Transient => Kind::Idle,
             TickEvent::Updated if rls_active => Kind::KfRls,
             TickEvent::Updated => Kind::Kf,
             TickEvent::Solved => Kind::Solve,
             TickEvent::KfOverflow | TickEvent::FiringTooLong => Kind::Other,
         });
+        prev_word = word;
         if report.event == TickEvent::Solved {
             write_estimates(out, t, &pipeline.estimates())?;
+            write_mixes(out, t, &pipeline)?;
         }
         if !matches!(report.event, TickEvent::Coasting | TickEvent::Transient | TickEvent::Updated | TickEvent::Solved) {
             writeln!(out, "{} t={t} event={:?} status={:?}", S::NAME, report.event, report.status)?;
@@ -109,7 +115,44 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     let status = pipeline.finish();
     let t = sequence::START_MS as usize + sequence::LEN;
     writeln!(out, "{} t={t} finish status={:?}", S::NAME, status)?;
-    write_estimates(out, t, &pipeline.estimates())
+    write_estimates(out, t, &pipeline.estimates())?;
+    write_mixes(out, t, &pipeline)
+}
+
+/// Mixer commands as Q8.24 bits (force N x3, torque N m x3); value = bits / 2^24 in both
+/// formats (exact). The same set as `kernel/capi-test/capi_run.c`.
+pub const COMMANDS: [[i32; 6]; 4] = [
+    [838861, 0, 0, 0, 0, 0],
+    [0, 0, 0, 0, 0, 83886],
+    [335544, -503316, 167772, 33554, -16777, 50331],
+    [5033165, 5033165, 5033165, 0, 0, 0],
+];
+
+/// Rebuilds the mixer from the current CoM estimate (200 ms period, 10 ms minimum pulse) and
+/// mixes [`COMMANDS`], printing the ON/OFF times; both calls are measured.
+fn write_mixes<S: RawBits, W: Write>(out: &mut W, t: usize, pipeline: &Pipeline<S>) -> fmt::Result {
+    let cfg = MixerConfig { period_ms: 200, min_pulse_ms: 10, pressure_drop_n: S::from_f32(SPH2.pressure_drop_n_per_extra) };
+    let delta = pipeline.estimates().delta_com_m;
+    markers::begin();
+    let mixer = Mixer::<S>::new(&SPH2, delta, cfg);
+    markers::end();
+    markers::kind(Kind::MixerBuild);
+    let mixer = match mixer {
+        Ok(m) => m,
+        Err(e) => return writeln!(out, "{} t={t} mixer-error {:?}", S::NAME, e),
+    };
+    for (k, c) in COMMANDS.iter().enumerate() {
+        let cmd: [S; 6] = c.map(|bits| S::from_int_pow2(bits, -24));
+        markers::begin();
+        let firing = mixer.mix([cmd[0], cmd[1], cmd[2]], [cmd[3], cmd[4], cmd[5]]);
+        markers::end();
+        markers::kind(Kind::Mixer);
+        match firing {
+            Ok(f) => writeln!(out, "{} t={t} mix{k} on {:?} off {:?}", S::NAME, f.on_ms, f.off_ms)?,
+            Err(e) => writeln!(out, "{} t={t} mix{k} error {:?}", S::NAME, e)?,
+        }
+    }
+    Ok(())
 }
 
 fn write_estimates<S: RawBits, W: Write>(out: &mut W, t: usize, e: &Estimates<S>) -> fmt::Result {

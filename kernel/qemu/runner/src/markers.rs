@@ -41,6 +41,14 @@ marker!(/// A mixer call (force/torque command to thruster on/off times).
     massid_mark_kind_mixer = 0x4d42_0015);
 marker!(/// Anything else (overflow events).
     massid_mark_kind_other = 0x4d42_0016);
+marker!(/// A tick where the thruster word changed without a solve (firing edge: KF reset, batch row).
+    massid_mark_kind_edge = 0x4d42_0017);
+marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
+    massid_mark_kind_mixer_build = 0x4d42_0018);
+marker!(/// The following calls run the fixed-point kernel.
+    massid_mark_flavour_fixed = 0x4d42_0020);
+marker!(/// The following calls run the f32 kernel.
+    massid_mark_flavour_f32 = 0x4d42_0021);
 
 /// What a measured call did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,8 +65,12 @@ pub enum Kind {
     Solve,
     /// Mixer.
     Mixer,
-    /// Other.
+    /// Other (overflow events).
     Other,
+    /// Firing edge without a solve.
+    Edge,
+    /// Mixer rebuild.
+    MixerBuild,
 }
 
 /// Marks the start of a measured call.
@@ -84,5 +96,17 @@ pub fn kind(k: Kind) {
         Kind::Solve => massid_mark_kind_solve(),
         Kind::Mixer => massid_mark_kind_mixer(),
         Kind::Other => massid_mark_kind_other(),
+        Kind::Edge => massid_mark_kind_edge(),
+        Kind::MixerBuild => massid_mark_kind_mixer_build(),
+    }
+}
+
+/// Says which kernel the following calls run (`true`: fixed point).
+#[inline(always)]
+pub fn flavour(fixed: bool) {
+    if fixed {
+        massid_mark_flavour_fixed()
+    } else {
+        massid_mark_flavour_f32()
     }
 }

@@ -39,6 +39,11 @@ pub struct Args {
     /// Print JSON instead of a table.
     #[arg(long)]
     json: bool,
+    /// Also print every intermediate stage of Fig. 3.2 (duties after the pseudo-inverse,
+    /// after opposing/negative resolution, after the exact re-solve; scale; real on-times
+    /// before and after the pressure-drop correction).
+    #[arg(long)]
+    trace: bool,
 }
 
 /// Parses "a,b,c" into three finite numbers.
@@ -74,7 +79,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mixer = Mixer::from_satellite(&sat, com, args.period_ms).context("cannot build the mixer")?;
     let force = nalgebra::Vector3::from(args.force);
     let torque = nalgebra::Vector3::from(args.torque);
-    let firing = mixer.mix(force, torque).context("cannot mix the command")?;
+    let trace = mixer.mix_traced(force, torque).context("cannot mix the command")?;
+    let firing = &trace.firing;
+    let stages = [
+        ("pinv_duty", trace.pinv_duty),
+        ("resolved_duty", trace.resolved_duty),
+        ("refined_duty", trace.refined_duty),
+        ("on_time_ms", trace.on_time_ms),
+        ("corrected_ms", trace.corrected_ms),
+    ];
     let (jf, jt) = firing.impulse(mixer.geometry());
     let mut text = String::new();
     if args.json {
@@ -88,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        let out = serde_json::json!({
+        let mut out = serde_json::json!({
             "satellite": sat.name,
             "period_ms": firing.period_ms,
             "min_pulse_ms": firing.min_pulse_ms,
@@ -101,6 +114,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "force_impulse_n_s": jf.as_slice(),
             "torque_impulse_n_m_s": jt.as_slice(),
         });
+        if args.trace {
+            let mut t = serde_json::Map::new();
+            for (name, v) in &stages {
+                t.insert(name.to_string(), serde_json::json!(v));
+            }
+            t.insert("scale".into(), serde_json::json!(trace.scale));
+            out["trace"] = serde_json::Value::Object(t);
+        }
         text.push_str(&serde_json::to_string_pretty(&out)?);
         text.push('\n');
     } else {
@@ -111,6 +132,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )?;
         if firing.scale < 1.0 {
             writeln!(text, "command beyond the thrusters' reach: scaled by {:.6} (direction kept)", firing.scale)?;
+        }
+        if args.trace {
+            for (name, v) in &stages {
+                let vals: Vec<String> = v.iter().map(|x| format!("{x:.6}")).collect();
+                writeln!(text, "{name:>13}: {}", vals.join(" "))?;
+            }
+            writeln!(text, "{:>13}: {:.9}", "scale", trace.scale)?;
         }
         writeln!(text, "thruster  on_ms  off_ms  duration_ms")?;
         for i in 0..N_THRUSTERS {

@@ -439,6 +439,8 @@ pub fn scale_by_maximum(duty: &[f64; N_THRUSTERS]) -> ([f64; N_THRUSTERS], f64) 
 /// open, by `loss / (F_r - p (N - r))`. For `r = 1` this is "stretched by an amount relative to
 /// # of other active thrusters"; for `r = 2` "relative to (N-2)". One pass only, as the seed's
 /// mixer ("for now our mixer does this just once"). Results are clamped to the period.
+/// Every pulse with a positive real on-time counts as open, including ones stage 10 will
+/// drop below the minimum pulse: the seed's order is correction first, deadband last.
 pub fn pressure_drop_correction(
     on_time_ms: &[f64; N_THRUSTERS],
     thrust_n: &[f64; N_THRUSTERS],

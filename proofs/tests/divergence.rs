@@ -1,18 +1,18 @@
-//! Divergence: a long run (>= 10^6 ticks, 1 kHz) of the per-tick pipeline in Q8.24 and f32
-//! on a simulated maneuver sequence, checking at every solve that
-//! * the RLS estimate stays within the error budget of `reference_f64`'s batch least squares
-//!   of the same measurements (`budget` row `rls.estimate`, norm-wise, times the information's
+//! Divergence: long runs in Q8.24 and f32, checking at every solve that
+//! * the RLS estimate (10^6 per-tick measurement updates fed exactly as the pipeline feeds
+//!   them) stays within the error budget of `reference_f64`'s batch least squares of the
+//!   same measurements (`budget` row `rls.estimate`, norm-wise, times the information's
 //!   condition number), i.e. no drift however long it runs;
 //! * the information matrices stay symmetric positive definite (Cholesky of the mantissas)
-//!   and never saturate;
+//!   and never saturate, also in the whole pipeline over 10^6 ticks of simulated gyro counts;
 //! and, separately, what the kernel does when they would not: with the gyros saturated or
 //! a single-axis maneuver, a status (Overflow / KfOverflow / PartlyUnobservable with the
 //! mask), never silently drifting numbers.
 
 use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
-use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scalar, TickEvent, Q8_24};
+use massid_kernel::rls::{MassId, Measurement, RlsConfig, RlsStatus};
+use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scalar, Scaled, TickEvent, Q8_24};
 use massid_proofs::budget::{fmt_of, Exact, Worst};
-use massid_proofs::harness::rls::cholesky_ok;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use reference_f64::mass_id::{BatchLs, Observation};
 
@@ -72,136 +72,123 @@ fn maneuver_words() -> Vec<u16> {
 }
 
 struct RunFigures {
-    ticks: u64,
+    updates: u64,
     solves: u64,
     worst: Worst,
-    statuses: [u64; 6],
-    kf_overflow: u64,
+    statuses: [u64; 5],
 }
 
-/// Runs `ticks` ticks; every solve is compared with the reference batch LS of the same
-/// measurements and the information is checked SPD.
-fn long_run<S: Exact>(ticks: u64, seed: u64) -> RunFigures {
-    let truth = Truth::new();
-    let mut pl = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)).expect("SPH2");
+/// The RLS (information form, LU solves) driven with 10^6 per-tick measurements in firings,
+/// exactly as the pipeline feeds it (`MassId::add_batch` for the first two firings, then
+/// `add_tick` and `end_firing`), against `reference_f64`'s batch least squares of the
+/// identical weighted measurements. Measurements: the kernel's own regressors for each word
+/// (`ModelTerms::firing_terms`), right-hand sides from a truth (CoM moved 5.4 mm, inverse
+/// inertia 8 % lower) plus noise of the Kalman filter's variance after `k` updates, weights
+/// its information.
+fn long_run<S: Exact>(updates: u64, seed: u64) -> RunFigures {
+    let terms = SPH2.terms::<S>().expect("SPH2");
+    let mut mass = MassId::<S>::new(RlsConfig::default(), terms.theta_inertia_nominal);
+    let theta_true: [f64; 6] = core::array::from_fn(|j| terms.theta_inertia_nominal[j].exact() * if j < 3 { 1.0 / 1.08 } else { 1.0 });
+    let com_true = [0.004, -0.003, 0.002];
     let words = maneuver_words();
     let mut rng = Rng(seed);
-    let g = 1412.79;
-    let bias = [2077.0, 2070.0, 2058.0];
-    let sigma_counts = [9.5661e-7f64, 2.7365e-7, 2.3044e-7].map(|r| r.sqrt() * g);
-    let mut omega = Vector3::zeros();
-    // Reference: the same weighted measurements into batch LS (negligible prior).
     let mut ref_com = BatchLs::<3>::with_prior(SVector::zeros(), SVector::repeat(1e6));
     let mut ref_inertia = BatchLs::<6>::with_prior(SVector::zeros(), SVector::repeat(1e6));
-    let mut fig = RunFigures { ticks: 0, solves: 0, worst: Worst::new("rls.estimate"), statuses: [0; 6], kf_overflow: 0 };
-    let mut firing_left = 0u64;
-    let mut coast_left = 0u64;
-    let mut word = 0u16;
-    let mut last_obs: Option<(Observation<3>, Observation<6>)> = None;
-    let mut firings = 0u32;
-    let mut sign_word: usize = 0;
-    while fig.ticks < ticks {
-        if firing_left == 0 && coast_left == 0 {
-            if word != 0 {
-                coast_left = 20;
-                word = 0;
+    let mut fig = RunFigures { updates: 0, solves: 0, worst: Worst::new("rls.estimate"), statuses: [0; 5] };
+    let r0 = [9.5661e-7f64, 2.7365e-7, 2.3044e-7];
+    let mut firing = 0usize;
+    while fig.updates < updates {
+        let word = words[firing % words.len()];
+        firing += 1;
+        let ft = terms.firing_terms(word);
+        let rows = inertia_rows(&ft.torque_cnm);
+        let len = 150 + (rng.u() * 350.0) as u64;
+        let mut last = None;
+        let mut s2 = 0.0f64;
+        for k in 1..=len {
+            s2 += (k * k) as f64;
+            // Variance of the Kalman estimate after k updates: (R/dt^2) / (alpha + sum k^2).
+            let var: [f64; 3] = core::array::from_fn(|i| (r0[i] / 1e-6) / (r0[i] / 0.5e-6 + s2));
+            let noise: [f64; 3] = core::array::from_fn(|i| var[i].sqrt() * rng.normal());
+            let b_in: [f64; 3] = core::array::from_fn(|i| (0..6).map(|j| rows[i][j].exact() * theta_true[j]).sum::<f64>() + noise[i]);
+            let b_cm: [f64; 3] = core::array::from_fn(|i| (0..3).map(|j| ft.a_com[i][j].exact() * com_true[j]).sum::<f64>() + noise[i]);
+            let to_s = |v: f64| S::from_f32(v as f32);
+            let m = Measurement {
+                a_com: ft.a_com,
+                b_com: b_cm.map(to_s),
+                a_inertia: rows,
+                b_inertia: b_in.map(to_s),
+                weight: var.map(|v| Scaled::<S>::from_f64(1.0 / v)),
+                variance: var.map(Scaled::<S>::from_f64),
+            };
+            if firing <= 2 {
+                mass.add_batch(&m);
             } else {
-                // Next firing: cycle the words; its reverse follows to bring the rate back.
-                let idx = sign_word % words.len();
-                sign_word += 1;
-                word = words[idx];
-                firing_left = 150 + (rng.u() * 350.0) as u64;
+                mass.add_tick(&m);
             }
+            // The reference gets exactly what the kernel holds (inputs rounded into S).
+            let w: [f64; 3] = core::array::from_fn(|i| m.weight[i].m.exact() * (2.0f64).powi(m.weight[i].e));
+            let r = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| 1.0 / w[i]));
+            ref_com.add(&Observation {
+                a: SMatrix::<f64, 3, 3>::from_fn(|i, j| m.a_com[i][j].exact()),
+                b: Vector3::from_fn(|i, _| m.b_com[i].exact()),
+                r,
+            });
+            ref_inertia.add(&Observation {
+                a: SMatrix::<f64, 3, 6>::from_fn(|i, j| m.a_inertia[i][j].exact()),
+                b: Vector3::from_fn(|i, _| m.b_inertia[i].exact()),
+                r,
+            });
+            last = Some(m);
+            fig.updates += 1;
         }
-        if firing_left > 0 {
-            firing_left -= 1;
+        let status = if firing < 2 {
+            continue;
+        } else if firing == 2 {
+            mass.solve()
         } else {
-            coast_left -= 1;
-        }
-        // Truth (the word acts over the tick), then the gyro sample.
-        let od = if word != 0 { truth.omega_dot(word) } else { Vector3::zeros() };
-        omega += od * 1e-3;
-        // Keep the rate bounded: damp it while coasting (an attitude controller's job).
-        if word == 0 {
-            omega *= 0.9;
-        }
-        let counts = [0, 1, 2].map(|k| (bias[k] + omega[k] * g + sigma_counts[k] * rng.normal()).round().clamp(0.0, 4095.0) as u16);
-        let prev_firings = pl.estimates().firings;
-        let r = pl.tick(counts, word);
-        fig.ticks += 1;
-        let est_firings = pl.estimates().firings;
-        if est_firings != prev_firings {
-            firings = est_firings;
-        }
-        if r.event == TickEvent::KfOverflow {
-            fig.kf_overflow += 1;
-        }
-        // Mirror the kernel's measurements into the reference.
-        if r.event == TickEvent::Updated {
-            if let Some(e) = pl.omega_dot() {
-                let ft = pl.model_terms().firing_terms(word);
-                let a1 = SMatrix::<f64, 3, 3>::from_fn(|i, j| ft.a_com[i][j].exact());
-                let b1 = Vector3::from_fn(|i, _| e.omega_dot[i].exact() - ft.omega_dot_nominal[i].exact());
-                let rows = inertia_rows(&ft.torque_cnm);
-                let a2 = SMatrix::<f64, 3, 6>::from_fn(|i, j| rows[i][j].exact());
-                let b2 = Vector3::from_fn(|i, _| e.omega_dot[i].exact());
-                let var = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| e.variance[i].m.exact() * (2.0f64).powi(e.variance[i].e)));
-                let o1 = Observation { a: a1, b: b1, r: var };
-                let o2 = Observation { a: a2, b: b2, r: var };
-                if firings > 2 {
-                    ref_com.add(&o1);
-                    ref_inertia.add(&o2);
-                }
-                last_obs = Some((o1, o2));
-            }
-        }
-        if r.event == TickEvent::Solved {
-            // The firing that just ended: batch firings contribute their last measurement.
-            if prev_firings <= 2 {
-                if let Some((o1, o2)) = last_obs.take() {
-                    ref_com.add(&o1);
-                    ref_inertia.add(&o2);
-                }
-            }
-            fig.solves += 1;
-            let st = pl.estimates().status;
-            fig.statuses[st as usize] += 1;
-            check_solve(&pl, &ref_com, &ref_inertia, &mut fig.worst);
-        }
-        if word == 0 {
-            last_obs = None;
-        }
+            mass.end_firing(last.as_ref())
+        };
+        fig.solves += 1;
+        fig.statuses[status as usize] += 1;
+        check_solve(&mass, status, &ref_com, &ref_inertia, &mut fig.worst, fig.updates);
     }
     fig
 }
 
-fn check_solve<S: Exact>(pl: &Pipeline<S>, ref_com: &BatchLs<3>, ref_inertia: &BatchLs<6>, worst: &mut Worst) {
-    let est = pl.estimates();
-    assert!(
-        matches!(est.status, PipelineStatus::Ok | PipelineStatus::PartlyUnobservable),
-        "nominal run: status {:?}",
-        est.status
-    );
-    let (com, inertia) = pl.mass_id().problems();
+fn check_solve<S: Exact>(mass: &MassId<S>, status: RlsStatus, ref_com: &BatchLs<3>, ref_inertia: &BatchLs<6>, worst: &mut Worst, updates: u64) {
+    assert!(matches!(status, RlsStatus::Ok | RlsStatus::PartlyUnobservable), "nominal run: status {status:?}");
+    let (com, inertia) = mass.problems();
     assert!(!com.is_saturated() && !inertia.is_saturated(), "information saturated");
     let c = com.information().map(|r| r.map(|v| v.exact()));
     let i = inertia.information().map(|r| r.map(|v| v.exact()));
-    for m in [&c.iter().map(|r| r.to_vec()).collect::<Vec<_>>(), &i.iter().map(|r| r.to_vec()).collect::<Vec<_>>()] {
-        for a in 0..m.len() {
-            for b in 0..m.len() {
-                assert_eq!(m[a][b], m[b][a], "information not symmetric");
+    for a in 0..6 {
+        for b in 0..6 {
+            assert_eq!(i[a][b], i[b][a], "information not symmetric");
+            if a < 3 && b < 3 {
+                assert_eq!(c[a][b], c[b][a], "information not symmetric");
             }
         }
     }
-    assert!(cholesky_ok(&c) || est.unobservable_com.iter().any(|u| *u), "CoM information not positive definite");
-    assert!(cholesky_ok(&i) || est.unobservable_inertia.iter().any(|u| *u), "inertia information not positive definite");
+    let eig = |m: &[[f64; 6]; 6]| nalgebra::Matrix6::from_fn(|a, b| m[a][b]).symmetric_eigen().eigenvalues;
+    assert!(pd_on_observable(&c, &mass.unobservable_com), "CoM information not positive definite");
+    let exact_i: [[f64; 6]; 6] = core::array::from_fn(|a| core::array::from_fn(|b| ref_inertia.info[(a, b)] * (2.0f64).powi(-inertia.exponent())));
+    assert!(
+        pd_on_observable(&i, &mass.unobservable_inertia),
+        "status {status:?} mask {:?}: inertia information not positive definite: eigenvalues {:?}; the exact information's at the same scale {:?} (mantissa step 2^-24 = 6e-8), exponent {}",
+        mass.unobservable_inertia,
+        eig(&i),
+        eig(&exact_i),
+        inertia.exponent()
+    );
     let fmt = fmt_of::<S>();
-    for (x, unobs, info, rhs) in [
-        (est.delta_com_m.map(|v| v.exact()).to_vec(), est.unobservable_com.to_vec(), dm(&ref_com.info), ref_com.rhs.iter().copied().collect::<Vec<_>>()),
-        (est.theta_inertia.map(|v| v.exact()).to_vec(), est.unobservable_inertia.to_vec(), dm(&ref_inertia.info), ref_inertia.rhs.iter().copied().collect::<Vec<_>>()),
-    ] {
+    let cases: [(Vec<f64>, Vec<bool>, Vec<f64>, Vec<f64>); 2] = [
+        (mass.delta_com_m.map(|v| v.exact()).to_vec(), mass.unobservable_com.to_vec(), dm(&ref_com.info), ref_com.rhs.iter().copied().collect()),
+        (mass.theta_inertia.map(|v| v.exact()).to_vec(), mass.unobservable_inertia.to_vec(), dm(&ref_inertia.info), ref_inertia.rhs.iter().copied().collect()),
+    ];
+    for (x, unobs, info, rhs) in cases {
         if unobs.iter().any(|u| *u) {
-            continue; // reduced problem: compared once every term is observable
+            continue; // a reduced problem: compared once every term is observable
         }
         let n = x.len();
         let info = nalgebra::DMatrix::from_row_slice(n, n, &info);
@@ -210,9 +197,19 @@ fn check_solve<S: Exact>(pl: &Pipeline<S>, ref_com: &BatchLs<3>, ref_inertia: &B
         let cond = ev.max() / ev.min();
         let scale = cond * xr.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for k in 0..n {
-            worst.record_normwise(fmt, x[k], xr[k], scale).unwrap_or_else(|e| panic!("term {k}: {e}"));
+            worst
+                .record_normwise(fmt, x[k], xr[k], scale)
+                .unwrap_or_else(|e| panic!("after {updates} updates, term {k} of {n}: {e}; kernel {x:?} reference {:?} cond {cond:e}", xr.as_slice()));
         }
     }
+}
+
+/// The information restricted to the terms the kernel estimates (those not held at the
+/// prior) is positive definite (Cholesky).
+fn pd_on_observable<const N: usize>(m: &[[f64; N]; N], unobservable: &[bool; N]) -> bool {
+    let idx: Vec<usize> = (0..N).filter(|&k| !unobservable[k]).collect();
+    let sub = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| m[idx[a]][idx[b]]);
+    idx.is_empty() || sub.cholesky().is_some()
 }
 
 fn dm<const N: usize>(m: &SMatrix<f64, N, N>) -> Vec<f64> {
@@ -221,30 +218,97 @@ fn dm<const N: usize>(m: &SMatrix<f64, N, N>) -> Vec<f64> {
 
 fn report(name: &str, f: &RunFigures) {
     println!(
-        "{name}: {} ticks, {} solves, statuses [idle batch ok partly singular overflow] = {:?}, kf overflow ticks {}; {}",
-        f.ticks, f.solves, f.statuses, f.kf_overflow, f.worst
+        "{name}: {} RLS updates, {} solves, statuses [ok partly singular overflow nodata] = {:?}; {}",
+        f.updates, f.solves, f.statuses, f.worst
     );
 }
 
 #[test]
-fn a_million_ticks_q8_24_stay_in_budget_and_spd() {
+fn a_million_rls_updates_q8_24_stay_in_budget_and_spd() {
     let f = long_run::<Q8_24>(1_000_000, 0x9e3779b97f4a7c15);
     report("Q8_24", &f);
-    assert!(f.ticks >= 1_000_000 && f.solves > 1000 && f.worst.count > 0);
+    assert!(f.updates >= 1_000_000 && f.solves > 1000 && f.worst.count > 0);
 }
 
 #[test]
-fn a_million_ticks_f32_stay_in_budget_and_spd() {
+fn a_million_rls_updates_f32_stay_in_budget_and_spd() {
     let f = long_run::<f32>(1_000_000, 0x243f6a8885a308d3);
     report("F32", &f);
-    assert!(f.ticks >= 1_000_000 && f.solves > 1000 && f.worst.count > 0);
+    assert!(f.updates >= 1_000_000 && f.solves > 1000 && f.worst.count > 0);
+}
+
+/// The whole per-tick pipeline for 10^6 ticks on simulated gyro counts: no panic, every
+/// solve Ok / PartlyUnobservable, the information symmetric positive definite and never
+/// saturated, estimates valid numbers.
+fn pipeline_run<S: Exact>(ticks: u64, seed: u64) -> (u64, [u64; 6]) {
+    let truth = Truth::new();
+    let mut pl = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)).expect("SPH2");
+    let words = maneuver_words();
+    let mut rng = Rng(seed);
+    let g = 1412.79;
+    let bias = [2077.0, 2070.0, 2058.0];
+    let sigma = [9.5661e-7f64, 2.7365e-7, 2.3044e-7].map(|r| r.sqrt() * g);
+    let mut omega = Vector3::zeros();
+    let (mut left, mut coast, mut word, mut next) = (0u64, 0u64, 0u16, 0usize);
+    let mut statuses = [0u64; 6];
+    let mut solves = 0;
+    for _ in 0..ticks {
+        if left == 0 && coast == 0 {
+            if word != 0 {
+                coast = 30;
+                word = 0;
+            } else {
+                word = words[next % words.len()];
+                next += 1;
+                left = 150 + (rng.u() * 350.0) as u64;
+            }
+        }
+        if left > 0 {
+            left -= 1;
+        } else {
+            coast -= 1;
+        }
+        omega += if word != 0 { truth.omega_dot(word) * 1e-3 } else { -omega * 0.1 };
+        let counts = [0, 1, 2].map(|k| (bias[k] + omega[k] * g + sigma[k] * rng.normal()).round().clamp(0.0, 4095.0) as u16);
+        let r = pl.tick(counts, word);
+        if r.event == TickEvent::Solved {
+            solves += 1;
+            let e = pl.estimates();
+            statuses[e.status as usize] += 1;
+            assert!(matches!(e.status, PipelineStatus::Ok | PipelineStatus::PartlyUnobservable), "status {:?}", e.status);
+            assert!(e.delta_com_m.iter().chain(e.theta_inertia.iter()).all(|v| v.is_valid()));
+            let (c, i) = pl.mass_id().problems();
+            assert!(!c.is_saturated() && !i.is_saturated());
+            assert!(pd_on_observable(&c.information().map(|r| r.map(|v| v.exact())), &e.unobservable_com), "CoM information not PD");
+            assert!(pd_on_observable(&i.information().map(|r| r.map(|v| v.exact())), &e.unobservable_inertia), "inertia information not PD");
+        }
+    }
+    (solves, statuses)
+}
+
+#[test]
+fn a_million_pipeline_ticks_q8_24_keep_status_and_spd() {
+    let (solves, st) = pipeline_run::<Q8_24>(1_000_000, 11);
+    println!("Q8_24 pipeline: 1000000 ticks, {solves} solves, statuses [idle batch ok partly singular overflow] = {st:?}");
+    assert!(solves > 1000);
+}
+
+#[test]
+fn a_million_pipeline_ticks_f32_keep_status_and_spd() {
+    let (solves, st) = pipeline_run::<f32>(1_000_000, 12);
+    println!("F32 pipeline: 1000000 ticks, {solves} solves, statuses [idle batch ok partly singular overflow] = {st:?}");
+    assert!(solves > 1000);
 }
 
 /// When the data would break the filter (gyros pinned at the rails while firing), the kernel
 /// reports it: KF overflow events or an Overflow/Singular status, and the estimates it keeps
 /// are the last valid ones, never invalid numbers under an Ok status.
-fn saturated_run<S: Exact>() -> (u64, Vec<PipelineStatus>) {
-    let mut pl = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)).expect("SPH2");
+fn saturated_run<S: Exact>(detector: bool) -> (u64, Vec<PipelineStatus>, u32) {
+    let mut cfg = PipelineConfig::seed(1);
+    if detector {
+        cfg.rls.detector = Some(massid_kernel::rls::DetectorConfig::standard());
+    }
+    let mut pl = Pipeline::<S>::new(&SPH2, cfg).expect("SPH2");
     let words = maneuver_words();
     let mut overflow_events = 0;
     let mut statuses = Vec::new();
@@ -267,15 +331,18 @@ fn saturated_run<S: Exact>() -> (u64, Vec<PipelineStatus>) {
         }
         statuses.push(pl.estimates().status);
     }
-    (overflow_events, statuses)
+    (overflow_events, statuses, pl.estimates().resets)
 }
 
 #[test]
 fn saturated_gyros_give_a_status_not_silent_drift() {
-    let (ev_q, st_q) = saturated_run::<Q8_24>();
-    let (ev_f, st_f) = saturated_run::<f32>();
-    println!("saturated gyros: Q8_24 {ev_q} KF-overflow ticks, statuses {st_q:?}");
-    println!("saturated gyros: f32 {ev_f} KF-overflow ticks, statuses {st_f:?}");
-    // Q8.24 cannot hold a 2900 rad/s^2 estimate: it must say so on those ticks.
-    assert!(ev_q > 0, "Q8.24 accepted estimates beyond its range without a status");
+    for detector in [false, true] {
+        let (ev_q, st_q, rs_q) = saturated_run::<Q8_24>(detector);
+        let (ev_f, st_f, rs_f) = saturated_run::<f32>(detector);
+        println!("saturated gyros (detector {detector}): Q8_24 {ev_q} KF-overflow ticks, {rs_q} resets, statuses {st_q:?}");
+        println!("saturated gyros (detector {detector}): f32 {ev_f} KF-overflow ticks, {rs_f} resets, statuses {st_f:?}");
+        // Q8.24 cannot hold what the rails imply: it must say so (a KF-overflow event or an
+        // Overflow status), never carry on silently from the first firing.
+        assert!(ev_q > 0 || st_q.contains(&PipelineStatus::Overflow), "Q8.24 absorbed rail-to-rail data without a status");
+    }
 }

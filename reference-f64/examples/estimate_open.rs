@@ -45,6 +45,17 @@ fn main() {
         println!("model inertia   {:?}", sat.inertia_kgm2);
         let rel: Vec<f64> = (0..3).map(|j| est.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0).collect();
         println!("principal rel err {:?}  variance factor {:?}", rel, est.variance_factor);
+        println!(
+            "ROW | {} | {label} | {:+.2} {:+.2} {:+.2} | {:+.3} {:+.3} {:+.3} | {} |",
+            rec.source.rsplit('/').next().unwrap_or(""),
+            rel[0] * 100.0,
+            rel[1] * 100.0,
+            rel[2] * 100.0,
+            est.com_offset_mm[0],
+            est.com_offset_mm[1],
+            est.com_offset_mm[2],
+            est.status
+        );
     }
 }
 

@@ -40,9 +40,11 @@ impl RangeReport {
     pub fn overflows(&self) -> Vec<&VarRange> {
         self.vars.iter().filter(|v| v.range.mag() >= self.format.max).collect()
     }
-    /// True when every variable and every intermediate fits, and no division was unbounded.
+    /// True when every variable and every intermediate fits. (A division by an interval
+    /// containing zero is not a failure: the kernel's `checked_div` then takes its `None`
+    /// branch, a status; the table counts them.)
     pub fn fits(&self) -> bool {
-        self.overflows().is_empty() && self.watch.max_abs < self.format.max && self.watch.div_by_zero == 0
+        self.overflows().is_empty() && self.watch.max_abs < self.format.max
     }
     /// A plain-text table (one line per variable).
     pub fn table(&self) -> String {
@@ -58,7 +60,7 @@ impl RangeReport {
             s += &format!("  {:<24} [{:>12.6}, {:>12.6}]  {}\n", v.name, v.range.lo(), v.range.hi(), ok);
         }
         s += &format!(
-            "  intermediates: max |x| = {:.6} over {} ops; divisions by 0-containing intervals: {}; undecided comparisons: {}\n",
+            "  intermediates: max |x| = {:.6} over {} ops; divisions by 0-containing intervals (status branch): {}; undecided comparisons (explored by the engine): {}\n",
             self.watch.max_abs, self.watch.ops, self.watch.div_by_zero, self.watch.undecided
         );
         s

@@ -152,6 +152,22 @@ mod tests {
         assert!((d.ad[(0, 0)] - a11).abs() < 1e-13 && (d.ad[(0, 1)] - a12).abs() < 1e-13);
     }
 
+    proptest::proptest! {
+        /// ZOH is a semigroup: two steps of dt equal one step of 2 dt, at any dt (checks the
+        /// matrix exponential's scaling and squaring over a wide range).
+        #[test]
+        fn two_half_steps_make_one_step(dt in 1e-4f64..20.0, k in 0.5f64..50.0, b in 0.0f64..2.0) {
+            let m = SloshModel { stiffness_per_mass: k, damping_per_mass: b, input_gain: 1.0 };
+            let h = m.discretize_zoh(dt).unwrap();
+            let f = m.discretize_zoh(2.0 * dt).unwrap();
+            let ad2 = h.ad * h.ad;
+            let bd2 = h.ad * h.bd + h.bd;
+            let scale = 1.0 + f.ad.abs().max();
+            proptest::prop_assert!((ad2 - f.ad).abs().max() < 1e-9 * scale);
+            proptest::prop_assert!((bd2 - f.bd).abs().max() < 1e-9 * (1.0 + f.bd.abs().max()));
+        }
+    }
+
     #[test]
     fn bad_inputs() {
         assert!(SloshModel::SEED.discretize_zoh(0.0).is_err());

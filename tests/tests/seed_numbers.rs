@@ -202,3 +202,32 @@ fn eq_2_12_parallel_axis_error_of_one_centimetre() {
     let d_i = parallel_axis_error(Trifilar::SEED.mass_kg, 0.01).unwrap();
     assert_printed("m d^2 (kg m^2)", d_i, 0.000717, 0.0000005);
 }
+
+#[test]
+fn fig_b5_wider_impulse_larger_response_same_frequency() {
+    // App. B.4-B.5: unit-height rectangular inputs of 2 s and 4 s through the ZOH model at
+    // 0.01 s. "the amplitude of the response increases with the width of the input impulse
+    // ... the output frequency remains unchanged" (the poles' 2.45 rad/s).
+    let d = SloshModel::SEED.discretize_zoh(0.01).unwrap();
+    let response = |width_s: f64| {
+        let n = 6000; // 60 s
+        let on = (width_s / 0.01).round() as usize;
+        let u: Vec<f64> = (0..n).map(|k| if k < on { 1.0 } else { 0.0 }).collect();
+        d.simulate(&u)
+    };
+    let (y2, y4) = (response(2.0), response(4.0));
+    let on4 = 400; // both inputs have ended after 4 s
+    // free oscillation after the input ends, about the rest position 0
+    let amp = |y: &[f64], from: usize| y[from..from + 300].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let (a2, a4) = (amp(&y2, on4 + 10), amp(&y4, on4 + 10));
+    assert!(a4 > a2, "4 s response {a4} not larger than 2 s response {a2}");
+    // frequency from the spacing of upward zero crossings over 40 s of free response
+    let freq = |y: &[f64], from: usize| {
+        let ups: Vec<usize> = (from + 1..y.len()).filter(|&k| y[k - 1] < 0.0 && y[k] >= 0.0).collect();
+        let cycles = (ups.len() - 1) as f64;
+        2.0 * std::f64::consts::PI * cycles / ((ups[ups.len() - 1] - ups[0]) as f64 * 0.01)
+    };
+    let (w2, w4) = (freq(&y2, on4 + 10), freq(&y4, on4 + 10));
+    assert_printed("free-response frequency, 2 s input (rad/s)", w2, 2.45, 0.005);
+    assert_printed("free-response frequency, 4 s input (rad/s)", w4, 2.45, 0.005);
+}

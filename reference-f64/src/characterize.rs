@@ -460,6 +460,37 @@ mod tests {
         assert!((got - c).norm() < 1e-12);
     }
 
+    proptest::proptest! {
+        /// eq. 2.6 inverts: the frequency a given object inertia produces gives it back.
+        #[test]
+        fn trifilar_round_trip(i in 1e-3f64..1.0, m in 1.0f64..20.0, r in 0.05f64..0.5, l in 0.5f64..5.0, base in 0.0f64..0.1) {
+            let p = Trifilar { mass_kg: m, g_m_s2: SEED_G, radius_m: r, length_m: l, base_inertia_kgm2: base };
+            let w = (p.kappa().unwrap() / (i + base)).sqrt();
+            let got = p.inertia(w).unwrap();
+            proptest::prop_assert!((got - i).abs() <= 1e-12 * (i + base));
+            // eq. 2.8 with the total inertia gives eq. 2.9's kappa
+            let k = torsion_kappa(i + base, w).unwrap();
+            proptest::prop_assert!((k - p.kappa().unwrap()).abs() <= 1e-12 * k);
+        }
+
+        /// Any CoM is recovered from an upright and a random second mounting that tilts the
+        /// vertical axis away from body z.
+        #[test]
+        fn com_round_trip(cx in -0.01f64..0.01, cy in -0.01f64..0.01, cz in -0.01f64..0.01,
+                          ax in -1.0f64..1.0, ay in -1.0f64..1.0, ang in 0.5f64..2.6) {
+            let axis = nalgebra::Unit::new_normalize(Vector3::new(ax, ay, 0.0) + Vector3::new(1e-3, 0.0, 0.0));
+            let r2 = *nalgebra::Rotation3::from_axis_angle(&axis, ang).matrix();
+            let c = Vector3::new(cx, cy, cz);
+            let w = 3.5 * SEED_G;
+            let meas = |r: Matrix3<f64>| {
+                let rc = r * c;
+                LoadCellMoments { body_to_cell: r, moment_nm: Vector3::new(-w * rc.y, w * rc.x, 0.0), bias_nm: Vector3::zeros() }
+            };
+            let got = com_from_load_cell(&[meas(Matrix3::identity()), meas(r2)], 3.5, SEED_G).unwrap();
+            proptest::prop_assert!((got - c).norm() < 1e-10);
+        }
+    }
+
     #[test]
     fn thrust_average_keeps_unnormalised_mean_direction() {
         let a = thrust_from_load_cell(&[Vector3::new(0.13, 0.0, 0.01), Vector3::new(0.13, 0.0, -0.01)], Vector3::zeros()).unwrap();

@@ -119,14 +119,6 @@ fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
     t.iter().zip(y).map(|(a, v)| v - my - b * (a - mt)).collect()
 }
 
-fn ringing_theta(r: &RingingFit) -> Vec<f64> {
-    let mut th = vec![r.freq_hz, r.decay_ms];
-    for a in 0..3 {
-        th.extend(r.amp[a]);
-    }
-    th
-}
-
 /// Runs the diagnosis of `series` against the satellite `plant`.
 pub fn diagnose(
     series: &Series,
@@ -153,28 +145,32 @@ pub fn diagnose(
     let n_obs = prob.n_obs() as f64;
     let ln_n = n_obs.max(2.0).ln();
     let slosh_hint = slosh_hints(series, &residual_before);
-    let spectrum_before = ringing::post_edge_spectrum(series, &residual_before, 100);
-    let rweight: [f64; 3] = prob.weight;
 
-    // 2. forward selection
+    // 2. forward selection. The rigid-body part is refitted jointly after every
+    // acceptance; ringing (additive, random phase per edge) lives on the residual.
     let mut accepted: Vec<Accepted> = vec![];
-    let mut chi2_cur = chi2_nominal;
+    let mut chi2_rigid = chi2_nominal;
+    let mut ringing_fit: Option<RingingFit> = None;
     let mut k_cur = 0usize;
     let mut scores = vec![];
+    let mut rigid_residual = residual_before.clone();
     let mut residual_cur = residual_before.clone();
     let mut alias_marks = (0.0, vec![]);
     let mut joint_stderr: Vec<f64> = vec![];
     let mut sizes: Vec<usize> = vec![];
+    let sigma2 = noise.var;
     for round in 0..settings.max_effects {
+        let ring_gain = ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
+        let chi2_cur = chi2_rigid - ring_gain;
         let acc_pairs: Vec<(Kind, Vec<f64>)> = accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
-        let mut best: Option<(f64, Kind, Vec<f64>, f64, String)> = None; // (dbic, kind, theta, chi2, note)
-        let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String)> = vec![];
+        let mut best: Option<(f64, Kind, Vec<f64>, String, Option<RingingFit>)> = None;
+        let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String, Option<RingingFit>)> = vec![];
         for &kind in Kind::ALL.iter() {
             if accepted.iter().any(|a| a.kind == kind) {
                 continue;
             }
             // mechanisms that share parameters cannot be combined
-            if (kind == Kind::MassPropertyChange || kind == Kind::Inertia || kind == Kind::ComOffset)
+            if matches!(kind, Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset)
                 && accepted.iter().any(|a| matches!(a.kind, Kind::MassPropertyChange))
             {
                 continue;
@@ -184,10 +180,10 @@ pub fn diagnose(
                 continue;
             }
             let screen_iter = settings.max_iter.min(3);
-            let (chi2, theta, note) = if kind == Kind::GyroRinging {
-                let Some(rf) = ringing::fit(series, &residual_cur, &rweight, settings.ringing_prior_hz) else { continue };
-                alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
-                (chi2_cur - rf.delta_chi2, ringing_theta(&rf), rf.evidence.clone())
+            if kind == Kind::GyroRinging {
+                let Some(rf) = ringing::fit(series, &rigid_residual, &sigma2, settings.ringing_prior_hz) else { continue };
+                let dbic = -rf.gain + k_new as f64 * ln_n;
+                screened.push((dbic, kind, vec![], chi2_cur - rf.gain, rf.evidence.clone(), Some(rf)));
             } else {
                 let Some((fr, sz)) =
                     select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), omega0, &slosh_hint, screen_iter)
@@ -195,82 +191,98 @@ pub fn diagnose(
                     continue;
                 };
                 let off: usize = sz[..sz.len() - 1].iter().sum();
-                (fr.chi2, fr.theta[off..off + k_new].to_vec(), String::new())
-            };
-            let dbic = chi2 - chi2_cur + k_new as f64 * ln_n;
-            screened.push((dbic, kind, theta, chi2, note));
+                let chi2 = fr.chi2 - ring_gain;
+                screened.push((chi2 - chi2_cur + k_new as f64 * ln_n, kind, fr.theta[off..off + k_new].to_vec(), chi2, String::new(), None));
+            }
         }
         // full fits for the best screened candidates
         screened.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
-        for (i, (dbic, kind, theta, chi2, note)) in screened.into_iter().enumerate() {
-            let (dbic, theta, chi2) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
+        for (i, (dbic, kind, theta, chi2, note, rf)) in screened.into_iter().enumerate() {
+            let (dbic, theta) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
                 let k_new = effects::n_params(kind, &fired);
                 match select::fit_from(&prob, &fired, &acc_pairs, kind, &theta, omega0, &slosh_hint, settings.max_iter) {
-                    Some((fr, sz)) if fr.chi2 < chi2 => {
+                    Some((fr, sz)) if fr.chi2 - ring_gain < chi2 => {
                         let off: usize = sz[..sz.len() - 1].iter().sum();
-                        (fr.chi2 - chi2_cur + k_new as f64 * ln_n, fr.theta[off..off + k_new].to_vec(), fr.chi2)
+                        (fr.chi2 - ring_gain - chi2_cur + k_new as f64 * ln_n, fr.theta[off..off + k_new].to_vec())
                     }
-                    _ => (dbic, theta, chi2),
+                    _ => (dbic, theta),
                 }
             } else {
-                (dbic, theta, chi2)
+                (dbic, theta)
             };
             scores.push(Score { round, effect: kind.name(), delta_bic: dbic });
             if best.as_ref().map(|b| dbic < b.0).unwrap_or(true) {
-                best = Some((dbic, kind, theta, chi2, note));
+                best = Some((dbic, kind, theta, note, rf));
             }
         }
-        let Some((dbic, kind, theta, _chi2, note)) = best else { break };
+        let Some((dbic, kind, theta, note, rf)) = best else { break };
         if dbic > -settings.accept_margin {
             break;
         }
-        // accept, then refit everything jointly
-        let mut pairs = acc_pairs.clone();
-        pairs.push((kind, theta.clone()));
-        let (new_pairs, chi2_new, w_new, se, sz) = refit_all(&prob, &fired, &pairs, omega0, &slosh_hint, settings);
-        omega0 = w_new;
-        let params = select::build(&fired, &new_pairs, omega0);
-        let residual_new = prob.residual(&params).unwrap_or_else(|| residual_cur.clone());
+        let residual_prev = residual_cur.clone();
+        if kind == Kind::GyroRinging {
+            let rf = rf.expect("ringing candidate carries its fit");
+            alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
+            ringing_fit = Some(rf);
+        } else {
+            let mut pairs = acc_pairs.clone();
+            pairs.push((kind, theta.clone()));
+            let rigid_pairs: Vec<(Kind, Vec<f64>)> = pairs.iter().filter(|p| p.0 != Kind::GyroRinging).cloned().collect();
+            let (new_pairs, chi2_new, w_new, se, sz) = refit_all(&prob, &fired, &rigid_pairs, omega0, &slosh_hint, settings);
+            omega0 = w_new;
+            chi2_rigid = chi2_new;
+            let params = select::build(&fired, &new_pairs, omega0);
+            rigid_residual = prob.residual(&params).unwrap_or_else(|| rigid_residual.clone());
+            for a in accepted.iter_mut() {
+                if let Some((_, th)) = new_pairs.iter().find(|p| p.0 == a.kind) {
+                    a.theta = th.clone();
+                }
+            }
+            joint_stderr = se;
+            sizes = sz;
+            if ringing_fit.is_some() {
+                ringing_fit = ringing::fit(series, &rigid_residual, &sigma2, settings.ringing_prior_hz);
+            }
+        }
+        residual_cur = match &ringing_fit {
+            Some(rf) => ringing::remove(series, &rigid_residual, &sigma2, rf),
+            None => rigid_residual.clone(),
+        };
         k_cur += effects::n_params(kind, &fired);
-        let delta_bic_total = chi2_new - chi2_nominal + k_cur as f64 * ln_n;
+        let chi2_total = chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
+        let delta_bic_total = chi2_total - chi2_nominal + k_cur as f64 * ln_n;
         let width = match kind {
             Kind::ThrusterLatency | Kind::GyroRinging => 20,
             Kind::PressureDrop | Kind::ThrustScale => 200,
             _ => 1000,
         };
-        let windows = locate::top_windows(series, &residual_cur, &residual_new, width, 3);
-        let evidence = describe(kind, series, &residual_cur, &residual_new, dbic, &note, &scores, round);
-        for (a, (_, th)) in accepted.iter_mut().zip(new_pairs.iter()) {
-            a.theta = th.clone();
-        }
+        let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3);
+        let evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, round);
         accepted.push(Accepted {
             kind,
-            theta: new_pairs.last().unwrap().1.clone(),
+            theta,
             stderr: vec![],
             delta_bic: delta_bic_total,
-            rms_after: locate::rms(&residual_new, &series.valid),
+            rms_after: locate::rms(&residual_cur, &series.valid),
             windows,
             evidence,
         });
-        joint_stderr = se;
-        sizes = sz;
-        chi2_cur = chi2_new;
-        residual_cur = residual_new;
     }
-    // standard errors from the final joint fit (ringing keeps its own)
+    // standard errors of the rigid effects come from the last joint fit
     let mut off = 0;
-    let non_ringing: Vec<usize> = (0..accepted.len()).filter(|&i| accepted[i].kind != Kind::GyroRinging).collect();
-    for (j, &i) in non_ringing.iter().enumerate() {
+    let rigid_idx: Vec<usize> = (0..accepted.len()).filter(|&i| accepted[i].kind != Kind::GyroRinging).collect();
+    for (j, &i) in rigid_idx.iter().enumerate() {
         let n = sizes.get(j).copied().unwrap_or(0);
         accepted[i].stderr = joint_stderr.get(off..off + n).map(|s| s.to_vec()).unwrap_or_default();
         off += n;
     }
-    // final ringing: refit on the final residual of the rigid part for its uncertainty
     for a in accepted.iter_mut().filter(|a| a.kind == Kind::GyroRinging) {
-        if let Some(rf) = ringing::fit(series, &residual_with_ringing_removed(series, &residual_cur, &a.theta), &rweight, settings.ringing_prior_hz) {
+        if let Some(rf) = &ringing_fit {
+            a.theta = vec![rf.freq_hz, rf.decay_ms, rf.amplitude[0], rf.amplitude[1], rf.amplitude[2]];
             a.stderr = vec![rf.freq_stderr, rf.decay_stderr];
         }
     }
+    let spectrum_before = ringing::post_edge_spectrum(series, &rigid_residual, &sigma2);
 
     let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
     let output = DiagnosisOutput {
@@ -299,15 +311,6 @@ pub fn diagnose(
     }
 }
 
-/// Adds the fitted ringing back into a residual (so it can be re-fitted for its errors).
-fn residual_with_ringing_removed(series: &Series, r: &[[f64; 3]], theta: &[f64]) -> Vec<[f64; 3]> {
-    let b = crate::model::ringing_basis(series, theta[0], theta[1]);
-    r.iter()
-        .zip(b.iter())
-        .map(|(x, bb)| std::array::from_fn(|a| x[a] + theta[2 + 2 * a] * bb[0] + theta[3 + 2 * a] * bb[1]))
-        .collect()
-}
-
 type Refit = (Vec<(Kind, Vec<f64>)>, f64, [f64; 3], Vec<f64>, Vec<usize>);
 
 /// Joint refit of every accepted effect (ringing held, then re-regressed on the result).
@@ -326,29 +329,11 @@ fn refit_all(
     };
     let mut out = vec![];
     let mut off = 0;
-    let mut j = 0;
-    for (k, th) in pairs {
-        if *k == Kind::GyroRinging {
-            out.push((*k, th.clone()));
-        } else {
-            let n = sizes[j];
-            out.push((*k, fr.theta[off..off + n].to_vec()));
-            off += n;
-            j += 1;
-        }
+    for ((k, _), &n) in pairs.iter().zip(sizes.iter()) {
+        out.push((*k, fr.theta[off..off + n].to_vec()));
+        off += n;
     }
     let w = [fr.theta[off], fr.theta[off + 1], fr.theta[off + 2]];
-    // re-regress ringing amplitudes on the new rigid residual
-    if let Some(pos) = out.iter().position(|p| p.0 == Kind::GyroRinging) {
-        let mut rigid = out.clone();
-        rigid.remove(pos);
-        let p = select::build(fired, &rigid, w);
-        if let Some(r) = prob.residual(&p) {
-            if let Some(rf) = ringing::fit(prob.series, &r, &prob.weight, settings.ringing_prior_hz) {
-                out[pos].1 = ringing_theta(&rf);
-            }
-        }
-    }
     let p = select::build(fired, &out, w);
     let chi2 = prob.chi2(&p).unwrap_or(fr.chi2);
     (out, chi2, w, fr.stderr, sizes)
@@ -507,6 +492,7 @@ fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectRep
             p.insert("freq_hz".into(), num(th[0]));
             p.insert("decay_ms".into(), num(th[1]));
             p.insert("apparent_hz".into(), num(crate::alias::apparent(th[0], series.sample_rate_hz)));
+            p.insert("amplitude_rad_s".into(), nums(&th[2..5]));
             s.insert("freq_hz".into(), num(se(0)));
             s.insert("decay_ms".into(), num(se(1)));
             s.insert("apparent_hz".into(), num(se(0)));

@@ -81,7 +81,7 @@ pub fn n_params(kind: Kind, fired: &[bool; NT]) -> usize {
         Kind::Inertia => 6,
         Kind::MassPropertyChange => 10,
         Kind::FuelSlosh => 3,
-        Kind::GyroRinging => 8,
+        Kind::GyroRinging => 5,
     }
 }
 
@@ -112,14 +112,7 @@ pub fn apply(kind: Kind, th: &[f64], fired: &[bool; NT], p: &mut Params) {
         Kind::GyroBias => p.gyro_bias_counts = [th[0], th[1], th[2]],
         Kind::GyroScale => p.gyro_scale = [th[0], th[1], th[2]],
         Kind::DisturbanceTorque => p.disturbance_nm = [th[0], th[1], th[2]],
-        Kind::GyroRinging => {
-            if let Some(r) = p.ringing.as_mut() {
-                r.freq_hz = th[0];
-                r.decay_ms = th[1];
-                for a in 0..3 {
-                    r.amp[a] = [th[2 + 2 * a], th[3 + 2 * a]];
-                }
-            }
-        }
+        // additive with a random phase per edge: see ringing.rs
+        Kind::GyroRinging => {}
     }
 }

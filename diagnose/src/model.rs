@@ -165,19 +165,39 @@ struct MassProps {
     inertia: Matrix3<f64>,
     inv_rigid: Matrix3<f64>,
     torque: [Vector3<f64>; NT],
-    slosh_inertia: Vector3<f64>,
+    /// Liquid inertia J per axis and its spring and damper (zero without slosh).
+    slosh_j: Vector3<f64>,
+    slosh_k: Vector3<f64>,
+    slosh_c: Vector3<f64>,
 }
 
 impl MassProps {
+    /// Slosh coupling as the open data's generator has it (and `massid_sim`): per axis a
+    /// liquid rotor J = fraction I_aa tied to the body by a spring and damper chosen from
+    /// the reduced inertia J (I_aa - J) / I_aa, so that the two-body mode seen in the body
+    /// rate has `freq_hz` and `damping_ratio`; the gyroscopic term carries the liquid's
+    /// momentum too.
     fn new(plant: &Plant, p: &Params, inertia6: &[f64; 6], dcom_mm: &[f64; 3]) -> Option<MassProps> {
         let inertia = inertia_matrix(inertia6);
         let com = plant.com + Vector3::from(*dcom_mm) * 1e-3;
         let torque = std::array::from_fn(|i| plant.torque(i, &com));
-        let mu = p.slosh.map(|s| s.2).unwrap_or(0.0);
-        let slosh_inertia = Vector3::new(inertia[(0, 0)], inertia[(1, 1)], inertia[(2, 2)]) * mu;
-        let rigid = inertia - Matrix3::from_diagonal(&slosh_inertia);
+        let mut slosh_j = Vector3::zeros();
+        let mut slosh_k = Vector3::zeros();
+        let mut slosh_c = Vector3::zeros();
+        if let Some((f, zeta, frac)) = p.slosh {
+            let wn = 2.0 * std::f64::consts::PI * f;
+            for a in 0..3 {
+                let iaa = inertia[(a, a)];
+                let j = frac * iaa;
+                let mu = j * (iaa - j) / iaa;
+                slosh_j[a] = j;
+                slosh_k[a] = mu * wn * wn;
+                slosh_c[a] = 2.0 * zeta * mu * wn;
+            }
+        }
+        let rigid = inertia - Matrix3::from_diagonal(&slosh_j);
         let inv_rigid = rigid.try_inverse()?;
-        Some(MassProps { inertia, inv_rigid, torque, slosh_inertia })
+        Some(MassProps { inertia, inv_rigid, torque, slosh_j, slosh_k, slosh_c })
     }
 }
 
@@ -193,10 +213,6 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
         None => None,
     };
     let change_ms = p.mass_change.map(|m| m.0 * 1e3).unwrap_or(f64::INFINITY);
-    let (wn, zeta) = match p.slosh {
-        Some((f, z, _)) => (2.0 * std::f64::consts::PI * f, z),
-        None => (0.0, 0.0),
-    };
     let slosh_on = p.slosh.is_some();
     let dist = Vector3::from(p.disturbance_nm);
     let pd = plant.base_pressure_drop + p.pressure_drop;
@@ -250,19 +266,20 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
             last_tau = tau_c;
             let h = 1e-3;
             let deriv = |w: &Vector3<f64>, q: &Vector3<f64>, qd: &Vector3<f64>| {
-                let iw = props.inertia * w;
-                let mut torque = tau_c - w.cross(&iw);
-                let mut qdd = Vector3::zeros();
                 if slosh_on {
-                    let spring = q * (wn * wn) + qd * (2.0 * zeta * wn);
-                    torque += props.slosh_inertia.component_mul(&spring);
-                    let wd = props.inv_rigid * torque;
-                    qdd = -spring - wd;
+                    let spring = props.slosh_k.component_mul(q) + props.slosh_c.component_mul(qd);
+                    let h = props.inertia * w + props.slosh_j.component_mul(qd);
+                    let wd = props.inv_rigid * (tau_c - w.cross(&h) + spring);
+                    let mut qdd = Vector3::zeros();
+                    for a in 0..3 {
+                        if props.slosh_j[a] > 0.0 {
+                            qdd[a] = -spring[a] / props.slosh_j[a] - wd[a];
+                        }
+                    }
                     (wd, *qd, qdd)
                 } else {
-                    let wd = props.inv_rigid * torque;
-                    let _ = &mut qdd;
-                    (wd, Vector3::zeros(), qdd)
+                    let wd = props.inv_rigid * (tau_c - w.cross(&(props.inertia * w)));
+                    (wd, Vector3::zeros(), Vector3::zeros())
                 }
             };
             let (k1w, k1q, k1d) = deriv(&w, &q, &qd);

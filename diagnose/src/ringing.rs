@@ -1,21 +1,25 @@
 //! Gyro ringing: a decaying tone excited at every valve edge (seed ch. 3: 338 Hz,
-//! App. A: seen at 11.45 Hz / 38.33 Hz when sampled at 50 / 100 Hz). It is additive on
-//! the gyro output, so it is fitted on the residual of the rigid-body model: the
-//! spectrum of post-edge windows gives the apparent frequency, alias folding lists the
-//! true frequencies it could be, and a decaying-sinusoid regression at each candidate
-//! (amplitudes linear, decay on a grid) scores them. When the sampling makes candidates
-//! indistinguishable, the seed's tuning-fork value is the prior that picks one.
+//! App. A: seen at 11.45 Hz / 38.33 Hz when sampled at 50 / 100 Hz). Its phase relative
+//! to the samples differs from edge to edge (the valve shock meets the tines at a random
+//! point of their cycle), so it is not one coherent signal: it is detected and fitted as
+//! a random-effects model. For each edge, the residual window after it (mean and slope
+//! removed, so slow rigid-body error does not count) is projected on a decaying cosine
+//! and sine; the projections' excess variance over the noise, by maximum likelihood over
+//! the per-axis amplitude, gives a likelihood-ratio statistic for each (frequency, decay).
+//! Scanning the apparent frequency finds the tone; alias folding lists the true
+//! frequencies it could be; those the sampling cannot tell apart are settled by the
+//! seed's tuning-fork value as the prior (and the evidence says so).
 
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{Matrix2, SymmetricEigen, Vector2};
 
 use crate::alias;
-use crate::model::ringing_basis;
 use crate::series::Series;
-use crate::spectrum;
 
 /// Highest true ringing frequency considered, Hz (the tone must reach the gyro output;
 /// above ~600 Hz the Gyrochip's own response has rolled off).
 pub const F_MAX_HZ: f64 = 600.0;
+/// Length of the residual window after each edge, ms.
+pub const WINDOW_MS: i64 = 150;
 
 /// The fitted tone.
 #[derive(Clone, Debug)]
@@ -23,199 +27,289 @@ pub struct RingingFit {
     pub freq_hz: f64,
     pub apparent_hz: f64,
     pub decay_ms: f64,
-    pub amp: [[f64; 2]; 3],
+    /// Root-mean-square peak amplitude per axis, rad/s.
+    pub amplitude: [f64; 3],
     pub freq_stderr: f64,
     pub decay_stderr: f64,
-    /// Chi-square reduction of the regression.
-    pub delta_chi2: f64,
-    /// Other true frequencies that fit as well (within 10 chi-square).
+    /// Likelihood-ratio statistic (2 ln LR), comparable to a chi-square reduction.
+    pub gain: f64,
+    /// Other true frequencies that fit as well (within 10 of the best statistic).
     pub ambiguous: Vec<f64>,
     pub evidence: String,
-    /// Post-edge spectrum (frequency, power) used to find the apparent tone.
-    pub spectrum: Vec<(f64, f64)>,
 }
 
-/// Post-edge residual spectrum over (1 Hz, fs/2], summed over axes.
-pub fn post_edge_spectrum(series: &Series, r: &[[f64; 3]], window_ms: i64) -> Vec<(f64, f64)> {
+/// Residual windows after each valve edge: (edge time ms, sample indices).
+pub fn edge_windows(series: &Series) -> Vec<(i64, Vec<usize>)> {
     let edges = series.edges();
-    let mut t = vec![];
-    let mut y: [Vec<f64>; 3] = [vec![], vec![], vec![]];
-    let mut e = 0usize;
-    for (i, &ts) in series.t_ms.iter().enumerate() {
-        while e + 1 < edges.len() && edges[e + 1].0 <= ts {
-            e += 1;
+    let mut out = vec![];
+    let mut i0 = 0usize;
+    for (k, e) in edges.iter().enumerate() {
+        let end = edges.get(k + 1).map(|n| n.0).unwrap_or(i64::MAX).min(e.0 + WINDOW_MS);
+        while i0 < series.len() && series.t_ms[i0] < e.0 {
+            i0 += 1;
         }
-        if !edges.is_empty() && edges[e].0 <= ts && ts - edges[e].0 < window_ms {
-            t.push(ts as f64 * 1e-3);
-            for a in 0..3 {
-                y[a].push(r[i][a]);
-            }
+        let mut idx = vec![];
+        let mut i = i0;
+        while i < series.len() && series.t_ms[i] < end {
+            idx.push(i);
+            i += 1;
         }
-    }
-    let nyq = series.sample_rate_hz / 2.0;
-    let n = ((nyq - 1.0) / 0.5).ceil().max(2.0) as usize;
-    let freqs = spectrum::grid(1.0, nyq * 0.999, n);
-    let mut total = vec![0.0; freqs.len()];
-    for a in 0..3 {
-        let p = spectrum::lomb_scargle(&t, &y[a], &freqs);
-        for (tt, pp) in total.iter_mut().zip(p) {
-            *tt += pp;
+        if idx.len() >= 4 {
+            out.push((e.0, idx));
         }
     }
-    freqs.into_iter().zip(total).collect()
+    out
 }
 
-/// Chi-square reduction and amplitudes of the best decaying-sinusoid regression at
-/// (`f`, `tau_ms`), with per-axis weights `w` (1/sigma).
-fn regress(series: &Series, r: &[[f64; 3]], w: &[f64; 3], f: f64, tau_ms: f64) -> (f64, [[f64; 2]; 3]) {
-    let b = ringing_basis(series, f, tau_ms);
-    let mut btb = Matrix2::zeros();
-    let mut btr = [Vector2::zeros(); 3];
-    for (i, bb) in b.iter().enumerate() {
-        if bb[0] == 0.0 && bb[1] == 0.0 {
-            continue;
-        }
-        let v = Vector2::new(bb[0], bb[1]);
-        btb += v * v.transpose();
-        for a in 0..3 {
-            if series.valid[i][a] {
-                btr[a] += v * r[i][a];
+/// Per-edge projections for one (f, tau): the 2x2 Gram matrix and per-axis projections,
+/// after removing mean and slope within the window.
+fn projections(series: &Series, r: &[[f64; 3]], windows: &[(i64, Vec<usize>)], f: f64, tau: f64) -> Vec<(Matrix2<f64>, [Vector2<f64>; 3])> {
+    let w = 2.0 * std::f64::consts::PI * f * 1e-3;
+    windows
+        .iter()
+        .map(|(te, idx)| {
+            let n = idx.len();
+            let mut rows: Vec<[f64; 6]> = Vec::with_capacity(n); // t, c, s, rx, ry, rz
+            for &i in idx {
+                let dt = (series.t_ms[i] - te) as f64;
+                let env = (-dt / tau).exp();
+                let (s, c) = (w * dt).sin_cos();
+                rows.push([dt, env * c, env * s, r[i][0], r[i][1], r[i][2]]);
             }
-        }
-    }
-    let Some(inv) = btb.try_inverse() else { return (0.0, [[0.0; 2]; 3]) };
-    let mut d = 0.0;
-    let mut amp = [[0.0; 2]; 3];
-    for a in 0..3 {
-        let c = inv * btr[a];
-        amp[a] = [c[0], c[1]];
-        d += (btr[a].dot(&c)) * w[a] * w[a];
-    }
-    (d, amp)
+            // remove mean and slope in t from every column 1..6
+            let nt = n as f64;
+            let mt = rows.iter().map(|x| x[0]).sum::<f64>() / nt;
+            let stt: f64 = rows.iter().map(|x| (x[0] - mt).powi(2)).sum();
+            for col in 1..6 {
+                let m = rows.iter().map(|x| x[col]).sum::<f64>() / nt;
+                let b = if stt > 0.0 { rows.iter().map(|x| (x[0] - mt) * (x[col] - m)).sum::<f64>() / stt } else { 0.0 };
+                for x in rows.iter_mut() {
+                    x[col] -= m + b * (x[0] - mt);
+                }
+            }
+            let mut g = Matrix2::zeros();
+            let mut p = [Vector2::zeros(); 3];
+            for x in &rows {
+                let v = Vector2::new(x[1], x[2]);
+                g += v * v.transpose();
+                for a in 0..3 {
+                    p[a] += v * x[3 + a];
+                }
+            }
+            (g, p)
+        })
+        .collect()
 }
 
-/// Best decay for frequency `f` by a coarse grid then golden-section refinement.
-fn best_decay(series: &Series, r: &[[f64; 3]], w: &[f64; 3], f: f64) -> (f64, f64) {
-    let grid = [2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0];
+/// 2 ln LR for the per-axis coefficient variance, maximised over it; returns (stat, s).
+fn lr_axis(proj: &[(Matrix2<f64>, [Vector2<f64>; 3])], axis: usize, sigma2: f64) -> (f64, f64) {
+    // eigen-decompose each Gram matrix once: components independent with variance
+    // sigma2 * l + s * l^2
+    let comps: Vec<(f64, f64)> = proj
+        .iter()
+        .flat_map(|(g, p)| {
+            let e = SymmetricEigen::new(*g);
+            let u = e.eigenvectors;
+            let gp = u.transpose() * p[axis];
+            [(e.eigenvalues[0], gp[0]), (e.eigenvalues[1], gp[1])]
+        })
+        .filter(|(l, _)| *l > 1e-12)
+        .collect();
+    let ll = |s: f64| -> f64 {
+        comps.iter().map(|&(l, g)| {
+            let v = sigma2 * l + s * l * l;
+            -0.5 * (g * g / v + v.ln())
+        }).sum()
+    };
+    let l0 = ll(0.0);
+    // golden-section search over log s
+    let (mut a, mut b) = ((sigma2 * 1e-4).ln(), (sigma2 * 1e5).ln());
+    let gr = 0.618_033_988_75;
+    for _ in 0..40 {
+        let x1 = b - gr * (b - a);
+        let x2 = a + gr * (b - a);
+        if ll(x1.exp()) > ll(x2.exp()) {
+            b = x2;
+        } else {
+            a = x1;
+        }
+    }
+    let s = (0.5 * (a + b)).exp();
+    let stat = 2.0 * (ll(s) - l0);
+    if stat > 0.0 { (stat, s) } else { (0.0, 0.0) }
+}
+
+fn statistic(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], sigma2: &[f64; 3], f: f64, tau: f64) -> (f64, [f64; 3]) {
+    let proj = projections(series, r, win, f, tau);
+    let mut tot = 0.0;
+    let mut s = [0.0; 3];
+    for a in 0..3 {
+        let (st, sa) = lr_axis(&proj, a, sigma2[a]);
+        tot += st;
+        s[a] = sa;
+    }
+    (tot, s)
+}
+
+fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], sigma2: &[f64; 3], f: f64, coarse: bool) -> (f64, f64) {
+    let grid: &[f64] = if coarse { &[8.0, 30.0] } else { &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0] };
     let mut best = (f64::MIN, 8.0);
-    for &tau in &grid {
-        let (d, _) = regress(series, r, w, f, tau);
+    for &tau in grid {
+        let d = statistic(series, r, win, sigma2, f, tau).0;
         if d > best.0 {
             best = (d, tau);
         }
     }
-    // golden section on log tau within one grid step
+    if coarse {
+        return best;
+    }
     let (mut a, mut b) = ((best.1 / 2.0f64).ln(), (best.1 * 2.0f64).ln());
     let g = 0.618_033_988_75;
-    for _ in 0..14 {
+    for _ in 0..12 {
         let x1 = b - g * (b - a);
         let x2 = a + g * (b - a);
-        let d1 = regress(series, r, w, f, x1.exp()).0;
-        let d2 = regress(series, r, w, f, x2.exp()).0;
-        if d1 > d2 {
+        if statistic(series, r, win, sigma2, f, x1.exp()).0 > statistic(series, r, win, sigma2, f, x2.exp()).0 {
             b = x2;
         } else {
             a = x1;
         }
     }
     let tau = (0.5 * (a + b)).exp();
-    let d = regress(series, r, w, f, tau).0;
+    let d = statistic(series, r, win, sigma2, f, tau).0;
     if d > best.0 { (d, tau) } else { best }
 }
 
-/// Finds, folds and fits the ringing in residual `r`. `w` are per-axis weights 1/sigma for
-/// high-frequency content. None when there are no valve edges.
-pub fn fit(series: &Series, r: &[[f64; 3]], w: &[f64; 3], prior_hz: f64) -> Option<RingingFit> {
-    if series.edges().is_empty() {
+/// Post-edge spectrum: the likelihood-ratio statistic against apparent frequency
+/// (one decay), for the report's plot.
+pub fn post_edge_spectrum(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3]) -> Vec<(f64, f64)> {
+    let win = edge_windows(series);
+    if win.is_empty() {
+        return vec![];
+    }
+    let nyq = series.sample_rate_hz / 2.0;
+    let step = (nyq / 250.0).max(0.25);
+    let mut out = vec![];
+    let mut f = 2.0;
+    while f < nyq {
+        out.push((f, statistic(series, r, &win, sigma2, f, 20.0).0));
+        f += step;
+    }
+    out
+}
+
+/// Finds, folds and fits the ringing in residual `r` with per-axis per-sample noise
+/// variance `sigma2`. None when there are no usable valve edges.
+pub fn fit(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], prior_hz: f64) -> Option<RingingFit> {
+    let win = edge_windows(series);
+    if win.len() < 3 {
         return None;
     }
     let fs = series.sample_rate_hz;
-    let spec = post_edge_spectrum(series, r, 100);
-    // the apparent tone: strongest post-edge peak above 2 Hz (slower content is rigid-body
-    // model error, which the other mechanisms explain)
-    let (f_app, _) = spec
-        .iter()
-        .filter(|(f, _)| *f > 2.0)
-        .fold((0.0, f64::MIN), |acc, &(f, p)| if p > acc.1 { (f, p) } else { acc });
-    let f_max = F_MAX_HZ.max(fs / 2.0);
-    let cands = alias::candidates(f_app, fs, f_max);
-    let mut scored: Vec<(f64, f64, f64)> = vec![]; // (f, delta chi2, tau)
-    for &f in &cands {
-        // refine f locally (the spectrum grid is 0.5 Hz)
-        let mut best = (f64::MIN, f, 8.0);
-        for df in [-0.5, -0.25, 0.0, 0.25, 0.5] {
-            let (d, tau) = best_decay(series, r, w, f + df);
-            if d > best.0 {
-                best = (d, f + df, tau);
+    let nyq = fs / 2.0;
+    // coarse scan of the apparent frequency
+    let step = (nyq / 250.0).max(0.25);
+    let mut scan = vec![];
+    let mut f = 2.0;
+    while f < nyq {
+        scan.push((f, best_decay(series, r, &win, sigma2, f, true).0));
+        f += step;
+    }
+    let (f_app0, _) = scan.iter().cloned().fold((0.0, f64::MIN), |acc, x| if x.1 > acc.1 { x } else { acc });
+    // refine the apparent frequency
+    let mut f_app = f_app0;
+    let mut best = best_decay(series, r, &win, sigma2, f_app, true).0;
+    let mut h = step / 2.0;
+    for _ in 0..6 {
+        for cand in [f_app - h, f_app + h] {
+            if cand > 0.5 && cand < nyq {
+                let d = best_decay(series, r, &win, sigma2, cand, true).0;
+                if d > best {
+                    best = d;
+                    f_app = cand;
+                }
             }
         }
-        scored.push((best.1, best.0, best.2));
+        h /= 2.0;
     }
+    let f_max = F_MAX_HZ.max(nyq);
+    let cands = alias::candidates(f_app, fs, f_max);
+    let mut scored: Vec<(f64, f64, f64)> = cands
+        .iter()
+        .map(|&f| {
+            let (d, tau) = best_decay(series, r, &win, sigma2, f, false);
+            (f, d, tau)
+        })
+        .collect();
     if scored.is_empty() {
         return None;
     }
-    let top = scored.iter().map(|s| s.1).fold(f64::MIN, f64::max);
-    let close: Vec<&(f64, f64, f64)> = scored.iter().filter(|s| s.1 > top - 10.0).collect();
-    let chosen = **close
+    scored.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap());
+    let top = scored[0].1;
+    let close: Vec<(f64, f64, f64)> = scored.iter().cloned().filter(|s| s.1 > top - 10.0).collect();
+    let chosen = close
         .iter()
+        .cloned()
         .min_by(|a, b| (a.0 - prior_hz).abs().partial_cmp(&(b.0 - prior_hz).abs()).unwrap())
         .unwrap();
-    let ambiguous: Vec<f64> = close.iter().map(|s| s.0).filter(|&f| (f - chosen.0).abs() > 1.0).collect();
-    // fine frequency search around the chosen candidate
-    let mut bestf = chosen;
-    let mut step = 0.1;
-    for _ in 0..2 {
-        let c = bestf.0;
-        for k in -4..=4 {
-            let f = c + k as f64 * step;
-            let d = regress(series, r, w, f, bestf.2).0;
-            if d > bestf.1 {
-                bestf = (f, d, bestf.2);
-            }
-        }
-        step /= 4.0;
-    }
-    let (d, tau) = best_decay(series, r, w, bestf.0);
-    let f = bestf.0;
-    let (d, amp) = if d >= bestf.1 { (d, regress(series, r, w, f, tau).1) } else { (bestf.1, regress(series, r, w, f, bestf.2).1) };
-    // curvature of chi-square in f and log tau gives standard errors: var = 2 / d2chi2
-    let hf = 0.05;
-    let df2 = (2.0 * d - regress(series, r, w, f + hf, tau).0 - regress(series, r, w, f - hf, tau).0) / (hf * hf);
-    let ht = 0.02 * tau;
-    let dt2 = (2.0 * d - regress(series, r, w, f, tau + ht).0 - regress(series, r, w, f, tau - ht).0) / (ht * ht);
-    let freq_stderr = if df2 > 0.0 { (2.0 / df2).sqrt() } else { f64::INFINITY };
-    let decay_stderr = if dt2 > 0.0 { (2.0 / dt2).sqrt() } else { f64::INFINITY };
+    let mut ambiguous: Vec<f64> = close.iter().map(|s| s.0).filter(|&f| (f - chosen.0).abs() > 1e-6).collect();
+    ambiguous.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let (f, gain, tau) = chosen;
+    let (_, s) = statistic(series, r, &win, sigma2, f, tau);
+    // standard errors from the curvature of the statistic (a chi-square): var = 2 / d2
+    let hf = 0.2;
+    let d2f = (2.0 * gain - statistic(series, r, &win, sigma2, f + hf, tau).0 - statistic(series, r, &win, sigma2, f - hf, tau).0) / (hf * hf);
+    let ht = 0.05 * tau;
+    let d2t = (2.0 * gain - statistic(series, r, &win, sigma2, f, tau + ht).0 - statistic(series, r, &win, sigma2, f, tau - ht).0) / (ht * ht);
+    let freq_stderr = if d2f > 0.0 { (2.0 / d2f).sqrt() } else { f64::INFINITY };
+    let decay_stderr = if d2t > 0.0 { (2.0 / d2t).sqrt() } else { f64::INFINITY };
     let apparent_hz = alias::apparent(f, fs);
     let evidence = if ambiguous.is_empty() {
-        format!(
-            "decaying {:.1} Hz tone after valve edges (post-edge spectrum peak at {:.1} Hz at {} Hz sampling); \
-             no other alias fits as well",
-            f, apparent_hz, fs
-        )
+        format!("decaying {f:.1} Hz tone after {} valve edges with a random phase per edge; at {fs} Hz sampling it shows at {apparent_hz:.1} Hz and no other alias fits as well", win.len())
     } else {
         let mut a: Vec<String> = ambiguous.iter().map(|x| format!("{x:.1}")).collect();
-        a.truncate(8);
+        a.truncate(10);
         format!(
-            "decaying tone after valve edges, seen at {:.1} Hz at {} Hz sampling; the true frequency is \
-             ambiguous among the aliases {} Hz and {:.1} Hz: picked by the seed's prior (tuning-fork gyro \
-             ringing at ~{:.0} Hz, App. A)",
-            apparent_hz,
-            fs,
-            a.join(", "),
-            f,
-            prior_hz
+            "decaying tone after {} valve edges with a random phase per edge, seen at {apparent_hz:.1} Hz at {fs} Hz sampling; \
+             the true frequency is ambiguous among the aliases {} and {f:.1} Hz, which fit equally well: picked {f:.1} Hz by \
+             the seed's prior (tuning-fork gyro ringing at ~{prior_hz:.0} Hz, App. A)",
+            win.len(),
+            a.join(", ")
         )
     };
     Some(RingingFit {
         freq_hz: f,
         apparent_hz,
         decay_ms: tau,
-        amp,
+        amplitude: s.map(|x| (2.0 * x).sqrt()),
         freq_stderr,
         decay_stderr,
-        delta_chi2: d,
+        gain,
         ambiguous,
         evidence,
-        spectrum: spec,
     })
+}
+
+/// Removes the fitted ringing from a residual: per edge, the best linear predictor of the
+/// tone's coefficients given the window (shrunk towards zero by the noise).
+pub fn remove(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], rf: &RingingFit) -> Vec<[f64; 3]> {
+    let win = edge_windows(series);
+    let proj = projections(series, r, &win, rf.freq_hz, rf.decay_ms);
+    let mut out = r.to_vec();
+    let w = 2.0 * std::f64::consts::PI * rf.freq_hz * 1e-3;
+    for ((te, idx), (g, p)) in win.iter().zip(proj.iter()) {
+        for a in 0..3 {
+            let s = rf.amplitude[a].powi(2) / 2.0;
+            // E[c | proj] = s (sigma2 I + s G)^-1 proj
+            let m = Matrix2::identity() * sigma2[a] + g * s;
+            let Some(inv) = m.try_inverse() else { continue };
+            let c = inv * p[a] * s;
+            for &i in idx {
+                let dt = (series.t_ms[i] - te) as f64;
+                let env = (-dt / rf.decay_ms).exp();
+                let (sn, cs) = (w * dt).sin_cos();
+                out[i][a] -= env * (c[0] * cs + c[1] * sn);
+            }
+        }
+    }
+    out
 }

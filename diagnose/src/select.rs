@@ -43,10 +43,10 @@ impl Default for Settings {
 pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], omega0: [f64; 3]) -> Params {
     let mut p = Params { omega0, ..Params::default() };
     for (k, th) in accepted {
-        if *k == Kind::GyroRinging {
-            p.ringing = Some(crate::model::Ringing { freq_hz: th[0], decay_ms: th[1], amp: [[0.0; 2]; 3] });
+        // ringing is additive with a random phase per edge: handled on the residual
+        if *k != Kind::GyroRinging {
+            effects::apply(*k, th, fired, &mut p);
         }
-        effects::apply(*k, th, fired, &mut p);
     }
     p
 }

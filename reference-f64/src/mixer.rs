@@ -380,9 +380,13 @@ pub fn resolve_negative_values(duty: &[f64; N_THRUSTERS], thrust_n: &[f64; N_THR
 /// directions differ by up to a few percent (App. C.4), which would leave an impulse error
 /// of that order. With one thruster chosen per pair the six chosen columns of `M` form a
 /// square system; it is solved exactly (LU). A negative solution component means that pair's
-/// side was chosen wrongly (near-zero pair command): the side is switched and the system
-/// solved again, at most 6 times. If no consistent choice is found (not seen in practice) or
-/// the system is singular, the stage-4 duties are returned unchanged.
+/// side was chosen wrongly (near-zero pair command): every such side is switched and the
+/// system solved again, at most 7 solves in all (6 rounds of switching). If no consistent
+/// choice is found or the system is singular, the stage-4 duties are returned unchanged
+/// (never happened in `tests/tests/mixer_reference.rs`, which asserts the exact impulse for
+/// 300 pure and 400 random commands).
+///
+/// The kernel may compare against the `MixTrace` of this stage directly.
 ///
 /// Side rule: the thruster of a pair with the larger resolved duty; on a tie (both 0) the
 /// first thruster of the pair (seed numbering 1-6).
@@ -490,7 +494,9 @@ pub fn quantise(corrected_ms: &[f64; N_THRUSTERS], period_ms: u32, min_pulse_ms:
 /// One pulse's integer duration (rules 1-3 of the module doc).
 pub fn quantise_duration(ms: f64, period_ms: u32, min_pulse_ms: u32) -> u32 {
     let clamped = ms.clamp(0.0, period_ms as f64);
-    let mut d = (clamped + 0.5).floor() as u32;
+    // `round` (half away from zero) is half-up for non-negative values and, unlike
+    // `(x + 0.5).floor()`, adds no rounding error of its own.
+    let mut d = clamped.round() as u32;
     if d < min_pulse_ms {
         d = 0;
     }

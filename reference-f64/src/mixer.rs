@@ -384,7 +384,7 @@ pub fn resolve_negative_values(duty: &[f64; N_THRUSTERS], thrust_n: &[f64; N_THR
 /// system solved again, at most 7 solves in all (6 rounds of switching). If no consistent
 /// choice is found or the system is singular, the stage-4 duties are returned unchanged
 /// (never happened in `tests/tests/mixer_reference.rs`, which asserts the exact impulse for
-/// 300 pure and 400 random commands).
+/// 300 pure commands and the pressure-free half of 400 random ones).
 ///
 /// The kernel may compare against the `MixTrace` of this stage directly.
 ///

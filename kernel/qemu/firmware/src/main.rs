@@ -41,6 +41,38 @@ impl Write for Semihosted {
     }
 }
 
+/// The C ABI entry points, kept in the image (never called here) for the stack analysis.
+#[cfg(feature = "capi")]
+mod keep_capi {
+    use massid_kernel::capi as c;
+
+    /// Addresses of functions (only stored, never dereferenced).
+    #[allow(dead_code)]
+    pub struct Keep(pub [*const (); 16]);
+    // SAFETY: the array is immutable and only holds code addresses.
+    unsafe impl Sync for Keep {}
+
+    #[used]
+    pub static KEEP: Keep = Keep([
+        c::massid_fixed_init as *const (),
+        c::massid_fixed_tick as *const (),
+        c::massid_fixed_tick_gap as *const (),
+        c::massid_fixed_finish as *const (),
+        c::massid_fixed_estimates as *const (),
+        c::massid_fixed_mixer_init as *const (),
+        c::massid_fixed_mixer_from_pipeline as *const (),
+        c::massid_fixed_mix as *const (),
+        c::massid_f32_init as *const (),
+        c::massid_f32_tick as *const (),
+        c::massid_f32_tick_gap as *const (),
+        c::massid_f32_finish as *const (),
+        c::massid_f32_estimates as *const (),
+        c::massid_f32_mixer_init as *const (),
+        c::massid_f32_mixer_from_pipeline as *const (),
+        c::massid_f32_mix as *const (),
+    ]);
+}
+
 #[entry]
 fn main() -> ! {
     let status = match hio::hstdout() {

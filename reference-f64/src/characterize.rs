@@ -380,6 +380,25 @@ pub fn thrust_from_load_cell(forces_during_pulse_n: &[Vector3<f64>], bias_n: Vec
     Ok(ThrustVector { magnitude_n: mag, direction: (f / mag).into() })
 }
 
+/// Seed 3.5 with the mounting taken into account ("change coordinate frames"; the two
+/// thrusters pointing into the stand are measured with the satellite rotated 90 deg): the
+/// bias-free mean force is rotated from the load-cell frame to body axes with
+/// `body_to_cell^T` before taking magnitude and direction.
+pub fn thrust_from_load_cell_in_body(
+    forces_during_pulse_n: &[Vector3<f64>],
+    bias_n: Vector3<f64>,
+    body_to_cell: Matrix3<f64>,
+) -> Result<ThrustVector> {
+    if !body_to_cell.iter().all(|v| v.is_finite())
+        || ((body_to_cell.transpose() * body_to_cell) - Matrix3::identity()).abs().max() > 1e-6
+    {
+        return Err(CharacterizeError::Invalid("mounting is not a rotation".into()));
+    }
+    let in_cell = thrust_from_load_cell(forces_during_pulse_n, bias_n)?;
+    let d = body_to_cell.transpose() * Vector3::from(in_cell.direction);
+    Ok(ThrustVector { magnitude_n: in_cell.magnitude_n, direction: d.into() })
+}
+
 /// Seed 3.5 / Tables 3.3, C.3-C.4: the nominal values are averages over many tests: mean
 /// magnitude, and the component-wise mean of the unit directions (NOT renormalised, which is
 /// why the tabulated norms are 0.997..1.000), with the standard deviations (sample, n-1).
@@ -489,6 +508,18 @@ mod tests {
             let got = com_from_load_cell(&[meas(Matrix3::identity()), meas(r2)], 3.5, SEED_G).unwrap();
             proptest::prop_assert!((got - c).norm() < 1e-10);
         }
+    }
+
+    #[test]
+    fn thrust_measured_on_its_side_is_rotated_to_body_axes() {
+        // thruster 5 pushes +z (body); mounted with body z along cell x
+        let r = Matrix3::new(0.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0);
+        let f_body = Vector3::new(0.01, 0.03, 0.11);
+        let samples = [r * f_body + Vector3::new(0.2, 0.0, -34.0)];
+        let t = thrust_from_load_cell_in_body(&samples, Vector3::new(0.2, 0.0, -34.0), r).unwrap();
+        assert!((t.magnitude_n - f_body.norm()).abs() < 1e-12);
+        assert!((Vector3::from(t.direction) - f_body / f_body.norm()).norm() < 1e-12);
+        assert!(thrust_from_load_cell_in_body(&samples, Vector3::zeros(), r * 2.0).is_err());
     }
 
     #[test]

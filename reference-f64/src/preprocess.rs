@@ -295,6 +295,21 @@ mod tests {
     }
 
     #[test]
+    fn delay_and_kink_offset_of_the_seed_filter() {
+        // each real pole wc/(s+wc) delays a ramp by 1/wc, and Tustin keeps the DC delay
+        let wc = 2.0 * std::f64::consts::PI * 50.0;
+        for dt in [0.001, 0.01] {
+            let lp = LowPass2::seed(dt);
+            assert!((lp.dc_delay_s(dt) - 2.0 / wc).abs() < 1e-12);
+        }
+        // The zero-phase output at a kink is the one-sided first moment of the symmetric
+        // kernel k(tau) = e^(-wc|tau|) (wc + wc^2 |tau|) / 4 (the autocorrelation of
+        // h(t) = wc^2 t e^(-wc t)): int_0^inf tau k(tau) dtau = 3 / (4 wc) = 2.39 ms.
+        let k = LowPass2::seed(0.001).zero_phase_kink_offset_s(0.001);
+        assert!((k / (3.0 / (4.0 * wc)) - 1.0).abs() < 1e-3, "{k}");
+    }
+
+    #[test]
     fn causal_step_by_step_equals_batch() {
         let lp = LowPass2::seed(0.01);
         let x: Vec<f64> = (0..50).map(|k| ((k * 7) % 11) as f64).collect();

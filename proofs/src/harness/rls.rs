@@ -72,7 +72,7 @@ fn information_update<S: Exact, const N: usize>() {
         let b_s = b.map(|v| S::from_f32(v as f32));
         ls.add(&a_s, &b_s, &w);
         for r in 0..3 {
-            let wr = w[r].to_f64();
+            let wr = w[r].m.exact() * (2.0f64).powi(w[r].e);
             let ar = a_s[r].map(|v| v.exact());
             for i in 0..N {
                 for j in 0..N {
@@ -103,7 +103,7 @@ fn information_update<S: Exact, const N: usize>() {
     for i in 0..N {
         for j in 0..N {
             let d = (mf[i][j] - exact[i][j] / scale).abs();
-            assert!(d <= tol, "info[{i}][{j}] off by {d:e} > {tol:e}");
+            assert!(d <= tol, "info[{i}][{j}] off by {d:e} > {tol:e} ({} steps > {err_bound} steps; n {n}, row_max {row_max}, exponent {}, mantissa {}, exact {})", d / step.max(1e-300), ls.exponent(), mf[i][j], exact[i][j] / scale);
         }
     }
     // Positive semidefinite within its rounding.

@@ -102,7 +102,8 @@ pub struct Estimate {
     pub unobservable: Vec<String>,
     /// Angular-acceleration updates used (batch + RLS).
     pub updates: usize,
-    /// "ok", "unobservable_terms", "no_firings" or "singular_information".
+    /// "ok", "unobservable_terms", "no_firings", "singular_information", or "too_sparse"
+    /// (timestamps so far apart that interpolation would invent most of the data).
     pub status: String,
     /// Convergence history of the RLS (empty unless kept).
     pub history: Vec<HistoryPoint>,
@@ -412,6 +413,11 @@ pub fn estimate_from_rates(rates: &Rates, sat: &Satellite, cfg: &PipelineConfig)
 /// The Kalman filter's reference rate at each word change is corrected for the zero-phase
 /// filter's kink overshoot ([`LowPass2::zero_phase_kink_offset_s`]).
 pub fn estimate_offline(rec: &Recording, sat: &Satellite, cfg: &PipelineConfig) -> Estimate {
+    if crate::preprocess::too_sparse(rec) {
+        let mut e = MassIdAccumulator::new(sat, cfg, &[]).finish(1e-3);
+        e.status = "too_sparse".into();
+        return e;
+    }
     let rates = preprocess_offline(rec, sat);
     let mut cfg = cfg.clone();
     if rates.dt > 0.0 {
@@ -623,6 +629,18 @@ mod tests {
 
     fn principal_rel_err(e: &Estimate, truth: &Matrix3<f64>) -> f64 {
         (0..3).map(|j| (e.inertia_kgm2[j] / truth[(j, j)] - 1.0).abs()).fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn absurd_timestamps_are_refused_not_interpolated() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let s = |t: u64| Sample { time_ms: t, gyro: [2077, 2070, 2058], accel: [2048; 3], thrusters: 3 };
+        let rec = Recording::new("x.csv", Some("sph2"), Some(1000.0), vec![s(0), s(1), s(u64::MAX / 2)]);
+        let e = estimate_offline(&rec, &sat, &PipelineConfig::default());
+        assert_eq!(e.status, "too_sparse");
+        // the online form never interpolates, so it just runs
+        let on = estimate_online(&rec, &sat, &PipelineConfig::default());
+        assert_ne!(on.status, "too_sparse");
     }
 
     #[test]

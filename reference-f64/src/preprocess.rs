@@ -51,10 +51,28 @@ pub fn sample_rate_rad_s(sat: &Satellite, s: &Sample) -> [f64; 3] {
     [0, 1, 2].map(|a| sat.gyro_counts_to_rad_s(a, s.gyro[a] as f64))
 }
 
+/// Points of the uniform grid a recording spans (first to last sample at the nominal
+/// period), None if it overflows.
+pub fn grid_len(rec: &Recording) -> Option<usize> {
+    let (first, last) = (rec.samples.first()?, rec.samples.last()?);
+    let n = (last.time_ms - first.time_ms) / rec.sample_period_ms();
+    usize::try_from(n).ok()?.checked_add(1)
+}
+
+/// Whether interpolation would mostly invent data: the grid is more than 16 times the
+/// samples (plus 1000 points of slack). Such recordings are refused, not interpolated.
+pub fn too_sparse(rec: &Recording) -> bool {
+    match grid_len(rec) {
+        Some(n) => n > rec.samples.len().saturating_mul(16).saturating_add(1000),
+        None => !rec.samples.is_empty(),
+    }
+}
+
 /// Counts to rad/s, then onto a uniform grid of the recording's nominal period starting
 /// at the first sample: missing grid points are linearly interpolated between their
 /// neighbours (seed `int.m`), the thruster word taken from the nearest real sample
 /// (a tie goes to the earlier one, which keeps a pulse from being lengthened).
+/// A [`too_sparse`] recording gives empty rates.
 pub fn uniform_rates(rec: &Recording, sat: &Satellite) -> Rates {
     let period_ms = rec.sample_period_ms();
     let dt = period_ms as f64 / 1000.0;
@@ -62,9 +80,11 @@ pub fn uniform_rates(rec: &Recording, sat: &Satellite) -> Rates {
     let Some(first) = rec.samples.first() else {
         return out;
     };
+    if too_sparse(rec) {
+        return out;
+    }
     let t0 = first.time_ms;
-    let t_end = rec.samples.last().map(|s| s.time_ms).unwrap_or(t0);
-    let n = ((t_end - t0) / period_ms + 1) as usize;
+    let n = grid_len(rec).unwrap_or(0);
     out.t_s.reserve(n);
     out.omega.reserve(n);
     out.words.reserve(n);

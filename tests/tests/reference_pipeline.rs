@@ -221,3 +221,39 @@ fn kalman_variance_is_far_below_the_line_fits() {
     let p37 = kalman_variance_after(SEED_R0[0], SEED_KF_P0, dt, 37);
     assert!((p37 / SEED_KF_FINAL_VARIANCE - 1.0).abs() < 0.01, "{p37}");
 }
+
+mod never_panics {
+    use super::*;
+    use proptest::prelude::*;
+    use reference_f64::recording::Sample;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        /// Any readable recording, however odd, gives an estimate with a known status.
+        #[test]
+        fn any_recording_gives_a_status(
+            rows in proptest::collection::vec((0u64..40, [0u16..4096, 0u16..4096, 0u16..4096], 0u16..4096), 0..300),
+            rate in prop_oneof![Just(None), Just(Some(1000.0)), Just(Some(100.0)), (1.0f64..5000.0).prop_map(Some)],
+            sat_name in prop_oneof![Just("sph1"), Just("sph2"), Just("sph5")],
+        ) {
+            let mut t = 0;
+            let samples: Vec<Sample> = rows.into_iter().map(|(step, gyro, thrusters)| {
+                t += step;
+                Sample { time_ms: t, gyro, accel: [2048; 3], thrusters }
+            }).collect();
+            let rec = Recording::new("p.csv", Some(sat_name), rate, samples);
+            let sat = Satellite::builtin(sat_name).unwrap();
+            let cfg = PipelineConfig { change_detector: Some(Default::default()), ..PipelineConfig::default() };
+            for e in [estimate_offline(&rec, &sat, &cfg), estimate_online(&rec, &sat, &cfg)] {
+                prop_assert!(
+                    ["ok", "unobservable_terms", "no_firings", "singular_information", "too_sparse"].contains(&e.status.as_str()),
+                    "status {}", e.status
+                );
+                if e.status == "ok" || e.status == "unobservable_terms" {
+                    prop_assert!(e.inertia_kgm2.iter().chain(&e.com_offset_mm).all(|v| v.is_finite()));
+                }
+            }
+        }
+    }
+}

@@ -49,6 +49,8 @@ pub const ALL: &[Harness] = &[
     primitives::HARNESSES[4],
     model::HARNESSES[0],
     model::HARNESSES[1],
+    model::HARNESSES[2],
+    model::HARNESSES[3],
     omega_dot::HARNESSES[0],
     omega_dot::HARNESSES[1],
     omega_dot::HARNESSES[2],

@@ -12,6 +12,16 @@ use crate::budget::Exact;
 fn firing_terms<S: Exact>() {
     let p = draw::params_or_sph2();
     let word = draw::word();
+    firing_terms_for::<S>(p, word);
+}
+
+/// Every thruster word on SPH2 (the exhaustive engine enumerates all 4096).
+fn firing_terms_sph2<S: Exact>() {
+    let word = crate::engine::any_in(0u16, 0x0fff);
+    firing_terms_for::<S>(massid_kernel::model::SPH2, word);
+}
+
+fn firing_terms_for<S: Exact>(p: massid_kernel::model::SatelliteParams, word: u16) {
     let terms = p.terms::<S>();
     cover!(terms.is_ok(), "terms derived");
     let Ok(terms) = terms else {
@@ -96,8 +106,20 @@ pub fn firing_terms_q4_28() {
     firing_terms::<massid_kernel::Fx<fixed::types::extra::U28>>()
 }
 
+#[cfg_attr(kani, kani::proof)]
+pub fn firing_terms_every_word_q8_24() {
+    firing_terms_sph2::<Q8_24>()
+}
+
+#[cfg_attr(kani, kani::proof)]
+pub fn firing_terms_every_word_f32() {
+    firing_terms_sph2::<f32>()
+}
+
 const COVERS: &[&str] = &["terms derived", "all twelve open", "all closed"];
-pub const HARNESSES: [Harness; 2] = [
+pub const HARNESSES: [Harness; 4] = [
+    Harness { name: "firing_terms_every_word_q8_24", body: firing_terms_every_word_q8_24, covers: COVERS, random_runs: 1_000, exhaustive_limit: Some(4096) },
+    Harness { name: "firing_terms_every_word_f32", body: firing_terms_every_word_f32, covers: COVERS, random_runs: 1_000, exhaustive_limit: Some(4096) },
     Harness { name: "firing_terms_q8_24", body: firing_terms_q8_24, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
     Harness { name: "firing_terms_f32", body: firing_terms_f32, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
 ];

@@ -54,10 +54,12 @@ fn l_cross_d_constant_is_lnom_cross_d_for_sph1() {
     // they are D.1's values rounded, so each component differs by at most
     // (|L_b| + |L_c|) * 5e-5 -- except where the seed disagrees with itself: thruster 4's Dx
     // is -0.0176 in App. C.4 (and Table 3.3's -0.018) but -0.00176 in D.1's listing, from
-    // which the C constant was computed. Exactly the two components that use that Dx
-    // ([1][3] = Lz Dx - Lx Dz and [2][3] = Lx Dy - Ly Dx) differ, by Ly or Lz times 0.01584.
+    // which the C constant was computed. Of the two components that use that Dx,
+    // [2][3] = Lx Dy - Ly Dx moves by |Ly| * 0.01584; [1][3] = Lz Dx - Lx Dz does not, as
+    // thruster 4 has Lz = 0.
     let sph1 = Satellite::builtin("sph1").unwrap();
     let mut outside = Vec::new();
+    #[allow(clippy::needless_range_loop)] // index loops read like the seed's tables
     for i in 0..N_THRUSTERS {
         let l = sph1.pos_m(i);
         let lxd = l.cross(&sph1.dir(i));
@@ -69,7 +71,7 @@ fn l_cross_d_constant_is_lnom_cross_d_for_sph1() {
         }
     }
     assert_eq!(outside, vec![(2, 3)], "components of the built-in SPH1 L x D off the C constant");
-    // [1][3] escapes only because thruster 4 has Lz = 0. The [2][3] gap is the typo exactly:
+    // The [2][3] gap is the typo exactly:
     let l4 = sph1.pos_m(3);
     let dx_gap = sph1.dir(3).x - D_SPH1_D1[0][3];
     assert_printed("thruster 4 Dx: App. C.4 minus D.1", dx_gap, -0.01584, 0.000001);

@@ -104,8 +104,9 @@ pub fn shock_times_ms(edges: &[ValveEdge]) -> Vec<f64> {
 }
 
 /// The gyro ringing (rad/s, per axis) at each sample instant: every shock starts a decaying
-/// tone of every ringing effect; `phase(ringing, shock, axis)` gives its phase. Tones older
-/// than 12 decay times (below 1e-5 of their peak) are dropped.
+/// tone of every ringing effect; `phase(ringing, shock, axis)` gives its phase. Tones are
+/// dropped after 8 decay times (below 3.4e-4 of their peak: 0.006 counts at the default
+/// amplitude, far below the 12-bit step).
 pub fn ringing_at(
     cfg: &PlantConfig,
     shocks_ms: &[f64],
@@ -114,8 +115,18 @@ pub fn ringing_at(
 ) -> Vec<[f64; 3]> {
     let mut out = vec![[0.0; 3]; times_ms.len()];
     for (ri, r) in cfg.ringing.iter().enumerate() {
-        let phases: Vec<[f64; 3]> = (0..shocks_ms.len()).map(|s| std::array::from_fn(|a| phase(ri, s, a))).collect();
-        let horizon_ms = 12.0 * r.decay_ms;
+        // sin(wt + p) = sin(wt) cos(p) + cos(wt) sin(p): one exp and one sin_cos per
+        // (sample, shock), whatever the number of axes.
+        let weights: Vec<[(f64, f64); 3]> = (0..shocks_ms.len())
+            .map(|s| {
+                std::array::from_fn(|a| {
+                    let p = phase(ri, s, a);
+                    (r.amplitude_rad_s[a] * p.cos(), r.amplitude_rad_s[a] * p.sin())
+                })
+            })
+            .collect();
+        let horizon_ms = 8.0 * r.decay_ms;
+        let omega = 2.0 * std::f64::consts::PI * r.freq_hz;
         let mut first = 0usize;
         for (k, &t) in times_ms.iter().enumerate() {
             let t = t as f64;
@@ -125,8 +136,11 @@ pub fn ringing_at(
             let mut j = first;
             while j < shocks_ms.len() && shocks_ms[j] <= t {
                 let dt_s = (t - shocks_ms[j]) * 1e-3;
+                let env = (-dt_s * 1e3 / r.decay_ms).exp();
+                let (sn, cs) = (omega * dt_s).sin_cos();
                 for a in 0..3 {
-                    out[k][a] += r.response(a, dt_s, phases[j][a]);
+                    let (wc, ws) = weights[j][a];
+                    out[k][a] += env * (sn * wc + cs * ws);
                 }
                 j += 1;
             }

@@ -105,7 +105,7 @@ fn every_word_every_builtin_satellite_f32() {
 /// Known discrepancy (kernel `firing_terms` does not clamp a negative thrust at zero as the
 /// reference does): fails until the kernel clamps; then drop the `ignore`.
 #[test]
-#[ignore = "kernel firing_terms does not clamp thrust - drop at 0 (reported)"]
+#[ignore = "kernel finding 4: firing_terms does not clamp thrust - drop at 0"]
 fn words_where_the_drop_exceeds_a_thrust_match_the_reference() {
     every_word::<Q8_24>(true);
     every_word::<f32>(true);

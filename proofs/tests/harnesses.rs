@@ -32,6 +32,27 @@ macro_rules! harness_tests {
     )*};
 }
 
+/// Harnesses that currently find a counterexample in the kernel (reported; see the README's
+/// "Findings"). They stay in the suite and run with `cargo test -- --ignored`; drop the entry
+/// here when the kernel is fixed.
+macro_rules! known_failing {
+    ($($name:ident: $why:literal),* $(,)?) => {$(
+        #[test]
+        #[ignore = $why]
+        fn $name() {
+            run(stringify!($name));
+        }
+    )*};
+}
+
+known_failing!(
+    lu3_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
+    lu6_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
+    kf_any_sequence_q8_24: "kernel finding 6: OmegaDotKf::estimate returns Some(invalid)",
+    mixer_q8_24: "kernel finding 5: Q8.24 mixer loses the command direction when scaling",
+    rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
+);
+
 harness_tests!(
     q8_24_add_sub,
     q8_24_mul,
@@ -42,17 +63,12 @@ harness_tests!(
     firing_terms_f32,
     firing_terms_every_word_q8_24,
     firing_terms_every_word_f32,
-    kf_any_sequence_q8_24,
     kf_ramp_q8_24,
     kf_ramp_f32,
-    lu3_q8_24,
-    lu6_q8_24,
     lu6_f32,
-    rls_inertia_q8_24,
     rls_com_f32,
     pipeline_q8_24,
     pipeline_f32,
-    mixer_q8_24,
     mixer_f32,
     mixer_quantise_every_word_q8_24,
 );

@@ -67,6 +67,8 @@ harness_tests!(
     kf_ramp_f32,
     lu6_f32,
     rls_com_f32,
+    mass_id_options_q8_24,
+    mass_id_options_f32,
     pipeline_q8_24,
     pipeline_f32,
     mixer_f32,
@@ -78,7 +80,7 @@ fn every_listed_harness_has_a_test() {
     let tested = [
         "q8_24_add_sub", "q8_24_mul", "q8_24_div", "q8_24_pow2", "q8_24_order", "firing_terms_q8_24",
         "firing_terms_f32", "firing_terms_every_word_q8_24", "firing_terms_every_word_f32", "kf_any_sequence_q8_24", "kf_ramp_q8_24", "kf_ramp_f32", "lu3_q8_24", "lu6_q8_24", "lu6_f32",
-        "rls_inertia_q8_24", "rls_com_f32", "pipeline_q8_24", "pipeline_f32", "mixer_q8_24", "mixer_f32",
+        "rls_inertia_q8_24", "rls_com_f32", "mass_id_options_q8_24", "mass_id_options_f32", "pipeline_q8_24", "pipeline_f32", "mixer_q8_24", "mixer_f32",
         "mixer_quantise_every_word_q8_24",
     ];
     for h in ALL {

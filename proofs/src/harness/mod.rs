@@ -59,6 +59,8 @@ pub const ALL: &[Harness] = &[
     lu::HARNESSES[2],
     rls::HARNESSES[0],
     rls::HARNESSES[1],
+    rls::OPTION_HARNESSES[0],
+    rls::OPTION_HARNESSES[1],
     pipeline::HARNESSES[0],
     pipeline::HARNESSES[1],
     mixer::HARNESSES[0],

@@ -141,3 +141,85 @@ pub const HARNESSES: [Harness; 2] = [
     Harness { name: "rls_inertia_q8_24", body: rls_inertia_q8_24, covers: COVERS, random_runs: 10_000, exhaustive_limit: None },
     Harness { name: "rls_com_f32", body: rls_com_f32, covers: COVERS, random_runs: 10_000, exhaustive_limit: None },
 ];
+
+/// `MassId` (the identification state the pipeline drives) with the optional exponential
+/// forgetting and the innovation change detector: for any sequence of firings of envelope
+/// measurements (consistent with some parameters, or with a jump in them: a proof mass
+/// attached), every status is one of the enum's, the estimates are valid numbers whenever the
+/// status is Ok / PartlyUnobservable, the information never silently saturates, and a
+/// detector alarm (covariance reset) only deflates the information.
+fn mass_id_options<S: Exact>() {
+    use massid_kernel::rls::{DetectorConfig, MassId, Measurement, RlsConfig, RlsStatus};
+    let p = super::draw::params_or_sph2();
+    let Ok(terms) = p.terms::<S>() else { panic!("envelope parameters rejected") };
+    let forgetting = crate::engine::any_bool();
+    let detector = crate::engine::any_bool();
+    let cfg = RlsConfig {
+        forgetting: forgetting.then(|| S::from_f32(any_f64_in(0.99, 0.99999) as f32)),
+        detector: detector.then(DetectorConfig::standard),
+        ..RlsConfig::default()
+    };
+    let mut mass = MassId::<S>::new(cfg, terms.theta_inertia_nominal);
+    let firings = any_in(3usize, 12);
+    let jump_at = any_in(0usize, firings);
+    let mut theta: [f64; 6] = core::array::from_fn(|j| terms.theta_inertia_nominal[j].exact());
+    for f in 0..firings {
+        if f == jump_at {
+            for t in theta.iter_mut().take(3) {
+                *t *= any_f64_in(0.7, 1.0); // inertia raised by up to 43 %
+            }
+        }
+        let word = any_in(1u16, 0x0fff);
+        let ft = terms.firing_terms(word);
+        let rows = massid_kernel::model::inertia_rows(&ft.torque_cnm);
+        let len = any_in(1usize, 6);
+        let mut last = None;
+        for k in 1..=len {
+            let var = [0; 3].map(|_| any_f64_in(1e-9, 1e-3));
+            let b_in: [S; 3] = core::array::from_fn(|i| S::from_f32(((0..6).map(|j| rows[i][j].exact() * theta[j]).sum::<f64>() + any_f64_in(-1.0, 1.0) * var[i].sqrt()) as f32));
+            let m = Measurement {
+                a_com: ft.a_com,
+                b_com: [0; 3].map(|_| S::from_f32(any_f64_in(-1.0, 1.0) as f32)),
+                a_inertia: rows,
+                b_inertia: b_in,
+                weight: var.map(|v| Scaled::<S>::from_f64(1.0 / (v * k as f64))),
+                variance: var.map(|v| Scaled::<S>::from_f64(v * k as f64)),
+            };
+            if f < 2 {
+                mass.add_batch(&m);
+            } else {
+                mass.add_tick(&m);
+            }
+            last = Some(m);
+        }
+        let resets_before = mass.resets;
+        let st = if f < 1 { continue } else if f == 1 { mass.solve() } else { mass.end_firing(last.as_ref()) };
+        cover!(mass.resets > resets_before, "change detector reset");
+        cover!(st == RlsStatus::Ok, "ok");
+        cover!(forgetting && st == RlsStatus::Ok, "ok with forgetting");
+        if matches!(st, RlsStatus::Ok | RlsStatus::PartlyUnobservable) {
+            assert!(mass.delta_com_m.iter().chain(mass.theta_inertia.iter()).all(|v| v.is_valid()), "invalid estimate under {st:?}");
+            let (c, i) = mass.problems();
+            assert!(!c.is_saturated() && !i.is_saturated(), "saturated information under {st:?}");
+        }
+        if mass.problems().1.is_saturated() {
+            assert_eq!(st, RlsStatus::Overflow, "saturated information must give Overflow");
+        }
+    }
+}
+
+#[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(13))]
+pub fn mass_id_options_q8_24() {
+    mass_id_options::<Q8_24>()
+}
+#[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(13))]
+pub fn mass_id_options_f32() {
+    mass_id_options::<f32>()
+}
+
+pub const OPTION_HARNESSES: [Harness; 2] = [
+    Harness { name: "mass_id_options_q8_24", body: mass_id_options_q8_24, covers: &["ok", "ok with forgetting", "change detector reset"], random_runs: 3_000, exhaustive_limit: None },
+    Harness { name: "mass_id_options_f32", body: mass_id_options_f32, covers: &["ok", "ok with forgetting", "change detector reset"], random_runs: 3_000, exhaustive_limit: None },
+];

@@ -81,14 +81,17 @@ fn factor_solve<S: Exact, const N: usize>() {
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn lu3_q8_24() {
     factor_solve::<Q8_24, 3>()
 }
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn lu6_q8_24() {
     factor_solve::<Q8_24, 6>()
 }
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn lu6_f32() {
     factor_solve::<f32, 6>()
 }

@@ -102,10 +102,12 @@ fn mix_any<S: Exact>() {
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn mixer_q8_24() {
     mix_any::<Q8_24>()
 }
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn mixer_f32() {
     mix_any::<f32>()
 }
@@ -161,6 +163,7 @@ fn check_firing_bookkeeping(f: &Firing, word: u16, frac: f64, period: u32, min_p
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn mixer_quantise_every_word_q8_24() {
     quantise_word::<Q8_24>()
 }

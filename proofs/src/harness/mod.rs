@@ -1,7 +1,9 @@
 //! The proof harnesses: one per kernel entry point and arithmetic primitive.
 //!
 //! Each `pub fn` here with `#[cfg_attr(kani, kani::proof)]` is a Kani proof harness
-//! (`cargo kani -p massid-proofs --harness <name>`), written only against
+//! (`cargo kani -p massid-proofs --harness <name>`; the `kani::unwind` bound is the longest
+//! loop reached: 64 normalisation steps in the kernel's block floating point, the drawn
+//! sequence lengths in the pipeline), written only against
 //! [`crate::engine`]'s `any`/`assume`/`cover!`. [`ALL`] lists them with the cover points
 //! they declare and the engine modes CI runs them in (`proofs/tests/harnesses.rs`).
 

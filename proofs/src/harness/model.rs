@@ -91,11 +91,13 @@ pub fn exact_firing_terms(p: &massid_kernel::model::SatelliteParams, word: u16) 
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn firing_terms_q8_24() {
     firing_terms::<Q8_24>()
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn firing_terms_f32() {
     firing_terms::<f32>()
 }
@@ -107,11 +109,13 @@ pub fn firing_terms_q4_28() {
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn firing_terms_every_word_q8_24() {
     firing_terms_sph2::<Q8_24>()
 }
 
 #[cfg_attr(kani, kani::proof)]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn firing_terms_every_word_f32() {
     firing_terms_sph2::<f32>()
 }

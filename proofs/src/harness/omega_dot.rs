@@ -10,7 +10,7 @@ use crate::cover;
 use crate::engine::{any_bool, any_f64_in, any_in};
 use crate::envelope as env;
 use massid_kernel::omega_dot::{KfConfig, KfStatus, KfSums, OmegaDotKf};
-use massid_kernel::{Scalar, Q8_24};
+use massid_kernel::Q8_24;
 
 /// Longest sequence drawn (Kani unwinds this far).
 const MAX_SAMPLES: u32 = 40;
@@ -94,17 +94,17 @@ fn ramp<S: Exact>() {
 }
 
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(41))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn kf_any_sequence_q8_24() {
     any_sequence::<Q8_24>()
 }
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(51))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn kf_ramp_q8_24() {
     ramp::<Q8_24>()
 }
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(51))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn kf_ramp_f32() {
     ramp::<f32>()
 }

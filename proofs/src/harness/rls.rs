@@ -126,12 +126,12 @@ fn information_update<S: Exact, const N: usize>() {
 }
 
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(9))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn rls_inertia_q8_24() {
     information_update::<Q8_24, 6>()
 }
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(9))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn rls_com_f32() {
     information_update::<f32, 3>()
 }
@@ -209,12 +209,12 @@ fn mass_id_options<S: Exact>() {
 }
 
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(13))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn mass_id_options_q8_24() {
     mass_id_options::<Q8_24>()
 }
 #[cfg_attr(kani, kani::proof)]
-#[cfg_attr(kani, kani::unwind(13))]
+#[cfg_attr(kani, kani::unwind(65))]
 pub fn mass_id_options_f32() {
     mass_id_options::<f32>()
 }

@@ -139,6 +139,39 @@ pub fn lu_inverse<const N: usize>(m: &SMatrix<f64, N, N>) -> Option<SMatrix<f64,
     }
 }
 
+/// Holds the terms `pinned` at `values` and re-solves the others given them (seed eq.
+/// 3.13's reduction, applied after the fact): with the information `J` and estimate `x`,
+/// `x_o = x_o + J_oo^-1 J_ou (x_u - values_u)`. Returns the conditioned estimate and the
+/// conditional covariance (`J_oo^-1` on the free block, zero rows/columns for pinned terms).
+pub fn pin_terms<const N: usize>(
+    x: &SVector<f64, N>,
+    info: &SMatrix<f64, N, N>,
+    pinned: &[usize],
+    values: &SVector<f64, N>,
+) -> Option<(SVector<f64, N>, SMatrix<f64, N, N>)> {
+    let free: Vec<usize> = (0..N).filter(|j| !pinned.contains(j)).collect();
+    let mut out = *x;
+    let mut cov = SMatrix::<f64, N, N>::zeros();
+    for &u in pinned {
+        out[u] = values[u];
+    }
+    if free.is_empty() {
+        return Some((out, cov));
+    }
+    let j_oo = DMatrix::from_fn(free.len(), free.len(), |a, b| info[(free[a], free[b])]);
+    let shift = DVector::from_fn(free.len(), |a, _| pinned.iter().map(|&u| info[(free[a], u)] * (x[u] - values[u])).sum::<f64>());
+    let lu = j_oo.lu();
+    let dx = lu.solve(&shift)?;
+    let inv = lu.try_inverse()?;
+    for (a, &fa) in free.iter().enumerate() {
+        out[fa] = x[fa] + dx[a];
+        for (b, &fb) in free.iter().enumerate() {
+            cov[(fa, fb)] = inv[(a, b)];
+        }
+    }
+    out.iter().all(|v| v.is_finite()).then_some((out, cov))
+}
+
 /// Why a solve failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LsError {
@@ -480,6 +513,28 @@ mod tests {
         assert!((rls.innovation_ss - rss).abs() < 1e-6 * rss, "{} vs {rss}", rls.innovation_ss);
         // and the estimate is close to the truth
         assert!((xb - x_true).norm() < 0.02 * x_true.norm());
+    }
+
+    #[test]
+    fn pinning_a_term_equals_solving_with_it_known() {
+        // a 3-term problem: pin term 1 at 0.5; the result must equal the LS over terms 0, 2
+        // of b - A e1 * 0.5
+        let a = Matrix3::new(1.0, 0.3, 0.0, 0.2, 1.0, 0.4, 0.0, 0.5, 1.0);
+        let b = Vector3::new(1.0, 2.0, 3.0);
+        let info = a.transpose() * a + Matrix3::identity() * 0.1;
+        let x = info.try_inverse().unwrap() * (a.transpose() * b);
+        let values = Vector3::new(0.0, 0.5, 0.0);
+        let (xp, cov) = pin_terms(&x, &info, &[1], &values).unwrap();
+        // direct: minimise |A x - b|^2 + 0.1 |x|^2 (the same information) with x1 = 0.5
+        let keep = [0usize, 2];
+        let red = nalgebra::Matrix2::from_fn(|i, j| info[(keep[i], keep[j])]);
+        let rhs_full = a.transpose() * b - info.column(1) * 0.5;
+        let rhs = nalgebra::Vector2::new(rhs_full[0], rhs_full[2]);
+        let direct = red.try_inverse().unwrap() * rhs;
+        assert!((xp[0] - direct[0]).abs() < 1e-12 && (xp[2] - direct[1]).abs() < 1e-12);
+        assert_eq!(xp[1], 0.5);
+        assert_eq!(cov[(1, 1)], 0.0);
+        assert!((cov[(0, 0)] - red.try_inverse().unwrap()[(0, 0)]).abs() < 1e-12);
     }
 
     #[test]

@@ -7,8 +7,8 @@
 //! and in the offline form knowing in advance which terms the maneuver leaves unobservable
 //! (they are then held at the nominal values, seed eq. 3.13's reduction).
 use crate::mass_id::{
-    com_row, inertia_from_inverse, inertia_row, nominal_inverse_inertia, BatchLs, ChangeDetector, Excitation,
-    LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
+    com_row, inertia_from_inverse, inertia_row, nominal_inverse_inertia, pin_terms, BatchLs, ChangeDetector,
+    Excitation, LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
 };
 use crate::omega_dot::{kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
 use crate::preprocess::{preprocess_offline, sample_rate_rad_s, CausalLowPass, LowPass2, Rates};
@@ -77,8 +77,9 @@ impl Default for PipelineConfig {
     }
 }
 
-/// One point of the convergence history (seed Figs. 4.9, 4.13): the estimate and its
-/// 1-sigma after an update.
+/// One point of the convergence history (seed Figs. 4.9, 4.13): the RLS estimate and its
+/// 1-sigma after an update, the sigma straight from the RLS covariance as the seed plots it
+/// (not scaled like the final stderrs; unobservable terms not yet held at the model).
 #[derive(Clone, Debug, PartialEq)]
 pub struct HistoryPoint {
     pub t_s: f64,
@@ -348,27 +349,33 @@ impl MassIdAccumulator {
             // almost fully correlated: a firing is one independent measurement, not
             // `updates / firings` of them. Scale the LS covariance by that count too.
             let per_firing = (self.updates as f64 / self.firings_seen.max(1) as f64).max(1.0);
-            let mut cc = rc.covariance()? * vf_c * per_firing;
-            let mut ci = ri.covariance()? * vf_i * per_firing;
-            // unobservable terms: their honest uncertainty is the weak prior's
-            for (j, n) in COM_TERMS.iter().enumerate() {
-                if unobservable.iter().any(|u| u == n) {
-                    cc[(j, j)] = self.weak_std_com[j].powi(2);
-                }
+            // unobservable terms are held at the nominal values (exactly, by conditioning
+            // on them; offline they were already pinned by the prior) and their honest
+            // uncertainty is the weak prior's
+            let idx = |names: &[&str]| -> Vec<usize> {
+                names.iter().enumerate().filter(|(_, n)| unobservable.iter().any(|u| u == *n)).map(|(j, _)| j).collect()
+            };
+            let (pin_c, pin_i) = (idx(&COM_TERMS), idx(&INERTIA_TERMS));
+            let nominal_i = nominal_inverse_inertia(&self.sat);
+            let zero_c = SVector::<f64, 3>::zeros();
+            let (xc, cc) = pin_terms(&rc.x, &rc.info, &pin_c, &zero_c).ok_or(LsError::SingularInformation)?;
+            let (xi, ci) = pin_terms(&ri.x, &ri.info, &pin_i, &nominal_i).ok_or(LsError::SingularInformation)?;
+            let mut cc = cc * (vf_c * per_firing);
+            let mut ci = ci * (vf_i * per_firing);
+            for &j in &pin_c {
+                cc[(j, j)] = self.weak_std_com[j].powi(2);
             }
-            for (j, n) in INERTIA_TERMS.iter().enumerate() {
-                if unobservable.iter().any(|u| u == n) {
-                    ci[(j, j)] = self.weak_std_inertia[j].powi(2);
-                }
+            for &j in &pin_i {
+                ci[(j, j)] = self.weak_std_inertia[j].powi(2);
             }
-            let (ivec, icov) = inertia_from_inverse(&ri.x, &ci).ok_or(LsError::SingularInformation)?;
-            let xb_c = self.com_all.solve()?;
-            let xb_i = self.inertia_all.solve()?;
+            let (ivec, icov) = inertia_from_inverse(&xi, &ci).ok_or(LsError::SingularInformation)?;
+            let (xb_c, _) = pin_terms(&self.com_all.solve()?, &self.com_all.info, &pin_c, &zero_c).ok_or(LsError::SingularInformation)?;
+            let (xb_i, _) = pin_terms(&self.inertia_all.solve()?, &self.inertia_all.info, &pin_i, &nominal_i).ok_or(LsError::SingularInformation)?;
             let (ib, _) = inertia_from_inverse(&xb_i, &SMatrix::<f64, 6, 6>::zeros()).ok_or(LsError::SingularInformation)?;
             let status = if unobservable.is_empty() { "ok" } else { "unobservable_terms" };
             Ok(Estimate {
-                com_offset_mm: (rc.x * 1e3).into(),
-                com_offset_stderr_mm: [0, 1, 2].map(|j| cc[(j, j)].sqrt() * 1e3),
+                com_offset_mm: (xc * 1e3).into(),
+                com_offset_stderr_mm: [0, 1, 2].map(|j| cc[(j, j)].max(0.0).sqrt() * 1e3),
                 inertia_kgm2: ivec.into(),
                 inertia_stderr_kgm2: [0, 1, 2, 3, 4, 5].map(|j| icov[(j, j)].max(0.0).sqrt()),
                 unobservable: unobservable.clone(),

@@ -112,8 +112,14 @@ fn single_axis_slice_reports_the_unobservable_terms() {
     let rel = e.inertia_kgm2[0] / sat.inertia_kgm2[0] - 1.0;
     assert!(rel.abs() < 0.01, "Ixx off by {:.3} %", rel * 100.0);
     // and the same slice with the online form (no advance knowledge) names the same terms
+    // and holds them at the model's values too
     let on = estimate_online(&rec, &sat, &cfg());
     assert_eq!(on.unobservable, e.unobservable);
+    assert!(on.com_offset_mm.iter().all(|c| c.abs() < 1e-9));
+    for j in [1, 2] {
+        assert!((on.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0).abs() < 0.01);
+    }
+    assert!((on.inertia_kgm2[0] / sat.inertia_kgm2[0] - 1.0).abs() < 0.01);
 }
 
 /// Monte Carlo variance of an estimator of a constant slope `a` from `omega = a t + noise`.

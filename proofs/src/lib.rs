@@ -5,6 +5,8 @@
 //!   executing shim with random and exhaustive modes and cover counting.
 //! * [`interval`]: a sound interval scalar for the range analysis.
 //! * [`budget`]: the error budget of every kernel output against `reference_f64`, in one table.
+#![allow(clippy::needless_range_loop)] // index loops mirror the matrix formulas
+
 pub mod budget;
 pub mod engine;
 pub mod harness;

@@ -75,7 +75,10 @@ fn iv(r: (f64, f64)) -> Interval {
 /// (each constant widened by the format's slack: the kernel rounds them into the format).
 pub fn envelope_terms() -> ModelTerms<Interval> {
     let z = Interval::ZERO;
-    let round = |x: Interval| x + z; // one operation: applies the format's rounding slack
+    // A model constant reaches the kernel as an f32 (`SatelliteParams` / `from_f32(v as f32)`,
+    // relative rounding 2^-24) and is then rounded into the format (one operation's slack).
+    let f32_ulp = Interval::new(1.0 - 1.0 / 16_777_216.0, 1.0 + 1.0 / 16_777_216.0).expect("ordered");
+    let round = |x: Interval| x * f32_ulp + z;
     let com = [iv(env::COM_OFFSET_M); 3];
     let mut dir = [[z; 3]; N_THRUSTERS];
     let mut lxd = [[z; 3]; N_THRUSTERS];

@@ -11,7 +11,7 @@
 
 use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
 use massid_kernel::rls::{MassId, Measurement, RlsConfig, RlsStatus};
-use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scalar, Scaled, TickEvent, Q8_24};
+use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scaled, TickEvent, Q8_24};
 use massid_proofs::budget::{fmt_of, Exact, Worst};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use reference_f64::mass_id::{BatchLs, Observation};

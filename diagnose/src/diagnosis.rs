@@ -6,7 +6,7 @@ use serde_json::Map;
 use crate::effects::{self, Kind};
 use crate::fit::{self, Family, Problem};
 use crate::locate;
-use crate::model::{Params, Plant, NT};
+use crate::model::{Plant, NT};
 use crate::noise::{self, NoiseModel};
 use crate::output::{num, nums, DataIssues, DiagnosisOutput, EffectReport, FORMAT};
 use crate::ringing::{self, RingingFit};
@@ -52,14 +52,17 @@ struct Accepted {
     evidence: String,
 }
 
-fn fit_omega0(prob: &Problem, omega0: [f64; 3]) -> Option<fit::FitResult> {
+/// Fits the nuisances (initial rate, rate jumps at gaps) of the nominal model.
+fn fit_nuisance(prob: &Problem, nuis: &[f64]) -> Option<fit::FitResult> {
+    let n = nuis.len();
     let fam = Family {
-        apply: Box::new(|th: &[f64]| Some(Params { omega0: [th[0], th[1], th[2]], ..Params::default() })),
-        step: vec![1e-5; 3],
-        lo: vec![-3.0; 3],
-        hi: vec![3.0; 3],
+        apply: Box::new(|th: &[f64]| Some(select::nuisance_params(th))),
+        step: vec![1e-5; n],
+        lo: vec![-3.0; n],
+        hi: vec![3.0; n],
+        frozen_from: n,
     };
-    fit::fit(prob, &fam, &omega0, 10)
+    fit::fit(prob, &fam, nuis, 10)
 }
 
 /// Mean of the first samples as the starting initial rate.
@@ -130,16 +133,18 @@ pub fn diagnose(
 ) -> Analysis {
     let fired = effects::fired_thrusters(series);
     // 1. nominal prediction with the initial rate fitted, noise from its residual
-    let provisional = NoiseModel { var: [1e-6; 3], long_run_var: [1e-6; 3], rho1: [0.0; 3], pairs: 0 };
+    let provisional = NoiseModel::white([1e-6; 3]);
     let prob0 = Problem::new(plant, series, &provisional);
-    let w0 = fit_omega0(&prob0, initial_rate(series)).map(|f| f.theta).unwrap_or(initial_rate(series).to_vec());
-    let r0 = prob0.residual(&Params { omega0: [w0[0], w0[1], w0[2]], ..Params::default() }).unwrap_or_default();
+    let mut start = initial_rate(series).to_vec();
+    start.extend(std::iter::repeat_n(0.0, 3 * series.gap_resets.len()));
+    let w0 = fit_nuisance(&prob0, &start).map(|f| f.theta).unwrap_or(start);
+    let r0 = prob0.residual(&select::nuisance_params(&w0)).unwrap_or_default();
     let noise = noise::estimate(series, &r0);
     let mut prob = Problem::new(plant, series, &noise);
     prob.stride = (series.sample_rate_hz / 200.0).round().max(1.0) as usize;
-    let nominal = fit_omega0(&prob, [w0[0], w0[1], w0[2]]);
-    let mut omega0 = nominal.as_ref().map(|f| [f.theta[0], f.theta[1], f.theta[2]]).unwrap_or([w0[0], w0[1], w0[2]]);
-    let nominal_params = Params { omega0, ..Params::default() };
+    let nominal = fit_nuisance(&prob, &w0);
+    let mut omega0: Vec<f64> = nominal.as_ref().map(|f| f.theta.clone()).unwrap_or(w0);
+    let nominal_params = select::nuisance_params(&omega0);
     let residual_before = prob.residual(&nominal_params).unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
     let chi2_nominal = prob.chi2(&nominal_params).unwrap_or(f64::INFINITY);
     let n_obs = prob.n_obs() as f64;
@@ -158,7 +163,7 @@ pub fn diagnose(
     let mut alias_marks = (0.0, vec![]);
     let mut joint_stderr: Vec<f64> = vec![];
     let mut sizes: Vec<usize> = vec![];
-    let sigma2 = noise.var;
+    let whitening = noise.ar(4);
     for round in 0..settings.max_effects {
         let ring_gain = ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let chi2_cur = chi2_rigid - ring_gain;
@@ -181,12 +186,12 @@ pub fn diagnose(
             }
             let screen_iter = settings.max_iter.min(3);
             if kind == Kind::GyroRinging {
-                let Some(rf) = ringing::fit(series, &rigid_residual, &sigma2, settings.ringing_prior_hz) else { continue };
+                let Some(rf) = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz) else { continue };
                 let dbic = -rf.gain + k_new as f64 * ln_n;
                 screened.push((dbic, kind, vec![], chi2_cur - rf.gain, rf.evidence.clone(), Some(rf)));
             } else {
                 let Some((fr, sz)) =
-                    select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), omega0, &slosh_hint, screen_iter)
+                    select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), &omega0, &slosh_hint, screen_iter)
                 else {
                     continue;
                 };
@@ -200,7 +205,7 @@ pub fn diagnose(
         for (i, (dbic, kind, theta, chi2, note, rf)) in screened.into_iter().enumerate() {
             let (dbic, theta) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
                 let k_new = effects::n_params(kind, &fired);
-                match select::fit_from(&prob, &fired, &acc_pairs, kind, &theta, omega0, &slosh_hint, settings.max_iter) {
+                match select::fit_from(&prob, &fired, &acc_pairs, kind, &theta, &omega0, &slosh_hint, settings.max_iter) {
                     Some((fr, sz)) if fr.chi2 - ring_gain < chi2 => {
                         let off: usize = sz[..sz.len() - 1].iter().sum();
                         (fr.chi2 - ring_gain - chi2_cur + k_new as f64 * ln_n, fr.theta[off..off + k_new].to_vec())
@@ -228,10 +233,10 @@ pub fn diagnose(
             let mut pairs = acc_pairs.clone();
             pairs.push((kind, theta.clone()));
             let rigid_pairs: Vec<(Kind, Vec<f64>)> = pairs.iter().filter(|p| p.0 != Kind::GyroRinging).cloned().collect();
-            let (new_pairs, chi2_new, w_new, se, sz) = refit_all(&prob, &fired, &rigid_pairs, omega0, &slosh_hint, settings);
+            let (new_pairs, chi2_new, w_new, se, sz) = refit_all(&prob, &fired, &rigid_pairs, &omega0, &slosh_hint, settings);
             omega0 = w_new;
             chi2_rigid = chi2_new;
-            let params = select::build(&fired, &new_pairs, omega0);
+            let params = select::build(&fired, &new_pairs, &omega0);
             rigid_residual = prob.residual(&params).unwrap_or_else(|| rigid_residual.clone());
             for a in accepted.iter_mut() {
                 if let Some((_, th)) = new_pairs.iter().find(|p| p.0 == a.kind) {
@@ -241,11 +246,11 @@ pub fn diagnose(
             joint_stderr = se;
             sizes = sz;
             if ringing_fit.is_some() {
-                ringing_fit = ringing::fit(series, &rigid_residual, &sigma2, settings.ringing_prior_hz);
+                ringing_fit = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz);
             }
         }
         residual_cur = match &ringing_fit {
-            Some(rf) => ringing::remove(series, &rigid_residual, &sigma2, rf),
+            Some(rf) => ringing::remove(series, &rigid_residual, &whitening, rf),
             None => rigid_residual.clone(),
         };
         k_cur += effects::n_params(kind, &fired);
@@ -282,7 +287,7 @@ pub fn diagnose(
             a.stderr = vec![rf.freq_stderr, rf.decay_stderr];
         }
     }
-    let spectrum_before = ringing::post_edge_spectrum(series, &rigid_residual, &sigma2);
+    let spectrum_before = ringing::post_edge_spectrum(series, &rigid_residual, &whitening);
 
     let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
     let output = DiagnosisOutput {
@@ -311,21 +316,21 @@ pub fn diagnose(
     }
 }
 
-type Refit = (Vec<(Kind, Vec<f64>)>, f64, [f64; 3], Vec<f64>, Vec<usize>);
+type Refit = (Vec<(Kind, Vec<f64>)>, f64, Vec<f64>, Vec<f64>, Vec<usize>);
 
 /// Joint refit of every accepted effect (ringing held, then re-regressed on the result).
 fn refit_all(
     prob: &Problem,
     fired: &[bool; NT],
     pairs: &[(Kind, Vec<f64>)],
-    omega0: [f64; 3],
+    nuis: &[f64],
     hint: &[f64],
     settings: &Settings,
 ) -> Refit {
-    let res = select::fit_joint(prob, fired, pairs, None, omega0, hint, settings.max_iter * 2);
+    let res = select::fit_joint(prob, fired, pairs, None, nuis, hint, settings.max_iter * 2);
     let Some((fr, sizes)) = res else {
-        let p = select::build(fired, pairs, omega0);
-        return (pairs.to_vec(), prob.chi2(&p).unwrap_or(f64::INFINITY), omega0, vec![], vec![]);
+        let p = select::build(fired, pairs, nuis);
+        return (pairs.to_vec(), prob.chi2(&p).unwrap_or(f64::INFINITY), nuis.to_vec(), vec![], vec![]);
     };
     let mut out = vec![];
     let mut off = 0;
@@ -333,8 +338,8 @@ fn refit_all(
         out.push((*k, fr.theta[off..off + n].to_vec()));
         off += n;
     }
-    let w = [fr.theta[off], fr.theta[off + 1], fr.theta[off + 2]];
-    let p = select::build(fired, &out, w);
+    let w = fr.theta[off..].to_vec();
+    let p = select::build(fired, &out, &w);
     let chi2 = prob.chi2(&p).unwrap_or(fr.chi2);
     (out, chi2, w, fr.stderr, sizes)
 }

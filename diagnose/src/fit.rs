@@ -92,6 +92,9 @@ pub struct Family<'f> {
     /// Lower and upper bounds per parameter (the fit is clamped inside them).
     pub lo: Vec<f64>,
     pub hi: Vec<f64>,
+    /// Parameters from this index on are nuisances whose Jacobian columns are computed
+    /// once per fit (their effect hardly depends on the others): saves predictions.
+    pub frozen_from: usize,
 }
 
 /// Result of a fit.
@@ -124,7 +127,16 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     while it < max_iter {
         it += 1;
         if !have_jac {
-            jac = jacobian(prob, fam, &theta, &r)?;
+            let first = it == 1;
+            let new = jacobian(prob, fam, &theta, &r, if first { usize::MAX } else { fam.frozen_from })?;
+            if first {
+                jac = new;
+            } else {
+                let cols = fam.frozen_from.min(k);
+                for j in 0..cols {
+                    jac.set_column(j, &new.column(j));
+                }
+            }
             have_jac = true;
         }
         let jtj = jac.transpose() * &jac;
@@ -165,7 +177,10 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         }
     }
     if !have_jac {
-        jac = jacobian(prob, fam, &theta, &r)?;
+        let new = jacobian(prob, fam, &theta, &r, fam.frozen_from)?;
+        for j in 0..fam.frozen_from.min(k) {
+            jac.set_column(j, &new.column(j));
+        }
     }
     let jtj = jac.transpose() * &jac;
     let cov = jtj.clone().try_inverse().unwrap_or_else(|| DMatrix::from_diagonal_element(k, k, f64::INFINITY));
@@ -180,10 +195,11 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     Some(FitResult { theta, stderr, params, chi2, iterations: it })
 }
 
-fn jacobian(prob: &Problem, fam: &Family, theta: &[f64], r0: &DVector<f64>) -> Option<DMatrix<f64>> {
+/// Forward-difference Jacobian of the columns before `upto` (others left zero).
+fn jacobian(prob: &Problem, fam: &Family, theta: &[f64], r0: &DVector<f64>, upto: usize) -> Option<DMatrix<f64>> {
     let k = theta.len();
     let mut jac = DMatrix::zeros(r0.len(), k);
-    for j in 0..k {
+    for j in 0..k.min(upto) {
         let mut t = theta.to_vec();
         let mut h = fam.step[j];
         if t[j] + h > fam.hi[j] {

@@ -49,3 +49,4 @@ pub fn diagnose_recording(rec: &Recording, sat: &Satellite, settings: &Settings)
         .unwrap_or_else(|| rec.source.clone());
     Ok(diagnose(&series, &plant, &name, &sat.name, issues, settings))
 }
+pub mod synth;

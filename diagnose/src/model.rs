@@ -51,6 +51,10 @@ pub struct Params {
     pub disturbance_nm: [f64; 3],
     /// Body rate at the first sample, rad/s (a nuisance parameter, always fitted).
     pub omega0: [f64; 3],
+    /// Rate jumps (rad/s) at the first sample after each telemetry gap: the commands
+    /// during a gap are unknown, so the state is re-estimated there (nuisance, always
+    /// fitted; one entry per [`Series::gap_resets`] time).
+    pub resets: Vec<[f64; 3]>,
 }
 
 impl Default for Params {
@@ -70,6 +74,7 @@ impl Default for Params {
             ringing: None,
             disturbance_nm: [0.0; 3],
             omega0: [0.0; 3],
+            resets: Vec::new(),
         }
     }
 }
@@ -292,6 +297,11 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
                 qd += (k1d + k2d * 2.0 + k3d * 2.0 + k4d) * (h / 6.0);
             }
             k += 1;
+        }
+        if let Some(g) = series.gap_resets.iter().position(|&i| i == si) {
+            if let Some(d) = p.resets.get(g) {
+                w += Vector3::from(*d);
+            }
         }
         if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) || w.norm() > 1e3 {
             return None;

@@ -20,6 +20,43 @@ pub struct NoiseModel {
     pub rho1: [f64; 3],
     /// How many lagged samples entered the estimate.
     pub pairs: usize,
+    /// Autocovariance at lags 0..=m per axis (lag 0 = `var`).
+    pub acov: [Vec<f64>; 3],
+}
+
+impl NoiseModel {
+    /// White noise of per-sample variance `var` (no correlation).
+    pub fn white(var: [f64; 3]) -> NoiseModel {
+        NoiseModel { var, long_run_var: var, rho1: [0.0; 3], pairs: 0, acov: var.map(|v| vec![v]) }
+    }
+
+    /// Prewhitening filter per axis: AR coefficients (order <= `order`, by Levinson-Durbin
+    /// on the autocovariance) and the innovation variance.
+    pub fn ar(&self, order: usize) -> [(Vec<f64>, f64); 3] {
+        std::array::from_fn(|a| levinson(&self.acov[a], order))
+    }
+}
+
+/// Levinson-Durbin: AR coefficients phi (x_t = sum phi_k x_{t-k} + e_t) and var(e).
+fn levinson(g: &[f64], order: usize) -> (Vec<f64>, f64) {
+    let p = order.min(g.len().saturating_sub(1));
+    let mut phi: Vec<f64> = vec![];
+    let mut err = g.first().copied().unwrap_or(0.0);
+    for k in 1..=p {
+        if err <= 0.0 {
+            break;
+        }
+        let acc: f64 = g[k] - phi.iter().enumerate().map(|(j, c)| c * g[k - 1 - j]).sum::<f64>();
+        let refl = (acc / err).clamp(-0.95, 0.95);
+        let mut next = phi.clone();
+        next.push(refl);
+        for j in 0..phi.len() {
+            next[j] = phi[j] - refl * phi[phi.len() - 1 - j];
+        }
+        phi = next;
+        err *= 1.0 - refl * refl;
+    }
+    (phi, err.max(1e-30))
 }
 
 /// Samples that are in a coasting stretch: no valve commanded open from `guard_ms`
@@ -77,6 +114,7 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
     let mut var = [0.0; 3];
     let mut lr = [0.0; 3];
     let mut rho1 = [0.0; 3];
+    let mut acov: [Vec<f64>; 3] = Default::default();
     for a in 0..3 {
         // gamma0 from the largest lags, where correlation has died out
         let g0 = 0.5 * (dl[max_lag][a] + dl[max_lag + 1][a]) / 2.0;
@@ -86,10 +124,11 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
             s += 2.0 * gk;
         }
         var[a] = g0.max(1e-30);
+        acov[a] = (0..max_lag).map(|lag| if lag == 0 { var[a] } else { g0 - dl[lag][a] / 2.0 }).collect();
         lr[a] = s.max(0.2 * g0).max(1e-30);
         rho1[a] = 1.0 - dl[1][a] / (2.0 * var[a]);
     }
-    NoiseModel { var, long_run_var: lr, rho1, pairs }
+    NoiseModel { var, long_run_var: lr, rho1, pairs, acov }
 }
 
 /// Mean square with the largest 2 % trimmed and the trimmed tail compensated for a

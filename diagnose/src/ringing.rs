@@ -15,6 +15,12 @@ use nalgebra::{Matrix2, SymmetricEigen, Vector2};
 use crate::alias;
 use crate::series::Series;
 
+/// Per-axis prewhitening filter (AR coefficients, innovation variance), see
+/// [`crate::noise::NoiseModel::ar`]: the gyro noise is band-limited, so at 1 kHz it is
+/// slightly coloured, and unwhitened it would look like excess low-frequency "tone"
+/// variance in the post-edge windows.
+pub type Whitening = [(Vec<f64>, f64); 3];
+
 /// Highest true ringing frequency considered, Hz (the tone must reach the gyro output;
 /// above ~600 Hz the Gyrochip's own response has rolled off).
 pub const F_MAX_HZ: f64 = 600.0;
@@ -61,56 +67,84 @@ pub fn edge_windows(series: &Series) -> Vec<(i64, Vec<usize>)> {
     out
 }
 
-/// Per-edge projections for one (f, tau): the 2x2 Gram matrix and per-axis projections,
-/// after removing mean and slope within the window.
-fn projections(series: &Series, r: &[[f64; 3]], windows: &[(i64, Vec<usize>)], f: f64, tau: f64) -> Vec<(Matrix2<f64>, [Vector2<f64>; 3])> {
+/// Per edge and axis, the 2x2 Gram matrix of the decaying cosine/sine and the residual's
+/// projection on them, after prewhitening with `wh` (when given) and removing mean and
+/// slope within the window.
+fn projections(
+    series: &Series,
+    r: &[[f64; 3]],
+    windows: &[(i64, Vec<usize>)],
+    f: f64,
+    tau: f64,
+    wh: Option<&Whitening>,
+) -> Vec<[(Matrix2<f64>, Vector2<f64>); 3]> {
     let w = 2.0 * std::f64::consts::PI * f * 1e-3;
+    let basis = |dt: f64| -> (f64, f64) {
+        if dt < 0.0 {
+            return (0.0, 0.0);
+        }
+        let env = (-dt / tau).exp();
+        let (s, c) = (w * dt).sin_cos();
+        (env * c, env * s)
+    };
     windows
         .iter()
         .map(|(te, idx)| {
-            let n = idx.len();
-            let mut rows: Vec<[f64; 6]> = Vec::with_capacity(n); // t, c, s, rx, ry, rz
-            for &i in idx {
-                let dt = (series.t_ms[i] - te) as f64;
-                let env = (-dt / tau).exp();
-                let (s, c) = (w * dt).sin_cos();
-                rows.push([dt, env * c, env * s, r[i][0], r[i][1], r[i][2]]);
-            }
-            // remove mean and slope in t from every column 1..6
-            let nt = n as f64;
-            let mt = rows.iter().map(|x| x[0]).sum::<f64>() / nt;
-            let stt: f64 = rows.iter().map(|x| (x[0] - mt).powi(2)).sum();
-            for col in 1..6 {
-                let m = rows.iter().map(|x| x[col]).sum::<f64>() / nt;
-                let b = if stt > 0.0 { rows.iter().map(|x| (x[0] - mt) * (x[col] - m)).sum::<f64>() / stt } else { 0.0 };
-                for x in rows.iter_mut() {
-                    x[col] -= m + b * (x[0] - mt);
+            std::array::from_fn(|a| {
+                let phi: &[f64] = wh.map(|w| w[a].0.as_slice()).unwrap_or(&[]);
+                let n = idx.len();
+                let mut rows: Vec<[f64; 4]> = Vec::with_capacity(n); // t, c, s, r
+                for &i in idx {
+                    let dt = (series.t_ms[i] - te) as f64;
+                    let (mut c, mut sn) = basis(dt);
+                    let mut rv = r[i][a];
+                    for (k, ph) in phi.iter().enumerate() {
+                        let j = i as i64 - 1 - k as i64;
+                        if j < 0 {
+                            break;
+                        }
+                        let j = j as usize;
+                        let (cj, sj) = basis((series.t_ms[j] - te) as f64);
+                        c -= ph * cj;
+                        sn -= ph * sj;
+                        rv -= ph * r[j][a];
+                    }
+                    rows.push([dt, c, sn, rv]);
                 }
-            }
-            let mut g = Matrix2::zeros();
-            let mut p = [Vector2::zeros(); 3];
-            for x in &rows {
-                let v = Vector2::new(x[1], x[2]);
-                g += v * v.transpose();
-                for a in 0..3 {
-                    p[a] += v * x[3 + a];
+                let nt = n as f64;
+                let mt = rows.iter().map(|x| x[0]).sum::<f64>() / nt;
+                let stt: f64 = rows.iter().map(|x| (x[0] - mt).powi(2)).sum();
+                for col in 1..4 {
+                    let m = rows.iter().map(|x| x[col]).sum::<f64>() / nt;
+                    let b = if stt > 0.0 { rows.iter().map(|x| (x[0] - mt) * (x[col] - m)).sum::<f64>() / stt } else { 0.0 };
+                    for x in rows.iter_mut() {
+                        x[col] -= m + b * (x[0] - mt);
+                    }
                 }
-            }
-            (g, p)
+                let mut g = Matrix2::zeros();
+                let mut p = Vector2::zeros();
+                for x in &rows {
+                    let v = Vector2::new(x[1], x[2]);
+                    g += v * v.transpose();
+                    p += v * x[3];
+                }
+                (g, p)
+            })
         })
         .collect()
 }
 
 /// 2 ln LR for the per-axis coefficient variance, maximised over it; returns (stat, s).
-fn lr_axis(proj: &[(Matrix2<f64>, [Vector2<f64>; 3])], axis: usize, sigma2: f64) -> (f64, f64) {
+fn lr_axis(proj: &[[(Matrix2<f64>, Vector2<f64>); 3]], axis: usize, sigma2: f64) -> (f64, f64) {
     // eigen-decompose each Gram matrix once: components independent with variance
     // sigma2 * l + s * l^2
     let comps: Vec<(f64, f64)> = proj
         .iter()
-        .flat_map(|(g, p)| {
+        .flat_map(|pa| {
+            let (g, p) = &pa[axis];
             let e = SymmetricEigen::new(*g);
             let u = e.eigenvectors;
-            let gp = u.transpose() * p[axis];
+            let gp = u.transpose() * p;
             [(e.eigenvalues[0], gp[0]), (e.eigenvalues[1], gp[1])]
         })
         .filter(|(l, _)| *l > 1e-12)
@@ -139,23 +173,23 @@ fn lr_axis(proj: &[(Matrix2<f64>, [Vector2<f64>; 3])], axis: usize, sigma2: f64)
     if stat > 0.0 { (stat, s) } else { (0.0, 0.0) }
 }
 
-fn statistic(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], sigma2: &[f64; 3], f: f64, tau: f64) -> (f64, [f64; 3]) {
-    let proj = projections(series, r, win, f, tau);
+fn statistic(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Whitening, f: f64, tau: f64) -> (f64, [f64; 3]) {
+    let proj = projections(series, r, win, f, tau, Some(wh));
     let mut tot = 0.0;
     let mut s = [0.0; 3];
     for a in 0..3 {
-        let (st, sa) = lr_axis(&proj, a, sigma2[a]);
+        let (st, sa) = lr_axis(&proj, a, wh[a].1);
         tot += st;
         s[a] = sa;
     }
     (tot, s)
 }
 
-fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], sigma2: &[f64; 3], f: f64, coarse: bool) -> (f64, f64) {
+fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
     let grid: &[f64] = if coarse { &[8.0, 30.0] } else { &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0] };
     let mut best = (f64::MIN, 8.0);
     for &tau in grid {
-        let d = statistic(series, r, win, sigma2, f, tau).0;
+        let d = statistic(series, r, win, wh, f, tau).0;
         if d > best.0 {
             best = (d, tau);
         }
@@ -168,20 +202,20 @@ fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], sigma2
     for _ in 0..12 {
         let x1 = b - g * (b - a);
         let x2 = a + g * (b - a);
-        if statistic(series, r, win, sigma2, f, x1.exp()).0 > statistic(series, r, win, sigma2, f, x2.exp()).0 {
+        if statistic(series, r, win, wh, f, x1.exp()).0 > statistic(series, r, win, wh, f, x2.exp()).0 {
             b = x2;
         } else {
             a = x1;
         }
     }
     let tau = (0.5 * (a + b)).exp();
-    let d = statistic(series, r, win, sigma2, f, tau).0;
+    let d = statistic(series, r, win, wh, f, tau).0;
     if d > best.0 { (d, tau) } else { best }
 }
 
 /// Post-edge spectrum: the likelihood-ratio statistic against apparent frequency
 /// (one decay), for the report's plot.
-pub fn post_edge_spectrum(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3]) -> Vec<(f64, f64)> {
+pub fn post_edge_spectrum(series: &Series, r: &[[f64; 3]], wh: &Whitening) -> Vec<(f64, f64)> {
     let win = edge_windows(series);
     if win.is_empty() {
         return vec![];
@@ -191,15 +225,14 @@ pub fn post_edge_spectrum(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3]) ->
     let mut out = vec![];
     let mut f = 2.0;
     while f < nyq {
-        out.push((f, statistic(series, r, &win, sigma2, f, 20.0).0));
+        out.push((f, statistic(series, r, &win, wh, f, 20.0).0));
         f += step;
     }
     out
 }
 
-/// Finds, folds and fits the ringing in residual `r` with per-axis per-sample noise
-/// variance `sigma2`. None when there are no usable valve edges.
-pub fn fit(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], prior_hz: f64) -> Option<RingingFit> {
+/// Finds, folds and fits the ringing in residual `r` with the noise's prewhitening `wh`. None when there are no usable valve edges.
+pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64) -> Option<RingingFit> {
     let win = edge_windows(series);
     if win.len() < 3 {
         return None;
@@ -211,18 +244,18 @@ pub fn fit(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], prior_hz: f64) ->
     let mut scan = vec![];
     let mut f = 2.0;
     while f < nyq {
-        scan.push((f, best_decay(series, r, &win, sigma2, f, true).0));
+        scan.push((f, best_decay(series, r, &win, wh, f, true).0));
         f += step;
     }
     let (f_app0, _) = scan.iter().cloned().fold((0.0, f64::MIN), |acc, x| if x.1 > acc.1 { x } else { acc });
     // refine the apparent frequency
     let mut f_app = f_app0;
-    let mut best = best_decay(series, r, &win, sigma2, f_app, true).0;
+    let mut best = best_decay(series, r, &win, wh, f_app, true).0;
     let mut h = step / 2.0;
     for _ in 0..6 {
         for cand in [f_app - h, f_app + h] {
             if cand > 0.5 && cand < nyq {
-                let d = best_decay(series, r, &win, sigma2, cand, true).0;
+                let d = best_decay(series, r, &win, wh, cand, true).0;
                 if d > best {
                     best = d;
                     f_app = cand;
@@ -236,7 +269,7 @@ pub fn fit(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], prior_hz: f64) ->
     let mut scored: Vec<(f64, f64, f64)> = cands
         .iter()
         .map(|&f| {
-            let (d, tau) = best_decay(series, r, &win, sigma2, f, false);
+            let (d, tau) = best_decay(series, r, &win, wh, f, false);
             (f, d, tau)
         })
         .collect();
@@ -254,12 +287,12 @@ pub fn fit(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], prior_hz: f64) ->
     let mut ambiguous: Vec<f64> = close.iter().map(|s| s.0).filter(|&f| (f - chosen.0).abs() > 1e-6).collect();
     ambiguous.sort_by(|a, b| a.partial_cmp(b).unwrap());
     let (f, gain, tau) = chosen;
-    let (_, s) = statistic(series, r, &win, sigma2, f, tau);
+    let (_, s) = statistic(series, r, &win, wh, f, tau);
     // standard errors from the curvature of the statistic (a chi-square): var = 2 / d2
     let hf = 0.2;
-    let d2f = (2.0 * gain - statistic(series, r, &win, sigma2, f + hf, tau).0 - statistic(series, r, &win, sigma2, f - hf, tau).0) / (hf * hf);
+    let d2f = (2.0 * gain - statistic(series, r, &win, wh, f + hf, tau).0 - statistic(series, r, &win, wh, f - hf, tau).0) / (hf * hf);
     let ht = 0.05 * tau;
-    let d2t = (2.0 * gain - statistic(series, r, &win, sigma2, f, tau + ht).0 - statistic(series, r, &win, sigma2, f, tau - ht).0) / (ht * ht);
+    let d2t = (2.0 * gain - statistic(series, r, &win, wh, f, tau + ht).0 - statistic(series, r, &win, wh, f, tau - ht).0) / (ht * ht);
     let freq_stderr = if d2f > 0.0 { (2.0 / d2f).sqrt() } else { f64::INFINITY };
     let decay_stderr = if d2t > 0.0 { (2.0 / d2t).sqrt() } else { f64::INFINITY };
     let apparent_hz = alias::apparent(f, fs);
@@ -291,18 +324,19 @@ pub fn fit(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], prior_hz: f64) ->
 
 /// Removes the fitted ringing from a residual: per edge, the best linear predictor of the
 /// tone's coefficients given the window (shrunk towards zero by the noise).
-pub fn remove(series: &Series, r: &[[f64; 3]], sigma2: &[f64; 3], rf: &RingingFit) -> Vec<[f64; 3]> {
+pub fn remove(series: &Series, r: &[[f64; 3]], wh: &Whitening, rf: &RingingFit) -> Vec<[f64; 3]> {
     let win = edge_windows(series);
-    let proj = projections(series, r, &win, rf.freq_hz, rf.decay_ms);
+    let proj = projections(series, r, &win, rf.freq_hz, rf.decay_ms, None);
     let mut out = r.to_vec();
     let w = 2.0 * std::f64::consts::PI * rf.freq_hz * 1e-3;
-    for ((te, idx), (g, p)) in win.iter().zip(proj.iter()) {
+    for ((te, idx), pa) in win.iter().zip(proj.iter()) {
         for a in 0..3 {
+            let (g, p) = &pa[a];
             let s = rf.amplitude[a].powi(2) / 2.0;
             // E[c | proj] = s (sigma2 I + s G)^-1 proj
-            let m = Matrix2::identity() * sigma2[a] + g * s;
+            let m = Matrix2::identity() * wh[a].1 + g * s;
             let Some(inv) = m.try_inverse() else { continue };
-            let c = inv * p[a] * s;
+            let c = inv * p * s;
             for &i in idx {
                 let dt = (series.t_ms[i] - te) as f64;
                 let env = (-dt / rf.decay_ms).exp();

@@ -39,9 +39,10 @@ impl Default for Settings {
     }
 }
 
-/// Parameters of a model made of `accepted` effects and initial rate `omega0`.
-pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], omega0: [f64; 3]) -> Params {
-    let mut p = Params { omega0, ..Params::default() };
+/// Parameters of a model made of `accepted` effects and the nuisances `nuis` (initial
+/// rate, then 3 per gap reset).
+pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], nuis: &[f64]) -> Params {
+    let mut p = nuisance_params(nuis);
     for (k, th) in accepted {
         // ringing is additive with a random phase per edge: handled on the residual
         if *k != Kind::GyroRinging {
@@ -49,6 +50,15 @@ pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], omega0: [f64; 3]
         }
     }
     p
+}
+
+/// The nominal model with nuisances `nuis`: initial rate, then one rate jump per gap.
+pub fn nuisance_params(nuis: &[f64]) -> Params {
+    Params {
+        omega0: [nuis[0], nuis[1], nuis[2]],
+        resets: nuis[3..].chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        ..Params::default()
+    }
 }
 
 /// Bounds, steps and starting points of one effect's parameters.
@@ -154,11 +164,11 @@ pub fn fit_joint(
     fired: &[bool; NT],
     accepted: &[(Kind, Vec<f64>)],
     new: Option<Kind>,
-    omega0: [f64; 3],
+    nuis: &[f64],
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
-    fit_with_starts(prob, fired, accepted, new, None, omega0, slosh_hint, max_iter)
+    fit_with_starts(prob, fired, accepted, new, None, nuis, slosh_hint, max_iter)
 }
 
 /// Continues the fit of `new` from `theta_new` (e.g. after a short screening fit).
@@ -169,11 +179,11 @@ pub fn fit_from(
     accepted: &[(Kind, Vec<f64>)],
     new: Kind,
     theta_new: &[f64],
-    omega0: [f64; 3],
+    nuis: &[f64],
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
-    fit_with_starts(prob, fired, accepted, Some(new), Some(vec![theta_new.to_vec()]), omega0, slosh_hint, max_iter)
+    fit_with_starts(prob, fired, accepted, Some(new), Some(vec![theta_new.to_vec()]), nuis, slosh_hint, max_iter)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -183,7 +193,7 @@ fn fit_with_starts(
     accepted: &[(Kind, Vec<f64>)],
     new: Option<Kind>,
     starts: Option<Vec<Vec<f64>>>,
-    omega0: [f64; 3],
+    nuis: &[f64],
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
@@ -215,9 +225,10 @@ fn fit_with_starts(
             base.extend(th.iter().cloned());
         }
     }
-    lo.extend([-3.0; 3]);
-    hi.extend([3.0; 3]);
-    step.extend([1e-5; 3]);
+    let frozen_from = lo.len();
+    lo.extend(std::iter::repeat_n(-3.0, nuis.len()));
+    hi.extend(std::iter::repeat_n(3.0, nuis.len()));
+    step.extend(std::iter::repeat_n(1e-5, nuis.len()));
     let kinds2 = kinds.clone();
     let sizes2 = sizes.clone();
     let fired2 = *fired;
@@ -229,18 +240,18 @@ fn fit_with_starts(
                 acc.push((*k, th[off..off + n].to_vec()));
                 off += n;
             }
-            let w0 = [th[off], th[off + 1], th[off + 2]];
-            Some(build(&fired2, &acc, w0))
+            Some(build(&fired2, &acc, &th[off..]))
         }),
         step,
         lo,
         hi,
+        frozen_from,
     };
     let mut best: Option<FitResult> = None;
     for st in &new_starts {
         let mut th0 = base.clone();
         th0.extend(st.iter().cloned());
-        th0.extend(omega0);
+        th0.extend_from_slice(nuis);
         if let Some(r) = fit::fit(prob, &fam, &th0, max_iter) {
             if best.as_ref().map(|b| r.chi2 < b.chi2).unwrap_or(true) {
                 best = Some(r);

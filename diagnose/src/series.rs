@@ -17,7 +17,14 @@ pub struct Series {
     pub word_ms: Vec<u16>,
     /// Nominal sample rate, Hz.
     pub sample_rate_hz: f64,
+    /// Indices of the first sample after each telemetry gap (longest first, at most
+    /// [`MAX_GAP_RESETS`]): the commands inside a gap are unknown, so the model's state is
+    /// re-estimated there instead of trusting the held command.
+    pub gap_resets: Vec<usize>,
 }
+
+/// At most this many gaps get their own state re-estimate (the longest ones).
+pub const MAX_GAP_RESETS: usize = 24;
 
 impl Series {
     /// Builds the series from per-sample times, gyro counts and thruster words.
@@ -62,7 +69,16 @@ impl Series {
             *w = current;
         }
         let sample_rate_hz = sample_rate_hz.unwrap_or_else(|| infer_rate(t_ms));
-        Some(Series { t_ms: t_ms.to_vec(), rate, valid, word_ms, sample_rate_hz })
+        let period = 1000.0 / sample_rate_hz;
+        let mut gaps: Vec<(i64, usize)> = (1..n)
+            .filter(|&i| (t_ms[i] - t_ms[i - 1]) as f64 > 1.5 * period)
+            .map(|i| (t_ms[i] - t_ms[i - 1], i))
+            .collect();
+        gaps.sort_by(|a, b| b.0.cmp(&a.0));
+        gaps.truncate(MAX_GAP_RESETS);
+        let mut gap_resets: Vec<usize> = gaps.into_iter().map(|g| g.1).collect();
+        gap_resets.sort_unstable();
+        Some(Series { t_ms: t_ms.to_vec(), rate, valid, word_ms, sample_rate_hz, gap_resets })
     }
 
     /// Number of samples.

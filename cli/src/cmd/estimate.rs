@@ -2,8 +2,8 @@
 //! [--json OUT.json]`: runs a recording through the mass-property identification and
 //! prints (and optionally writes, as `contracts/estimate-output.md`) the estimate.
 //!
-//! The f64 path is the reference's offline pipeline. The f32 and fixed-point kernels plug
-//! in at [`run_kernel`]; until they do, asking for them is a clear error.
+//! The f64 path is the reference's offline pipeline; the f32 and fixed-point paths run the
+//! onboard kernel (`massid_kernel::Pipeline`) one sample per tick ([`run_kernel`]).
 use anyhow::{anyhow, bail, Context};
 use reference_f64::pipeline::{estimate_offline, Estimate, PipelineConfig};
 use reference_f64::recording::Recording;
@@ -84,16 +84,115 @@ pub fn load_satellite(rec: &Recording, satellite: Option<&str>, model: Option<&P
     })
 }
 
-/// The f32 / fixed-point kernel runs plug in here (the kernel team adds them): run the
-/// recording through `kernel::Pipeline::tick` sample by sample and return the same
-/// [`Estimate`] fields. Until then these kernels are a clear error.
+/// The f64 reference or one of the onboard kernels (`massid_kernel::Pipeline`, f32 or Q8.24
+/// fixed point) run sample by sample as flight code would, telemetry gaps as gap ticks.
 pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite) -> anyhow::Result<Estimate> {
     match kernel {
         Kernel::F64 => Ok(estimate_offline(rec, sat, &PipelineConfig { keep_history: false, ..PipelineConfig::default() })),
-        Kernel::F32 | Kernel::Fixed => bail!(
-            "--kernel {}: this implementation is not wired into `massid estimate` yet (use --kernel f64)",
-            kernel.name()
-        ),
+        Kernel::F32 => onboard::estimate::<f32>(rec, sat),
+        Kernel::Fixed => onboard::estimate::<massid_kernel::Q8_24>(rec, sat),
+    }
+}
+
+/// Glue between a recording/satellite of the ground tools and the onboard kernel.
+pub mod onboard {
+    use super::{Estimate, Recording, Satellite};
+    use massid_kernel::model::SatelliteParams;
+    use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scalar};
+    use reference_f64::mass_id::{COM_TERMS, INERTIA_TERMS};
+
+    /// The kernel's plain-array parameters (f32) from a ground model.
+    pub fn params(sat: &Satellite) -> SatelliteParams {
+        SatelliteParams {
+            thruster_pos_m: sat.thruster_pos_m.map(|p| p.map(|v| v as f32)),
+            thrust_dir: sat.thrust_dir.map(|p| p.map(|v| v as f32)),
+            thrust_n: sat.thrust_n.map(|v| v as f32),
+            inertia_kgm2: sat.inertia_kgm2.map(|v| v as f32),
+            com_offset_mm: sat.com_offset_mm.map(|v| v as f32),
+            gyro_counts_per_rad_s: sat.gyro_counts_per_rad_s.map(|v| v as f32),
+            pressure_drop_n_per_extra: sat.pressure_drop_n_per_extra as f32,
+        }
+    }
+
+    pub fn estimate<S: Scalar>(rec: &Recording, sat: &Satellite) -> anyhow::Result<Estimate> {
+        let dt = rec.sample_period_ms().max(1);
+        let cfg = PipelineConfig::<S>::with_gyroscopic(dt as u32, sat.gyro_bias_counts.map(|v| v as f32));
+        let mut p = Pipeline::<S>::new(&params(sat), cfg)
+            .map_err(|e| anyhow::anyhow!("satellite {}: the kernel rejects the model ({e:?})", sat.name))?;
+        let mut prev: Option<u64> = None;
+        for s in &rec.samples {
+            if let Some(t0) = prev {
+                for _ in 0..(s.time_ms.saturating_sub(t0) / dt).saturating_sub(1) {
+                    p.tick_gap();
+                }
+            }
+            p.tick(s.gyro, s.thrusters);
+            prev = Some(s.time_ms);
+        }
+        p.finish();
+        let e = p.estimates();
+        let (var_c, var_i) = p.mass_id().variances();
+        let mut unobservable: Vec<String> = Vec::new();
+        for (n, u) in COM_TERMS.iter().zip(e.unobservable_com.iter()) {
+            if *u {
+                unobservable.push(n.to_string());
+            }
+        }
+        for (n, u) in INERTIA_TERMS.iter().zip(e.unobservable_inertia.iter()) {
+            if *u {
+                unobservable.push(n.to_string());
+            }
+        }
+        let status = match e.status {
+            PipelineStatus::Idle => "no_firings",
+            PipelineStatus::Batch | PipelineStatus::Ok if unobservable.is_empty() => "ok",
+            PipelineStatus::Batch | PipelineStatus::Ok | PipelineStatus::PartlyUnobservable => "unobservable_terms",
+            PipelineStatus::Singular => "singular_information",
+            PipelineStatus::Overflow => "overflow",
+        };
+        let inertia = match e.status {
+            PipelineStatus::Idle => sat.inertia_kgm2,
+            _ => e.inertia_kgm2().unwrap_or(sat.inertia_kgm2),
+        };
+        // stderrs: CoM variances in m^2; inertia by first-order propagation dI = -I dJ I of
+        // the inverse-inertia variances (J = 100 theta), terms taken as independent.
+        let com_stderr = var_c.map(|v| v.map(|v| v.to_f64().max(0.0).sqrt() * 1e3).unwrap_or(f64::NAN));
+        let var_j: [f64; 6] = var_i.map(|v| v.map(|v| v.to_f64().max(0.0) * 1e4).unwrap_or(f64::NAN));
+        let im = [[inertia[0], inertia[3], inertia[4]], [inertia[3], inertia[1], inertia[5]], [inertia[4], inertia[5], inertia[2]]];
+        let idx = |a: usize, b: usize| -> usize {
+            match (a.min(b), a.max(b)) {
+                (0, 0) => 0,
+                (1, 1) => 1,
+                (2, 2) => 2,
+                (0, 1) => 3,
+                (0, 2) => 4,
+                _ => 5,
+            }
+        };
+        let pairs = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+        let inertia_stderr = pairs.map(|(a, b)| {
+            let mut v = 0.0;
+            for c in 0..3 {
+                for d in 0..3 {
+                    v += (im[a][c] * im[d][b]).powi(2) * var_j[idx(c, d)];
+                }
+            }
+            v.sqrt()
+        });
+        Ok(Estimate {
+            com_offset_mm: e.com_offset_mm(),
+            com_offset_stderr_mm: com_stderr,
+            inertia_kgm2: inertia,
+            inertia_stderr_kgm2: inertia_stderr,
+            unobservable,
+            updates: e.updates as usize,
+            status: status.into(),
+            history: Vec::new(),
+            batch_all_com_offset_mm: e.com_offset_mm(),
+            batch_all_inertia_kgm2: inertia,
+            variance_factor: [1.0; 2],
+            detections_s: Vec::new(),
+        })
     }
 }
 
@@ -224,6 +323,9 @@ mod tests {
             assert!(!r[k].is_null(), "missing {k}");
         }
         assert_eq!(r["inertia_kgm2"].as_array().unwrap().len(), 6);
-        assert!(run_kernel(Kernel::Fixed, &rec, &sat).unwrap_err().to_string().contains("--kernel fixed"));
+        // The onboard kernels run too (no firings: nothing identified, the model is reported).
+        let k = run_kernel(Kernel::Fixed, &rec, &sat).unwrap();
+        assert_eq!(k.status, "no_firings");
+        assert_eq!(k.inertia_kgm2, sat.inertia_kgm2);
     }
 }

@@ -365,8 +365,11 @@ impl massid_kernel::Scalar for Interval {
         }
     }
     fn floor_times(self, k: u32) -> Option<i64> {
-        let k = Interval::point(k as f64);
-        (self * k).floor_i64()
+        // The impls compute this in a wider integer type (not in the format), so the product
+        // is not a format value: it is formed here without the watch or the format slack.
+        let k = k as f64;
+        let (a, b) = (self.lo * k, self.hi * k);
+        Interval { lo: next_down(a.min(b)), hi: next_up(a.max(b)) }.floor_i64()
     }
     fn headroom() -> Self {
         let f = format();

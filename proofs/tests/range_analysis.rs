@@ -98,3 +98,53 @@ fn pipeline_trajectory_ranges_fit_q8_24() {
     let rep = check("pipeline_trajectory_q8_24", Mode::Random { runs: 3, seed: 5 }, &[], body).unwrap();
     println!("{rep}");
 }
+
+/// The mixer built onboard from a CoM estimate in 1 mm cells of the envelope box (+-30 mm), then
+/// mixing commands from boxes of the envelope: ranges of every intermediate (the mixing
+/// matrix sits near the top of the format by design, so this is where range matters).
+/// Undecided comparisons (pivoting, the opposing/negative resolution, scaling) are explored
+/// along random paths, so this is sound for the explored paths.
+#[test]
+fn mixer_ranges_fit_q8_24_over_the_com_box_and_command_boxes() {
+    use massid_kernel::mixer::{Mixer, MixerConfig};
+    use massid_kernel::Scalar;
+    use massid_proofs::engine::{any_in, check, Mode};
+    use massid_proofs::interval::{self, Interval};
+    fn body() {
+        interval::set_format(Format::Q8_24);
+        interval::reset_watch();
+        // The CoM estimate: a 1 mm cell of the +-30 mm envelope box (the whole box at once
+        // is too wide for an interval LU of M M': every pivot becomes uncertain).
+        let com = [0; 3].map(|_| {
+            let k = any_in(-30i32, 29);
+            Interval::new(k as f64 * 1e-3, (k + 1) as f64 * 1e-3).expect("ordered")
+        });
+        let cfg = MixerConfig { period_ms: 200, min_pulse_ms: 10, pressure_drop_n: Interval::ZERO };
+        let built = Mixer::<Interval>::new(&massid_kernel::model::SPH2, com, cfg);
+        let build_watch = interval::watch();
+        let Ok(mixer) = built else {
+            // The interval LU could not certify the pivots for the whole box: a status path.
+            println!("mixer build over the box: {:?}, watch {:?}", built.err(), build_watch);
+            massid_proofs::cover!(true, "mixer build: status");
+            interval::set_format(Format::REAL);
+            return;
+        };
+        massid_proofs::cover!(true, "mixer built");
+        // A command cell of 1 mN x 0.1 mN m anywhere in +-0.4 N x +-0.04 N m (wider cells
+        // make the interval duties divide by uncertain maxima: overestimation, not range).
+        let cell = |k: i32, w: f64| Interval::new(k as f64 * w, (k + 1) as f64 * w).expect("ordered");
+        let f = [0; 3].map(|_| cell(any_in(-400, 399), 1e-3));
+        let t = [0; 3].map(|_| cell(any_in(-400, 399), 1e-4));
+        let _ = mixer.mix(f, t);
+        let w = interval::reset_watch();
+        interval::set_format(Format::REAL);
+        println!("mixer: build max |x| {:.4} ({} ops, {} undecided); build + mix max |x| {:.4} ({} undecided, {} divisions by 0-containing intervals)",
+            build_watch.max_abs, build_watch.ops, build_watch.undecided, w.max_abs, w.undecided, w.div_by_zero);
+        assert!(w.max_abs < Format::Q8_24.max, "an intermediate reaches {} >= 128", w.max_abs);
+        WORST.with(|c| c.set((c.get().0.max(build_watch.max_abs), c.get().1.max(w.max_abs))));
+    }
+    thread_local!(static WORST: std::cell::Cell<(f64, f64)> = const { std::cell::Cell::new((0.0, 0.0)) });
+    let r = check("mixer_ranges_q8_24", Mode::Random { runs: 40, seed: 3 }, &["mixer built"], body).unwrap();
+    let (b, m) = WORST.with(|c| c.get());
+    println!("{r}; worst over the runs: build max |x| {b:.4}, build + mix max |x| {m:.4} (Q8.24 limit 128)");
+}

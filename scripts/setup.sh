@@ -7,6 +7,8 @@ set -euo pipefail
 need_apt=()
 command -v gcc >/dev/null || need_apt+=(gcc)
 command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
+# llvm-size / llvm-objdump for scripts/kernel-report.sh.
+{ command -v llvm-size >/dev/null && command -v llvm-objdump >/dev/null; } || need_apt+=(llvm)
 if [ ${#need_apt[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
@@ -17,3 +19,6 @@ rustup target add thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imc-unknown-no
   rustup target add thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imc-unknown-none-elf
 if rustup toolchain list | grep -q nightly; then :; else rustup toolchain install nightly --profile minimal; fi
 rustup component add rust-src --toolchain nightly >/dev/null 2>&1 || rustup component add rust-src --toolchain nightly
+# Nightly Cortex-M std for the -Zemit-stack-sizes builds of scripts/kernel-report.sh.
+rustup target add --toolchain nightly thumbv6m-none-eabi thumbv7em-none-eabihf >/dev/null 2>&1 || \
+  rustup target add --toolchain nightly thumbv6m-none-eabi thumbv7em-none-eabihf

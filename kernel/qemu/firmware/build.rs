@@ -8,7 +8,10 @@ use std::path::PathBuf;
 
 fn main() {
     let target = env::var("TARGET").unwrap_or_default();
-    let memory = if target.starts_with("thumbv6m") {
+    // The `capi` build only serves the stack analysis and is never run: it keeps every C-ABI
+    // entry point of both instantiations, which does not fit the micro:bit's flash.
+    let analysis_only = env::var_os("CARGO_FEATURE_CAPI").is_some();
+    let memory = if target.starts_with("thumbv6m") && !analysis_only {
         "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 256K\n  RAM : ORIGIN = 0x20000000, LENGTH = 16K\n}\n"
     } else {
         "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 4M\n  RAM : ORIGIN = 0x20000000, LENGTH = 64K\n}\n"

@@ -74,6 +74,7 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     };
     // Target-dependent (alignment of 64-bit fields): not compared, see `compare`.
     writeln!(out, "info {} state-bytes {}", S::NAME, core::mem::size_of::<Pipeline<S>>())?;
+    writeln!(out, "info {} mixer-bytes {}", S::NAME, core::mem::size_of::<Mixer<S>>())?;
     markers::flavour(S::EXACT);
     let mut prev_word = 0u16;
     let mut firings = 0u32;

@@ -1,0 +1,196 @@
+#!/usr/bin/env bash
+# Prints the kernel's embedded report as Markdown (also written to out/kernel/report.md):
+#  - code size per target: .text of the kernel's objects in the release C-ABI static library
+#    (crate massid-kernel-capi: both instantiations, pipeline + mixer, before link-time GC;
+#    core/compiler_builtins excluded), and the linked QEMU firmware images;
+#  - state size in bytes (size_of the pipeline and mixer, fixed and f32, 32-bit targets);
+#  - worst-case stack per C-ABI entry point on Cortex-M0 and M4F (nightly -Zemit-stack-sizes
+#    + call graph from llvm-objdump; massid-qemu-host stack);
+#  - instructions per call on the emulated Cortex-M0 and M4F, fixed and f32, counted exactly
+#    in a QEMU trace (-singlestep -d exec,nochain) between marker functions, over a 1 s
+#    window of a random-PWM recording (many firings, multi-thruster words);
+#  - the goals: worst tick < 8,400 instructions on the M4F; fixed >= 5x fewer instructions
+#    than soft-float f32 on the M0.
+# Needs scripts/setup.sh (targets, nightly rust-src, qemu-system-arm, llvm tools).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+BASE=${CARGO_TARGET_DIR:-$ROOT/target}
+OUT=$ROOT/out/kernel
+mkdir -p "$OUT"
+QBASE=$BASE/qemu
+COUNT_RECORDING=${MASSID_COUNT_RECORDING:-$ROOT/../shared/data/open/o03_pressure_drop_combo.csv}
+COUNT_WINDOW=${MASSID_COUNT_WINDOW_MS:-1000..2000}
+log() { echo "kernel-report: $*" >&2; }
+
+for tool in llvm-size llvm-objdump qemu-system-arm; do
+  command -v "$tool" >/dev/null || { echo "kernel-report: $tool not found (run scripts/setup.sh)" >&2; exit 1; }
+done
+
+log "building the host tool"
+(cd kernel/qemu && CARGO_TARGET_DIR=$QBASE cargo build -q --locked --release -p massid-qemu-host)
+HOST_TOOL=$QBASE/release/massid-qemu-host
+
+# ---- code size -------------------------------------------------------------------------
+# Sum of .text* sections of the massid_kernel objects in the archive (llvm-size -A output:
+# a "NAME (ex ARCHIVE):" line per member, then "section size addr" lines).
+kernel_text() {
+  llvm-size -A "$1" | awk '
+    / \(ex / { member = $1; next }
+    member ~ /^massid_kernel/ && $1 ~ /^\.text/ { sum += $2 }
+    END { print sum + 0 }'
+}
+declare -A CODE
+log "code size: C-ABI static library per target"
+for t in thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imc-unknown-none-elf; do
+  CARGO_TARGET_DIR=$BASE cargo build -q --locked --release -p massid-kernel-capi --target "$t"
+  CODE[$t]=$(kernel_text "$BASE/$t/release/libmassid_kernel_capi.a")
+done
+for t in hexagon-unknown-none-elf msp430-none-elf; do
+  if CARGO_TARGET_DIR=$BASE/nightly cargo +nightly build -q --locked --release -p massid-kernel-capi \
+       --target "$t" -Zbuild-std=core >"$OUT/capi-$t.log" 2>&1; then
+    CODE[$t]=$(kernel_text "$BASE/nightly/$t/release/libmassid_kernel_capi.a")
+  else
+    CODE[$t]="does not build (out/kernel/capi-$t.log)"
+  fi
+done
+
+# ---- firmware (equality build) and state sizes --------------------------------------------
+log "firmware images and state sizes"
+(
+  cd kernel/qemu
+  for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
+    CARGO_TARGET_DIR=$QBASE cargo build -q --locked --release -p massid-qemu-firmware --target "$t"
+  done
+)
+image_text() { llvm-size "$1" | awk 'NR == 2 { print $1 }'; }
+M0_IMAGE=$(image_text "$QBASE/thumbv6m-none-eabi/release/massid-qemu-firmware")
+M4_IMAGE=$(image_text "$QBASE/thumbv7em-none-eabihf/release/massid-qemu-firmware")
+timeout 600 qemu-system-arm -machine microbit -semihosting-config enable=on,target=native -nographic \
+  -monitor none -serial none -kernel "$QBASE/thumbv6m-none-eabi/release/massid-qemu-firmware" >"$OUT/qemu-m0.txt"
+"$HOST_TOOL" run >"$OUT/host.txt"
+info() { awk -v k="$2" -v f="$3" '$1 == "info" && $2 == f && $3 == k { print $4 }' "$1"; }
+
+# ---- stack ----------------------------------------------------------------------------------
+ENTRIES=(massid_fixed_init massid_fixed_tick massid_fixed_finish massid_fixed_estimates
+         massid_fixed_mixer_from_pipeline massid_fixed_mix
+         massid_f32_init massid_f32_tick massid_f32_finish massid_f32_estimates
+         massid_f32_mixer_from_pipeline massid_f32_mix)
+SBASE=$BASE/qemu-stack
+for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
+  log "stack: $t (nightly, -Zemit-stack-sizes)"
+  (cd kernel/qemu && CARGO_TARGET_DIR=$SBASE RUSTFLAGS="-Zemit-stack-sizes" cargo +nightly build -q --locked \
+     --release -p massid-qemu-firmware --features capi --target "$t")
+  elf=$SBASE/$t/release/massid-qemu-firmware
+  llvm-objdump -d --no-show-raw-insn "$elf" >"$OUT/stack-$t.objdump.txt"
+  "$HOST_TOOL" stack "$elf" "$OUT/stack-$t.objdump.txt" "${ENTRIES[@]}" >"$OUT/stack-$t.tsv"
+done
+stack_of() { awk -v e="$2" -F'\t' '$1 == e { print $2 }' "$OUT/stack-$1.tsv"; }
+
+# ---- instruction counts -------------------------------------------------------------------
+CBASE=$BASE/qemu-count
+(
+  cd kernel/qemu
+  for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
+    MASSID_QEMU_RECORDING=$COUNT_RECORDING MASSID_QEMU_WINDOW_MS=$COUNT_WINDOW CARGO_TARGET_DIR=$CBASE \
+      cargo build -q --locked --release -p massid-qemu-firmware --target "$t"
+  done
+)
+# One instruction per translation block: -singlestep up to QEMU 8, the tcg property after.
+if qemu-system-arm -accel tcg,help 2>/dev/null | grep -q one-insn-per-tb; then
+  ONE_INSN=(-accel tcg,one-insn-per-tb=on)
+else
+  ONE_INSN=(-singlestep)
+fi
+count() { # target out-name machine-args...
+  local t=$1 name=$2; shift 2
+  local elf=$CBASE/$t/release/massid-qemu-firmware
+  log "instruction trace: $name (this takes a minute or two)"
+  # The exec log goes to stderr (one line per instruction), piped into the counter; the
+  # semihosted output goes to a file.
+  timeout 1800 qemu-system-arm "$@" -semihosting-config enable=on,target=native -nographic \
+    -monitor none -serial none "${ONE_INSN[@]}" -d exec,nochain -D /dev/stderr -kernel "$elf" \
+    2>&1 >"$OUT/count-$name.out" | "$HOST_TOOL" count "$elf" >"$OUT/count-$name.tsv"
+  grep -q '^# done' "$OUT/count-$name.out" || { echo "kernel-report: the $name count run did not finish" >&2; exit 1; }
+}
+count thumbv6m-none-eabi m0 -machine microbit
+count thumbv7em-none-eabihf m4f -machine mps2-an386 -cpu cortex-m4
+# Fields of count-*.tsv: kind calls min mean max; kind = flavour/what.
+cnt() { awk -F'\t' -v k="$2" -v c="$3" '$1 == k { print $c }' "$OUT/count-$1.tsv"; }
+# Worst tick of a flavour: the largest max over the tick kinds.
+worst_tick() {
+  awk -F'\t' -v f="$2/" 'index($1, f) == 1 && $1 !~ /mixer/ { if ($5 > m) { m = $5; k = $1 } } END { print m + 0, k }' "$OUT/count-$1.tsv"
+}
+
+# ---- report -------------------------------------------------------------------------------
+{
+  echo "## Kernel on embedded targets (measured by \`scripts/kernel-report.sh\`)"
+  echo
+  echo "### Code size"
+  echo
+  echo "| target | kernel .text in the C-ABI static library (bytes) |"
+  echo "|---|---|"
+  for t in thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imc-unknown-none-elf hexagon-unknown-none-elf msp430-none-elf; do
+    echo "| \`$t\` | ${CODE[$t]} |"
+  done
+  echo
+  echo "Both instantiations (Q8.24 and f32) of pipeline + mixer, as the C ABI instantiates them, summed over"
+  echo "the \`massid_kernel\` objects of \`libmassid_kernel_capi.a\` (release, before link-time garbage collection;"
+  echo "\`core\` and \`compiler_builtins\` excluded). Linked QEMU firmware images (kernel fixed + f32, runner,"
+  echo "formatting, soft-float, embedded recording): micro:bit (M0) $M0_IMAGE bytes, MPS2-AN386 (M4F) $M4_IMAGE bytes of text."
+  echo
+  echo "### State size (bytes, 32-bit targets)"
+  echo
+  echo "| | fixed (Q8.24) | f32 |"
+  echo "|---|---|---|"
+  echo "| pipeline (\`Pipeline<S>\`) | $(info "$OUT/qemu-m0.txt" state-bytes fixed) | $(info "$OUT/qemu-m0.txt" state-bytes f32) |"
+  echo "| mixer (\`Mixer<S>\`) | $(info "$OUT/qemu-m0.txt" mixer-bytes fixed) | $(info "$OUT/qemu-m0.txt" mixer-bytes f32) |"
+  echo
+  echo "(x86-64 host: pipeline $(info "$OUT/host.txt" state-bytes fixed) bytes; the C ABI reserves 2560 per pipeline block, 1024 per mixer block.)"
+  echo
+  echo "### Worst-case stack per C-ABI entry point (bytes)"
+  echo
+  echo "| entry point | Cortex-M0 | Cortex-M4F |"
+  echo "|---|---|---|"
+  for e in "${ENTRIES[@]}"; do
+    echo "| \`$e\` | $(stack_of thumbv6m-none-eabi "$e") | $(stack_of thumbv7em-none-eabihf "$e") |"
+  done
+  echo
+  echo "Frame sizes from \`-Zemit-stack-sizes\` (nightly), call graph from \`llvm-objdump -d\` of the linked image"
+  echo "(\`massid-qemu-host stack\`); precompiled \`compiler_builtins\` functions (soft-float, 64-bit division, memcpy)"
+  echo "have no \`.stack_sizes\` entry and are bounded from their prologue (push/vpush/sub sp). Tail calls counted as calls."
+  echo
+  echo "### Instructions per call (exact, QEMU trace)"
+  echo
+  echo "Window \`$(basename "$COUNT_RECORDING")\` $COUNT_WINDOW ms (1 kHz ticks; random PWM, 1-4 thrusters). Kinds:"
+  echo "idle = thrusters off or valve transient; edge = thruster word changed (KF reset / batch row) without a solve;"
+  echo "kf = Kalman update during the batch firings; kf_rls = Kalman update + RLS measurement (firing 3 on);"
+  echo "solve = end of firing with the batch/RLS LU solve; mixer_build = mixer rebuilt from the CoM estimate; mixer = one mix."
+  echo
+  echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
+  echo "|---|---|---|---|---|---|"
+  for k in idle edge kf kf_rls solve mixer_build mixer other; do
+    [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
+    echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
+  done
+  echo
+  read -r m4_f32 m4_f32_kind <<<"$(worst_tick m4f f32)"
+  read -r m4_fix m4_fix_kind <<<"$(worst_tick m4f fixed)"
+  read -r m0_f32 _ <<<"$(worst_tick m0 f32)"
+  read -r m0_fix _ <<<"$(worst_tick m0 fixed)"
+  verdict() { if [ "$1" -lt "$2" ]; then echo "met"; else echo "**missed**"; fi; }
+  echo "### Goals"
+  echo
+  echo "| goal | measured | |"
+  echo "|---|---|---|"
+  echo "| worst tick (incl. RLS update and solve) < 8,400 instructions on the M4F, f32 | $m4_f32 ($m4_f32_kind) | $(verdict "$m4_f32" 8400) |"
+  echo "| worst tick < 8,400 instructions on the M4F, fixed | $m4_fix ($m4_fix_kind) | $(verdict "$m4_fix" 8400) |"
+  rls_fix=$(cnt m0 fixed/kf_rls 4); rls_f32=$(cnt m0 f32/kf_rls 4)
+  if [ -n "$rls_fix" ] && [ -n "$rls_f32" ] && [ "$rls_fix" -gt 0 ]; then
+    ratio=$(awk -v a="$rls_f32" -v b="$rls_fix" 'BEGIN { printf "%.2f", a / b }')
+    ok=$(awk -v r="$ratio" 'BEGIN { print (r >= 5) ? "met" : "**missed**" }')
+    echo "| fixed >= 5x fewer instructions than soft-float f32 on the M0 (mean RLS-update tick) | f32 $rls_f32 / fixed $rls_fix = ${ratio}x | $ok |"
+  fi
+  ratio_w=$(awk -v a="$m0_f32" -v b="$m0_fix" 'BEGIN { if (b > 0) printf "%.2f", a / b; else print "n/a" }')
+  echo "| same, worst tick | f32 $m0_f32 / fixed $m0_fix = ${ratio_w}x | $(awk -v r="$ratio_w" 'BEGIN { print (r + 0 >= 5) ? "met" : "**missed**" }') |"
+} | tee "$OUT/report.md"

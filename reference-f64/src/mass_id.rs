@@ -364,8 +364,10 @@ pub struct Excitation {
 
 impl Excitation {
     pub fn new(sat: &Satellite) -> Self {
-        let f_min = sat.thrust_n.iter().cloned().fold(f64::INFINITY, f64::min);
-        let t_min = (0..crate::satellite::N_THRUSTERS).map(|i| sat.torque_nm(i).norm()).fold(f64::INFINITY, f64::min);
+        // the weakest thruster that can fire (a model may disable one with zero thrust)
+        let firing = (0..crate::satellite::N_THRUSTERS).filter(|&i| sat.thrust_n[i] > 0.0);
+        let f_min = firing.clone().map(|i| sat.thrust_n[i]).fold(f64::INFINITY, f64::min);
+        let t_min = firing.map(|i| sat.torque_nm(i).norm()).fold(f64::INFINITY, f64::min);
         Excitation { com: [0.0; 3], inertia: [0.0; 6], force_ref: 0.5 * f_min, torque_ref: 0.5 * t_min }
     }
 

@@ -50,3 +50,4 @@ pub fn diagnose_recording(rec: &Recording, sat: &Satellite, settings: &Settings)
     Ok(diagnose(&series, &plant, &name, &sat.name, issues, settings))
 }
 pub mod synth;
+pub mod score;

@@ -1,0 +1,139 @@
+//! Issue 6 acceptance on the open recordings: on every file of `shared/data/open/` the
+//! diagnosis names exactly the truth file's effects (no extra one, none on the nominal
+//! files, artefacts counted as data issues), each truth parameter lies inside the
+//! reported uncertainty or within 10 %, and the JSON document has the contract's shape.
+
+use massid_diagnose::{diagnose_recording, DiagnosisOutput, Settings};
+use reference_f64::recording::Recording;
+use reference_f64::satellite::Satellite;
+use serde_json::Value;
+
+/// Flattens `{"k": 1.0, "a": [1, 2]}` to `[("k", 1.0), ("a[0]", 1.0), ("a[1]", 2.0)]`.
+fn flatten(v: &Value) -> Vec<(String, f64)> {
+    let mut out = vec![];
+    if let Some(o) = v.as_object() {
+        for (k, x) in o {
+            match x {
+                Value::Array(a) => {
+                    for (i, y) in a.iter().enumerate() {
+                        out.push((format!("{k}[{i}]"), y.as_f64().unwrap_or(f64::NAN)));
+                    }
+                }
+                y => out.push((k.clone(), y.as_f64().unwrap_or(f64::NAN))),
+            }
+        }
+    }
+    out
+}
+
+fn diagnose_file(name: &str) -> (DiagnosisOutput, Value) {
+    let dir = massid_tests::open_data_dir();
+    let csv = dir.join(format!("{name}.csv"));
+    let truth: Value = serde_json::from_str(&std::fs::read_to_string(dir.join(format!("{name}.truth.json"))).unwrap()).unwrap();
+    let rec = Recording::read(&csv).unwrap();
+    let sat = Satellite::builtin(rec.satellite().unwrap()).unwrap();
+    let a = diagnose_recording(&rec, &sat, &Settings::default()).unwrap();
+    (a.output, truth)
+}
+
+/// Checks one recording against its truth; returns a description of every failure.
+fn check(name: &str) -> Vec<String> {
+    let (out, truth) = diagnose_file(name);
+    let mut fails = vec![];
+    let want: Vec<&str> = truth["effects"].as_array().unwrap().iter().map(|e| e["effect"].as_str().unwrap()).collect();
+    let mut got: Vec<&str> = out.effects.iter().map(|e| e.effect.as_str()).collect();
+    let mut want_sorted = want.clone();
+    want_sorted.sort();
+    got.sort();
+    if got != want_sorted {
+        fails.push(format!("{name}: effects {got:?}, truth {want_sorted:?}"));
+    }
+    for te in truth["effects"].as_array().unwrap() {
+        let Some(e) = out.effects.iter().find(|e| e.effect == te["effect"].as_str().unwrap()) else { continue };
+        let est: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.params.clone())).into_iter().collect();
+        let se: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.stderr.clone())).into_iter().collect();
+        for (k, t) in flatten(&te["params"]) {
+            let Some(&x) = est.get(&k) else {
+                fails.push(format!("{name}: {} lacks parameter {k}", e.effect));
+                continue;
+            };
+            let err = (x - t).abs();
+            let tol = se.get(&k).copied().unwrap_or(0.0).max(0.1 * t.abs());
+            if err > tol {
+                fails.push(format!("{name}: {}.{k} = {x} (+/- {:?}), truth {t}", e.effect, se.get(&k)));
+            }
+        }
+    }
+    // contract shape
+    let v = serde_json::to_value(&out).unwrap();
+    for key in ["format", "recording", "model", "samples", "residual_rms_before", "residual_rms_after", "effects", "data_issues"] {
+        if v.get(key).is_none() {
+            fails.push(format!("{name}: JSON lacks {key}"));
+        }
+    }
+    if out.format != "massid-diagnosis/1" || out.recording != format!("{name}.csv") || out.model != "sph2" {
+        fails.push(format!("{name}: header {} {} {}", out.format, out.recording, out.model));
+    }
+    for e in &v["effects"].as_array().unwrap().clone() {
+        for key in ["effect", "params", "stderr", "evidence", "windows_ms", "rms_after", "delta_bic"] {
+            if e.get(key).is_none() {
+                fails.push(format!("{name}: effect lacks {key}"));
+            }
+        }
+        if e["delta_bic"].as_f64().unwrap() >= 0.0 {
+            fails.push(format!("{name}: accepted effect with delta_bic >= 0"));
+        }
+    }
+    // an accepted effect must bring the residual down
+    for a in 0..3 {
+        if !out.effects.is_empty() && out.residual_rms_after[a] >= out.residual_rms_before[a] {
+            fails.push(format!("{name}: residual did not improve on axis {a}"));
+        }
+    }
+    if name.starts_with("o09") {
+        // the README of the open data: 8 gaps of 1-20 samples and 5 duplicate rows
+        let d = out.data_issues;
+        if d.gaps != 8 || d.duplicates != 5 || d.missing_samples < 8 || d.missing_samples > 160 {
+            fails.push(format!("{name}: data issues {d:?}"));
+        }
+    }
+    fails
+}
+
+#[test]
+fn open_recordings_are_diagnosed_as_their_truth() {
+    let dir = massid_tests::open_data_dir();
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| {
+            let p = e.ok()?.path();
+            (p.extension()? == "csv").then(|| p.file_stem().unwrap().to_string_lossy().into_owned())
+        })
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 9, "open recordings in {}", dir.display());
+    // two workers: the machine has two cores
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let fails = std::sync::Mutex::new(Vec::<String>::new());
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                let Some(n) = names.get(i) else { break };
+                let f = check(n);
+                fails.lock().unwrap().extend(f);
+            });
+        }
+    });
+    let fails = fails.into_inner().unwrap();
+    assert!(fails.is_empty(), "{}", fails.join("\n"));
+}
+
+#[test]
+fn diagnosis_refuses_an_empty_recording_without_panicking() {
+    let rec = Recording::new("empty.csv", Some("sph2"), Some(1000.0), vec![]);
+    let sat = Satellite::builtin("sph2").unwrap();
+    let r = diagnose_recording(&rec, &sat, &Settings::default());
+    let e = r.err().expect("an empty recording is an error");
+    assert!(e.to_string().contains("empty.csv"), "{e}");
+}

@@ -148,3 +148,26 @@ fn mixer_ranges_fit_q8_24_over_the_com_box_and_command_boxes() {
     let (b, m) = WORST.with(|c| c.get());
     println!("{r}; worst over the runs: build max |x| {b:.4}, build + mix max |x| {m:.4} (Q8.24 limit 128)");
 }
+
+/// The same analysis on a rail-to-rail trajectory (counts alternating 0 / 4095 every 3 ticks
+/// during the firings): whatever range the intervals reach, a value at the format's limit
+/// must come with a status (the kernel's `is_valid` checks), never an Ok estimate beyond it.
+#[test]
+fn pipeline_rail_trajectory_reports_what_does_not_fit() {
+    use massid_proofs::engine::{check, Mode};
+    fn body() {
+        let mut samples = trajectory(4 * 330);
+        for (k, s) in samples.iter_mut().enumerate() {
+            if s.1 != 0 {
+                s.0 = [if (k / 3) % 2 == 0 { 0 } else { 4095 }; 3];
+            }
+        }
+        let r = range::pipeline_trajectory(Format::Q8_24, &massid_kernel::model::SPH2, &samples);
+        println!("{}", r.table());
+        // Estimates the pipeline reports are inside the format (what does not fit is caught
+        // by its status checks before it becomes an estimate).
+        assert!(r.vars.iter().filter(|v| v.name.starts_with("delta_com") || v.name.starts_with("theta")).all(|v| v.range.mag() < Format::Q8_24.max), "{}", r.table());
+    }
+    let rep = check("pipeline_rails_q8_24", Mode::Random { runs: 2, seed: 9 }, &[], body).unwrap();
+    println!("{rep}");
+}

@@ -39,10 +39,15 @@ struct Truth {
 
 impl Truth {
     fn new() -> Self {
+        Truth::with_mass(1.0)
+    }
+    /// SPH2 with a proof mass: CoM moved by `scale` x (4, -3, 2) mm, principal inertia raised
+    /// by `scale` x 8 %.
+    fn with_mass(scale: f32) -> Self {
         let mut p = SPH2;
-        p.com_offset_mm = [p.com_offset_mm[0] + 4.0, p.com_offset_mm[1] - 3.0, p.com_offset_mm[2] + 2.0];
+        p.com_offset_mm = [p.com_offset_mm[0] + 4.0 * scale, p.com_offset_mm[1] - 3.0 * scale, p.com_offset_mm[2] + 2.0 * scale];
         for k in 0..3 {
-            p.inertia_kgm2[k] *= 1.08;
+            p.inertia_kgm2[k] *= 1.0 + 0.08 * scale;
         }
         let i = p.inertia_inverse().expect("invertible");
         let inv_i = Matrix3::from_fn(|r, c| i[r][c]);
@@ -242,8 +247,15 @@ fn a_million_rls_updates_f32_stay_in_budget_and_spd() {
 /// solve Ok / PartlyUnobservable, the information symmetric positive definite and never
 /// saturated, estimates valid numbers.
 fn pipeline_run<S: Exact>(ticks: u64, seed: u64) -> (u64, [u64; 6]) {
-    let truth = Truth::new();
-    let mut pl = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)).expect("SPH2");
+    pipeline_run_with::<S>(ticks, seed, PipelineConfig::seed(1), None).0
+}
+
+/// As `pipeline_run`, with a configuration and optionally a second, heavier proof mass
+/// attached at tick `jump`; returns also the change detector's resets.
+fn pipeline_run_with<S: Exact>(ticks: u64, seed: u64, cfg: PipelineConfig<S>, jump: Option<u64>) -> ((u64, [u64; 6]), u32) {
+    let mut truth = Truth::new();
+    let mut pl = Pipeline::<S>::new(&SPH2, cfg).expect("SPH2");
+    let mut tick = 0u64;
     let words = maneuver_words();
     let mut rng = Rng(seed);
     let g = 1412.79;
@@ -254,6 +266,10 @@ fn pipeline_run<S: Exact>(ticks: u64, seed: u64) -> (u64, [u64; 6]) {
     let mut statuses = [0u64; 6];
     let mut solves = 0;
     for _ in 0..ticks {
+        tick += 1;
+        if Some(tick) == jump {
+            truth = Truth::with_mass(3.0);
+        }
         if left == 0 && coast == 0 {
             if word != 0 {
                 coast = 30;
@@ -284,7 +300,31 @@ fn pipeline_run<S: Exact>(ticks: u64, seed: u64) -> (u64, [u64; 6]) {
             assert!(pd_on_observable(&i.information().map(|r| r.map(|v| v.exact())), &e.unobservable_inertia), "inertia information not PD");
         }
     }
-    (solves, statuses)
+    ((solves, statuses), pl.estimates().resets)
+}
+
+/// 10^6 ticks with exponential forgetting and the change detector on, and a proof mass
+/// attached at mid-run: the covariance resets and forgetting keep the information symmetric
+/// positive definite and unsaturated, every solve has a status, estimates stay valid.
+fn forgetting_and_detector<S: Exact>(seed: u64) -> ((u64, [u64; 6]), u32) {
+    let mut cfg = PipelineConfig::<S>::seed(1);
+    cfg.rls.forgetting = Some(S::from_f32(0.9999));
+    cfg.rls.detector = Some(massid_kernel::rls::DetectorConfig::standard());
+    pipeline_run_with::<S>(1_000_000, seed, cfg, Some(500_000))
+}
+
+#[test]
+fn a_million_ticks_with_forgetting_detector_and_a_proof_mass_q8_24() {
+    let ((solves, st), resets) = forgetting_and_detector::<Q8_24>(21);
+    println!("Q8_24 pipeline, forgetting 0.9999 + detector, mass attached at tick 500000: {solves} solves, statuses {st:?}, detector resets {resets}");
+    assert!(solves > 1000);
+}
+
+#[test]
+fn a_million_ticks_with_forgetting_detector_and_a_proof_mass_f32() {
+    let ((solves, st), resets) = forgetting_and_detector::<f32>(22);
+    println!("F32 pipeline, forgetting 0.9999 + detector, mass attached at tick 500000: {solves} solves, statuses {st:?}, detector resets {resets}");
+    assert!(solves > 1000);
 }
 
 #[test]

@@ -154,10 +154,13 @@ pub mod onboard {
             PipelineStatus::Idle => sat.inertia_kgm2,
             _ => e.inertia_kgm2().unwrap_or(sat.inertia_kgm2),
         };
-        // stderrs: CoM variances in m^2; inertia by first-order propagation dI = -I dJ I of
-        // the inverse-inertia variances (J = 100 theta), terms taken as independent.
-        let com_stderr = var_c.map(|v| v.map(|v| v.to_f64().max(0.0).sqrt() * 1e3).unwrap_or(f64::NAN));
-        let var_j: [f64; 6] = var_i.map(|v| v.map(|v| v.to_f64().max(0.0) * 1e4).unwrap_or(f64::NAN));
+        // stderrs: the kernel's LS variances (CoM in m^2, inverse inertia in its units) scaled,
+        // as the reference does, by the updates per firing (a firing's cumulative Kalman
+        // estimates share one error); inertia by first-order propagation dI = -I dJ I
+        // (J = 100 theta), terms taken as independent.
+        let per_firing = (f64::from(e.updates) / f64::from(e.firings.max(1))).max(1.0);
+        let com_stderr = var_c.map(|v| v.map(|v| (v.to_f64().max(0.0) * per_firing).sqrt() * 1e3).unwrap_or(f64::NAN));
+        let var_j: [f64; 6] = var_i.map(|v| v.map(|v| v.to_f64().max(0.0) * 1e4 * per_firing).unwrap_or(f64::NAN));
         let im = [[inertia[0], inertia[3], inertia[4]], [inertia[3], inertia[1], inertia[5]], [inertia[4], inertia[5], inertia[2]]];
         let idx = |a: usize, b: usize| -> usize {
             match (a.min(b), a.max(b)) {

@@ -51,6 +51,8 @@ known_failing!(
     kf_any_sequence_q8_24: "kernel finding 6: OmegaDotKf::estimate returns Some(invalid)",
     mixer_q8_24: "kernel finding 5: Q8.24 mixer loses the command direction when scaling",
     rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
+    scaled_ops_full_q8_24: "kernel finding 12: Scaled::plus with a zero operand flushes the other operand",
+    scaled_ops_full_f32: "kernel findings 11, 12: f32 mul_pow2 clamps the exponent; Scaled::plus with a zero operand",
 );
 
 harness_tests!(
@@ -59,6 +61,12 @@ harness_tests!(
     q8_24_div,
     q8_24_pow2,
     q8_24_order,
+    scaled_ops_q8_24,
+    scaled_ops_f32,
+    scaled_from_i64_q8_24,
+    scaled_from_i64_f32,
+    gyro_filter_any_sequence,
+    gyro_filter_rails,
     firing_terms_q8_24,
     firing_terms_f32,
     firing_terms_every_word_q8_24,
@@ -78,7 +86,8 @@ harness_tests!(
 #[test]
 fn every_listed_harness_has_a_test() {
     let tested = [
-        "q8_24_add_sub", "q8_24_mul", "q8_24_div", "q8_24_pow2", "q8_24_order", "firing_terms_q8_24",
+        "q8_24_add_sub", "q8_24_mul", "q8_24_div", "q8_24_pow2", "q8_24_order", "scaled_ops_q8_24", "scaled_ops_f32", "scaled_from_i64_q8_24", "scaled_from_i64_f32",
+        "gyro_filter_any_sequence", "gyro_filter_rails", "scaled_ops_full_q8_24", "scaled_ops_full_f32", "firing_terms_q8_24",
         "firing_terms_f32", "firing_terms_every_word_q8_24", "firing_terms_every_word_f32", "kf_any_sequence_q8_24", "kf_ramp_q8_24", "kf_ramp_f32", "lu3_q8_24", "lu6_q8_24", "lu6_f32",
         "rls_inertia_q8_24", "rls_com_f32", "mass_id_options_q8_24", "mass_id_options_f32", "pipeline_q8_24", "pipeline_f32", "mixer_q8_24", "mixer_f32",
         "mixer_quantise_every_word_q8_24",

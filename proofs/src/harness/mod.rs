@@ -8,6 +8,7 @@
 //! they declare and the engine modes CI runs them in (`proofs/tests/harnesses.rs`).
 
 pub mod draw;
+pub mod gyro_filter;
 pub mod lu;
 pub mod mixer;
 pub mod model;
@@ -15,6 +16,7 @@ pub mod omega_dot;
 pub mod pipeline;
 pub mod primitives;
 pub mod rls;
+pub mod scaled;
 
 use crate::engine::Mode;
 
@@ -49,6 +51,14 @@ pub const ALL: &[Harness] = &[
     primitives::HARNESSES[2],
     primitives::HARNESSES[3],
     primitives::HARNESSES[4],
+    scaled::HARNESSES[0],
+    scaled::HARNESSES[1],
+    scaled::HARNESSES[2],
+    scaled::HARNESSES[3],
+    scaled::HARNESSES[4],
+    scaled::HARNESSES[5],
+    gyro_filter::HARNESSES[0],
+    gyro_filter::HARNESSES[1],
     model::HARNESSES[0],
     model::HARNESSES[1],
     model::HARNESSES[2],

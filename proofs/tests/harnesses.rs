@@ -81,6 +81,10 @@ harness_tests!(
     pipeline_f32,
     mixer_f32,
     mixer_quantise_every_word_q8_24,
+    c_abi_pipeline_fixed,
+    c_abi_pipeline_f32,
+    c_abi_mixer_fixed,
+    c_abi_mixer_f32,
 );
 
 #[test]
@@ -90,7 +94,7 @@ fn every_listed_harness_has_a_test() {
         "gyro_filter_any_sequence", "gyro_filter_rails", "scaled_ops_full_q8_24", "scaled_ops_full_f32", "firing_terms_q8_24",
         "firing_terms_f32", "firing_terms_every_word_q8_24", "firing_terms_every_word_f32", "kf_any_sequence_q8_24", "kf_ramp_q8_24", "kf_ramp_f32", "lu3_q8_24", "lu6_q8_24", "lu6_f32",
         "rls_inertia_q8_24", "rls_com_f32", "mass_id_options_q8_24", "mass_id_options_f32", "pipeline_q8_24", "pipeline_f32", "mixer_q8_24", "mixer_f32",
-        "mixer_quantise_every_word_q8_24",
+        "mixer_quantise_every_word_q8_24", "c_abi_pipeline_fixed", "c_abi_pipeline_f32", "c_abi_mixer_fixed", "c_abi_mixer_f32",
     ];
     for h in ALL {
         assert!(tested.contains(&h.name), "harness {} has no test", h.name);

@@ -7,6 +7,7 @@
 //! [`crate::engine`]'s `any`/`assume`/`cover!`. [`ALL`] lists them with the cover points
 //! they declare and the engine modes CI runs them in (`proofs/tests/harnesses.rs`).
 
+pub mod capi;
 pub mod draw;
 pub mod gyro_filter;
 pub mod lu;
@@ -78,4 +79,8 @@ pub const ALL: &[Harness] = &[
     mixer::HARNESSES[0],
     mixer::HARNESSES[1],
     mixer::HARNESSES[2],
+    capi::HARNESSES[0],
+    capi::HARNESSES[1],
+    capi::HARNESSES[2],
+    capi::HARNESSES[3],
 ];

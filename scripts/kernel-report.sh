@@ -85,7 +85,8 @@ for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
   llvm-objdump -d --no-show-raw-insn "$elf" >"$OUT/stack-$t.objdump.txt"
   "$HOST_TOOL" stack "$elf" "$OUT/stack-$t.objdump.txt" "${ENTRIES[@]}" >"$OUT/stack-$t.tsv"
 done
-stack_of() { awk -v e="$2" -F'\t' '$1 == e { print $2 }' "$OUT/stack-$1.tsv"; }
+# Bound, marked "(panic path)" when a core::panicking call is reachable (listed below the table).
+stack_of() { awk -v e="$2" -F'\t' '$1 == e { print $2 ($3 != "" ? " (panic path)" : "") }' "$OUT/stack-$1.tsv"; }
 
 # ---- instruction counts -------------------------------------------------------------------
 CBASE=$BASE/qemu-count
@@ -110,7 +111,7 @@ count() { # target out-name machine-args...
   # semihosted output goes to a file.
   timeout 1800 qemu-system-arm "$@" -semihosting-config enable=on,target=native -nographic \
     -monitor none -serial none "${ONE_INSN[@]}" -d exec,nochain -D /dev/stderr -kernel "$elf" \
-    2>&1 >"$OUT/count-$name.out" | "$HOST_TOOL" count "$elf" >"$OUT/count-$name.tsv"
+    2>&1 >"$OUT/count-$name.out" | "$HOST_TOOL" count "$elf" "$OUT/profile-$name.tsv" >"$OUT/count-$name.tsv"
   grep -q '^# done' "$OUT/count-$name.out" || { echo "kernel-report: the $name count run did not finish" >&2; exit 1; }
 }
 count thumbv6m-none-eabi m0 -machine microbit
@@ -159,6 +160,13 @@ worst_tick() {
   echo "Frame sizes from \`-Zemit-stack-sizes\` (nightly), call graph from \`llvm-objdump -d\` of the linked image"
   echo "(\`massid-qemu-host stack\`); precompiled \`compiler_builtins\` functions (soft-float, 64-bit division, memcpy)"
   echo "have no \`.stack_sizes\` entry and are bounded from their prologue (push/vpush/sub sp). Tail calls counted as calls."
+  echo "Calls into \`core::panicking\` (which never return) are not followed; where the compiler left one reachable"
+  echo "the entry point is marked \"(panic path)\" and the call sites are:"
+  echo
+  for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
+    sites=$(awk -F'\t' '$3 != "" { sub(/^panic path reachable: /, "", $3); n = split($3, a, "; "); for (i = 1; i <= n; i++) print a[i] }' "$OUT/stack-$t.tsv" | sort -u | paste -sd ';' | sed 's/;/; /g')
+    echo "- \`$t\`: ${sites:-none}"
+  done
   echo
   echo "### Instructions per call (exact, QEMU trace)"
   echo
@@ -193,4 +201,17 @@ worst_tick() {
   fi
   ratio_w=$(awk -v a="$m0_f32" -v b="$m0_fix" 'BEGIN { if (b > 0) printf "%.2f", a / b; else print "n/a" }')
   echo "| same, worst tick | f32 $m0_f32 / fixed $m0_fix = ${ratio_w}x | $(awk -v r="$ratio_w" 'BEGIN { print (r + 0 >= 5) ? "met" : "**missed**" }') |"
+  echo
+  echo "### Where the instructions go (RLS-update ticks, top functions by share)"
+  echo
+  echo "Per-function split of the same traces (PC -> function symbol of the linked, LTO-inlined image;"
+  echo "\`massid_qemu_runner::run_all\` is kernel code inlined into the runner's loop, mostly \`Pipeline::step\`)."
+  echo
+  echo "| core / kernel | share | instructions | function |"
+  echo "|---|---|---|---|"
+  for name in m4f m0; do
+    for f in fixed f32; do
+      awk -F'\t' -v k="$f/kf_rls" -v n="$name" '$1 == k && shown < 6 { shown++; printf "| %s %s | %s %% | %s | `%s` |\n", n, substr(k, 1, index(k, "/") - 1), $2, $3, $4 }' "$OUT/profile-$name.tsv"
+    done
+  done
 } | tee "$OUT/report.md"

@@ -170,6 +170,28 @@ fn is_branch(m: &str) -> bool {
     matches!(m, "b" | "bl" | "blx" | "bx" | "bgt" | "ble" | "bal") || m.strip_prefix('b').is_some_and(|c| COND.contains(&c))
 }
 
+/// A function of `core::panicking` (mangled `..4core9panicking..`).
+fn is_panic(name: &str) -> bool {
+    name.contains("4core9panicking") || name.starts_with("rust_begin_unwind")
+}
+
+/// The last two path components of a Rust symbol without generic arguments, for messages.
+fn short(name: &str) -> String {
+    let full = format!("{:#}", rustc_demangle::demangle(name));
+    let mut plain = String::new();
+    let mut depth = 0usize;
+    for c in full.chars() {
+        match c {
+            '<' => depth += 1,
+            '>' => depth = depth.saturating_sub(1),
+            _ if depth == 0 => plain.push(c),
+            _ => {}
+        }
+    }
+    let parts: Vec<&str> = plain.split("::").filter(|p| !p.is_empty()).collect();
+    parts.iter().rev().take(2).rev().copied().collect::<Vec<_>>().join("::")
+}
+
 /// Worst-case stack of `entry`, or the reason it cannot be bounded.
 fn bound(
     f: &str,
@@ -179,6 +201,7 @@ fn bound(
     path: &mut Vec<String>,
     memo: &mut BTreeMap<String, Result<u64, String>>,
     from_prologue: &mut BTreeSet<String>,
+    panics: &mut BTreeSet<String>,
 ) -> Result<u64, String> {
     if let Some(r) = memo.get(f) {
         return r.clone();
@@ -200,7 +223,12 @@ fn bound(
         path.push(f.to_string());
         let mut deepest = 0u64;
         for g in dis.calls.get(f).into_iter().flatten() {
-            deepest = deepest.max(bound(g, dis, sizes, addr_of, path, memo, from_prologue)?);
+            // `core::panicking::*` never returns: a panic path is reported, not bounded.
+            if is_panic(g) {
+                panics.insert(format!("{} -> {}", short(f), short(g)));
+                continue;
+            }
+            deepest = deepest.max(bound(g, dis, sizes, addr_of, path, memo, from_prologue, panics)?);
         }
         path.pop();
         Ok(own + deepest)
@@ -217,12 +245,20 @@ pub fn main(args: &[String]) -> Result<(), String> {
     let text = std::fs::read_to_string(dump).map_err(|e| format!("{dump}: {e}"))?;
     let (sizes, addr_of) = frame_sizes(&data).map_err(|e| format!("{elf}: {e}"))?;
     let dis = call_graph(&text);
-    let mut memo = BTreeMap::new();
     let mut from_prologue = BTreeSet::new();
     for entry in args.get(2..).unwrap_or(&[]) {
-        match bound(entry, &dis, &sizes, &addr_of, &mut Vec::new(), &mut memo, &mut from_prologue) {
-            Ok(b) => println!("{entry}\t{b}"),
-            Err(why) => println!("{entry}\tunbounded: {why}"),
+        // Panic sites reachable from this entry point (a fresh memo per entry point, so that
+        // every site is seen).
+        let mut panics = BTreeSet::new();
+        let r = bound(entry, &dis, &sizes, &addr_of, &mut Vec::new(), &mut BTreeMap::new(), &mut from_prologue, &mut panics);
+        let note = if panics.is_empty() {
+            String::new()
+        } else {
+            format!("\tpanic path reachable: {}", panics.into_iter().collect::<Vec<_>>().join("; "))
+        };
+        match r {
+            Ok(b) => println!("{entry}\t{b}{note}"),
+            Err(why) => println!("{entry}\tunbounded: {why}{note}"),
         }
     }
     if !from_prologue.is_empty() {
@@ -259,9 +295,12 @@ mod tests {
         let sizes: BTreeMap<u64, u64> = [(0x1000, 24)].into_iter().collect();
         let addr_of: BTreeMap<String, u64> = [("a".to_string(), 0x1000), ("b".to_string(), 0x2000)].into_iter().collect();
         let mut fp = BTreeSet::new();
-        let b = bound("a", &d, &sizes, &addr_of, &mut Vec::new(), &mut BTreeMap::new(), &mut fp);
+        let mut panics = BTreeSet::new();
+        let b = bound("a", &d, &sizes, &addr_of, &mut Vec::new(), &mut BTreeMap::new(), &mut fp, &mut panics);
         assert_eq!(b, Ok(24 + 16));
         assert!(fp.contains("b"));
-        assert!(bound("c", &d, &sizes, &addr_of, &mut Vec::new(), &mut BTreeMap::new(), &mut fp).is_err());
+        assert!(panics.is_empty());
+        assert!(bound("c", &d, &sizes, &addr_of, &mut Vec::new(), &mut BTreeMap::new(), &mut fp, &mut panics).is_err());
+        assert_eq!(short("_RNvNtCs35XhZlOlJ4b_4core9panicking18panic_bounds_check"), "panicking::panic_bounds_check");
     }
 }

@@ -9,13 +9,26 @@ use object::{Object, ObjectSymbol};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Write};
 
-/// Marker addresses.
+/// Marker addresses, and the function symbols for the per-function profile.
 #[derive(Debug, Default)]
 pub struct Markers {
     begin: u64,
     end: u64,
     kinds: BTreeMap<u64, String>,
     flavours: BTreeMap<u64, String>,
+    /// Function start address -> (end address, index into `names`).
+    functions: BTreeMap<u64, (u64, usize)>,
+    names: Vec<String>,
+}
+
+impl Markers {
+    /// Index of the function containing `pc` (`usize::MAX` if none).
+    fn function_of(&self, pc: u64) -> usize {
+        match self.functions.range(..=pc).next_back() {
+            Some((_, &(end, idx))) if pc < end => idx,
+            _ => usize::MAX,
+        }
+    }
 }
 
 impl Markers {
@@ -27,6 +40,10 @@ impl Markers {
             let Ok(name) = sym.name() else { continue };
             // Thumb function symbols carry the mode in bit 0.
             let addr = sym.address() & !1;
+            if sym.kind() == object::SymbolKind::Text && sym.size() > 0 {
+                m.functions.insert(addr, (addr + sym.size(), m.names.len()));
+                m.names.push(format!("{:#}", rustc_demangle::demangle(name)));
+            }
             match name {
                 "massid_mark_begin" => m.begin = addr,
                 "massid_mark_end" => m.end = addr,
@@ -46,10 +63,22 @@ impl Markers {
     }
 }
 
+/// Instructions per function index, per kind.
+pub type Profile = BTreeMap<String, BTreeMap<usize, u64>>;
+
 /// Per-kind raw counts (marker overhead included), in call order. Kinds are prefixed by the
 /// flavour marker last executed (`fixed/kf_rls`), except the calibration bracket.
+#[cfg(test)]
 pub fn count_lines<R: BufRead>(markers: &Markers, input: R) -> Result<BTreeMap<String, Vec<u64>>, String> {
+    count_and_profile(markers, input).map(|(c, _)| c)
+}
+
+/// [`count_lines`] plus, per kind, the instructions executed in each function.
+pub fn count_and_profile<R: BufRead>(markers: &Markers, input: R) -> Result<(BTreeMap<String, Vec<u64>>, Profile), String> {
     let mut per_kind: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+    let mut profile: Profile = BTreeMap::new();
+    let mut window: BTreeMap<usize, u64> = BTreeMap::new();
+    let mut pending_window: BTreeMap<usize, u64> = BTreeMap::new();
     let mut counting = false;
     let mut n = 0u64;
     let mut pending: Option<u64> = None;
@@ -60,12 +89,18 @@ pub fn count_lines<R: BufRead>(markers: &Markers, input: R) -> Result<BTreeMap<S
         if pc == markers.begin {
             counting = true;
             n = 0;
+            window.clear();
         } else if pc == markers.end && counting {
             counting = false;
             pending = Some(n);
+            pending_window = std::mem::take(&mut window);
         } else if let Some(kind) = markers.kinds.get(&pc) {
             if let Some(c) = pending.take() {
                 let key = if kind == "calibration" || flavour.is_empty() { kind.clone() } else { format!("{flavour}/{kind}") };
+                let prof = profile.entry(key.clone()).or_default();
+                for (f, k) in std::mem::take(&mut pending_window) {
+                    *prof.entry(f).or_default() += k;
+                }
                 per_kind.entry(key).or_default().push(c);
             }
         } else if let Some(f) = markers.flavours.get(&pc) {
@@ -73,9 +108,27 @@ pub fn count_lines<R: BufRead>(markers: &Markers, input: R) -> Result<BTreeMap<S
         }
         if counting {
             n += 1;
+            *window.entry(markers.function_of(pc)).or_default() += 1;
         }
     }
-    Ok(per_kind)
+    Ok((per_kind, profile))
+}
+
+/// The `top` functions per kind by share of the kind's instructions, as TSV lines
+/// `kind share% instructions function`.
+pub fn format_profile(markers: &Markers, profile: &Profile, top: usize) -> String {
+    let mut out = String::from("kind\tshare\tinstructions\tfunction\n");
+    for (kind, funcs) in profile {
+        let total: u64 = funcs.values().sum();
+        let mut v: Vec<(&usize, &u64)> = funcs.iter().collect();
+        v.sort_by(|a, b| b.1.cmp(a.1));
+        for (f, k) in v.into_iter().take(top) {
+            let name = markers.names.get(*f).map_or("?", String::as_str);
+            let share = if total > 0 { 100.0 * *k as f64 / total as f64 } else { 0.0 };
+            out.push_str(&format!("{kind}\t{share:.1}\t{k}\t{name}\n"));
+        }
+    }
+    out
 }
 
 /// The guest PC of a `Trace 0: 0xHOST [cs_base/PC/flags/cflags] symbol` line.
@@ -115,12 +168,15 @@ pub fn summarise(per_kind: &BTreeMap<String, Vec<u64>>) -> Result<Vec<(String, u
 
 pub fn main(args: &[String]) -> Result<(), String> {
     let Some(elf) = args.first() else {
-        return Err("usage: count FIRMWARE.elf < TRACE".into());
+        return Err("usage: count FIRMWARE.elf [PROFILE.tsv] < TRACE".into());
     };
     let data = std::fs::read(elf).map_err(|e| format!("{elf}: {e}"))?;
     let markers = Markers::from_elf(&data).map_err(|e| format!("{elf}: {e}"))?;
     let stdin = std::io::stdin();
-    let per_kind = count_lines(&markers, BufReader::with_capacity(1 << 20, stdin.lock()))?;
+    let (per_kind, profile) = count_and_profile(&markers, BufReader::with_capacity(1 << 20, stdin.lock()))?;
+    if let Some(path) = args.get(1) {
+        std::fs::write(path, format_profile(&markers, &profile, 12)).map_err(|e| format!("{path}: {e}"))?;
+    }
     let rows = summarise(&per_kind)?;
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "kind\tcalls\tmin\tmean\tmax");

@@ -51,6 +51,11 @@ fn bench(c: &mut Criterion) {
     g.bench_function("12_effects_step_0.1ms", |b| {
         b.iter(|| black_box(p.run(&times, &words, [0.0; 3], PredictOptions { max_step_ms: 0.1 })))
     });
+    // The baseline again: how much the machine drifted during the run.
+    let p = Predictor::new(&sat, &[]);
+    g.bench_function("nominal_step_1ms_repeat", |b| {
+        b.iter(|| black_box(p.run(&times, &words, [0.0; 3], PredictOptions { max_step_ms: 1.0 })))
+    });
     g.finish();
 
     let mut g = c.benchmark_group("simulate_10s_at_1kHz");

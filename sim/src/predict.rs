@@ -53,8 +53,7 @@ impl Predictor {
     }
 
     /// From an already-built plant configuration (e.g. one a fitter edits directly).
-    pub fn from_config(sat: &Satellite, mut cfg: PlantConfig) -> Self {
-        cfg.pressure_drop_n += sat.pressure_drop_n_per_extra;
+    pub fn from_config(sat: &Satellite, cfg: PlantConfig) -> Self {
         Predictor { plant: Plant::new(sat, cfg), counts_per_rad_s: sat.gyro_counts_per_rad_s }
     }
 

@@ -155,9 +155,7 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
         e.validate().map_err(SimError::BadEffect)?;
     }
     let sat = &spec.satellite;
-    let mut cfg = PlantConfig::new(sat, &spec.effects);
-    cfg.pressure_drop_n += sat.pressure_drop_n_per_extra;
-    let plant = Plant::new(sat, cfg);
+    let plant = Plant::new(sat, PlantConfig::new(sat, &spec.effects));
     let seconds = spec.seconds.unwrap_or(spec.maneuver.default_seconds());
 
     let mut maneuver_rng = rng(spec.seed, STREAM_MANEUVER);

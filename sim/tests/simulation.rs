@@ -210,3 +210,19 @@ fn bad_specs_are_errors_not_panics() {
     spec.seconds = Some(f64::NAN);
     assert!(simulate(&spec).is_err());
 }
+
+#[test]
+fn model_file_takes_an_inline_satellite() {
+    let mut sat = sph2();
+    sat.name = "proto".to_string();
+    sat.pressure_drop_n_per_extra = 0.0106;
+    let text = format!("[satellite]\n{}\n", sat.to_toml_string());
+    let m = ModelFile::parse(&text, "inline.toml").unwrap();
+    assert_eq!(m.satellite, sat);
+    // Its pressure drop is part of the plant: a 2-thruster firing is weaker than nominal.
+    let t: Vec<u64> = (0..20).collect();
+    let w: Vec<u16> = t.iter().map(|&k| if k >= 10 { (1 << 4) | (1 << 11) } else { 0 }).collect();
+    let a = predict(&m.satellite, &[], &t, &w, [0.0; 3], PredictOptions::default()).angular_accel[10];
+    let b = predict(&sph2(), &[], &t, &w, [0.0; 3], PredictOptions::default()).angular_accel[10];
+    assert!(a[0].abs() < b[0].abs(), "{a:?} vs {b:?}");
+}

@@ -73,12 +73,13 @@ pub struct PlantConfig {
 }
 
 impl PlantConfig {
-    /// The nominal satellite: no effect switched on.
+    /// The nominal satellite: no effect switched on (a model file's satellite may carry
+    /// its own pressure drop, `pressure_drop_n_per_extra`; 0 for the built-in models).
     pub fn nominal(sat: &Satellite) -> Self {
         PlantConfig {
             open_delay_ms: 0.0,
             close_delay_ms: 0.0,
-            pressure_drop_n: 0.0,
+            pressure_drop_n: sat.pressure_drop_n_per_extra,
             blowdowns: Vec::new(),
             thrust_scale: [1.0; N_THRUSTERS],
             initial: MassPhase { com_offset_m: [0.0; 3], inertia_kgm2: sat.inertia_kgm2 },

@@ -209,7 +209,8 @@ pub struct OmegaDotEstimate {
     pub firing: usize,
     /// Filtered body rate at this sample, rad/s.
     pub omega: [f64; 3],
-    /// Angular acceleration estimate, rad/s^2.
+    /// Thrust-induced angular acceleration estimate `I^-1 tau`, rad/s^2 (the total is this
+    /// plus [`gyroscopic_omega_dot`] at `omega`).
     pub omega_dot: [f64; 3],
     /// Its variance per axis (diagonal of P), rad^2/s^4.
     pub variance: [f64; 3],
@@ -225,9 +226,25 @@ pub fn nominal_omega_dot(sat: &Satellite, word: u16, omega: Vector3<f64>) -> Vec
     i.lu().solve(&rhs).unwrap_or_else(Vector3::zeros)
 }
 
+/// The gyroscopic part of the angular acceleration at rate `omega` with the nominal
+/// inertia, `-I^-1 (omega x I omega)` (seed eq. 3.1).
+pub fn gyroscopic_omega_dot(sat: &Satellite, omega: &Vector3<f64>) -> Vector3<f64> {
+    let i = sat.inertia_matrix();
+    i.lu().solve(&(-omega.cross(&(i * omega)))).unwrap_or_else(Vector3::zeros)
+}
+
 /// Runs the Kalman filter over every firing of `rates` (seed `wdotkalman.m`): reset at
 /// each change of the thruster word to the nominal prediction, skip the valve transient,
 /// one update per remaining sample with a non-zero word.
+///
+/// The state is the thrust-induced acceleration `I^-1 tau`, constant during a firing as
+/// eq. 3.12 assumes. The gyroscopic part `-I^-1 (omega x I omega)` is not constant (it grows
+/// with `omega^2`, 0.6 % of the torque cross-axis at the RGA maneuvers' 0.9 rad/s), so its
+/// integral since the change (nominal inertia, trapezoid) is subtracted from the
+/// measurement; the prior is the nominal `I^-1 tau` (seed `x_minus = inv(I_nom)*cross(L,D)*Fk'`).
+/// Fitting the total rate instead makes the constant-state filter average a growing term
+/// that the LS rows take at its current value, which biased the products of inertia by
+/// about their own size on `o01`.
 ///
 /// Timing convention (as the recordings are made: the word of sample `k` acts over
 /// `[t_k, t_k+1)`, measured on `o01`: the extrapolated rate ramps start within 0.5 ms of the
@@ -239,7 +256,9 @@ pub fn kalman_per_firing(rates: &Rates, sat: &Satellite, cfg: &KalmanConfig) -> 
     let mut kf = OmegaDotKalman::new(cfg.r0);
     let skip = cfg.skip_samples(rates.dt);
     let mut current: Option<(u16, usize)> = None; // (word, index of the change)
-    let mut last_omega_dot = Vector3::zeros(); // acceleration just before the change
+    let mut last_omega_dot = Vector3::zeros(); // thrust acceleration just before the change
+    let mut gyro_integral = Vector3::zeros(); // rate change due to omega x I omega since the change
+    let mut gyro_prev = Vector3::zeros();
     for k in 0..rates.len() {
         let word = rates.words[k] & 0x0fff;
         let omega = Vector3::from(rates.omega[k]);
@@ -248,16 +267,22 @@ pub fn kalman_per_firing(rates: &Rates, sat: &Satellite, cfg: &KalmanConfig) -> 
             last_omega_dot = Vector3::zeros();
             continue;
         }
+        let gyro = gyroscopic_omega_dot(sat, &omega);
         let start = match current {
-            Some((w, s)) if w == word => s,
+            Some((w, s)) if w == word => {
+                gyro_integral += (gyro_prev + gyro) * (0.5 * rates.dt);
+                s
+            }
             _ => {
-                let prior = nominal_omega_dot(sat, word, omega);
+                let prior = nominal_omega_dot(sat, word, Vector3::zeros());
                 let omega0 = omega - (prior - last_omega_dot) * cfg.kink_offset_s;
                 kf.reset(prior, cfg.p0, omega0);
+                gyro_integral = Vector3::zeros();
                 current = Some((word, k));
                 k
             }
         };
+        gyro_prev = gyro;
         // samples since the change; the change's own sample (H = 0) carries no information
         let since = k - start;
         if since == 0 || since <= skip {
@@ -267,7 +292,8 @@ pub fn kalman_per_firing(rates: &Rates, sat: &Satellite, cfg: &KalmanConfig) -> 
         if h <= 0.0 {
             continue;
         }
-        kf.update(omega, h);
+        // the known, time-varying gyroscopic part is taken out so the state is constant
+        kf.update(omega - gyro_integral, h);
         last_omega_dot = kf.x;
         out.push(OmegaDotEstimate {
             index: k,

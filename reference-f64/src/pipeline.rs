@@ -10,7 +10,7 @@ use crate::mass_id::{
     com_row, inertia_from_inverse, inertia_row, nominal_inverse_inertia, pin_terms, BatchLs, ChangeDetector,
     Excitation, LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
 };
-use crate::omega_dot::{kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
+use crate::omega_dot::{gyroscopic_omega_dot, kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
 use crate::preprocess::{preprocess_offline, sample_rate_rad_s, CausalLowPass, LowPass2, Rates};
 use crate::recording::{Recording, RecordingError, RecordingReader, Sample};
 use crate::satellite::Satellite;
@@ -194,8 +194,10 @@ impl MassIdAccumulator {
 
     /// The seed's two observations for one angular-acceleration estimate (eqs. 3.7-3.8),
     /// each with `R = diag(P)` of the Kalman filter (seed `R_acc = diag(diag(P))`).
+    /// The estimate is the thrust-induced acceleration (its gyroscopic part removed by the
+    /// Kalman filter), so the rows are taken at zero rate.
     pub fn observations(sat: &Satellite, e: &OmegaDotEstimate) -> (Observation<3>, Observation<6>) {
-        let omega = Vector3::from(e.omega);
+        let omega = Vector3::zeros();
         let wd = Vector3::from(e.omega_dot);
         let r = Matrix3::from_diagonal(&Vector3::from(e.variance));
         let (a1, b1) = com_row(sat, e.word, &omega, &wd);
@@ -447,6 +449,9 @@ pub struct OnlineEstimator {
     current: Option<(u16, u64)>,
     sample_no: usize,
     accel_before: Vector3<f64>,
+    gyro_integral: Vector3<f64>,
+    gyro_prev: Vector3<f64>,
+    last_time_ms: u64,
     firing: usize,
     acc: MassIdAccumulator,
     last_estimate: Option<OmegaDotEstimate>,
@@ -470,6 +475,9 @@ impl OnlineEstimator {
             current: None,
             sample_no: 0,
             accel_before: Vector3::zeros(),
+            gyro_integral: Vector3::zeros(),
+            gyro_prev: Vector3::zeros(),
+            last_time_ms: 0,
             firing: 0,
             acc: MassIdAccumulator::new(sat, &cfg, &[]),
             last_estimate: None,
@@ -496,8 +504,13 @@ impl OnlineEstimator {
             self.accel_before = Vector3::zeros();
             return None;
         }
+        let gyro = gyroscopic_omega_dot(&self.sat, &omega);
         let start_ms = match self.current {
-            Some((w, st)) if w == word => st,
+            Some((w, st)) if w == word => {
+                let step_s = s.time_ms.saturating_sub(self.last_time_ms) as f64 / 1000.0;
+                self.gyro_integral += (self.gyro_prev + gyro) * (0.5 * step_s);
+                st
+            }
             _ => {
                 if self.last_estimate.is_some() {
                     self.firing += 1;
@@ -506,12 +519,16 @@ impl OnlineEstimator {
                 // `delay` seconds into the past, so the reference rate is extrapolated by
                 // the acceleration of the firing that just ended (0 after a coast).
                 let omega0 = omega + self.accel_before * self.cfg.kalman.measurement_delay_s;
-                self.kf.reset(nominal_omega_dot(&self.sat, word, omega0), self.cfg.kalman.p0, omega0);
+                let prior = nominal_omega_dot(&self.sat, word, Vector3::zeros());
+                self.kf.reset(prior, self.cfg.kalman.p0, omega0);
                 self.accel_before = Vector3::zeros();
+                self.gyro_integral = Vector3::zeros();
                 self.current = Some((word, s.time_ms));
                 s.time_ms
             }
         };
+        self.gyro_prev = gyro;
+        self.last_time_ms = s.time_ms;
         // time since the change from the timestamps (a telemetry gap keeps its length)
         let since_s = s.time_ms.saturating_sub(start_ms) as f64 / 1000.0;
         let skip_s = self.cfg.kalman.skip_samples(self.dt) as f64 * self.dt;
@@ -522,7 +539,7 @@ impl OnlineEstimator {
         if h <= 0.0 {
             return None;
         }
-        self.kf.update(omega, h);
+        self.kf.update(omega - self.gyro_integral, h);
         self.accel_before = self.kf.x;
         let e = OmegaDotEstimate {
             index: k,

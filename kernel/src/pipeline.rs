@@ -29,8 +29,9 @@ pub struct PipelineConfig<S> {
     pub rls: RlsConfig<S>,
     /// Firings that form the batch (the seed: 2).
     pub batch_firings: u32,
-    /// Gyro zero-rate counts per axis. When given, the gyroscopic torque `omega x I omega`
-    /// of the nominal inertia enters the regressors and the Kalman prior (as the f64
+    /// Gyro zero-rate counts per axis. When given, the gyroscopic acceleration
+    /// `-I^-1 (omega x I omega)` of the nominal inertia is integrated and taken off the
+    /// measured rate, so the Kalman state is the thrust-induced acceleration (as the f64
     /// reference does); `None` = the seed's flight code, which neglects it.
     pub gyro_bias_counts: Option<[f32; 3]>,
 }
@@ -105,6 +106,14 @@ pub struct Pipeline<S> {
     accel_before: [S; 3],
     /// Filter delay times the gyro scale, counts per rad/s^2, per axis.
     lag_counts: [S; 3],
+    /// Half a sample period times the gyro scale, counts per rad/s^2 (trapezoid step).
+    half_dt_counts: [S; 3],
+    /// Rate change since the word change due to the gyroscopic acceleration, Q12 counts.
+    gyro_integral_q12: [i32; 3],
+    /// Gyroscopic acceleration at the previous sample of the firing, rad/s^2.
+    gyro_prev: [S; 3],
+    /// Sample periods since the previous sample of the firing (gaps count).
+    gyro_step_ticks: u32,
     kf: OmegaDotKf<S>,
     mass: MassId<S>,
     word: u16,
@@ -138,6 +147,13 @@ impl<S: Scalar> Pipeline<S> {
                 let g = cfg.kf.counts_per_rad_s.get(a).copied().unwrap_or(0.0);
                 S::from_f32((cfg.kf.delay_ticks * cfg.kf.dt_s * g) as f32)
             }),
+            half_dt_counts: core::array::from_fn(|a| {
+                let g = cfg.kf.counts_per_rad_s.get(a).copied().unwrap_or(0.0);
+                S::from_f32((0.5 * cfg.kf.dt_s * g) as f32)
+            }),
+            gyro_integral_q12: [0; 3],
+            gyro_prev: [S::ZERO; 3],
+            gyro_step_ticks: 0,
             kf: OmegaDotKf::new(&cfg.kf),
             mass: MassId::new(cfg.rls, terms.theta_inertia_nominal),
             word: 0,
@@ -169,10 +185,12 @@ impl<S: Scalar> Pipeline<S> {
             self.filtered = f;
         }
         let mut solved = false;
+        let mut changed = false;
         if word != self.word {
             solved = self.end_firing();
             self.word = word;
             if word != 0 {
+                changed = true;
                 self.firings = self.firings.saturating_add(1);
                 self.firing_has_data = false;
                 self.firing_terms = self.terms.firing_terms(word);
@@ -186,6 +204,8 @@ impl<S: Scalar> Pipeline<S> {
                 });
                 self.kf.reset_with_offset(prior, offset);
                 self.accel_before = [S::ZERO; 3];
+                self.gyro_integral_q12 = [0; 3];
+                self.gyro_step_ticks = 0;
                 self.last = None;
                 self.last_estimate = None;
                 if self.status == PipelineStatus::Idle {
@@ -197,7 +217,9 @@ impl<S: Scalar> Pipeline<S> {
             self.accel_before = [S::ZERO; 3];
             TickEvent::Coasting
         } else {
-            match self.kf.update(filtered) {
+            self.gyro_step_ticks = self.gyro_step_ticks.saturating_add(1);
+            let measured = filtered.map(|f| self.remove_gyroscopic(f, changed));
+            match self.kf.update(measured) {
                 KfStatus::Skipping => TickEvent::Transient,
                 KfStatus::Anchored | KfStatus::Missing => TickEvent::Coasting,
                 KfStatus::Saturated => TickEvent::FiringTooLong,
@@ -208,16 +230,43 @@ impl<S: Scalar> Pipeline<S> {
         TickReport { event, status: self.status }
     }
 
-    /// Torque the thrusters of the current word give beyond the gyroscopic term, cN m.
-    fn effective_torque_cnm(&self) -> [S; 3] {
-        let tau = self.firing_terms.torque_cnm;
-        match &self.gyro {
-            Some(g) => {
-                let gt = g.torque_cnm(&self.filtered);
-                [tau[0].minus(gt[0]), tau[1].minus(gt[1]), tau[2].minus(gt[2])]
+    /// The Kalman state is the thrust-induced acceleration `I^-1 tau`, constant during a
+    /// firing as eq. 3.12 assumes; the gyroscopic part `-I^-1 (omega x I omega)` grows with
+    /// the rate, so its integral since the change (nominal inertia, trapezoid, kept in Q12
+    /// counts) is taken off the measured rate (as the f64 reference does). Without the
+    /// gyroscopic option the measurement is the filtered rate itself.
+    fn remove_gyroscopic(&mut self, filtered: [i32; 3], first: bool) -> [i32; 3] {
+        let Some(g) = &self.gyro else { return filtered };
+        let gt = g.torque_cnm(&filtered);
+        let accel = mat_vec(&self.terms.theta_inertia_matrix, &[gt[0].negate(), gt[1].negate(), gt[2].negate()]);
+        if !first {
+            let steps = self.gyro_step_ticks.max(1);
+            for a in 0..3 {
+                let (Some(prev), Some(now), Some(c), Some(acc)) = (
+                    self.gyro_prev.get(a).copied(),
+                    accel.get(a).copied(),
+                    self.half_dt_counts.get(a).copied(),
+                    self.gyro_integral_q12.get_mut(a),
+                ) else {
+                    continue;
+                };
+                // (prev + now)/2 dt g counts, rounded to the nearest Q12 step.
+                let twice = prev.plus(now).times(c).floor_times(steps.saturating_mul(2 << COUNT_FRAC_BITS)).unwrap_or(0);
+                let inc = twice.saturating_add(1).div_euclid(2);
+                *acc = acc.saturating_add(i32::try_from(inc).unwrap_or(0));
             }
-            None => tau,
         }
+        self.gyro_prev = accel;
+        self.gyro_step_ticks = 0;
+        core::array::from_fn(|a| {
+            filtered.get(a).copied().unwrap_or(0).saturating_sub(self.gyro_integral_q12.get(a).copied().unwrap_or(0))
+        })
+    }
+
+    /// Nominal torque of the current word, cN m (the regressors are taken at zero rate: the
+    /// Kalman estimate is the thrust-induced acceleration).
+    fn effective_torque_cnm(&self) -> [S; 3] {
+        self.firing_terms.torque_cnm
     }
 
     fn nominal_omega_dot(&self) -> [S; 3] {

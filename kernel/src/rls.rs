@@ -344,8 +344,8 @@ pub struct Measurement<S> {
 
 /// Change detector on the RLS innovations, evaluated once per firing from the firing's
 /// final angular acceleration: the normalised innovation squared
-/// `nis = sum_i nu_i^2 / (P_i + (A Q A')_ii)` of the inertia equations against the estimate
-/// from before the firing, divided by its learnt level (the Kalman filter's formal variances
+/// `nis = sum_i nu_i^2 / (P_i + (A Q A')_ii)` against the estimate from before the firing
+/// (inertia equations for a firing with torque, CoM equations for a translation), divided by its learnt level (the Kalman filter's formal variances
 /// are optimistic, so the level is learnt over `warmup_firings` firings and then tracked),
 /// feeds a one-sided CUSUM `g = max(0, g + ratio - 1 - drift)`; an alarm (`g > threshold`)
 /// divides the information by `2^deflate_bits` (a covariance reset that keeps the estimate)
@@ -566,25 +566,26 @@ impl<S: Scalar> MassId<S> {
         }
     }
 
-    /// Normalised innovation squared of the inertia equations for `m` against the current estimate.
+    /// Normalised innovation squared of `m` against the current estimate, from the equations
+    /// that carry the firing: the inertia equations for a firing with torque (>= 0.5 cN m),
+    /// else (a translation) the CoM equations. A translation's inertia rows are near zero,
+    /// so after a CoM change the seed's inertia equations (nominal lever arms) cannot explain
+    /// its rate change: testing them there would raise alarms on every translation.
     fn innovation_nis(&self, m: &Measurement<S>) -> Option<Scaled<S>> {
-        if self.inertia.is_empty() {
-            return None;
+        let torque_sq = m
+            .a_inertia
+            .iter()
+            .enumerate()
+            .fold(S::ZERO, |acc, (i, row)| {
+                let a = row.get(i).copied().unwrap_or(S::ZERO);
+                acc.mul_add(a, a)
+            });
+        let strong = S::from_int_pow2(1, -2);
+        if strong.lt(torque_sq) {
+            nis_of(&self.inertia, &self.prior_inertia, &m.a_inertia, &m.b_inertia, &m.variance, &self.cfg)
+        } else {
+            nis_of(&self.com, &[S::ZERO; 3], &m.a_com, &m.b_com, &m.variance, &self.cfg)
         }
-        let sol = self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel).ok()?;
-        if sol.unobservable.iter().any(|u| *u) {
-            // Terms held at the prior have no meaningful predicted variance: no test yet.
-            return None;
-        }
-        let mut total = Scaled::zero();
-        for ((row, b), var) in m.a_inertia.iter().zip(m.b_inertia.iter()).zip(m.variance.iter()) {
-            let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
-            let nu = b.minus(pred);
-            let s = sol.predicted_variance(row)?.plus(*var);
-            let nu_s = Scaled { m: nu, e: 0 }.normalized();
-            total = total.plus(nu_s.times(nu_s).over(s)?);
-        }
-        Some(total)
     }
 
     /// Solves both problems for the current estimate.
@@ -636,6 +637,34 @@ impl<S: Scalar> MassId<S> {
     pub fn problems(&self) -> (&InfoLs<S, 3>, &InfoLs<S, 6>) {
         (&self.com, &self.inertia)
     }
+}
+
+/// `sum_i nu_i^2 / (P_i + (A Q A')_ii)` for one problem; `None` before every term is observable.
+fn nis_of<S: Scalar, const N: usize>(
+    ls: &InfoLs<S, N>,
+    prior: &[S; N],
+    rows: &[[S; N]; 3],
+    b: &[S; 3],
+    variance: &[Scaled<S>; 3],
+    cfg: &RlsConfig<S>,
+) -> Option<Scaled<S>> {
+    if ls.is_empty() {
+        return None;
+    }
+    let sol = ls.solve(prior, cfg.unobservable_rel, cfg.pivot_rel).ok()?;
+    if sol.unobservable.iter().any(|u| *u) {
+        // Terms held at the prior have no meaningful predicted variance: no test yet.
+        return None;
+    }
+    let mut total = Scaled::zero();
+    for ((row, b), var) in rows.iter().zip(b.iter()).zip(variance.iter()) {
+        let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
+        let nu = b.minus(pred);
+        let s = sol.predicted_variance(row)?.plus(*var);
+        let nu_s = Scaled { m: nu, e: 0 }.normalized();
+        total = total.plus(nu_s.times(nu_s).over(s)?);
+    }
+    Some(total)
 }
 
 fn lu_status(e: LuError) -> RlsStatus {

@@ -29,7 +29,7 @@ fn word_of(thrusters: &[usize]) -> u16 {
 }
 
 fn push(words: &mut Vec<u16>, word: u16, ms: usize) {
-    words.extend(std::iter::repeat(word).take(ms));
+    words.extend(std::iter::repeat_n(word, ms));
 }
 
 /// The RGA set (28 s).

@@ -90,7 +90,7 @@ impl<'a> Propagator<'a> {
         &self.applied
     }
     pub fn into_edges(mut self) -> Vec<ValveEdge> {
-        self.applied.extend(self.pending.drain(..));
+        self.applied.append(&mut self.pending);
         self.applied
     }
 

@@ -122,15 +122,9 @@ fn fit_gap_commands(case: &mut Case, effects: &[Effect], period_ms: u64, fitted:
     }
     // Positions shift: recompute which entries are measured samples.
     let extra: std::collections::BTreeSet<usize> = {
-        let mut s = std::collections::BTreeSet::new();
-        let mut shift = 0;
         let mut sorted: Vec<usize> = inserted.iter().map(|x| x.0).collect();
         sorted.sort();
-        for k in sorted {
-            s.insert(k + shift);
-            shift += 1;
-        }
-        s
+        sorted.into_iter().enumerate().map(|(shift, k)| k + shift).collect()
     };
     case.measured_at = (0..case.times.len()).filter(|i| !extra.contains(i)).collect();
     for &idx in &extra {

@@ -115,7 +115,7 @@ fn slosh_mode_rings_at_the_seeds_2_45_rad_s_and_decays_at_0_01_per_s() {
     let rigid = predict(&sat, &[], &t, &w, [0.0; 3], PredictOptions::default());
     // The slosh part of the body rate after the firing, decimated to 10 Hz.
     let x: Vec<f64> = (2000..t.len()).step_by(100).map(|k| slosh.body_rate[k][0] - rigid.body_rate[k][0]).collect();
-    let peak_hz = dft_peak(&[x.clone()], 10.0, 0.3, 0.5, 0.0002);
+    let peak_hz = dft_peak(std::slice::from_ref(&x), 10.0, 0.3, 0.5, 0.0002);
     let wd = 2.0 * std::f64::consts::PI * peak_hz;
     let expected = (6.0f64 - 0.01 * 0.01).sqrt();
     assert!((wd - expected).abs() < 0.01 * expected, "mode at {wd} rad/s, expected {expected}");

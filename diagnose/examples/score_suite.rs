@@ -53,11 +53,16 @@ fn cases() -> Vec<Case> {
 
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
+    let only: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     println!("| case | sat | rate Hz | maneuver | truth | diagnosed | named | params within | worst rel. error | noise rms x | rms before (x y z) | rms after (x y z) | s |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut named = 0;
     let mut total = 0;
-    for c in cases().into_iter().filter(|c| !quick || c.name.contains("nominal")) {
+    for c in cases()
+        .into_iter()
+        .filter(|c| !quick || c.name.contains("nominal"))
+        .filter(|c| only.is_empty() || only.iter().any(|o| c.name.starts_with(o.as_str())))
+    {
         let effects: Vec<_> = c.effects.iter().map(|j| synth::effect(j)).collect();
         let truth: Vec<serde_json::Value> = c.effects.iter().map(|j| serde_json::from_str(j).unwrap()).collect();
         let s = synth::make(c.sat, c.maneuver, c.rate, effects, c.seed);
@@ -65,6 +70,13 @@ fn main() {
         let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default()).unwrap();
         let secs = t0.elapsed().as_secs_f64();
         let sc = score::score(&a.output, &truth);
+        if std::env::var_os("MASSID_DIAG_PROFILE").is_some() {
+            eprintln!("{}", massid_diagnose::report::summary(&a));
+            for sc in &a.scores {
+                eprint!("[{} {} {:.0}] ", sc.round, sc.effect, sc.delta_bic);
+            }
+            eprintln!();
+        }
         total += 1;
         if sc.named_correctly {
             named += 1;

@@ -14,6 +14,17 @@ use crate::select::{self, Settings};
 use crate::series::Series;
 use crate::stats::{self, ResidualTests};
 
+/// Prints how long a candidate took when MASSID_DIAG_PROFILE is set (development aid).
+struct Timing(&'static str, std::time::Instant);
+
+impl Drop for Timing {
+    fn drop(&mut self) {
+        if std::env::var_os("MASSID_DIAG_PROFILE").is_some() {
+            eprintln!("  {:>22}: {:.2} s", self.0, self.1.elapsed().as_secs_f64());
+        }
+    }
+}
+
 /// One candidate's score in one selection round.
 #[derive(Clone, Debug)]
 pub struct Score {
@@ -164,6 +175,9 @@ pub fn diagnose(
     let mut joint_stderr: Vec<f64> = vec![];
     let mut sizes: Vec<usize> = vec![];
     let whitening = noise.ar(4);
+    let mut spectrum_before: Vec<(f64, f64)> = vec![];
+    // the ringing fit of the current rigid residual (recomputed only when it changes)
+    let mut ringing_cache: Option<Option<RingingFit>> = None;
     for round in 0..settings.max_effects {
         let ring_gain = ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let chi2_cur = chi2_rigid - ring_gain;
@@ -185,8 +199,19 @@ pub fn diagnose(
                 continue;
             }
             let screen_iter = settings.max_iter.min(3);
+            let t_cand = std::time::Instant::now();
+            let _timing = Timing(kind.name(), t_cand);
             if kind == Kind::GyroRinging {
-                let Some(rf) = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz) else { continue };
+                if ringing_cache.is_none() {
+                    let rf = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz);
+                    if spectrum_before.is_empty() {
+                        if let Some(r) = &rf {
+                            spectrum_before = r.scan.clone();
+                        }
+                    }
+                    ringing_cache = Some(rf);
+                }
+                let Some(rf) = ringing_cache.clone().flatten() else { continue };
                 let dbic = -rf.gain + k_new as f64 * ln_n;
                 screened.push((dbic, kind, vec![], chi2_cur - rf.gain, rf.evidence.clone(), Some(rf)));
             } else {
@@ -245,6 +270,7 @@ pub fn diagnose(
             }
             joint_stderr = se;
             sizes = sz;
+            ringing_cache = None;
             if ringing_fit.is_some() {
                 ringing_fit = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz);
             }
@@ -287,7 +313,6 @@ pub fn diagnose(
             a.stderr = vec![rf.freq_stderr, rf.decay_stderr];
         }
     }
-    let spectrum_before = ringing::post_edge_spectrum(series, &rigid_residual, &whitening);
 
     let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
     let output = DiagnosisOutput {

@@ -101,14 +101,14 @@ fn spectrum_svg(a: &Analysis, labels: bool) -> Result<String, String> {
         let mut b = ChartBuilder::on(&root);
         b.margin(8);
         if labels {
-            b.caption("post-edge residual spectrum (apparent frequency)", ("sans-serif", 16))
+            b.caption("post-edge tone statistic (2 ln LR) vs apparent frequency", ("sans-serif", 16))
                 .x_label_area_size(30)
                 .y_label_area_size(60);
         }
         let mut chart = b.build_cartesian_2d(0.0..fmax, 0.0..pmax * 1.05).map_err(|e| e.to_string())?;
         let mut mesh = chart.configure_mesh();
         if labels {
-            mesh.x_desc("Hz").y_desc("power");
+            mesh.x_desc("Hz").y_desc("2 ln LR");
         } else {
             mesh.x_labels(0).y_labels(0);
         }

@@ -42,6 +42,8 @@ pub struct RingingFit {
     /// Other true frequencies that fit as well (within 10 of the best statistic).
     pub ambiguous: Vec<f64>,
     pub evidence: String,
+    /// The coarse scan: statistic against apparent frequency (the report's spectrum).
+    pub scan: Vec<(f64, f64)>,
 }
 
 /// Residual windows after each valve edge: (edge time ms, sample indices).
@@ -186,7 +188,7 @@ fn statistic(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Wh
 }
 
 fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
-    let grid: &[f64] = if coarse { &[8.0, 30.0] } else { &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0] };
+    let grid: &[f64] = if coarse { &[20.0] } else { &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0] };
     let mut best = (f64::MIN, 8.0);
     for &tau in grid {
         let d = statistic(series, r, win, wh, f, tau).0;
@@ -213,24 +215,6 @@ fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &W
     if d > best.0 { (d, tau) } else { best }
 }
 
-/// Post-edge spectrum: the likelihood-ratio statistic against apparent frequency
-/// (one decay), for the report's plot.
-pub fn post_edge_spectrum(series: &Series, r: &[[f64; 3]], wh: &Whitening) -> Vec<(f64, f64)> {
-    let win = edge_windows(series);
-    if win.is_empty() {
-        return vec![];
-    }
-    let nyq = series.sample_rate_hz / 2.0;
-    let step = (nyq / 250.0).max(0.25);
-    let mut out = vec![];
-    let mut f = 2.0;
-    while f < nyq {
-        out.push((f, statistic(series, r, &win, wh, f, 20.0).0));
-        f += step;
-    }
-    out
-}
-
 /// Finds, folds and fits the ringing in residual `r` with the noise's prewhitening `wh`. None when there are no usable valve edges.
 pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64) -> Option<RingingFit> {
     let win = edge_windows(series);
@@ -240,7 +224,7 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64) -> Op
     let fs = series.sample_rate_hz;
     let nyq = fs / 2.0;
     // coarse scan of the apparent frequency
-    let step = (nyq / 250.0).max(0.25);
+    let step = (nyq / 160.0).max(0.25);
     let mut scan = vec![];
     let mut f = 2.0;
     while f < nyq {
@@ -319,6 +303,7 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64) -> Op
         gain,
         ambiguous,
         evidence,
+        scan,
     })
 }
 

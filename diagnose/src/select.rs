@@ -139,9 +139,13 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
             Spec { lo, hi, step, starts }
         }
         Kind::FuelSlosh => {
-            let mut starts: Vec<Vec<f64>> = slosh_hint_hz.iter().map(|&f| vec![f, 0.01, 0.03]).collect();
-            if starts.is_empty() {
-                starts.push(vec![0.4, 0.01, 0.03]);
+            // a frequency grid plus the residual's own low-frequency peaks; small liquid
+            // fraction so every start is close to the current model
+            let mut starts: Vec<Vec<f64>> =
+                [0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0].iter().map(|&f| vec![f, 0.01, 0.01]).collect();
+            for &f in slosh_hint_hz {
+                starts.push(vec![f, 0.01, 0.01]);
+                starts.push(vec![f, 0.005, 0.03]);
             }
             Spec { lo: vec![0.02, 0.0, 0.001], hi: vec![20.0, 0.5, 0.5], step: vec![1e-3, 2e-4, 1e-3], starts }
         }
@@ -247,6 +251,21 @@ fn fit_with_starts(
         hi,
         frozen_from,
     };
+    // many starts: keep the two with the lowest chi-square before iterating
+    if new_starts.len() > 2 {
+        let mut scored: Vec<(f64, Vec<f64>)> = new_starts
+            .iter()
+            .filter_map(|st| {
+                let mut th0 = base.clone();
+                th0.extend(st.iter().cloned());
+                th0.extend_from_slice(nuis);
+                let c = (fam.apply)(&th0).and_then(|p| prob.chi2(&p))?;
+                Some((c, st.clone()))
+            })
+            .collect();
+        scored.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        new_starts = scored.into_iter().take(2).map(|s| s.1).collect();
+    }
     let mut best: Option<FitResult> = None;
     for st in &new_starts {
         let mut th0 = base.clone();

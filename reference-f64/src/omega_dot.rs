@@ -42,41 +42,47 @@ pub fn line_fit_slope(y: &[f64], dt: f64) -> f64 {
     num / (den * dt)
 }
 
-/// One line-fit estimate: the slope and the sample index it belongs to.
+/// One line-fit estimate: the slope, the sample index it belongs to, and its variance for
+/// white rate noise of the variance `r` the fit was given.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LineFitEstimate {
     /// Sample the estimate is attributed to (window centre, or its last sample when causal).
     pub index: usize,
     pub omega_dot: f64,
+    /// `12 r / (dt^2 n (n^2 - 1))`, rad^2/s^4.
+    pub variance: f64,
 }
 
 /// Centred non-overlapping line fit: windows of odd length `n` laid end to end, one
 /// estimate per window at its centre. Acausal (offline only).
-pub fn line_fit_non_overlapping(y: &[f64], dt: f64, n: usize) -> Vec<LineFitEstimate> {
+pub fn line_fit_non_overlapping(y: &[f64], dt: f64, n: usize, r: f64) -> Vec<LineFitEstimate> {
     assert!(n >= 2, "a line fit needs at least 2 points");
+    let variance = line_fit_variance(r, dt, n);
     y.chunks_exact(n)
         .enumerate()
-        .map(|(w, chunk)| LineFitEstimate { index: w * n + n / 2, omega_dot: line_fit_slope(chunk, dt) })
+        .map(|(w, chunk)| LineFitEstimate { index: w * n + n / 2, omega_dot: line_fit_slope(chunk, dt), variance })
         .collect()
 }
 
 /// Centred sliding ("overlapping") line fit: a window of odd length `n` centred on every
 /// sample that has `n/2` neighbours on both sides. Acausal (offline only).
-pub fn line_fit_sliding(y: &[f64], dt: f64, n: usize) -> Vec<LineFitEstimate> {
+pub fn line_fit_sliding(y: &[f64], dt: f64, n: usize, r: f64) -> Vec<LineFitEstimate> {
     assert!(n >= 2, "a line fit needs at least 2 points");
+    let variance = line_fit_variance(r, dt, n);
     y.windows(n)
         .enumerate()
-        .map(|(s, w)| LineFitEstimate { index: s + n / 2, omega_dot: line_fit_slope(w, dt) })
+        .map(|(s, w)| LineFitEstimate { index: s + n / 2, omega_dot: line_fit_slope(w, dt), variance })
         .collect()
 }
 
 /// Causal backward line fit: at every sample, the slope of the last `n` samples
 /// (usable online; it estimates the acceleration `(n-1)/2` samples in the past).
-pub fn line_fit_backward(y: &[f64], dt: f64, n: usize) -> Vec<LineFitEstimate> {
+pub fn line_fit_backward(y: &[f64], dt: f64, n: usize, r: f64) -> Vec<LineFitEstimate> {
     assert!(n >= 2, "a line fit needs at least 2 points");
+    let variance = line_fit_variance(r, dt, n);
     y.windows(n)
         .enumerate()
-        .map(|(s, w)| LineFitEstimate { index: s + n - 1, omega_dot: line_fit_slope(w, dt) })
+        .map(|(s, w)| LineFitEstimate { index: s + n - 1, omega_dot: line_fit_slope(w, dt), variance })
         .collect()
 }
 
@@ -332,15 +338,16 @@ mod tests {
         let dt = 0.01;
         let y: Vec<f64> = (0..40).map(|k| 1.0 + 0.37 * k as f64 * dt).collect();
         for n in [3, 5, 15] {
-            for e in line_fit_sliding(&y, dt, n).iter().chain(&line_fit_non_overlapping(&y, dt, n)).chain(&line_fit_backward(&y, dt, n)) {
+            for e in line_fit_sliding(&y, dt, n, 1e-7).iter().chain(&line_fit_non_overlapping(&y, dt, n, 1e-7)).chain(&line_fit_backward(&y, dt, n, 1e-7)) {
                 assert!((e.omega_dot - 0.37).abs() < 1e-10);
             }
         }
-        let s = line_fit_sliding(&y, dt, 5);
+        let s = line_fit_sliding(&y, dt, 5, 1e-7);
+        assert_eq!(s[0].variance, line_fit_variance(1e-7, dt, 5));
         assert_eq!(s[0].index, 2);
-        let b = line_fit_backward(&y, dt, 5);
+        let b = line_fit_backward(&y, dt, 5, 1e-7);
         assert_eq!(b[0].index, 4);
-        let no = line_fit_non_overlapping(&y, dt, 5);
+        let no = line_fit_non_overlapping(&y, dt, 5, 1e-7);
         assert_eq!(no.len(), 8);
         assert_eq!(no[1].index, 7);
     }

@@ -156,8 +156,8 @@ fn line_fit_variances_with_the_seed_r0_fall_with_window_and_match_theory() {
     let mut prev = f64::INFINITY;
     for &n in &windows {
         let theory = line_fit_variance(r, dt, n);
-        let slide = mc_variance(300, 100, dt, r, |y| line_fit_sliding(y, dt, n).iter().map(|e| e.omega_dot).collect());
-        let block = mc_variance(300, 100, dt, r, |y| line_fit_non_overlapping(y, dt, n).iter().map(|e| e.omega_dot).collect());
+        let slide = mc_variance(300, 100, dt, r, |y| line_fit_sliding(y, dt, n, r).iter().map(|e| e.omega_dot).collect());
+        let block = mc_variance(300, 100, dt, r, |y| line_fit_non_overlapping(y, dt, n, r).iter().map(|e| e.omega_dot).collect());
         assert!((slide / theory - 1.0).abs() < 0.1, "sliding n={n}: {slide} vs {theory}");
         assert!((block / theory - 1.0).abs() < 0.15, "non-overlapping n={n}: {block} vs {theory}");
         assert!(theory < prev, "variance must fall with the window");
@@ -200,10 +200,10 @@ fn table_4_2_non_overlapping_column_is_a_zero_filled_series_variance() {
     let y: Vec<f64> = (0..100).map(|k| 0.465 * k as f64 * dt + noise.sample(&mut rng)).collect();
     for n in [3usize, 9, 15] {
         let mut filled = vec![0.0; y.len()];
-        for e in line_fit_non_overlapping(&y, dt, n) {
+        for e in line_fit_non_overlapping(&y, dt, n, r) {
             filled[e.index] = e.omega_dot;
         }
-        let s: Vec<f64> = line_fit_sliding(&y, dt, n).iter().map(|e| e.omega_dot).collect();
+        let s: Vec<f64> = line_fit_sliding(&y, dt, n, r).iter().map(|e| e.omega_dot).collect();
         assert!(stat(&s) * 4.0 < stat(&filled), "n={n}");
     }
 }

@@ -199,22 +199,29 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let mut accel: Vec<[f64; 3]> = Vec::new();
     let mut gyro_n: Vec<[f64; 3]> = Vec::new();
     let mut word = 0u16;
+    let c = &plant.cfg;
     for t in 0..total_ms {
         prop.advance_to(t as f64);
-        if let Some(c) = controller.as_mut() {
+        let is_sample = t % period_ms == 0;
+        let noise = if is_sample { Some(gyro_noise.sample(t as f64, &mut gyro_rng)) } else { None };
+        if let Some(ctl) = controller.as_mut() {
             if t % maneuvers::PERIOD_MS == 0 {
+                // The controller reads the same gyro as the recording (converted with the
+                // nominal bias and scale, so gyro bias/scale effects fool it like in flight).
+                let n = noise.unwrap_or_else(|| ctrl_noise.sample(t as f64, &mut ctrl_rng));
                 let x = prop.state();
-                let noise = ctrl_noise.sample(t as f64, &mut ctrl_rng);
-                let sensed = x.w + Vector3::from(noise);
-                c.plan(t, &sensed, &x.attitude())?;
+                let sensed = Vector3::from(std::array::from_fn::<f64, 3, _>(|a| {
+                    c.gyro_scale[a] * (x.w[a] + n[a]) + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
+                }));
+                ctl.plan(t, &sensed, &x.attitude())?;
             }
-            word = c.word_at(t);
+            word = ctl.word_at(t);
         } else if let Some(w) = &open_loop {
             word = w[t];
         }
         prop.command(word);
         commands.push(word);
-        if t % period_ms == 0 {
+        if let Some(n) = noise {
             let d = prop.derivative_now();
             let x = prop.state();
             // Specific force at the accelerometer: thrust / m + w_dot x r + w x (w x r).
@@ -223,7 +230,7 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             words.push(word);
             rates.push(x.w.into());
             accel.push(f.into());
-            gyro_n.push(gyro_noise.sample(t as f64, &mut gyro_rng));
+            gyro_n.push(n);
         }
     }
     prop.advance_to(total_ms as f64);
@@ -235,7 +242,6 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let shocks = shock_times_ms(&edges);
     let ringing = ringing_at(&plant.cfg, &shocks, &times, |_, _, _| ring_rng.gen_range(0.0..std::f64::consts::TAU));
 
-    let c = &plant.cfg;
     let mut samples = Vec::with_capacity(times.len());
     for k in 0..times.len() {
         let gyro: [u16; 3] = std::array::from_fn(|a| {

@@ -272,3 +272,23 @@ mod never_panics {
         }
     }
 }
+
+#[test]
+fn pressure_drop_is_a_model_parameter() {
+    // o03: every open thruster loses 0.0106 N per other open thruster (its truth file).
+    let name = "o03_pressure_drop_combo.csv";
+    let t = truth(name);
+    assert_eq!(t["effects"][0]["effect"], "pressure_drop");
+    let drop = t["effects"][0]["params"]["newton_per_extra_thruster"].as_f64().unwrap();
+    let rec = open(name);
+    let nominal = sph2();
+    assert_eq!(nominal.pressure_drop_n_per_extra, 0.0, "built-in models have none");
+    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    let without = estimate_offline(&rec, &nominal, &cfg);
+    let worst = (0..3).map(|j| (without.inertia_kgm2[j] / nominal.inertia_kgm2[j] - 1.0).abs()).fold(0.0, f64::max);
+    assert!(worst > 0.05, "without the drop the inertias are off by {worst}");
+    let mut with_drop = nominal.clone();
+    with_drop.pressure_drop_n_per_extra = drop;
+    let e = estimate_offline(&rec, &with_drop, &cfg);
+    assert_principal_within(&e, &nominal, 0.01, "with the model's pressure drop");
+}

@@ -690,6 +690,22 @@ mod tests {
     }
 
     #[test]
+    fn hundred_hz_recordings_skip_no_transient_and_are_identified() {
+        // the RGA pair-firing tests were telemetered at 100 Hz (seed 4.3): decimate by 10
+        let sat = Satellite::builtin("sph3").unwrap();
+        let full = simulate(&sat, &rotation_schedule(2), |_| sat.inertia_matrix(), 4);
+        let samples: Vec<Sample> = full.samples.iter().filter(|s| s.time_ms % 10 == 0).cloned().collect();
+        let rec = Recording::new("r100.csv", Some("sph3"), Some(100.0), samples);
+        assert_eq!(PipelineConfig::default().kalman.skip_samples(0.01), 0);
+        let cfg = PipelineConfig::default();
+        for e in [estimate_offline(&rec, &sat, &cfg), estimate_online(&rec, &sat, &cfg)] {
+            assert!(principal_rel_err(&e, &sat.inertia_matrix()) < 0.01, "{:?}", e.inertia_kgm2);
+            // 12 firings of 99 updates (the change's own sample carries none)
+            assert_eq!(e.updates, 12 * 99);
+        }
+    }
+
+    #[test]
     fn proof_mass_mid_run_is_tracked_with_detector_or_forgetting_only() {
         let sat = Satellite::builtin("sph2").unwrap();
         let schedule = rotation_schedule(6);

@@ -128,6 +128,23 @@ pub struct KfSums {
     pub skz: [i64; 3],
 }
 
+/// Sums over the updates of a firing of the running sums of [`KfSums`] (exact integers):
+/// they give the firing's per-sample RLS measurements in aggregate
+/// ([`OmegaDotKf::aggregate`]) without forming an estimate per sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct KfSumsOfSums {
+    /// `sum n_k`.
+    pub tn: u64,
+    /// `sum (sum k)_k`.
+    pub tsk: u128,
+    /// `sum (sum k^2)_k`.
+    pub tsk2: u128,
+    /// `sum (sum z)_k` per axis.
+    pub tsz: [i128; 3],
+    /// `sum (sum k z)_k` per axis.
+    pub tskz: [i128; 3],
+}
+
 /// The per-sample angular-acceleration Kalman filter (integer accumulators).
 #[derive(Clone, Copy, Debug)]
 pub struct OmegaDotKf<S> {
@@ -144,6 +161,7 @@ pub struct OmegaDotKf<S> {
     anchored: bool,
     k_sq: u64,
     sums: KfSums,
+    second: KfSumsOfSums,
 }
 
 impl<S: Scalar> OmegaDotKf<S> {
@@ -176,6 +194,7 @@ impl<S: Scalar> OmegaDotKf<S> {
             anchored: false,
             k_sq: 0,
             sums: KfSums::default(),
+            second: KfSumsOfSums::default(),
         }
     }
 
@@ -196,6 +215,7 @@ impl<S: Scalar> OmegaDotKf<S> {
         self.anchored = false;
         self.k_sq = 0;
         self.sums = KfSums::default();
+        self.second = KfSumsOfSums::default();
     }
 
     /// One sample period with the filtered counts (Q12); `None` for a telemetry gap.
@@ -238,6 +258,15 @@ impl<S: Scalar> OmegaDotKf<S> {
             *sz = sz.saturating_add(z);
             *skz = skz.saturating_add(z.saturating_mul(i64::from(k))); // |k z| < 2^43
         }
+        // Second-order sums (adds only): with k < 2^18 every term stays far inside 128 bits.
+        let t = &mut self.second;
+        t.tn = t.tn.saturating_add(u64::from(s.n));
+        t.tsk = t.tsk.saturating_add(u128::from(s.sk));
+        t.tsk2 = t.tsk2.saturating_add(u128::from(s.sk2));
+        for (((tsz, tskz), sz), skz) in t.tsz.iter_mut().zip(t.tskz.iter_mut()).zip(s.sz.iter()).zip(s.skz.iter()) {
+            *tsz = tsz.saturating_add(i128::from(*sz));
+            *tskz = tskz.saturating_add(i128::from(*skz));
+        }
         KfStatus::Updated
     }
 
@@ -249,6 +278,49 @@ impl<S: Scalar> OmegaDotKf<S> {
     /// The exact integer sums (for tests and the range analysis).
     pub fn sums(&self) -> KfSums {
         self.sums
+    }
+
+    /// The firing's per-sample measurements in aggregate: every update `k` of the firing is
+    /// an RLS measurement `x_k` with weight `J_k = 1/P_k` and the same regressor, so together
+    /// they add `sum_k J_k` of information at the weighted mean `sum_k J_k x_k / sum_k J_k`.
+    /// Both sums are closed forms of the exact second-order integer sums:
+    /// `sum_k J_k = (n alpha + sum_k S2_k) / (R/dt^2)`,
+    /// `sum_k J_k x_k = (n alpha x0 + gamma sum_k Sz_k) / (R/dt^2)`.
+    /// Returns `(sum_k J_k, weighted mean)` per axis, `None` without updates or if a value
+    /// does not fit.
+    pub fn aggregate(&self) -> Option<([Scaled<S>; 3], [S; 3])> {
+        let s = &self.sums;
+        let t = &self.second;
+        if s.n == 0 {
+            return None;
+        }
+        let kappa = self.kappa;
+        let n = Scaled::from_i64(i64::from(s.n));
+        let tn = Scaled::from_i128(i128::from(t.tn));
+        let tsk = Scaled::from_i128(i128::try_from(t.tsk).unwrap_or(i128::MAX));
+        let tsk2 = Scaled::from_i128(i128::try_from(t.tsk2).unwrap_or(i128::MAX));
+        // sum_k S2_k = sum_k (sum k^2 - 2 kappa sum k + kappa^2 n)_k
+        let s2_sum = tsk2.minus(tsk.scale(kappa.plus(kappa))).plus(tn.scale(kappa.times(kappa)));
+        let mut weight = [Scaled::zero(); 3];
+        let mut mean = [S::ZERO; 3];
+        for i in 0..3 {
+            let (Some(ax), Some(tsz), Some(tskz), Some(x0)) =
+                (self.axes.get(i), t.tsz.get(i), t.tskz.get(i), self.prior.get(i))
+            else {
+                return None;
+            };
+            let szk_sum = Scaled::from_i128(*tskz).minus(Scaled::from_i128(*tsz).scale(kappa));
+            let n_alpha = ax.alpha.times(n);
+            let den = n_alpha.plus(s2_sum);
+            let num = n_alpha.scale(*x0).plus(szk_sum.times(ax.gamma));
+            let w = den.over(ax.r_over_dt2)?;
+            let b = num.over(den)?.value();
+            if let (Some(wo), Some(mo)) = (weight.get_mut(i), mean.get_mut(i)) {
+                *wo = w;
+                *mo = b;
+            }
+        }
+        Some((weight, mean))
     }
 
     /// The current estimate, or `None` if a quotient does not fit the scalar type.

@@ -123,6 +123,7 @@ pub struct Pipeline<S> {
     firing_has_data: bool,
     last: Option<Measurement<S>>,
     last_estimate: Option<OmegaDotEstimate<S>>,
+    deferred: Option<Deferred<S>>,
     status: PipelineStatus,
     ticks: u64,
 }
@@ -163,6 +164,7 @@ impl<S: Scalar> Pipeline<S> {
             firing_has_data: false,
             last: None,
             last_estimate: None,
+            deferred: None,
             status: PipelineStatus::Idle,
             ticks: 0,
         })
@@ -180,14 +182,14 @@ impl<S: Scalar> Pipeline<S> {
 
     fn step(&mut self, gyro: Option<[u16; 3]>, word: u16) -> TickReport {
         self.ticks = self.ticks.saturating_add(1);
+        let solved = self.run_deferred();
         let filtered = gyro.map(|c| self.filter.step(c));
         if let Some(f) = filtered {
             self.filtered = f;
         }
-        let mut solved = false;
         let mut changed = false;
         if word != self.word {
-            solved = self.end_firing();
+            self.end_firing();
             self.word = word;
             if word != 0 {
                 changed = true;
@@ -274,21 +276,11 @@ impl<S: Scalar> Pipeline<S> {
     }
 
     fn after_kf_update(&mut self) -> TickEvent {
-        let Some(est) = self.kf.estimate() else {
-            return TickEvent::KfOverflow;
-        };
+        // Per sample only the Kalman filter's integer sums move (in `OmegaDotKf::update`):
+        // the firing's per-sample RLS measurements are folded in, in aggregate, when it ends.
         if !self.firing_has_data {
             self.firing_has_data = true;
             self.firings_with_data = self.firings_with_data.saturating_add(1);
-        }
-        self.accel_before = est.omega_dot;
-        let m = self.measurement(&est);
-        self.last = Some(m);
-        self.last_estimate = Some(est);
-        if self.firings_with_data > self.cfg.batch_firings {
-            self.mass.add_tick(&m);
-        } else {
-            self.mass.add_batch(&m);
         }
         TickEvent::Updated
     }
@@ -311,39 +303,77 @@ impl<S: Scalar> Pipeline<S> {
         }
     }
 
-    /// Returns true if a solve happened.
+    /// Folds the ending firing in; returns true if it had data. Its solve runs on the next
+    /// tick ([`Pipeline::run_deferred`]).
     fn end_firing(&mut self) -> bool {
         if self.word == 0 || !self.firing_has_data {
             return false;
         }
-        let last = self.last.take();
-        let n = self.firings_with_data;
-        let rls_status = if n < self.cfg.batch_firings {
-            None
-        } else if n == self.cfg.batch_firings {
-            Some(self.mass.solve())
-        } else {
-            Some(self.mass.end_firing(last.as_ref()))
-        };
-        match rls_status {
-            None => false,
-            Some(s) => {
-                self.status = match s {
-                    RlsStatus::Ok => PipelineStatus::Ok,
-                    RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
-                    RlsStatus::Singular => PipelineStatus::Singular,
-                    RlsStatus::Overflow => PipelineStatus::Overflow,
-                    RlsStatus::NoData => self.status,
-                };
-                true
+        // The firing's final estimate: the detector's measurement, the reference rate
+        // extrapolation of the next firing, and telemetry.
+        let last = match self.kf.estimate() {
+            Some(est) => {
+                self.accel_before = est.omega_dot;
+                self.last_estimate = Some(est);
+                Some(self.measurement(&est))
             }
+            None => None,
+        };
+        // Every sample of the firing is one RLS measurement with the same regressor: fold them
+        // in at once (exact aggregate of the per-sample updates).
+        let updates = self.kf.updates();
+        let aggregate = self.kf.aggregate().zip(last).map(|((weight, mean), m)| {
+            let pred = mat_vec(&self.terms.theta_inertia_matrix, &self.effective_torque_cnm());
+            Measurement {
+                b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
+                b_inertia: mean,
+                weight,
+                ..m
+            }
+        });
+        let Some(agg) = aggregate else {
+            return false;
+        };
+        let n = self.firings_with_data;
+        if n <= self.cfg.batch_firings {
+            self.mass.add_batch_aggregate(&agg, updates);
+            if n == self.cfg.batch_firings {
+                self.deferred = Some(Deferred::BatchSolve);
+            }
+        } else {
+            self.mass.add_firing(&agg, updates);
+            self.deferred = Some(Deferred::Rls(last));
         }
+        true
+    }
+
+    /// The solve of a firing that ended on the previous tick (kept off the word-change tick
+    /// so no single tick carries both the firing's fold-in and the LU solves).
+    fn run_deferred(&mut self) -> bool {
+        let Some(d) = self.deferred.take() else {
+            return false;
+        };
+        let s = match d {
+            Deferred::BatchSolve => self.mass.solve(),
+            Deferred::Rls(last) => self.mass.end_firing(last.as_ref()),
+        };
+        self.status = match s {
+            RlsStatus::Ok => PipelineStatus::Ok,
+            RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
+            RlsStatus::Singular => PipelineStatus::Singular,
+            RlsStatus::Overflow => PipelineStatus::Overflow,
+            RlsStatus::NoData => self.status,
+        };
+        true
     }
 
     /// Ends the current firing (if any) as if the thrusters had turned off, e.g. at the end
     /// of a recording, so its data is folded in.
     pub fn finish(&mut self) -> PipelineStatus {
-        if !self.end_firing() && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
+        self.run_deferred();
+        self.end_firing();
+        let solved = self.run_deferred();
+        if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
             // Fewer firings than the batch needs: the batch so far is the estimate.
             let s = self.mass.solve();
             self.status = match s {
@@ -375,7 +405,11 @@ impl<S: Scalar> Pipeline<S> {
 
     /// The latest angular-acceleration estimate of the current firing.
     pub fn omega_dot(&self) -> Option<OmegaDotEstimate<S>> {
-        self.last_estimate
+        if self.word != 0 && self.kf.updates() > 0 {
+            self.kf.estimate()
+        } else {
+            self.last_estimate
+        }
     }
 
     /// The angular-acceleration Kalman filter (its exact sums, for tests and range analysis).
@@ -392,6 +426,16 @@ impl<S: Scalar> Pipeline<S> {
     pub fn model_terms(&self) -> &ModelTerms<S> {
         &self.terms
     }
+}
+
+/// A solve waiting for the tick after its firing ended.
+#[derive(Clone, Copy, Debug)]
+enum Deferred<S> {
+    /// The batch over the first firings is complete.
+    BatchSolve,
+    /// An RLS firing was folded into the pending information (its final measurement for the
+    /// change detector).
+    Rls(Option<Measurement<S>>),
 }
 
 /// The gyroscopic torque `omega x (I_nom omega)` from filtered gyro counts.

@@ -493,14 +493,32 @@ impl<S: Scalar> MassId<S> {
         }
     }
 
-    /// Adds a batch measurement (first two firings) straight into the information.
+    /// Adds one batch measurement (first two firings) straight into the information.
     pub fn add_batch(&mut self, m: &Measurement<S>) {
-        self.com.add(&m.a_com, &m.b_com, &m.weight);
-        self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
-        self.updates = self.updates.saturating_add(1);
+        self.add_batch_aggregate(m, 1);
     }
 
-    /// Adds a per-tick RLS measurement of the current firing (folded in at [`MassId::end_firing`]).
+    /// Adds a batch firing's measurements straight into the information; `updates` is how
+    /// many per-sample measurements `m` aggregates.
+    pub fn add_batch_aggregate(&mut self, m: &Measurement<S>, updates: u32) {
+        self.com.add(&m.a_com, &m.b_com, &m.weight);
+        self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
+        self.updates = self.updates.saturating_add(updates);
+    }
+
+    /// Adds an RLS firing's measurements (`updates` per-sample measurements in aggregate),
+    /// folded in at [`MassId::end_firing`]. With forgetting, the older information is
+    /// multiplied by `lambda^updates` there; the firing's own samples are not weighted among
+    /// themselves (their weights grow as k^3, so the early ones barely count anyway).
+    pub fn add_firing(&mut self, m: &Measurement<S>, updates: u32) {
+        self.pending_com.add(&m.a_com, &m.b_com, &m.weight);
+        self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
+        self.pending_updates = self.pending_updates.saturating_add(updates);
+        self.updates = self.updates.saturating_add(updates);
+    }
+
+    /// Adds one per-sample RLS measurement of the current firing (folded in at
+    /// [`MassId::end_firing`]), with exact per-update forgetting.
     pub fn add_tick(&mut self, m: &Measurement<S>) {
         if let Some(l) = self.cfg.forgetting {
             self.pending_com.forget(l);

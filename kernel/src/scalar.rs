@@ -439,6 +439,14 @@ impl<S: Scalar> Scaled<S> {
         let len = len as i32;
         Scaled { m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)), e: len }
     }
+    /// [`Scaled::from_i64`] for a 128-bit accumulator.
+    pub fn from_i128(v: i128) -> Self {
+        let len = 128u32.saturating_sub(v.unsigned_abs().leading_zeros());
+        let sh = len.saturating_sub(30).min(127);
+        let m = (v >> sh) as i32; // |v >> sh| < 2^30
+        let len = len as i32;
+        Scaled { m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)), e: len }
+    }
     /// Product with a plain scalar.
     pub fn scale(self, k: S) -> Self {
         Scaled { m: self.m.times(k), e: self.e }.normalized()

@@ -128,6 +128,27 @@ pub struct KfSums {
     pub skz: [i64; 3],
 }
 
+/// A 128-bit accumulator stored as two 64-bit words (so the state keeps 8-byte alignment,
+/// which the C ABI's opaque blocks rely on).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Acc128 {
+    lo: u64,
+    hi: i64,
+}
+
+impl Acc128 {
+    /// The value.
+    pub fn get(self) -> i128 {
+        (i128::from(self.hi) << 64) | i128::from(self.lo)
+    }
+    /// Adds `v` (saturating).
+    pub fn add(&mut self, v: i128) {
+        let s = self.get().saturating_add(v);
+        self.lo = s as u64; // low 64 bits
+        self.hi = (s >> 64) as i64; // |s| < 2^127
+    }
+}
+
 /// Sums over the updates of a firing of the running sums of [`KfSums`] (exact integers):
 /// they give the firing's per-sample RLS measurements in aggregate
 /// ([`OmegaDotKf::aggregate`]) without forming an estimate per sample.
@@ -136,13 +157,13 @@ pub struct KfSumsOfSums {
     /// `sum n_k`.
     pub tn: u64,
     /// `sum (sum k)_k`.
-    pub tsk: u128,
+    pub tsk: Acc128,
     /// `sum (sum k^2)_k`.
-    pub tsk2: u128,
+    pub tsk2: Acc128,
     /// `sum (sum z)_k` per axis.
-    pub tsz: [i128; 3],
+    pub tsz: [Acc128; 3],
     /// `sum (sum k z)_k` per axis.
-    pub tskz: [i128; 3],
+    pub tskz: [Acc128; 3],
 }
 
 /// The per-sample angular-acceleration Kalman filter (integer accumulators).
@@ -261,11 +282,11 @@ impl<S: Scalar> OmegaDotKf<S> {
         // Second-order sums (adds only): with k < 2^18 every term stays far inside 128 bits.
         let t = &mut self.second;
         t.tn = t.tn.saturating_add(u64::from(s.n));
-        t.tsk = t.tsk.saturating_add(u128::from(s.sk));
-        t.tsk2 = t.tsk2.saturating_add(u128::from(s.sk2));
+        t.tsk.add(i128::from(s.sk));
+        t.tsk2.add(i128::from(s.sk2));
         for (((tsz, tskz), sz), skz) in t.tsz.iter_mut().zip(t.tskz.iter_mut()).zip(s.sz.iter()).zip(s.skz.iter()) {
-            *tsz = tsz.saturating_add(i128::from(*sz));
-            *tskz = tskz.saturating_add(i128::from(*skz));
+            tsz.add(i128::from(*sz));
+            tskz.add(i128::from(*skz));
         }
         KfStatus::Updated
     }
@@ -297,8 +318,8 @@ impl<S: Scalar> OmegaDotKf<S> {
         let kappa = self.kappa;
         let n = Scaled::from_i64(i64::from(s.n));
         let tn = Scaled::from_i128(i128::from(t.tn));
-        let tsk = Scaled::from_i128(i128::try_from(t.tsk).unwrap_or(i128::MAX));
-        let tsk2 = Scaled::from_i128(i128::try_from(t.tsk2).unwrap_or(i128::MAX));
+        let tsk = Scaled::from_i128(t.tsk.get());
+        let tsk2 = Scaled::from_i128(t.tsk2.get());
         // sum_k S2_k = sum_k (sum k^2 - 2 kappa sum k + kappa^2 n)_k
         let s2_sum = tsk2.minus(tsk.scale(kappa.plus(kappa))).plus(tn.scale(kappa.times(kappa)));
         let mut weight = [Scaled::zero(); 3];
@@ -309,7 +330,7 @@ impl<S: Scalar> OmegaDotKf<S> {
             else {
                 return None;
             };
-            let szk_sum = Scaled::from_i128(*tskz).minus(Scaled::from_i128(*tsz).scale(kappa));
+            let szk_sum = Scaled::from_i128(tskz.get()).minus(Scaled::from_i128(tsz.get()).scale(kappa));
             let n_alpha = ax.alpha.times(n);
             let den = n_alpha.plus(s2_sum);
             let num = n_alpha.scale(*x0).plus(szk_sum.times(ax.gamma));

@@ -205,7 +205,8 @@ worst_tick() {
   echo "### Where the instructions go (RLS-update ticks, top functions by share)"
   echo
   echo "Per-function split of the same traces (PC -> function symbol of the linked, LTO-inlined image;"
-  echo "\`massid_qemu_runner::run_all\` is kernel code inlined into the runner's loop, mostly \`Pipeline::step\`)."
+  echo "the runner's functions \`massid_qemu_runner::run\`/\`run_all\`/\`__cortex_m_rt_main\` hold kernel code that LTO inlined"
+  echo "into the loop, mostly \`Pipeline::step\`; \`__aeabi_lmul\` is the 64-bit multiply the Cortex-M0 lacks in hardware)."
   echo
   echo "| core / kernel | share | instructions | function |"
   echo "|---|---|---|---|"

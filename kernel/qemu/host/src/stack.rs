@@ -177,7 +177,29 @@ fn is_panic(name: &str) -> bool {
 
 /// The last two path components of a Rust symbol without generic arguments, for messages.
 fn short(name: &str) -> String {
-    let full = format!("{:#}", rustc_demangle::demangle(name));
+    let mut full = format!("{:#}", rustc_demangle::demangle(name));
+    // `<path::Type<..> as Trait>::method` or `<path::Type<..>>::method`: keep the type path.
+    if full.starts_with('<') {
+        let mut depth = 0usize;
+        let close = full.char_indices().find_map(|(i, c)| {
+            match c {
+                '<' => depth += 1,
+                '>' => {
+                    depth = depth.saturating_sub(1);
+                    if depth == 0 {
+                        return Some(i);
+                    }
+                }
+                _ => {}
+            }
+            None
+        });
+        if let Some(i) = close {
+            let inner = &full[1..i];
+            let ty = inner.split(" as ").next().unwrap_or(inner);
+            full = format!("{ty}{}", &full[i + 1..]);
+        }
+    }
     let mut plain = String::new();
     let mut depth = 0usize;
     for c in full.chars() {
@@ -302,5 +324,6 @@ mod tests {
         assert!(panics.is_empty());
         assert!(bound("c", &d, &sizes, &addr_of, &mut Vec::new(), &mut BTreeMap::new(), &mut fp, &mut panics).is_err());
         assert_eq!(short("_RNvNtCs35XhZlOlJ4b_4core9panicking18panic_bounds_check"), "panicking::panic_bounds_check");
+        assert_eq!(short("_ZN13massid_kernel2lu15Lu$LT$S$C$_$GT$6factor17h5b5a64df40670068E"), "Lu::factor");
     }
 }

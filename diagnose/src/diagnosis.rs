@@ -133,6 +133,11 @@ fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
     t.iter().zip(y).map(|(a, v)| v - my - b * (a - mt)).collect()
 }
 
+/// The valve latency (open, close ms) among `pairs`, zero when none.
+fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
+    pairs.iter().find(|a| a.0 == Kind::ThrusterLatency).map(|a| (a.1[0], a.1[1])).unwrap_or((0.0, 0.0))
+}
+
 /// Runs the diagnosis of `series` against the satellite `plant`.
 pub fn diagnose(
     series: &Series,
@@ -178,6 +183,8 @@ pub fn diagnose(
     let mut spectrum_before: Vec<(f64, f64)> = vec![];
     // the ringing fit of the current rigid residual (recomputed only when it changes)
     let mut ringing_cache: Option<Option<RingingFit>> = None;
+    // valve latency of the accepted effects: ringing is excited at the actual valve motion
+    let mut latency = (0.0, 0.0);
     for round in 0..settings.max_effects {
         let ring_gain = ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let chi2_cur = chi2_rigid - ring_gain;
@@ -203,7 +210,7 @@ pub fn diagnose(
             let _timing = Timing(kind.name(), t_cand);
             if kind == Kind::GyroRinging {
                 if ringing_cache.is_none() {
-                    let rf = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz);
+                    let rf = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz, latency);
                     if spectrum_before.is_empty() {
                         if let Some(r) = &rf {
                             spectrum_before = r.scan.clone();
@@ -271,12 +278,14 @@ pub fn diagnose(
             joint_stderr = se;
             sizes = sz;
             ringing_cache = None;
+            latency = latency_of(&new_pairs);
             if ringing_fit.is_some() {
-                ringing_fit = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz);
+                latency = latency_of(&new_pairs);
+                ringing_fit = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz, latency);
             }
         }
         residual_cur = match &ringing_fit {
-            Some(rf) => ringing::remove(series, &rigid_residual, &whitening, rf),
+            Some(rf) => ringing::remove(series, &rigid_residual, &whitening, rf, latency),
             None => rigid_residual.clone(),
         };
         k_cur += effects::n_params(kind, &fired);

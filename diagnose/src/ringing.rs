@@ -46,24 +46,30 @@ pub struct RingingFit {
     pub scan: Vec<(f64, f64)>,
 }
 
-/// Residual windows after each valve edge: (edge time ms, sample indices).
-pub fn edge_windows(series: &Series) -> Vec<(i64, Vec<usize>)> {
-    let edges = series.edges();
+/// Residual windows after each valve shock: (shock time ms, sample indices). A shock is
+/// the actual valve motion, `latency` (open, close ms, from an accepted
+/// `thruster_latency`) after the commanded edge.
+pub fn edge_windows(series: &Series, latency: (f64, f64)) -> Vec<(f64, Vec<usize>)> {
+    let edges: Vec<f64> = series
+        .edges()
+        .iter()
+        .map(|&(t, old, new)| t as f64 + if new & !old != 0 { latency.0 } else { latency.1 })
+        .collect();
     let mut out = vec![];
     let mut i0 = 0usize;
-    for (k, e) in edges.iter().enumerate() {
-        let end = edges.get(k + 1).map(|n| n.0).unwrap_or(i64::MAX).min(e.0 + WINDOW_MS);
-        while i0 < series.len() && series.t_ms[i0] < e.0 {
+    for (k, &e) in edges.iter().enumerate() {
+        let end = edges.get(k + 1).copied().unwrap_or(f64::MAX).min(e + WINDOW_MS as f64);
+        while i0 < series.len() && (series.t_ms[i0] as f64) < e {
             i0 += 1;
         }
         let mut idx = vec![];
         let mut i = i0;
-        while i < series.len() && series.t_ms[i] < end {
+        while i < series.len() && (series.t_ms[i] as f64) < end {
             idx.push(i);
             i += 1;
         }
         if idx.len() >= 4 {
-            out.push((e.0, idx));
+            out.push((e, idx));
         }
     }
     out
@@ -75,7 +81,7 @@ pub fn edge_windows(series: &Series) -> Vec<(i64, Vec<usize>)> {
 fn projections(
     series: &Series,
     r: &[[f64; 3]],
-    windows: &[(i64, Vec<usize>)],
+    windows: &[(f64, Vec<usize>)],
     f: f64,
     tau: f64,
     wh: Option<&Whitening>,
@@ -97,7 +103,7 @@ fn projections(
                 let n = idx.len();
                 let mut rows: Vec<[f64; 4]> = Vec::with_capacity(n); // t, c, s, r
                 for &i in idx {
-                    let dt = (series.t_ms[i] - te) as f64;
+                    let dt = series.t_ms[i] as f64 - te;
                     let (mut c, mut sn) = basis(dt);
                     let mut rv = r[i][a];
                     for (k, ph) in phi.iter().enumerate() {
@@ -106,7 +112,7 @@ fn projections(
                             break;
                         }
                         let j = j as usize;
-                        let (cj, sj) = basis((series.t_ms[j] - te) as f64);
+                        let (cj, sj) = basis(series.t_ms[j] as f64 - te);
                         c -= ph * cj;
                         sn -= ph * sj;
                         rv -= ph * r[j][a];
@@ -175,7 +181,7 @@ fn lr_axis(proj: &[[(Matrix2<f64>, Vector2<f64>); 3]], axis: usize, sigma2: f64)
     if stat > 0.0 { (stat, s) } else { (0.0, 0.0) }
 }
 
-fn statistic(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Whitening, f: f64, tau: f64) -> (f64, [f64; 3]) {
+fn statistic(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &Whitening, f: f64, tau: f64) -> (f64, [f64; 3]) {
     let proj = projections(series, r, win, f, tau, Some(wh));
     let mut tot = 0.0;
     let mut s = [0.0; 3];
@@ -187,7 +193,7 @@ fn statistic(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Wh
     (tot, s)
 }
 
-fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
+fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
     let grid: &[f64] = if coarse { &[20.0] } else { &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0] };
     let mut best = (f64::MIN, 8.0);
     for &tau in grid {
@@ -216,8 +222,8 @@ fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(i64, Vec<usize>)], wh: &W
 }
 
 /// Finds, folds and fits the ringing in residual `r` with the noise's prewhitening `wh`. None when there are no usable valve edges.
-pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64) -> Option<RingingFit> {
-    let win = edge_windows(series);
+pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64, latency: (f64, f64)) -> Option<RingingFit> {
+    let win = edge_windows(series, latency);
     if win.len() < 3 {
         return None;
     }
@@ -309,8 +315,8 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64) -> Op
 
 /// Removes the fitted ringing from a residual: per edge, the best linear predictor of the
 /// tone's coefficients given the window (shrunk towards zero by the noise).
-pub fn remove(series: &Series, r: &[[f64; 3]], wh: &Whitening, rf: &RingingFit) -> Vec<[f64; 3]> {
-    let win = edge_windows(series);
+pub fn remove(series: &Series, r: &[[f64; 3]], wh: &Whitening, rf: &RingingFit, latency: (f64, f64)) -> Vec<[f64; 3]> {
+    let win = edge_windows(series, latency);
     let proj = projections(series, r, &win, rf.freq_hz, rf.decay_ms, None);
     let mut out = r.to_vec();
     let w = 2.0 * std::f64::consts::PI * rf.freq_hz * 1e-3;
@@ -323,7 +329,7 @@ pub fn remove(series: &Series, r: &[[f64; 3]], wh: &Whitening, rf: &RingingFit) 
             let Some(inv) = m.try_inverse() else { continue };
             let c = inv * p * s;
             for &i in idx {
-                let dt = (series.t_ms[i] - te) as f64;
+                let dt = series.t_ms[i] as f64 - te;
                 let env = (-dt / rf.decay_ms).exp();
                 let (sn, cs) = (w * dt).sin_cos();
                 out[i][a] -= env * (c[0] * cs + c[1] * sn);

@@ -309,6 +309,7 @@ impl<S: Scalar> Pipeline<S> {
         if self.word == 0 || !self.firing_has_data {
             return false;
         }
+        self.catch_up();
         // The firing's final estimate: the detector's measurement, the reference rate
         // extrapolation of the next firing, and telemetry.
         let last = match self.kf.estimate() {
@@ -335,44 +336,80 @@ impl<S: Scalar> Pipeline<S> {
             return false;
         };
         let n = self.firings_with_data;
-        if n <= self.cfg.batch_firings {
-            self.mass.add_batch_aggregate(&agg, updates);
-            if n == self.cfg.batch_firings {
-                self.deferred = Some(Deferred::BatchSolve);
-            }
-        } else {
-            self.mass.add_firing(&agg, updates);
-            self.deferred = Some(Deferred::Rls(last));
-        }
+        self.deferred = Some(Deferred::Fold {
+            agg,
+            updates,
+            batch: n <= self.cfg.batch_firings,
+            batch_complete: n == self.cfg.batch_firings,
+            last,
+        });
         true
     }
 
-    /// The solve of a firing that ended on the previous tick (kept off the word-change tick
-    /// so no single tick carries both the firing's fold-in and the LU solves).
+    /// Runs one stage of a firing's deferred work per tick (fold-in, change test and merge,
+    /// CoM solve, inverse-inertia solve), so no tick carries more than one of them. A firing
+    /// with data lasts more than the stages at 1 kHz; if the next one ends earlier (or at
+    /// `finish`), the stages are caught up at once. Returns true when a solve completed.
     fn run_deferred(&mut self) -> bool {
         let Some(d) = self.deferred.take() else {
             return false;
         };
-        let s = match d {
-            Deferred::BatchSolve => self.mass.solve(),
-            Deferred::Rls(last) => self.mass.end_firing(last.as_ref()),
-        };
-        self.status = match s {
-            RlsStatus::Ok => PipelineStatus::Ok,
-            RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
-            RlsStatus::Singular => PipelineStatus::Singular,
-            RlsStatus::Overflow => PipelineStatus::Overflow,
-            RlsStatus::NoData => self.status,
-        };
-        true
+        match d {
+            Deferred::Fold { agg, updates, batch, batch_complete, last } => {
+                if batch {
+                    self.mass.add_batch_aggregate(&agg, updates);
+                    if batch_complete {
+                        self.deferred = Some(Deferred::SolveCom);
+                    }
+                } else {
+                    self.mass.add_firing(&agg, updates);
+                    self.deferred = Some(Deferred::Merge { last });
+                }
+                false
+            }
+            Deferred::Merge { last } => {
+                self.mass.fold_firing(last.as_ref());
+                self.deferred = Some(Deferred::SolveCom);
+                false
+            }
+            Deferred::SolveCom => {
+                let com = self.mass.solve_com();
+                self.deferred = Some(Deferred::SolveInertia { com });
+                false
+            }
+            Deferred::SolveInertia { com } => {
+                let inertia = self.mass.solve_inertia();
+                let s = self.mass.combine(com, inertia);
+                self.status = match s {
+                    RlsStatus::Ok => PipelineStatus::Ok,
+                    RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
+                    RlsStatus::Singular => PipelineStatus::Singular,
+                    RlsStatus::Overflow => PipelineStatus::Overflow,
+                    RlsStatus::NoData => self.status,
+                };
+                true
+            }
+        }
+    }
+
+    /// Runs every pending stage now.
+    fn catch_up(&mut self) -> bool {
+        let mut solved = false;
+        for _ in 0..8 {
+            if self.deferred.is_none() {
+                break;
+            }
+            solved |= self.run_deferred();
+        }
+        solved
     }
 
     /// Ends the current firing (if any) as if the thrusters had turned off, e.g. at the end
     /// of a recording, so its data is folded in.
     pub fn finish(&mut self) -> PipelineStatus {
-        self.run_deferred();
+        self.catch_up();
         self.end_firing();
-        let solved = self.run_deferred();
+        let solved = self.catch_up();
         if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
             // Fewer firings than the batch needs: the batch so far is the estimate.
             let s = self.mass.solve();
@@ -428,14 +465,23 @@ impl<S: Scalar> Pipeline<S> {
     }
 }
 
-/// A solve waiting for the tick after its firing ended.
+/// A firing's remaining work, one stage per tick after it ended.
 #[derive(Clone, Copy, Debug)]
 enum Deferred<S> {
-    /// The batch over the first firings is complete.
-    BatchSolve,
-    /// An RLS firing was folded into the pending information (its final measurement for the
-    /// change detector).
-    Rls(Option<Measurement<S>>),
+    /// Add the firing's aggregate measurement (batch information or RLS pending).
+    Fold {
+        agg: Measurement<S>,
+        updates: u32,
+        batch: bool,
+        batch_complete: bool,
+        last: Option<Measurement<S>>,
+    },
+    /// Change test (with the firing's final measurement), forgetting, merge.
+    Merge { last: Option<Measurement<S>> },
+    /// Solve the CoM problem.
+    SolveCom,
+    /// Solve the inverse-inertia problem and set the status.
+    SolveInertia { com: RlsStatus },
 }
 
 /// The gyroscopic torque `omega x (I_nom omega)` from filtered gyro counts.

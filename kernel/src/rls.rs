@@ -533,6 +533,12 @@ impl<S: Scalar> MassId<S> {
     /// Ends an RLS firing: change test with the firing's final measurement against the
     /// estimate from before the firing, forgetting, fold-in, solve.
     pub fn end_firing(&mut self, last: Option<&Measurement<S>>) -> RlsStatus {
+        self.fold_firing(last);
+        self.solve()
+    }
+
+    /// The first half of [`MassId::end_firing`]: change test, forgetting, fold-in (no solve).
+    pub fn fold_firing(&mut self, last: Option<&Measurement<S>>) {
         if let (Some(det), Some(m)) = (self.cfg.detector, last) {
             if let Some(nis) = self.innovation_nis(m) {
                 self.detect(&det, nis);
@@ -549,7 +555,6 @@ impl<S: Scalar> MassId<S> {
         self.pending_com = InfoLs::new();
         self.pending_inertia = InfoLs::new();
         self.pending_updates = 0;
-        self.solve()
     }
 
     fn detect(&mut self, det: &DetectorConfig<S>, nis: Scaled<S>) {
@@ -608,24 +613,39 @@ impl<S: Scalar> MassId<S> {
 
     /// Solves both problems for the current estimate.
     pub fn solve(&mut self) -> RlsStatus {
+        let c = self.solve_com();
+        let i = self.solve_inertia();
+        self.combine(c, i)
+    }
+
+    /// Solves the CoM problem alone (its status; the estimate is kept on failure).
+    pub fn solve_com(&mut self) -> RlsStatus {
         let zero3 = [S::ZERO; 3];
-        let c = self.com.solve(&zero3, self.cfg.unobservable_rel, self.cfg.pivot_rel);
-        let i = self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel);
-        let mut status = RlsStatus::Ok;
-        match c {
+        match self.com.solve(&zero3, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
             Ok(sol) => {
                 self.delta_com_m = sol.x;
                 self.unobservable_com = sol.unobservable;
+                RlsStatus::Ok
             }
-            Err(e) => status = worst(status, lu_status(e)),
+            Err(e) => lu_status(e),
         }
-        match i {
+    }
+
+    /// Solves the inverse-inertia problem alone (its status; the estimate is kept on failure).
+    pub fn solve_inertia(&mut self) -> RlsStatus {
+        match self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
             Ok(sol) => {
                 self.theta_inertia = sol.x;
                 self.unobservable_inertia = sol.unobservable;
+                RlsStatus::Ok
             }
-            Err(e) => status = worst(status, lu_status(e)),
+            Err(e) => lu_status(e),
         }
+    }
+
+    /// The overall status of a solve from its two halves.
+    pub fn combine(&mut self, com: RlsStatus, inertia: RlsStatus) -> RlsStatus {
+        let mut status = worst(com, inertia);
         if status == RlsStatus::Ok
             && (self.unobservable_com.iter().any(|u| *u) || self.unobservable_inertia.iter().any(|u| *u))
         {

@@ -235,12 +235,13 @@ impl<const N: usize> BatchLs<N> {
 }
 
 /// Change detector on the RLS innovations, one value per firing: a one-sided CUSUM
-/// `g = max(0, g + e/e_ref - 1 - drift)` of the firing's relative innovation
-/// `e = |b - A x| / |b|` (its last, best Kalman estimate against the RLS prediction from
-/// before the firing), with `e_ref` the mean of the first `warmup` firings' values. When
-/// `g > threshold` a change is declared (the caller inflates the covariance so new data
-/// dominates, e.g. after a proof mass is attached mid-run, seed Fig. 4.4) and the
-/// detector rests for `refractory` firings while every axis is re-excited.
+/// `g = max(0, g + e/e_ref - 1 - drift)` of the firing's normalised innovation squared
+/// `e = nu' (R + A Q A')^-1 nu`, `nu = b - A x` (its last, best Kalman estimate against the
+/// RLS prediction from before the firing; the pipeline computes it), with `e_ref` the mean
+/// of the first `warmup` firings' values. When `g > threshold` a change is declared (the
+/// caller inflates the covariance so new data dominates, e.g. after a proof mass is
+/// attached mid-run, seed Fig. 4.4), the detector rests for `refractory` firings while
+/// every axis is re-excited, and the level `e_ref` is learnt anew.
 /// Per firing rather than per update because within a firing the Kalman filter's
 /// variance shrinks like `1/n^3` while its error does not, so per-update normalised
 /// innovations are not stationary.
@@ -261,7 +262,7 @@ impl ChangeDetector {
         ChangeDetector { drift, threshold, warmup, refractory, g: 0.0, seen: 0, e_sum: 0.0, rest: 0 }
     }
 
-    /// Feeds one firing's relative innovation; true when a change is declared.
+    /// Feeds one firing's normalised innovation; true when a change is declared.
     pub fn feed(&mut self, e: f64) -> bool {
         if !e.is_finite() {
             return false;
@@ -278,8 +279,13 @@ impl ChangeDetector {
         let e_ref = (self.e_sum / self.warmup.max(1) as f64).max(1e-12);
         self.g = (self.g + e / e_ref - 1.0 - self.drift).max(0.0);
         if self.g > self.threshold {
+            // After a change the innovations' level is re-learnt while the estimate
+            // re-converges (as the kernel's detector does): the old level belongs to the old
+            // mass properties and to a converged estimate.
             self.g = 0.0;
             self.rest = self.refractory;
+            self.seen = 0;
+            self.e_sum = 0.0;
             return true;
         }
         false

@@ -7,7 +7,7 @@
 //! and in the offline form knowing in advance which terms the maneuver leaves unobservable
 //! (they are then held at the nominal values, seed eq. 3.13's reduction).
 use crate::mass_id::{
-    com_row, inertia_from_inverse, inertia_row, nominal_inverse_inertia, pin_terms, BatchLs, ChangeDetector,
+    com_row, inertia_from_inverse, inertia_row, lu_inverse, nominal_inverse_inertia, pin_terms, BatchLs, ChangeDetector,
     Excitation, LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
 };
 use crate::omega_dot::{gyroscopic_omega_dot, kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
@@ -19,7 +19,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 /// Change-detector settings (see [`ChangeDetector`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ChangeDetectorConfig {
-    /// Allowed excess of a firing's relative innovation over its learnt level.
+    /// Allowed excess of a firing's normalised innovation over its learnt level.
     pub drift: f64,
     /// CUSUM level that declares a change.
     pub threshold: f64,
@@ -143,6 +143,9 @@ pub struct MassIdAccumulator {
     detections_s: Vec<f64>,
     detector: Option<ChangeDetector>,
     x_at_firing_start: Option<SVector<f64, 6>>,
+    /// Covariance of the inverse-inertia estimate at the firing's start (for the innovation's
+    /// predicted variance).
+    cov_at_firing_start: Option<SMatrix<f64, 6, 6>>,
     last_in_firing: Option<OmegaDotEstimate>,
 }
 
@@ -188,6 +191,7 @@ impl MassIdAccumulator {
             detections_s: Vec::new(),
             detector: None,
             x_at_firing_start: None,
+            cov_at_firing_start: None,
             last_in_firing: None,
         }
     }
@@ -215,6 +219,10 @@ impl MassIdAccumulator {
             self.last_firing = Some(e.firing);
             self.firings_seen += 1;
             self.x_at_firing_start = self.rls.as_ref().map(|(_, ri)| ri.x);
+            self.cov_at_firing_start = match (&self.detector, self.rls.as_ref()) {
+                (Some(_), Some((_, ri))) => ri.covariance().ok(),
+                _ => None,
+            };
         }
         self.last_in_firing = Some(*e);
         let (oc, oi) = Self::observations(&self.sat, e);
@@ -249,18 +257,23 @@ impl MassIdAccumulator {
     }
 
     /// Change detection at the end of a firing: its last (best) Kalman estimate against
-    /// the inertia RLS prediction from before the firing.
+    /// the inertia RLS prediction from before the firing, as a normalised innovation
+    /// squared `nu' S^-1 nu` with `S = R + A Q A'` (`Q` the estimate's covariance at the
+    /// firing's start). Normalising by the *predicted* spread keeps firings that excite terms
+    /// the estimate has not seen yet (large `A Q A'`) from inflating the learnt level, and
+    /// keeps small-torque firings (translations, small `b`) from dominating it.
     fn end_of_firing(&mut self) {
-        let (Some(d), Some(x0), Some(last)) = (self.detector.as_mut(), self.x_at_firing_start, self.last_in_firing) else {
+        let (Some(d), Some(x0), Some(q0), Some(last)) =
+            (self.detector.as_mut(), self.x_at_firing_start, self.cov_at_firing_start, self.last_in_firing)
+        else {
             return;
         };
         let (_, oi) = Self::observations(&self.sat, &last);
-        let b = oi.b.norm();
-        if b <= 0.0 {
-            return;
-        }
-        let e = (oi.b - oi.a * x0).norm() / b;
-        if d.feed(e) {
+        let nu = oi.b - oi.a * x0;
+        let s = oi.r + oi.a * q0 * oi.a.transpose();
+        let Some(s_inv) = lu_inverse(&s) else { return };
+        let nis = (nu.transpose() * s_inv * nu)[0];
+        if d.feed(nis) {
             let shrink = self.cfg.change_detector.map(|c| c.shrink).unwrap_or(1e-3);
             if let Some((rc, ri)) = self.rls.as_mut() {
                 rc.reset_covariance(shrink);

@@ -101,23 +101,37 @@ fn progress(len: u64, what: &str) -> ProgressBar {
     pb
 }
 
-/// Flies rga12, attaches the proof mass, flies rga12 again; returns the concatenated recording.
+/// RGA sets flown after the attachment: the detector needs a firing or two to see the change,
+/// and the covariance reset that follows discards what came before, so a second set
+/// re-excites every axis (the KC-135 flights repeated their maneuvers over many parabolas).
+const SETS_AFTER: usize = 2;
+
+/// Flies rga12, attaches the proof mass, flies rga12 `SETS_AFTER` times more; returns the
+/// concatenated recording (rates carried over from one set to the next).
 fn simulate_flight(sat: &Satellite, change: &MassPropertyChange, seed: u64) -> anyhow::Result<Recording> {
-    let pb = progress(2, "simulating two RGA sets");
-    let before = SimSpec { seed, ..SimSpec::new(sat.clone(), Vec::new(), Maneuver::Rga12) };
-    let first = simulate(&before).map_err(|e| anyhow!("simulation: {e}"))?;
-    pb.inc(1);
+    let pb = progress(1 + SETS_AFTER as u64, "simulating RGA sets");
+    let set_ms = (Maneuver::Rga12.default_seconds() * 1000.0).round() as u64;
     let after_effect = MassPropertyChange { at_s: 0.0, ..change.clone() };
-    let mut after = SimSpec::new(sat.clone(), vec![Effect::MassPropertyChange(after_effect)], Maneuver::Rga12);
-    after.seed = seed.wrapping_add(1);
-    after.initial_rate = first.body_rate.last().copied().unwrap_or([0.0; 3]);
-    let second = simulate(&after).map_err(|e| anyhow!("simulation: {e}"))?;
-    pb.inc(1);
+    let mut rec: Option<Recording> = None;
+    let mut rate = [0.0; 3];
+    for set in 0..=SETS_AFTER {
+        let effects = if set == 0 { Vec::new() } else { vec![Effect::MassPropertyChange(after_effect.clone())] };
+        let mut spec = SimSpec::new(sat.clone(), effects, Maneuver::Rga12);
+        spec.seed = seed.wrapping_add(set as u64);
+        spec.initial_rate = rate;
+        let out = simulate(&spec).map_err(|e| anyhow!("simulation: {e}"))?;
+        rate = out.body_rate.last().copied().unwrap_or(rate);
+        let offset_ms = set as u64 * set_ms;
+        let samples = out.recording.samples.iter().map(|s| Sample { time_ms: s.time_ms + offset_ms, ..*s });
+        match rec.as_mut() {
+            None => rec = Some(out.recording),
+            Some(r) => r.samples.extend(samples),
+        }
+        pb.inc(1);
+    }
     pb.finish();
-    let mut rec = first.recording;
-    let offset_ms = (change.at_s * 1000.0).round() as u64;
-    rec.samples.extend(second.recording.samples.iter().map(|s| Sample { time_ms: s.time_ms + offset_ms, ..*s }));
-    rec.metadata.push(("generator".into(), "massid demo (two rga12 sets, proof mass attached between)".into()));
+    let mut rec = rec.ok_or_else(|| anyhow!("no RGA set simulated"))?;
+    rec.metadata.push(("generator".into(), format!("massid demo (rga12, proof mass attached, rga12 x{SETS_AFTER})")));
     Ok(rec)
 }
 
@@ -215,7 +229,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let change = MassPropertyChange { at_s: rga_s, offset_mm: offset_after, inertia_kgm2: inertia_after };
 
     println!(
-        "massid demo: {} flies the RGA set ({rga_s} s), a {:.0} g proof mass is attached at ({:.3}, {:.3}, {:.3}) m, then the RGA set again.",
+        "massid demo: {} flies the RGA set ({rga_s} s), a {:.0} g proof mass is attached at ({:.3}, {:.3}, {:.3}) m, then it flies the set {SETS_AFTER} more times.",
         sat.name,
         args.proof_mass_kg * 1e3,
         args.proof_mass_at_m[0],

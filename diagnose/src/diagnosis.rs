@@ -133,6 +133,32 @@ fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
     t.iter().zip(y).map(|(a, v)| v - my - b * (a - mt)).collect()
 }
 
+/// Wald statistic of an effect's parameters against their "no effect" values.
+fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
+    let nominal_i = prob.plant.nominal_inertia();
+    let null: Vec<(usize, f64)> = match kind {
+        Kind::ThrusterLatency | Kind::PressureDrop | Kind::ComOffset | Kind::GyroBias | Kind::DisturbanceTorque => {
+            (0..theta.len()).map(|i| (i, 0.0)).collect()
+        }
+        Kind::ThrustScale | Kind::GyroScale => (0..theta.len()).map(|i| (i, 1.0)).collect(),
+        Kind::Blowdown => vec![(1, 0.0)],
+        Kind::Inertia => (0..6).map(|i| (i, nominal_i[i])).collect(),
+        Kind::MassPropertyChange => {
+            let mut v: Vec<(usize, f64)> = (1..4).map(|i| (i, 0.0)).collect();
+            v.extend((0..6).map(|i| (4 + i, nominal_i[i])));
+            v
+        }
+        Kind::FuelSlosh => vec![(2, 0.0)],
+        Kind::GyroRinging => vec![],
+    };
+    null.iter()
+        .map(|&(i, v)| {
+            let e = se.get(i).copied().unwrap_or(f64::INFINITY);
+            if e > 0.0 && e.is_finite() { ((theta[i] - v) / e).powi(2) } else { 0.0 }
+        })
+        .sum()
+}
+
 /// The valve latency (open, close ms) among `pairs`, zero when none.
 fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
     pairs.iter().find(|a| a.0 == Kind::ThrusterLatency).map(|a| (a.1[0], a.1[1])).unwrap_or((0.0, 0.0))
@@ -190,7 +216,7 @@ pub fn diagnose(
         let chi2_cur = chi2_rigid - ring_gain;
         let acc_pairs: Vec<(Kind, Vec<f64>)> = accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
         let mut best: Option<(f64, Kind, Vec<f64>, String, Option<RingingFit>)> = None;
-        let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String, Option<RingingFit>)> = vec![];
+        let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String, Option<RingingFit>, Vec<f64>)> = vec![];
         for &kind in Kind::ALL.iter() {
             if accepted.iter().any(|a| a.kind == kind) {
                 continue;
@@ -220,7 +246,7 @@ pub fn diagnose(
                 }
                 let Some(rf) = ringing_cache.clone().flatten() else { continue };
                 let dbic = -rf.gain + k_new as f64 * ln_n;
-                screened.push((dbic, kind, vec![], chi2_cur - rf.gain, rf.evidence.clone(), Some(rf)));
+                screened.push((dbic, kind, vec![], chi2_cur - rf.gain, rf.evidence.clone(), Some(rf), vec![]));
             } else {
                 let Some((fr, sz)) =
                     select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), &omega0, &slosh_hint, screen_iter)
@@ -229,26 +255,42 @@ pub fn diagnose(
                 };
                 let off: usize = sz[..sz.len() - 1].iter().sum();
                 let chi2 = fr.chi2 - ring_gain;
-                screened.push((chi2 - chi2_cur + k_new as f64 * ln_n, kind, fr.theta[off..off + k_new].to_vec(), chi2, String::new(), None));
+                screened.push((
+                    chi2 - chi2_cur + k_new as f64 * ln_n,
+                    kind,
+                    fr.theta[off..off + k_new].to_vec(),
+                    chi2,
+                    String::new(),
+                    None,
+                    fr.stderr[off..off + k_new].to_vec(),
+                ));
             }
         }
         // full fits for the best screened candidates
         screened.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
-        for (i, (dbic, kind, theta, chi2, note, rf)) in screened.into_iter().enumerate() {
-            let (dbic, theta) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
-                let k_new = effects::n_params(kind, &fired);
+        for (i, (dbic, kind, theta, chi2, note, rf, se)) in screened.into_iter().enumerate() {
+            let k_new = effects::n_params(kind, &fired);
+            let (dbic, theta, se) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
                 match select::fit_from(&prob, &fired, &acc_pairs, kind, &theta, &omega0, &slosh_hint, settings.max_iter) {
                     Some((fr, sz)) if fr.chi2 - ring_gain < chi2 => {
                         let off: usize = sz[..sz.len() - 1].iter().sum();
-                        (fr.chi2 - ring_gain - chi2_cur + k_new as f64 * ln_n, fr.theta[off..off + k_new].to_vec())
+                        (
+                            fr.chi2 - ring_gain - chi2_cur + k_new as f64 * ln_n,
+                            fr.theta[off..off + k_new].to_vec(),
+                            fr.stderr[off..off + k_new].to_vec(),
+                        )
                     }
-                    _ => (dbic, theta),
+                    _ => (dbic, theta, se),
                 }
             } else {
-                (dbic, theta)
+                (dbic, theta, se)
             };
             scores.push(Score { round, effect: kind.name(), delta_bic: dbic });
-            if best.as_ref().map(|b| dbic < b.0).unwrap_or(true) {
+            // backing test: the effect's own parameters must differ from "no effect" by
+            // more than the BIC penalty in their own (colour-corrected) uncertainty, so a
+            // candidate that only helps the others converge is not taken for physics
+            let significant = kind == Kind::GyroRinging || wald(kind, &theta, &se, &prob) >= k_new as f64 * ln_n;
+            if significant && best.as_ref().map(|b| dbic < b.0).unwrap_or(true) {
                 best = Some((dbic, kind, theta, note, rf));
             }
         }

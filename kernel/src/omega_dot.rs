@@ -344,6 +344,30 @@ impl<S: Scalar> OmegaDotKf<S> {
         Some((weight, mean))
     }
 
+    /// The current angular acceleration only (no variance), rad/s^2; the prior without updates.
+    pub fn omega_dot(&self) -> Option<[S; 3]> {
+        let s = &self.sums;
+        if s.n == 0 {
+            return Some(self.prior);
+        }
+        let kappa = self.kappa;
+        let n = Scaled::from_i64(i64::from(s.n));
+        let sk = Scaled::from_i64(i64::try_from(s.sk).unwrap_or(i64::MAX));
+        let sk2 = Scaled::from_i64(i64::try_from(s.sk2).unwrap_or(i64::MAX));
+        let s2 = sk2.minus(sk.scale(kappa.plus(kappa))).plus(n.scale(kappa.times(kappa)));
+        let mut out = [S::ZERO; 3];
+        for (i, o) in out.iter_mut().enumerate() {
+            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (self.axes.get(i), s.sz.get(i), s.skz.get(i), self.prior.get(i))
+            else {
+                return None;
+            };
+            let szk = Scaled::from_i64(*skz).minus(Scaled::from_i64(*sz).scale(kappa));
+            let num = ax.alpha.scale(*x0).plus(szk.times(ax.gamma));
+            *o = num.over(ax.alpha.plus(s2))?.value();
+        }
+        Some(out)
+    }
+
     /// The current estimate, or `None` if a quotient does not fit the scalar type.
     pub fn estimate(&self) -> Option<OmegaDotEstimate<S>> {
         let s = &self.sums;

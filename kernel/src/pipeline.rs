@@ -285,24 +285,6 @@ impl<S: Scalar> Pipeline<S> {
         TickEvent::Updated
     }
 
-    fn measurement(&self, est: &OmegaDotEstimate<S>) -> Measurement<S> {
-        let ft = &self.firing_terms;
-        let a = self.effective_torque_cnm();
-        let pred = mat_vec(&self.terms.theta_inertia_matrix, &a);
-        let mut b_com = [S::ZERO; 3];
-        for ((b, w), n) in b_com.iter_mut().zip(est.omega_dot.iter()).zip(pred.iter()) {
-            *b = w.minus(*n);
-        }
-        Measurement {
-            a_com: ft.a_com,
-            b_com,
-            a_inertia: inertia_rows(&a),
-            b_inertia: est.omega_dot,
-            weight: est.information,
-            variance: est.variance,
-        }
-    }
-
     /// Folds the ending firing in; returns true if it had data. Its solve runs on the next
     /// tick ([`Pipeline::run_deferred`]).
     fn end_firing(&mut self) -> bool {
@@ -310,40 +292,40 @@ impl<S: Scalar> Pipeline<S> {
             return false;
         }
         self.catch_up();
-        // The firing's final estimate: the detector's measurement, the reference rate
-        // extrapolation of the next firing, and telemetry.
-        let last = match self.kf.estimate() {
-            Some(est) => {
-                self.accel_before = est.omega_dot;
-                self.last_estimate = Some(est);
-                Some(self.measurement(&est))
-            }
-            None => None,
-        };
-        // Every sample of the firing is one RLS measurement with the same regressor: fold them
-        // in at once (exact aggregate of the per-sample updates).
-        let updates = self.kf.updates();
-        let aggregate = self.kf.aggregate().zip(last).map(|((weight, mean), m)| {
-            let pred = mat_vec(&self.terms.theta_inertia_matrix, &self.effective_torque_cnm());
-            Measurement {
-                b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
-                b_inertia: mean,
-                weight,
-                ..m
-            }
-        });
-        let Some(agg) = aggregate else {
-            return false;
-        };
+        // Only what the next firing's reset needs is computed now: the acceleration to
+        // extrapolate the lagging filtered rate. The rest works on a copy of the filter.
+        if let Some(x) = self.kf.omega_dot() {
+            self.accel_before = x;
+        }
         let n = self.firings_with_data;
-        self.deferred = Some(Deferred::Fold {
-            agg,
-            updates,
+        self.deferred = Some(Deferred::Measure {
+            kf: self.kf,
+            terms: self.firing_terms,
             batch: n <= self.cfg.batch_firings,
             batch_complete: n == self.cfg.batch_firings,
-            last,
         });
         true
+    }
+
+    /// The firing's final estimate (detector measurement, telemetry) and its per-sample
+    /// measurements in aggregate (exact: every sample of the firing has the same regressor).
+    fn firing_measurements(
+        &mut self,
+        kf: &OmegaDotKf<S>,
+        terms: &FiringTerms<S>,
+    ) -> Option<(Measurement<S>, Measurement<S>)> {
+        let est = kf.estimate()?;
+        self.last_estimate = Some(est);
+        let last = measurement_for(&self.terms.theta_inertia_matrix, terms, &est);
+        let (weight, mean) = kf.aggregate()?;
+        let pred = mat_vec(&self.terms.theta_inertia_matrix, &terms.torque_cnm);
+        let agg = Measurement {
+            b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
+            b_inertia: mean,
+            weight,
+            ..last
+        };
+        Some((agg, last))
     }
 
     /// Runs one stage of a firing's deferred work per tick (fold-in, change test and merge,
@@ -355,20 +337,26 @@ impl<S: Scalar> Pipeline<S> {
             return false;
         };
         match d {
-            Deferred::Fold { agg, updates, batch, batch_complete, last } => {
+            Deferred::Measure { kf, terms, batch, batch_complete } => {
+                if let Some((agg, last)) = self.firing_measurements(&kf, &terms) {
+                    self.mass.add_com_part(&agg, batch);
+                    self.deferred = Some(Deferred::FoldInertia { agg, updates: kf.updates(), batch, batch_complete, last });
+                }
+                false
+            }
+            Deferred::FoldInertia { agg, updates, batch, batch_complete, last } => {
+                self.mass.add_inertia_part(&agg, batch, updates);
                 if batch {
-                    self.mass.add_batch_aggregate(&agg, updates);
                     if batch_complete {
                         self.deferred = Some(Deferred::SolveCom);
                     }
                 } else {
-                    self.mass.add_firing(&agg, updates);
                     self.deferred = Some(Deferred::Merge { last });
                 }
                 false
             }
             Deferred::Merge { last } => {
-                self.mass.fold_firing(last.as_ref());
+                self.mass.fold_firing(Some(&last));
                 self.deferred = Some(Deferred::SolveCom);
                 false
             }
@@ -465,19 +453,35 @@ impl<S: Scalar> Pipeline<S> {
     }
 }
 
+/// The measurement of one angular-acceleration estimate for a firing's regressors
+/// (seed eqs 3.5-3.8; rows at zero rate, see `Pipeline::remove_gyroscopic`).
+fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, est: &OmegaDotEstimate<S>) -> Measurement<S> {
+    let pred = mat_vec(theta, &ft.torque_cnm);
+    let mut b_com = [S::ZERO; 3];
+    for ((b, w), n) in b_com.iter_mut().zip(est.omega_dot.iter()).zip(pred.iter()) {
+        *b = w.minus(*n);
+    }
+    Measurement {
+        a_com: ft.a_com,
+        b_com,
+        a_inertia: inertia_rows(&ft.torque_cnm),
+        b_inertia: est.omega_dot,
+        weight: est.information,
+        variance: est.variance,
+    }
+}
+
 /// A firing's remaining work, one stage per tick after it ended.
+// No allocation in the kernel: the filter copy lives in the (fixed-size) state.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 enum Deferred<S> {
-    /// Add the firing's aggregate measurement (batch information or RLS pending).
-    Fold {
-        agg: Measurement<S>,
-        updates: u32,
-        batch: bool,
-        batch_complete: bool,
-        last: Option<Measurement<S>>,
-    },
+    /// Form the firing's measurements from a copy of its Kalman filter; add the CoM part.
+    Measure { kf: OmegaDotKf<S>, terms: FiringTerms<S>, batch: bool, batch_complete: bool },
+    /// Add the inverse-inertia part (batch information or RLS pending).
+    FoldInertia { agg: Measurement<S>, updates: u32, batch: bool, batch_complete: bool, last: Measurement<S> },
     /// Change test (with the firing's final measurement), forgetting, merge.
-    Merge { last: Option<Measurement<S>> },
+    Merge { last: Measurement<S> },
     /// Solve the CoM problem.
     SolveCom,
     /// Solve the inverse-inertia problem and set the status.

@@ -506,6 +506,24 @@ impl<S: Scalar> MassId<S> {
         self.updates = self.updates.saturating_add(updates);
     }
 
+    /// The CoM half of [`MassId::add_batch_aggregate`] (`batch`) or [`MassId::add_firing`].
+    pub fn add_com_part(&mut self, m: &Measurement<S>, batch: bool) {
+        let target = if batch { &mut self.com } else { &mut self.pending_com };
+        target.add(&m.a_com, &m.b_com, &m.weight);
+    }
+
+    /// The inverse-inertia half of [`MassId::add_batch_aggregate`] (`batch`) or
+    /// [`MassId::add_firing`], counting the `updates`.
+    pub fn add_inertia_part(&mut self, m: &Measurement<S>, batch: bool, updates: u32) {
+        if batch {
+            self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
+        } else {
+            self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
+            self.pending_updates = self.pending_updates.saturating_add(updates);
+        }
+        self.updates = self.updates.saturating_add(updates);
+    }
+
     /// Adds an RLS firing's measurements (`updates` per-sample measurements in aggregate),
     /// folded in at [`MassId::end_firing`]. With forgetting, the older information is
     /// multiplied by `lambda^updates` there; the firing's own samples are not weighted among

@@ -155,7 +155,8 @@ worst_tick() {
   echo "| pipeline (\`Pipeline<S>\`) | $(info "$OUT/qemu-m0.txt" state-bytes fixed) | $(info "$OUT/qemu-m0.txt" state-bytes f32) |"
   echo "| mixer (\`Mixer<S>\`) | $(info "$OUT/qemu-m0.txt" mixer-bytes fixed) | $(info "$OUT/qemu-m0.txt" mixer-bytes f32) |"
   echo
-  echo "(x86-64 host: pipeline $(info "$OUT/host.txt" state-bytes fixed) bytes; the C ABI reserves 2560 per pipeline block, 1024 per mixer block.)"
+  hdr=kernel/include/massid_kernel.h
+  echo "(x86-64 host: pipeline $(info "$OUT/host.txt" state-bytes fixed) bytes; the C ABI reserves $(awk '$2 == "MASSID_PIPELINE_BYTES" { print $3 }' "$hdr") bytes per pipeline block and $(awk '$2 == "MASSID_MIXER_BYTES" { print $3 }' "$hdr") per mixer block.)"
   echo
   echo "### Worst-case stack per C-ABI entry point (bytes)"
   echo

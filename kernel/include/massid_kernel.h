@@ -33,7 +33,7 @@ extern "C" {
 
 #define MASSID_N_THRUSTERS 12
 /* Bytes reserved for the opaque state blocks (kernel/src/capi.rs: PIPELINE_BYTES, MIXER_BYTES). */
-#define MASSID_PIPELINE_BYTES 2560
+#define MASSID_PIPELINE_BYTES 4096
 #define MASSID_MIXER_BYTES 1024
 /* Q8.24: value = bits / MASSID_Q24_ONE. */
 #define MASSID_Q24_ONE 16777216

@@ -168,7 +168,7 @@ impl From<MixerError> for MassidStatus {
 }
 
 /// Bytes reserved for a pipeline state (header: `MASSID_PIPELINE_BYTES`).
-pub const PIPELINE_BYTES: usize = 2560;
+pub const PIPELINE_BYTES: usize = 4096;
 /// Bytes reserved for a mixer state (header: `MASSID_MIXER_BYTES`).
 pub const MIXER_BYTES: usize = 1024;
 

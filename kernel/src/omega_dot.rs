@@ -166,6 +166,18 @@ pub struct KfSumsOfSums {
     pub tskz: [Acc128; 3],
 }
 
+/// What an estimate is formed from: the prior and the exact sums of one firing (so the
+/// estimate of a firing can be formed after the filter has been reset for the next one).
+#[derive(Clone, Copy, Debug)]
+pub struct KfSnapshot<S> {
+    /// The reset value `x0`.
+    pub prior: [S; 3],
+    /// First-order sums.
+    pub sums: KfSums,
+    /// Second-order sums.
+    pub second: KfSumsOfSums,
+}
+
 /// The per-sample angular-acceleration Kalman filter (integer accumulators).
 #[derive(Clone, Copy, Debug)]
 pub struct OmegaDotKf<S> {
@@ -310,8 +322,18 @@ impl<S: Scalar> OmegaDotKf<S> {
     /// Returns `(sum_k J_k, weighted mean)` per axis, `None` without updates or if a value
     /// does not fit.
     pub fn aggregate(&self) -> Option<([Scaled<S>; 3], [S; 3])> {
-        let s = &self.sums;
-        let t = &self.second;
+        self.aggregate_of(&self.snapshot())
+    }
+
+    /// The firing's state for a later [`OmegaDotKf::estimate_of`] / [`OmegaDotKf::aggregate_of`].
+    pub fn snapshot(&self) -> KfSnapshot<S> {
+        KfSnapshot { prior: self.prior, sums: self.sums, second: self.second }
+    }
+
+    /// [`OmegaDotKf::aggregate`] of a snapshot (same filter constants).
+    pub fn aggregate_of(&self, snap: &KfSnapshot<S>) -> Option<([Scaled<S>; 3], [S; 3])> {
+        let s = &snap.sums;
+        let t = &snap.second;
         if s.n == 0 {
             return None;
         }
@@ -326,7 +348,7 @@ impl<S: Scalar> OmegaDotKf<S> {
         let mut mean = [S::ZERO; 3];
         for i in 0..3 {
             let (Some(ax), Some(tsz), Some(tskz), Some(x0)) =
-                (self.axes.get(i), t.tsz.get(i), t.tskz.get(i), self.prior.get(i))
+                (self.axes.get(i), t.tsz.get(i), t.tskz.get(i), snap.prior.get(i))
             else {
                 return None;
             };
@@ -370,11 +392,16 @@ impl<S: Scalar> OmegaDotKf<S> {
 
     /// The current estimate, or `None` if a quotient does not fit the scalar type.
     pub fn estimate(&self) -> Option<OmegaDotEstimate<S>> {
-        let s = &self.sums;
+        self.estimate_of(&self.snapshot())
+    }
+
+    /// [`OmegaDotKf::estimate`] of a snapshot (same filter constants).
+    pub fn estimate_of(&self, snap: &KfSnapshot<S>) -> Option<OmegaDotEstimate<S>> {
+        let s = &snap.sums;
         if s.n == 0 {
             let p0 = self.p0;
             let info = Scaled { m: S::ONE.checked_div(p0.m)?, e: p0.e.saturating_neg() };
-            return Some(OmegaDotEstimate { omega_dot: self.prior, variance: [p0; 3], information: [info; 3], updates: 0 });
+            return Some(OmegaDotEstimate { omega_dot: snap.prior, variance: [p0; 3], information: [info; 3], updates: 0 });
         }
         let kappa = self.kappa;
         let n = Scaled::from_i64(i64::from(s.n));
@@ -386,7 +413,7 @@ impl<S: Scalar> OmegaDotKf<S> {
         let mut variance = [Scaled::zero(); 3];
         let mut information = [Scaled::zero(); 3];
         for i in 0..3 {
-            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (self.axes.get(i), s.sz.get(i), s.skz.get(i), self.prior.get(i))
+            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (self.axes.get(i), s.sz.get(i), s.skz.get(i), snap.prior.get(i))
             else {
                 return None;
             };

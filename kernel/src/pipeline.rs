@@ -16,7 +16,7 @@ use crate::gyro_filter::{GyroLowPass, LowPassCoefs, COUNT_FRAC_BITS};
 
 const _: () = assert!(COUNT_FRAC_BITS == 12, "Gyroscopic::omega assumes Q12 counts");
 use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
-use crate::omega_dot::{KfConfig, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
+use crate::omega_dot::{KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
 use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use crate::scalar::Scalar;
 
@@ -299,7 +299,7 @@ impl<S: Scalar> Pipeline<S> {
         }
         let n = self.firings_with_data;
         self.deferred = Some(Deferred::Measure {
-            kf: self.kf,
+            kf: self.kf.snapshot(),
             terms: self.firing_terms,
             batch: n <= self.cfg.batch_firings,
             batch_complete: n == self.cfg.batch_firings,
@@ -311,13 +311,13 @@ impl<S: Scalar> Pipeline<S> {
     /// measurements in aggregate (exact: every sample of the firing has the same regressor).
     fn firing_measurements(
         &mut self,
-        kf: &OmegaDotKf<S>,
+        kf: &KfSnapshot<S>,
         terms: &FiringTerms<S>,
     ) -> Option<(Measurement<S>, Measurement<S>)> {
-        let est = kf.estimate()?;
+        let est = self.kf.estimate_of(kf)?;
         self.last_estimate = Some(est);
         let last = measurement_for(&self.terms.theta_inertia_matrix, terms, &est);
-        let (weight, mean) = kf.aggregate()?;
+        let (weight, mean) = self.kf.aggregate_of(kf)?;
         let pred = mat_vec(&self.terms.theta_inertia_matrix, &terms.torque_cnm);
         let agg = Measurement {
             b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
@@ -340,7 +340,7 @@ impl<S: Scalar> Pipeline<S> {
             Deferred::Measure { kf, terms, batch, batch_complete } => {
                 if let Some((agg, last)) = self.firing_measurements(&kf, &terms) {
                     self.mass.add_com_part(&agg, batch);
-                    self.deferred = Some(Deferred::FoldInertia { agg, updates: kf.updates(), batch, batch_complete, last });
+                    self.deferred = Some(Deferred::FoldInertia { agg, updates: kf.sums.n, batch, batch_complete, last });
                 }
                 false
             }
@@ -476,8 +476,8 @@ fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, est: &Om
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 enum Deferred<S> {
-    /// Form the firing's measurements from a copy of its Kalman filter; add the CoM part.
-    Measure { kf: OmegaDotKf<S>, terms: FiringTerms<S>, batch: bool, batch_complete: bool },
+    /// Form the firing's measurements from a snapshot of its Kalman sums; add the CoM part.
+    Measure { kf: KfSnapshot<S>, terms: FiringTerms<S>, batch: bool, batch_complete: bool },
     /// Add the inverse-inertia part (batch information or RLS pending).
     FoldInertia { agg: Measurement<S>, updates: u32, batch: bool, batch_complete: bool, last: Measurement<S> },
     /// Change test (with the firing's final measurement), forgetting, merge.

@@ -8,7 +8,7 @@
 #     on an emulated Cortex-M0 (micro:bit) and Cortex-M4F (MPS2-AN386); its semihosted output
 #     must equal the host build's (fixed bit for bit, f32 within MASSID_F32_MAX_ULP, default 0);
 #  4. scripts/kernel-report.sh (code size, state size, stack, instructions per tick), unless
-#     MASSID_SKIP_REPORT=1.
+#     MASSID_SKIP_REPORT=1; informative (a failure there is printed, not fatal).
 # Artefacts go to out/kernel/. Exits non-zero on the first failure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -44,29 +44,32 @@ CARGO_TARGET_DIR=$BASE cargo clippy --locked -p massid-kernel --features capi --
 CARGO_TARGET_DIR=$BASE cargo clippy --locked -p massid-kernel --features capi --target thumbv6m-none-eabi -- -D warnings
 
 step "QEMU: kernel on Cortex-M0 and Cortex-M4F vs host build"
+# The micro:bit image is size-optimised (opt-level s, as a 256 KB-flash flight image would be);
+# the M4F image uses the release profile as is (opt-level 3, the build the report counts).
 QBASE=$BASE/qemu
+M0BASE=$BASE/qemu-s
 (
   cd kernel/qemu
   CARGO_TARGET_DIR=$QBASE cargo build --locked --release -p massid-qemu-host
   CARGO_TARGET_DIR=$QBASE cargo test --locked --release -p massid-qemu-host
-  for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
-    CARGO_TARGET_DIR=$QBASE cargo build --locked --release -p massid-qemu-firmware --target "$t"
-  done
+  CARGO_PROFILE_RELEASE_OPT_LEVEL=s CARGO_TARGET_DIR=$M0BASE \
+    cargo build --locked --release -p massid-qemu-firmware --target thumbv6m-none-eabi
+  CARGO_TARGET_DIR=$QBASE cargo build --locked --release -p massid-qemu-firmware --target thumbv7em-none-eabihf
 )
 HOST_TOOL=$QBASE/release/massid-qemu-host
 "$HOST_TOOL" run >"$OUT/host.txt"
-run_qemu() { # target machine-args...
-  local t=$1; shift
+run_qemu() { # image machine-args...
+  local image=$1; shift
   timeout 600 qemu-system-arm "$@" -semihosting-config enable=on,target=native -nographic \
-    -monitor none -serial none -kernel "$QBASE/$t/release/massid-qemu-firmware"
+    -monitor none -serial none -kernel "$image"
 }
-run_qemu thumbv6m-none-eabi -machine microbit >"$OUT/qemu-m0.txt"
-run_qemu thumbv7em-none-eabihf -machine mps2-an386 -cpu cortex-m4 >"$OUT/qemu-m4f.txt"
+run_qemu "$M0BASE/thumbv6m-none-eabi/release/massid-qemu-firmware" -machine microbit >"$OUT/qemu-m0.txt"
+run_qemu "$QBASE/thumbv7em-none-eabihf/release/massid-qemu-firmware" -machine mps2-an386 -cpu cortex-m4 >"$OUT/qemu-m4f.txt"
 "$HOST_TOOL" compare "$OUT/host.txt" "$OUT/qemu-m0.txt" "${MASSID_F32_MAX_ULP:-0}"
 "$HOST_TOOL" compare "$OUT/host.txt" "$OUT/qemu-m4f.txt" "${MASSID_F32_MAX_ULP:-0}"
 
 if [ "${MASSID_SKIP_REPORT:-0}" != 1 ]; then
-  step "kernel report"
-  scripts/kernel-report.sh
+  step "kernel report (informative: goals are reported, not enforced)"
+  scripts/kernel-report.sh || echo "cross-check: WARNING: scripts/kernel-report.sh failed; the checks above passed"
 fi
 echo "cross-check: all embedded checks passed"

@@ -57,17 +57,19 @@ done
 
 # ---- firmware (equality build) and state sizes --------------------------------------------
 log "firmware images and state sizes"
+# As in cross-check.sh: the micro:bit image at opt-level s, the M4F image at the release profile.
+M0BASE=$BASE/qemu-s
 (
   cd kernel/qemu
-  for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
-    CARGO_TARGET_DIR=$QBASE cargo build -q --locked --release -p massid-qemu-firmware --target "$t"
-  done
+  CARGO_PROFILE_RELEASE_OPT_LEVEL=s CARGO_TARGET_DIR=$M0BASE \
+    cargo build -q --locked --release -p massid-qemu-firmware --target thumbv6m-none-eabi
+  CARGO_TARGET_DIR=$QBASE cargo build -q --locked --release -p massid-qemu-firmware --target thumbv7em-none-eabihf
 )
 image_text() { llvm-size "$1" | awk 'NR == 2 { print $1 }'; }
-M0_IMAGE=$(image_text "$QBASE/thumbv6m-none-eabi/release/massid-qemu-firmware")
+M0_IMAGE=$(image_text "$M0BASE/thumbv6m-none-eabi/release/massid-qemu-firmware")
 M4_IMAGE=$(image_text "$QBASE/thumbv7em-none-eabihf/release/massid-qemu-firmware")
 timeout 600 qemu-system-arm -machine microbit -semihosting-config enable=on,target=native -nographic \
-  -monitor none -serial none -kernel "$QBASE/thumbv6m-none-eabi/release/massid-qemu-firmware" >"$OUT/qemu-m0.txt"
+  -monitor none -serial none -kernel "$M0BASE/thumbv6m-none-eabi/release/massid-qemu-firmware" >"$OUT/qemu-m0.txt"
 "$HOST_TOOL" run >"$OUT/host.txt"
 info() { awk -v k="$2" -v f="$3" '$1 == "info" && $2 == f && $3 == k { print $4 }' "$1"; }
 
@@ -146,7 +148,7 @@ worst_tick() {
   echo "Both instantiations (Q8.24 and f32) of pipeline + mixer, as the C ABI instantiates them, summed over"
   echo "the \`massid_kernel\` objects of \`libmassid_kernel_capi.a\` (release, before link-time garbage collection;"
   echo "\`core\` and \`compiler_builtins\` excluded). Linked QEMU firmware images (kernel fixed + f32, runner,"
-  echo "formatting, soft-float, embedded recording): micro:bit (M0) $M0_IMAGE bytes, MPS2-AN386 (M4F) $M4_IMAGE bytes of text."
+  echo "formatting, soft-float, embedded recording): micro:bit (M0, opt-level s) $M0_IMAGE bytes, MPS2-AN386 (M4F, opt-level 3) $M4_IMAGE bytes of text."
   echo
   echo "### State size (bytes, 32-bit targets)"
   echo

@@ -356,7 +356,12 @@ impl<S: Scalar> Pipeline<S> {
                 false
             }
             Deferred::Merge { last } => {
-                self.mass.fold_firing(Some(&last));
+                self.mass.fold_firing_com(Some(&last));
+                self.deferred = Some(Deferred::MergeInertia);
+                false
+            }
+            Deferred::MergeInertia => {
+                self.mass.fold_firing_inertia();
                 self.deferred = Some(Deferred::SolveCom);
                 false
             }
@@ -480,8 +485,10 @@ enum Deferred<S> {
     Measure { kf: KfSnapshot<S>, terms: FiringTerms<S>, batch: bool, batch_complete: bool },
     /// Add the inverse-inertia part (batch information or RLS pending).
     FoldInertia { agg: Measurement<S>, updates: u32, batch: bool, batch_complete: bool, last: Measurement<S> },
-    /// Change test (with the firing's final measurement), forgetting, merge.
+    /// Change test (with the firing's final measurement), forgetting, CoM merge.
     Merge { last: Measurement<S> },
+    /// Inverse-inertia merge.
+    MergeInertia,
     /// Solve the CoM problem.
     SolveCom,
     /// Solve the inverse-inertia problem and set the status.

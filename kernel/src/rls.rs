@@ -557,6 +557,12 @@ impl<S: Scalar> MassId<S> {
 
     /// The first half of [`MassId::end_firing`]: change test, forgetting, fold-in (no solve).
     pub fn fold_firing(&mut self, last: Option<&Measurement<S>>) {
+        self.fold_firing_com(last);
+        self.fold_firing_inertia();
+    }
+
+    /// [`MassId::fold_firing`] up to the CoM merge: change test, forgetting of both problems.
+    pub fn fold_firing_com(&mut self, last: Option<&Measurement<S>>) {
         if let (Some(det), Some(m)) = (self.cfg.detector, last) {
             if let Some(nis) = self.innovation_nis(m) {
                 self.detect(&det, nis);
@@ -567,10 +573,15 @@ impl<S: Scalar> MassId<S> {
             self.com.forget(f);
             self.inertia.forget(f);
         }
-        let (pc, pi) = (self.pending_com, self.pending_inertia);
+        let pc = self.pending_com;
         self.com.merge(&pc);
-        self.inertia.merge(&pi);
         self.pending_com = InfoLs::new();
+    }
+
+    /// The rest of [`MassId::fold_firing`]: the inverse-inertia merge.
+    pub fn fold_firing_inertia(&mut self) {
+        let pi = self.pending_inertia;
+        self.inertia.merge(&pi);
         self.pending_inertia = InfoLs::new();
         self.pending_updates = 0;
     }

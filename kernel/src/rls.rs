@@ -109,23 +109,21 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     /// Keeps [`InfoLs::magnitude`] in [2^(L-2), 2^L) so precision is neither lost to
     /// underflow nor to overflow, whatever the true magnitude (the exponent absorbs it).
     fn renormalise(&mut self) {
-        let limit = S::from_int_pow2(1, DIAG_LIMIT_LOG2);
-        let low = S::from_int_pow2(1, DIAG_LIMIT_LOG2.saturating_sub(2));
-        for _ in 0..64 {
-            if self.magnitude().lt(limit) {
-                break;
-            }
-            self.shift_down(1);
+        let mag = self.magnitude();
+        if !S::ZERO.lt(mag) {
+            return;
         }
-        for _ in 0..64 {
-            let d = self.magnitude();
-            if !d.lt(low) || !S::ZERO.lt(d) {
-                break;
-            }
+        // mag in [2^e, 2^(e+1)): one shift brings it to [2^(L-1), 2^L).
+        let e = Scaled { m: mag, e: 0 }.normalized().e;
+        let k = e.saturating_sub(DIAG_LIMIT_LOG2.saturating_sub(1));
+        if k > 0 {
+            self.shift_down(k);
+        } else if e < DIAG_LIMIT_LOG2.saturating_sub(2) {
+            let up = k.saturating_neg();
             for v in self.lam.iter_mut().flatten().chain(self.eta.iter_mut()) {
-                *v = v.mul_pow2(1);
+                *v = v.mul_pow2(up);
             }
-            self.exp = self.exp.saturating_sub(1);
+            self.exp = self.exp.saturating_sub(up);
         }
     }
 
@@ -150,20 +148,28 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         let r = rows.map(|row| row.iter().fold(S::ZERO, |acc, v| acc.plus(v.abs())));
         let one = S::ONE;
         let budget = S::from_int_pow2(1, DIAG_LIMIT_LOG2.saturating_add(1));
-        for _ in 0..64 {
+        let rb = b.iter().zip(r.iter()).fold(S::ZERO, |m, (bi, ri)| max_abs(m, max_abs(*bi, *ri)));
+        for _ in 0..8 {
             let t = [0usize, 1, 2].map(|i| {
                 let wi = wm.get(i).copied().unwrap_or(S::ZERO);
                 let ri = r.get(i).copied().unwrap_or(S::ZERO);
                 wi.times(ri)
             });
-            let small = t.iter().all(|ti| ti.lt(one));
-            let rb = b.iter().zip(r.iter()).fold(S::ZERO, |m, (bi, ri)| max_abs(m, max_abs(*bi, *ri)));
+            let t_max = t.iter().fold(S::ZERO, |m, ti| max_abs(m, *ti));
             let bound = t.iter().fold(self.magnitude(), |acc, ti| acc.mul_add(*ti, rb));
-            if small && bound.lt(budget) {
+            if t_max.lt(one) && bound.lt(budget) {
                 break;
             }
-            self.shift_down(1);
-            wm = wm.map(|v| v.mul_pow2(-1));
+            // Everything scales by 2^-k: take the k that brings both below their limits at once
+            // (values in [2^e, 2^(e+1)); at least one step).
+            let e_t = Scaled { m: t_max, e: 0 }.normalized().e;
+            let e_b = Scaled { m: bound, e: 0 }.normalized().e;
+            let k = e_t
+                .saturating_add(1)
+                .max(e_b.saturating_sub(DIAG_LIMIT_LOG2))
+                .max(1);
+            self.shift_down(k);
+            wm = wm.map(|v| v.mul_pow2(k.saturating_neg()));
         }
         for ((row, bi), wi) in rows.iter().zip(b.iter()).zip(wm.iter()) {
             let v: [S; N] = row.map(|a| wi.times(a));

@@ -15,18 +15,9 @@ pub static PREDICTIONS: std::sync::atomic::AtomicUsize = std::sync::atomic::Atom
 /// Number of thrusters.
 pub const NT: usize = 12;
 
-/// A gyro tone excited at every valve edge (seed ch. 3 and App. A).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Ringing {
-    /// True frequency, Hz.
-    pub freq_hz: f64,
-    /// Exponential decay time constant, ms.
-    pub decay_ms: f64,
-    /// Per axis: cosine and sine amplitude, rad/s, per valve that changes state.
-    pub amp: [[f64; 2]; 3],
-}
-
-/// Every parameter of the model. `Default` is "no effect" (the nominal model).
+/// Every parameter of the rigid-body and gyro model. `Default` is "no effect" (the
+/// nominal model). Gyro ringing is not here: it is incoherent from edge to edge and is
+/// fitted on the residual (`ringing.rs`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Params {
     pub thrust_scale: [f64; NT],
@@ -47,7 +38,6 @@ pub struct Params {
     /// True gyro bias minus the model's, counts.
     pub gyro_bias_counts: [f64; 3],
     pub gyro_scale: [f64; 3],
-    pub ringing: Option<Ringing>,
     pub disturbance_nm: [f64; 3],
     /// Body rate at the first sample, rad/s (a nuisance parameter, always fitted).
     pub omega0: [f64; 3],
@@ -71,7 +61,6 @@ impl Default for Params {
             slosh: None,
             gyro_bias_counts: [0.0; 3],
             gyro_scale: [1.0; 3],
-            ringing: None,
             disturbance_nm: [0.0; 3],
             omega0: [0.0; 3],
             resets: Vec::new(),
@@ -309,49 +298,7 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
         emit(&w, &mut out);
         si += 1;
     }
-    if let Some(r) = &p.ringing {
-        add_ringing(series, r, &mut out);
-    }
     Some(out)
-}
-
-/// Per sample, the ringing basis (decaying cosine and sine summed over the past valve
-/// edges, each weighted by the number of valves that changed state).
-pub fn ringing_basis(series: &Series, freq_hz: f64, decay_ms: f64) -> Vec<[f64; 2]> {
-    let edges = series.edges();
-    let mut out = vec![[0.0; 2]; series.len()];
-    let horizon = decay_ms * 8.0;
-    let mut first = 0usize;
-    for (si, &t) in series.t_ms.iter().enumerate() {
-        let t = t as f64;
-        while first < edges.len() && (edges[first].0 as f64) < t - horizon {
-            first += 1;
-        }
-        let mut c = 0.0;
-        let mut s = 0.0;
-        for e in &edges[first..] {
-            let dt = t - e.0 as f64;
-            if dt < 0.0 {
-                break;
-            }
-            let n = (e.1 ^ e.2).count_ones() as f64;
-            let env = n * (-dt / decay_ms).exp();
-            let ph = 2.0 * std::f64::consts::PI * freq_hz * dt * 1e-3;
-            c += env * ph.cos();
-            s += env * ph.sin();
-        }
-        out[si] = [c, s];
-    }
-    out
-}
-
-fn add_ringing(series: &Series, r: &Ringing, out: &mut [[f64; 3]]) {
-    let b = ringing_basis(series, r.freq_hz, r.decay_ms);
-    for (o, bb) in out.iter_mut().zip(b.iter()) {
-        for a in 0..3 {
-            o[a] += r.amp[a][0] * bb[0] + r.amp[a][1] * bb[1];
-        }
-    }
 }
 
 #[cfg(test)]

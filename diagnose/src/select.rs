@@ -206,8 +206,6 @@ fn fit_with_starts(
     if let Some(k) = new {
         kinds.push(k);
     }
-    let ringing_fixed: Vec<(Kind, Vec<f64>)> =
-        accepted.iter().filter(|a| a.0 == Kind::GyroRinging).cloned().collect();
     kinds.retain(|k| *k != Kind::GyroRinging);
     let mut lo = vec![];
     let mut hi = vec![];
@@ -238,7 +236,7 @@ fn fit_with_starts(
     let fired2 = *fired;
     let fam = Family {
         apply: Box::new(move |th: &[f64]| {
-            let mut acc: Vec<(Kind, Vec<f64>)> = ringing_fixed.clone();
+            let mut acc: Vec<(Kind, Vec<f64>)> = vec![];
             let mut off = 0;
             for (k, &n) in kinds2.iter().zip(sizes2.iter()) {
                 acc.push((*k, th[off..off + n].to_vec()));

@@ -307,27 +307,6 @@ impl<S: Scalar> Pipeline<S> {
         true
     }
 
-    /// The firing's final estimate (detector measurement, telemetry) and its per-sample
-    /// measurements in aggregate (exact: every sample of the firing has the same regressor).
-    fn firing_measurements(
-        &mut self,
-        kf: &KfSnapshot<S>,
-        terms: &FiringTerms<S>,
-    ) -> Option<(Measurement<S>, Measurement<S>)> {
-        let est = self.kf.estimate_of(kf)?;
-        self.last_estimate = Some(est);
-        let last = measurement_for(&self.terms.theta_inertia_matrix, terms, &est);
-        let (weight, mean) = self.kf.aggregate_of(kf)?;
-        let pred = mat_vec(&self.terms.theta_inertia_matrix, &terms.torque_cnm);
-        let agg = Measurement {
-            b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
-            b_inertia: mean,
-            weight,
-            ..last
-        };
-        Some((agg, last))
-    }
-
     /// Runs one stage of a firing's deferred work per tick (fold-in, change test and merge,
     /// CoM solve, inverse-inertia solve), so no tick carries more than one of them. A firing
     /// with data lasts more than the stages at 1 kHz; if the next one ends earlier (or at
@@ -338,7 +317,25 @@ impl<S: Scalar> Pipeline<S> {
         };
         match d {
             Deferred::Measure { kf, terms, batch, batch_complete } => {
-                if let Some((agg, last)) = self.firing_measurements(&kf, &terms) {
+                // The firing's final estimate (detector measurement, telemetry) ...
+                if let Some(est) = self.kf.estimate_of(&kf) {
+                    self.last_estimate = Some(est);
+                    let last = measurement_for(&self.terms.theta_inertia_matrix, &terms, &est);
+                    self.deferred = Some(Deferred::Aggregate { kf, last, batch, batch_complete });
+                }
+                false
+            }
+            Deferred::Aggregate { kf, last, batch, batch_complete } => {
+                // ... and its per-sample measurements in aggregate (exact: every sample of the
+                // firing has the same regressor); the CoM part is added now.
+                if let Some((weight, mean)) = self.kf.aggregate_of(&kf) {
+                    let pred = mat_vec(&self.terms.theta_inertia_matrix, &last.a_inertia_torque());
+                    let agg = Measurement {
+                        b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
+                        b_inertia: mean,
+                        weight,
+                        ..last
+                    };
                     self.mass.add_com_part(&agg, batch);
                     self.deferred = Some(Deferred::FoldInertia { agg, updates: kf.sums.n, batch, batch_complete, last });
                 }
@@ -481,8 +478,10 @@ fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, est: &Om
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 enum Deferred<S> {
-    /// Form the firing's measurements from a snapshot of its Kalman sums; add the CoM part.
+    /// Form the firing's final estimate from a snapshot of its Kalman sums.
     Measure { kf: KfSnapshot<S>, terms: FiringTerms<S>, batch: bool, batch_complete: bool },
+    /// Aggregate the firing's per-sample measurements; add the CoM part.
+    Aggregate { kf: KfSnapshot<S>, last: Measurement<S>, batch: bool, batch_complete: bool },
     /// Add the inverse-inertia part (batch information or RLS pending).
     FoldInertia { agg: Measurement<S>, updates: u32, batch: bool, batch_complete: bool, last: Measurement<S> },
     /// Change test (with the firing's final measurement), forgetting, CoM merge.

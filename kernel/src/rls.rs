@@ -348,6 +348,13 @@ pub struct Measurement<S> {
     pub variance: [Scaled<S>; 3],
 }
 
+impl<S: Scalar> Measurement<S> {
+    /// The torque (cN m) the inverse-inertia rows were built from (their diagonal entries).
+    pub fn a_inertia_torque(&self) -> [S; 3] {
+        [0usize, 1, 2].map(|i| self.a_inertia.get(i).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO))
+    }
+}
+
 /// Change detector on the RLS innovations, evaluated once per firing from the firing's
 /// final angular acceleration: the normalised innovation squared
 /// `nis = sum_i nu_i^2 / (P_i + (A Q A')_ii)` against the estimate from before the firing

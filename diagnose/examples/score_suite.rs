@@ -48,6 +48,9 @@ fn cases() -> Vec<Case> {
             r#"{"effect":"gyro_ringing","params":{"freq_hz":338.0,"decay_ms":30.0,"apparent_hz":38.0}}"#,
             r#"{"effect":"thruster_latency","params":{"open_ms":6.0,"close_ms":6.0}}"#], 36),
         c("s21 mass property change", "sph2", rga, 1000, vec![r#"{"effect":"mass_property_change","params":{"at_s":14.0,"offset_mm":[3.0,0.0,-2.0],"inertia_kgm2":[0.0266,0.0235,0.0213,0.000108,0.000157,0.0000123]}}"#], 37),
+        c("s22 com offset + inertia", "sph5", combo, 1000, vec![
+            r#"{"effect":"com_offset","params":{"offset_mm":[2.0,-1.5,1.0]}}"#,
+            r#"{"effect":"inertia","params":{"inertia_kgm2":[0.0254,0.021529,0.0212,-0.00022,0.0,0.0001]}}"#], 38),
     ]
 }
 

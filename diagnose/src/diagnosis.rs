@@ -133,6 +133,19 @@ fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
     t.iter().zip(y).map(|(a, v)| v - my - b * (a - mt)).collect()
 }
 
+/// A change in time must have firings on both sides of it to be seen: a mass-property
+/// change before the first or after the last firing is a constant inertia / CoM error (or
+/// nothing), and a blowdown starting after the last firing cannot be observed.
+fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
+    let first = series.word_ms.iter().position(|&w| w != 0).unwrap_or(0) as f64 * 1e-3;
+    let last = series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64 * 1e-3;
+    match kind {
+        Kind::MassPropertyChange => theta[0] > first + 0.5 && theta[0] < last - 0.5,
+        Kind::Blowdown => theta[0] < last - 0.5,
+        _ => true,
+    }
+}
+
 /// Wald statistic of an effect's parameters against their "no effect" values.
 fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
     let nominal_i = prob.plant.nominal_inertia();
@@ -215,7 +228,7 @@ pub fn diagnose(
         let ring_gain = ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let chi2_cur = chi2_rigid - ring_gain;
         let acc_pairs: Vec<(Kind, Vec<f64>)> = accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
-        let mut best: Option<(f64, Kind, Vec<f64>, String, Option<RingingFit>)> = None;
+        let mut ranked: Vec<(f64, Kind, Vec<f64>, String, Option<RingingFit>)> = vec![];
         let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String, Option<RingingFit>, Vec<f64>)> = vec![];
         for &kind in Kind::ALL.iter() {
             if accepted.iter().any(|a| a.kind == kind) {
@@ -289,11 +302,30 @@ pub fn diagnose(
             // backing test: the effect's own parameters must differ from "no effect" by
             // more than the BIC penalty in their own (colour-corrected) uncertainty, so a
             // candidate that only helps the others converge is not taken for physics
-            let significant = kind == Kind::GyroRinging || wald(kind, &theta, &se, &prob) >= k_new as f64 * ln_n;
-            if significant && best.as_ref().map(|b| dbic < b.0).unwrap_or(true) {
-                best = Some((dbic, kind, theta, note, rf));
+            let significant = kind == Kind::GyroRinging
+                || (wald(kind, &theta, &se, &prob) >= k_new as f64 * ln_n && observable(kind, &theta, series));
+            if significant {
+                ranked.push((dbic, kind, theta, note, rf));
             }
         }
+        ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        // a mass-property change can mimic a constant inertia error plus a CoM offset by
+        // switching half-way; it is named only if it beats that static pair
+        if ranked.first().map(|r| r.1 == Kind::MassPropertyChange).unwrap_or(false)
+            && !accepted.iter().any(|a| matches!(a.kind, Kind::Inertia | Kind::ComOffset))
+        {
+            let mut pairs = acc_pairs.clone();
+            pairs.push((Kind::Inertia, prob.plant.nominal_inertia().to_vec()));
+            if let Some((fr, _)) =
+                select::fit_joint(&prob, &fired, &pairs, Some(Kind::ComOffset), &omega0, &slosh_hint, settings.max_iter)
+            {
+                let static_bic = fr.chi2 - ring_gain - chi2_cur + 9.0 * ln_n;
+                if static_bic < ranked[0].0 {
+                    ranked.remove(0);
+                }
+            }
+        }
+        let best = ranked.into_iter().next();
         let Some((dbic, kind, theta, note, rf)) = best else { break };
         if dbic > -settings.accept_margin {
             break;

@@ -78,6 +78,7 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     markers::flavour(S::EXACT);
     let mut prev_word = 0u16;
     let mut firings = 0u32;
+    let mut since_edge = u32::MAX;
     for (i, (gyro, word)) in sequence::samples().enumerate() {
         let t = sequence::START_MS as usize + i;
         if word != prev_word && prev_word != 0 {
@@ -96,8 +97,10 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
         markers::end();
         let rls_active = firings > 2;
         let edge = word != prev_word;
+        since_edge = if edge { 0 } else { since_edge.saturating_add(1) };
         markers::kind(match report.event {
             TickEvent::Coasting | TickEvent::Transient if edge => Kind::Edge,
+            TickEvent::Coasting | TickEvent::Transient if since_edge <= markers::DEFERRED_TICKS => Kind::Deferred,
             TickEvent::Coasting | TickEvent::Transient => Kind::Idle,
             TickEvent::Updated if rls_active => Kind::KfRls,
             TickEvent::Updated => Kind::Kf,

@@ -45,6 +45,9 @@ marker!(/// A tick where the thruster word changed without a solve (firing edge:
     massid_mark_kind_edge = 0x4d42_0017);
 marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
     massid_mark_kind_mixer_build = 0x4d42_0018);
+marker!(/// A tick shortly after a thruster-word change (thrusters off or in the valve transient),
+    /// where the pipeline runs the ended firing's deferred stages one per tick.
+    massid_mark_kind_deferred = 0x4d42_0019);
 marker!(/// The following calls run the fixed-point kernel.
     massid_mark_flavour_fixed = 0x4d42_0020);
 marker!(/// The following calls run the f32 kernel.
@@ -71,7 +74,13 @@ pub enum Kind {
     Edge,
     /// Mixer rebuild.
     MixerBuild,
+    /// Tick within [`DEFERRED_TICKS`] after a word change (deferred end-of-firing stages).
+    Deferred,
 }
+
+/// Ticks after a thruster-word change counted as [`Kind::Deferred`] (fewer than the 10 ms
+/// valve transient, so no Kalman update falls in them).
+pub const DEFERRED_TICKS: u32 = 8;
 
 /// Marks the start of a measured call.
 #[inline(always)]
@@ -98,6 +107,7 @@ pub fn kind(k: Kind) {
         Kind::Other => massid_mark_kind_other(),
         Kind::Edge => massid_mark_kind_edge(),
         Kind::MixerBuild => massid_mark_kind_mixer_build(),
+        Kind::Deferred => massid_mark_kind_deferred(),
     }
 }
 

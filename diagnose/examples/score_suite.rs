@@ -51,6 +51,10 @@ fn cases() -> Vec<Case> {
         c("s22 com offset + inertia", "sph5", combo, 1000, vec![
             r#"{"effect":"com_offset","params":{"offset_mm":[2.0,-1.5,1.0]}}"#,
             r#"{"effect":"inertia","params":{"inertia_kgm2":[0.0254,0.021529,0.0212,-0.00022,0.0,0.0001]}}"#], 38),
+        c("s23 ringing 1 kHz", "sph4", combo, 1000, vec![r#"{"effect":"gyro_ringing","params":{"freq_hz":338.0,"decay_ms":25.0,"apparent_hz":338.0}}"#], 39),
+        c("s24 ringing 100 Hz + blowdown", "sph5", combo, 100, vec![
+            r#"{"effect":"gyro_ringing","params":{"freq_hz":338.0,"decay_ms":30.0,"apparent_hz":38.0}}"#,
+            r#"{"effect":"blowdown","params":{"start_s":10.0,"tau_s":25.0}}"#], 40),
     ]
 }
 

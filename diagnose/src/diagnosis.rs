@@ -371,7 +371,14 @@ pub fn diagnose(
             _ => 1000,
         };
         let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3);
-        let evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, round);
+        let mut evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, round);
+        if kind == Kind::ThrustScale {
+            // name the thruster that is most off nominal
+            let fired_idx: Vec<usize> = (0..NT).filter(|&i| fired[i]).collect();
+            if let Some((j, v)) = theta.iter().enumerate().max_by(|a, b| (a.1 - 1.0).abs().partial_cmp(&(b.1 - 1.0).abs()).unwrap()) {
+                evidence = format!("thruster {} delivers {:.0} % of its nominal force; {evidence}", fired_idx[j] + 1, 100.0 * v);
+            }
+        }
         accepted.push(Accepted {
             kind,
             theta,
@@ -480,8 +487,10 @@ fn describe(
     scores: &[Score],
     round: usize,
 ) -> String {
-    let cb = locate::by_condition(series, before);
-    let ca = locate::by_condition(series, after);
+    // where the explained error is created: the residual's change over 20 ms, by condition
+    let lag = (20.0f64).max(1000.0 / series.sample_rate_hz).round() as i64;
+    let cb = locate::by_condition(series, &locate::differenced(series, before, lag));
+    let ca = locate::by_condition(series, &locate::differenced(series, after, lag));
     let mut gain_axis = [0.0; 3];
     let mut best_cond = (f64::MIN, String::new());
     for (b, a) in cb.iter().zip(ca.iter()) {
@@ -515,7 +524,7 @@ fn describe(
         Kind::DisturbanceTorque => "rate drifts steadily even while coasting",
     };
     let mut s = format!(
-        "{what}; explained residual on {}; most per sample {}; delta BIC {:.0} when added{alt}",
+        "{what}; the explained error arises on {}, most per sample {}; delta BIC {:.0} when added{alt}",
         axes_label(gain_axis),
         best_cond.1,
         dbic

@@ -123,3 +123,21 @@ pub fn rms(r: &[[f64; 3]], valid: &[[bool; 3]]) -> [f64; 3] {
     }
     std::array::from_fn(|a| (s[a] / n[a].max(1) as f64).sqrt())
 }
+
+/// Change of the residual over the last `lag_ms` (zero where that sample is missing): a
+/// model error in torque shows where it is *created* (during the responsible firings),
+/// while the rate residual itself persists into the coasting that follows.
+pub fn differenced(series: &Series, r: &[[f64; 3]], lag_ms: i64) -> Vec<[f64; 3]> {
+    let mut out = vec![[0.0; 3]; r.len()];
+    let mut j = 0usize;
+    for i in 0..r.len() {
+        let target = series.t_ms[i] - lag_ms;
+        while j < i && series.t_ms[j] < target {
+            j += 1;
+        }
+        if j < i && series.t_ms[j] == target {
+            out[i] = std::array::from_fn(|a| r[i][a] - r[j][a]);
+        }
+    }
+    out
+}

@@ -213,10 +213,51 @@ impl<Frac: LeEqU32> Sub for Fx<Frac> {
 }
 impl<Frac: LeEqU32> Mul for Fx<Frac> {
     type Output = Self;
+    /// Full 64-bit product, arithmetic shift (rounds toward minus infinity), saturated.
     #[inline]
     fn mul(self, rhs: Self) -> Self {
-        Fx(self.0.saturating_mul(rhs.0))
+        let p = widening_mul(self.0.to_bits(), rhs.0.to_bits());
+        let r = p >> Frac::U32.min(63);
+        Fx(FixedI32::from_bits(i32::try_from(r).unwrap_or(if r > 0 { i32::MAX } else { i32::MIN })))
     }
+}
+
+/// `a * b` as i64 from four 16 x 16 -> 32 bit products: exact, and on cores without a
+/// 32 x 32 -> 64 multiply (Cortex-M0) much cheaper than the generic 64-bit multiply routine.
+#[inline]
+pub fn mul_32x32_by_halves(a: i32, b: i32) -> i64 {
+    let negative = (a < 0) != (b < 0);
+    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
+    let (a_lo, a_hi) = (ua & 0xffff, ua >> 16);
+    let (b_lo, b_hi) = (ub & 0xffff, ub >> 16);
+    // each partial product of two 16-bit halves fits in u32
+    let lo = u64::from(a_lo.wrapping_mul(b_lo));
+    let mid = u64::from(a_hi.wrapping_mul(b_lo)).wrapping_add(u64::from(a_lo.wrapping_mul(b_hi)));
+    let hi = u64::from(a_hi.wrapping_mul(b_hi));
+    // |a b| <= 2^62: the sum cannot wrap
+    let mag = (hi << 32).wrapping_add(mid << 16).wrapping_add(lo);
+    let v = mag as i64; // < 2^63
+    if negative {
+        v.wrapping_neg()
+    } else {
+        v
+    }
+}
+
+// ARM soft-float ABI targets (thumbv6m: Cortex-M0/M0+ have no 32 x 32 -> 64 multiply; the
+// ARM core features are not stable `cfg`s, so the soft-float ABI stands in for them; a
+// Cortex-M3/M4 built for the soft-float ABI takes this exact path too, just not its SMULL).
+#[cfg(all(target_arch = "arm", target_abi = "eabi"))]
+#[inline]
+fn widening_mul(a: i32, b: i32) -> i64 {
+    mul_32x32_by_halves(a, b)
+}
+
+#[cfg(not(all(target_arch = "arm", target_abi = "eabi")))]
+#[inline]
+fn widening_mul(a: i32, b: i32) -> i64 {
+    // 32 x 32 bits always fits 64: cannot wrap.
+    i64::from(a).wrapping_mul(i64::from(b))
 }
 impl<Frac: LeEqU32> Neg for Fx<Frac> {
     type Output = Self;

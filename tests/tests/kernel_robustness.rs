@@ -132,3 +132,20 @@ fn garbage_matrices_give_statuses_or_finite_solutions() {
         }
     }
 }
+
+/// The Cortex-M0 multiply path (16-bit halves) is the exact 64-bit product.
+#[test]
+fn multiply_by_halves_is_exact() {
+    use massid_kernel::scalar::mul_32x32_by_halves;
+    let edges = [0, 1, -1, 0xffff, -0xffff, 0x10000, -0x10000, i32::MAX, i32::MIN, i32::MIN + 1, 0x7fff_0000, -0x7fff_ffff];
+    for &a in &edges {
+        for &b in &edges {
+            assert_eq!(mul_32x32_by_halves(a, b), i64::from(a) * i64::from(b), "{a} * {b}");
+        }
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+    for _ in 0..1_000_000 {
+        let (a, b): (i32, i32) = (rng.gen(), rng.gen());
+        assert_eq!(mul_32x32_by_halves(a, b), i64::from(a) * i64::from(b), "{a} * {b}");
+    }
+}

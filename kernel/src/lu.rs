@@ -53,8 +53,8 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
                 return Err(LuError::Singular { column: col });
             }
             if best != col {
-                lu.swap(best, col);
-                perm.swap(best, col);
+                swap_checked(&mut lu, best, col);
+                swap_checked(&mut perm, best, col);
             }
             let Some(pivot_row) = lu.get(col).copied() else {
                 return Err(LuError::Singular { column: col });
@@ -111,4 +111,16 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
 /// Factor and solve in one call.
 pub fn solve<S: Scalar, const N: usize>(a: &[[S; N]; N], b: &[S; N], rel_tol: S) -> Result<[S; N], LuError> {
     Lu::factor(a, rel_tol)?.solve(b)
+}
+
+/// Swaps two entries through `get`/`get_mut` (no bounds-check panic path, unlike `<[T]>::swap`).
+fn swap_checked<T: Copy, const N: usize>(a: &mut [T; N], i: usize, j: usize) {
+    if let (Some(x), Some(y)) = (a.get(i).copied(), a.get(j).copied()) {
+        if let Some(s) = a.get_mut(i) {
+            *s = y;
+        }
+        if let Some(s) = a.get_mut(j) {
+            *s = x;
+        }
+    }
 }

@@ -279,7 +279,16 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     }
     #[inline]
     fn from_f32(v: f32) -> Self {
-        Fx(FixedI32::saturating_from_num(if v.is_nan() { 0.0 } else { v }))
+        // Round to nearest (ties away from zero) and saturate, without the `fixed` crate's
+        // conversion (which keeps a formatting panic path in the binary). f32 * 2^FRAC is
+        // exact in f64; `f64 as i64` saturates.
+        if v.is_nan() {
+            return Fx(FixedI32::ZERO);
+        }
+        let x = f64::from(v) * f64::from(1u32 << Frac::U32.min(31));
+        let r = if x >= 0.0 { (x + 0.5) as i64 } else { (x - 0.5) as i64 };
+        let bits = r.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+        Fx(FixedI32::from_bits(bits))
     }
     #[inline]
     fn to_f32(self) -> f32 {

@@ -2,10 +2,13 @@
 //! [--json OUT.json]`: runs a recording through the mass-property identification and
 //! prints (and optionally writes, as `contracts/estimate-output.md`) the estimate.
 //!
-//! The f64 path is the reference's offline pipeline; the f32 and fixed-point paths run the
-//! onboard kernel (`massid_kernel::Pipeline`) one sample per tick ([`run_kernel`]).
+//! The f64 path is the reference's online pipeline (causal filter, one sample at a time: the
+//! same flight algorithm the kernels run, so `max_diff_vs_f64` measures arithmetic, not a
+//! different method) or, with `--offline`, its zero-phase offline form; the f32 and
+//! fixed-point paths run the onboard kernel (`massid_kernel::Pipeline`) one sample per tick
+//! ([`run_kernel`]).
 use anyhow::{anyhow, bail, Context};
-use reference_f64::pipeline::{estimate_offline, Estimate, PipelineConfig};
+use reference_f64::pipeline::{estimate_offline, estimate_online, Estimate, PipelineConfig};
 use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 use serde_json::{json, Map, Value};
@@ -28,6 +31,19 @@ pub struct Args {
     /// Write the estimate as JSON (estimate-output v1) here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// f64 path: the offline form (zero-phase filter over the whole recording) instead of the
+    /// online one the kernels mirror. Better on its own, but not a like-for-like oracle.
+    #[arg(long)]
+    offline: bool,
+}
+
+/// Which form of the f64 reference runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceForm {
+    /// Causal, per sample: the kernels' algorithm.
+    Online,
+    /// Zero-phase, whole recording.
+    Offline,
 }
 
 /// The implementations `--kernel` may name.
@@ -86,9 +102,11 @@ pub fn load_satellite(rec: &Recording, satellite: Option<&str>, model: Option<&P
 
 /// The f64 reference or one of the onboard kernels (`massid_kernel::Pipeline`, f32 or Q8.24
 /// fixed point) run sample by sample as flight code would, telemetry gaps as gap ticks.
-pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite) -> anyhow::Result<Estimate> {
+pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite, form: ReferenceForm) -> anyhow::Result<Estimate> {
+    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
     match kernel {
-        Kernel::F64 => Ok(estimate_offline(rec, sat, &PipelineConfig { keep_history: false, ..PipelineConfig::default() })),
+        Kernel::F64 if form == ReferenceForm::Offline => Ok(estimate_offline(rec, sat, &cfg)),
+        Kernel::F64 => Ok(estimate_online(rec, sat, &cfg)),
         Kernel::F32 => onboard::estimate::<f32>(rec, sat),
         Kernel::Fixed => onboard::estimate::<massid_kernel::Q8_24>(rec, sat),
     }
@@ -277,9 +295,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         crate::cmd::check_output(out, &inputs)?;
     }
+    let form = if args.offline { ReferenceForm::Offline } else { ReferenceForm::Online };
     let mut results = Vec::new();
     for k in kernels {
-        let e = run_kernel(k, &rec, &sat)?;
+        let e = run_kernel(k, &rec, &sat, form)?;
         print_result(k, &e, &sat);
         results.push((k, e));
     }
@@ -317,7 +336,7 @@ mod tests {
     fn json_has_the_contract_fields() {
         let sat = Satellite::builtin("sph2").unwrap();
         let rec = Recording::new("r.csv", Some("sph2"), Some(1000.0), Vec::new());
-        let e = run_kernel(Kernel::F64, &rec, &sat).unwrap();
+        let e = run_kernel(Kernel::F64, &rec, &sat, ReferenceForm::Online).unwrap();
         assert_eq!(e.status, "no_firings");
         let doc = output_json("r.csv", "sph2", &[(Kernel::F64, e.clone()), (Kernel::F64, e)]);
         assert_eq!(doc["format"], "massid-estimate/1");
@@ -327,7 +346,7 @@ mod tests {
         }
         assert_eq!(r["inertia_kgm2"].as_array().unwrap().len(), 6);
         // The onboard kernels run too (no firings: nothing identified, the model is reported).
-        let k = run_kernel(Kernel::Fixed, &rec, &sat).unwrap();
+        let k = run_kernel(Kernel::Fixed, &rec, &sat, ReferenceForm::Online).unwrap();
         assert_eq!(k.status, "no_firings");
         assert_eq!(k.inertia_kgm2, sat.inertia_kgm2);
     }

@@ -9,6 +9,8 @@ command -v gcc >/dev/null || need_apt+=(gcc)
 command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 # llvm-size / llvm-objdump for scripts/kernel-report.sh.
 { command -v llvm-size >/dev/null && command -v llvm-objdump >/dev/null; } || need_apt+=(llvm)
+# plotters' font rendering (font-kit) links fontconfig and freetype.
+{ command -v pkg-config >/dev/null && pkg-config --exists fontconfig freetype2; } || need_apt+=(pkg-config libfontconfig1-dev libfreetype-dev)
 if [ ${#need_apt[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq

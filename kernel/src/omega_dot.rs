@@ -421,6 +421,10 @@ impl<S: Scalar> OmegaDotKf<S> {
             let num = ax.alpha.scale(*x0).plus(szk.times(ax.gamma));
             let den = ax.alpha.plus(s2);
             let x = num.over(den)?.value();
+            // `value()` saturates: a value on a saturation limit is not an estimate (finding 6).
+            if !x.is_valid() {
+                return None;
+            }
             let var = ax.r_over_dt2.over(den)?;
             let info = den.over(ax.r_over_dt2)?;
             if let (Some(o), Some(v), Some(j)) = (omega_dot.get_mut(i), variance.get_mut(i), information.get_mut(i)) {

@@ -48,7 +48,6 @@ macro_rules! known_failing {
 known_failing!(
     lu3_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
     lu6_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
-    kf_any_sequence_q8_24: "kernel finding 6: OmegaDotKf::estimate returns Some(invalid)",
     mixer_q8_24: "kernel finding 5: Q8.24 mixer loses the command direction when scaling",
     rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
     scaled_ops_full_q8_24: "kernel finding 12: Scaled::plus with a zero operand flushes the other operand",
@@ -56,6 +55,7 @@ known_failing!(
 );
 
 harness_tests!(
+    kf_any_sequence_q8_24,
     q8_24_add_sub,
     q8_24_mul,
     q8_24_div,

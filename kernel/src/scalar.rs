@@ -150,7 +150,15 @@ impl Scalar for f32 {
     }
     #[inline]
     fn mul_pow2(self, e: i32) -> Self {
-        self * pow2_f32(e)
+        // A single power of two only spans 2^-126..2^127; the shift is applied in up to three
+        // exact steps so a larger one still saturates / flushes as the contract says (proofs
+        // finding 11). Beyond +-300 every finite nonzero f32 overflows or flushes anyway.
+        let e = e.clamp(-300, 300);
+        let first = e.clamp(-126, 127);
+        let rest = e.saturating_sub(first);
+        let second = rest.clamp(-126, 127);
+        let third = rest.saturating_sub(second);
+        self * pow2_f32(first) * pow2_f32(second) * pow2_f32(third)
     }
     #[inline]
     fn is_valid(self) -> bool {
@@ -453,6 +461,11 @@ impl<S: Scalar> Scaled<S> {
     }
 }
 
+/// `true` for a zero (a NaN or saturated value is not one, so it still propagates).
+fn is_exact_zero<S: Scalar>(m: S) -> bool {
+    m.is_valid() && !S::ZERO.lt(m.abs())
+}
+
 impl<S: Scalar> Scaled<S> {
     /// Product (mantissas multiplied, exponents added; the result is renormalised).
     pub fn times(self, rhs: Self) -> Self {
@@ -468,6 +481,14 @@ impl<S: Scalar> Scaled<S> {
     }
     /// Sum (aligned to the larger exponent).
     pub fn plus(self, rhs: Self) -> Self {
+        // A zero's exponent carries no information: aligning to it would flush the other
+        // operand below its resolution (proofs finding 12).
+        if is_exact_zero(self.m) {
+            return rhs.normalized();
+        }
+        if is_exact_zero(rhs.m) {
+            return self.normalized();
+        }
         let a = self.normalized();
         let b = rhs.normalized();
         let e = a.e.max(b.e).saturating_add(1);
@@ -499,7 +520,9 @@ impl<S: Scalar> Scaled<S> {
     }
     /// Product with a plain scalar.
     pub fn scale(self, k: S) -> Self {
-        Scaled { m: self.m.times(k), e: self.e }.normalized()
+        // Both factors normalised first (as in `times`), so a raw mantissa times `k` cannot
+        // saturate the mantissa format.
+        self.times(Scaled { m: k, e: 0 })
     }
     /// Difference.
     pub fn minus(self, rhs: Self) -> Self {

@@ -50,11 +50,11 @@ known_failing!(
     lu6_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
     mixer_q8_24: "kernel finding 5: Q8.24 mixer loses the command direction when scaling",
     rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
-    scaled_ops_full_q8_24: "kernel finding 12: Scaled::plus with a zero operand flushes the other operand",
-    scaled_ops_full_f32: "kernel findings 11, 12: f32 mul_pow2 clamps the exponent; Scaled::plus with a zero operand",
 );
 
 harness_tests!(
+    scaled_ops_full_q8_24,
+    scaled_ops_full_f32,
     kf_any_sequence_q8_24,
     q8_24_add_sub,
     q8_24_mul,

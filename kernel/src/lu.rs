@@ -63,9 +63,12 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
             for row in lu.iter_mut().skip(col.saturating_add(1)) {
                 let Some(entry) = row.get_mut(col) else { continue };
                 let factor = entry.checked_div(pivot).ok_or(LuError::Overflow)?;
+                if !factor.is_valid() {
+                    return Err(LuError::Overflow);
+                }
                 *entry = factor;
                 for (dst, src) in row.iter_mut().zip(pivot_row.iter()).skip(col.saturating_add(1)) {
-                    *dst = dst.minus(factor.times(*src));
+                    *dst = minus_product(*dst, factor, *src)?;
                 }
             }
         }
@@ -82,7 +85,7 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
             let Some(row) = self.lu.get(i) else { continue };
             let mut acc = x.get(i).copied().unwrap_or(S::ZERO);
             for (l, xj) in row.iter().zip(x.iter()).take(i) {
-                acc = acc.minus(l.times(*xj));
+                acc = minus_product(acc, *l, *xj)?;
             }
             if let Some(xi) = x.get_mut(i) {
                 *xi = acc;
@@ -93,7 +96,7 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
             let Some(row) = self.lu.get(i) else { continue };
             let mut acc = x.get(i).copied().unwrap_or(S::ZERO);
             for (u, xj) in row.iter().zip(x.iter()).skip(i.saturating_add(1)) {
-                acc = acc.minus(u.times(*xj));
+                acc = minus_product(acc, *u, *xj)?;
             }
             let diag = row.get(i).copied().unwrap_or(S::ZERO);
             let xi_new = acc.checked_div(diag).ok_or(LuError::Overflow)?;
@@ -111,6 +114,21 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
 /// Factor and solve in one call.
 pub fn solve<S: Scalar, const N: usize>(a: &[[S; N]; N], b: &[S; N], rel_tol: S) -> Result<[S; N], LuError> {
     Lu::factor(a, rel_tol)?.solve(b)
+}
+
+/// `acc - a * b`, or [`LuError::Overflow`] if the product or the difference saturated: a
+/// saturated intermediate can be moved off the limit by a later step, so it must be caught
+/// where it happens (proofs finding 1), not only in the final result.
+fn minus_product<S: Scalar>(acc: S, a: S, b: S) -> Result<S, LuError> {
+    let p = a.times(b);
+    if !p.is_valid() {
+        return Err(LuError::Overflow);
+    }
+    let r = acc.minus(p);
+    if !r.is_valid() {
+        return Err(LuError::Overflow);
+    }
+    Ok(r)
 }
 
 /// Swaps two entries through `get`/`get_mut` (no bounds-check panic path, unlike `<[T]>::swap`).

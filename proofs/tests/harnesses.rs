@@ -46,13 +46,13 @@ macro_rules! known_failing {
 }
 
 known_failing!(
-    lu3_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
-    lu6_q8_24: "kernel finding 1: Lu::solve saturates an intermediate silently",
     mixer_q8_24: "kernel finding 5: Q8.24 mixer loses the command direction when scaling",
     rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
 );
 
 harness_tests!(
+    lu3_q8_24,
+    lu6_q8_24,
     scaled_ops_full_q8_24,
     scaled_ops_full_f32,
     kf_any_sequence_q8_24,

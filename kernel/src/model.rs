@@ -217,7 +217,10 @@ impl<S: Scalar> ModelTerms<S> {
             if word & (1u16 << (i as u32)) == 0 {
                 continue;
             }
+            // The reference clamps a thrust the pressure drop would make negative at zero
+            // (a thruster cannot pull; proofs finding 4).
             let f = f.minus(drop);
+            let f = if f.lt(S::ZERO) { S::ZERO } else { f };
             for ((cv, av), (dv, lv)) in c.iter_mut().zip(a_nm.iter_mut()).zip(d.iter().zip(lxd.iter())) {
                 *cv = cv.mul_add(*dv, f);
                 *av = av.mul_add(*lv, f);

@@ -102,10 +102,9 @@ fn every_word_every_builtin_satellite_f32() {
     every_word::<f32>(false);
 }
 
-/// Known discrepancy (kernel `firing_terms` does not clamp a negative thrust at zero as the
-/// reference does): fails until the kernel clamps; then drop the `ignore`.
+/// Words whose pressure drop would make a thrust negative: the kernel clamps it at zero as
+/// the reference does (kernel finding 4, fixed).
 #[test]
-#[ignore = "kernel finding 4: firing_terms does not clamp thrust - drop at 0"]
 fn words_where_the_drop_exceeds_a_thrust_match_the_reference() {
     every_word::<Q8_24>(true);
     every_word::<f32>(true);

@@ -69,7 +69,8 @@ pub fn exact_firing_terms(p: &massid_kernel::model::SatelliteParams, word: u16) 
         if word & (1 << i) == 0 {
             continue;
         }
-        let f = p.thrust_n[i] as f64 - drop;
+        // Clamped at zero as reference_f64 does (kernel finding 4).
+        let f = (p.thrust_n[i] as f64 - drop).max(0.0);
         let d = p.thrust_dir[i].map(|v| v as f64);
         let l = [0, 1, 2].map(|k| p.thruster_pos_m[i][k] as f64 - p.com_offset_mm[k] as f64 * 1e-3);
         let lxd = [l[1] * d[2] - l[2] * d[1], l[2] * d[0] - l[0] * d[2], l[0] * d[1] - l[1] * d[0]];

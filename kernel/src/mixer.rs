@@ -272,7 +272,7 @@ impl<S: Scalar> Mixer<S> {
                     *e = self.m.get(r).and_then(|mr| mr.get(i)).copied().unwrap_or(S::ZERO);
                 }
             }
-            let Ok(v) = Lu::factor(&s, S::from_int_pow2(1, -20)).and_then(|lu| lu.solve(cmd)) else {
+            let Some(v) = Lu::factor(&s, S::from_int_pow2(1, -20)).ok().and_then(|lu| solve_in_range(&lu, cmd)) else {
                 return *resolved;
             };
             if v.iter().all(|x| !x.lt(S::ZERO)) {
@@ -346,6 +346,34 @@ impl<S: Scalar> Mixer<S> {
         }
         Ok(out)
     }
+}
+
+/// Stage 5's solve `S v = cmd`. A command beyond reach can saturate an intermediate of the
+/// substitution (an error since proofs finding 1), and falling back to the stage-4 duties
+/// loses the direction (proofs finding 5): the command is then solved scaled down by 2^4 or
+/// 2^8 and the result brought back up, or, if that saturates, divided by its maximum (the
+/// stage-6 scaling done here: same direction, largest duty 1).
+fn solve_in_range<S: Scalar>(lu: &Lu<S, 6>, cmd: &[S; 6]) -> Option<[S; 6]> {
+    if let Ok(v) = lu.solve(cmd) {
+        return Some(v);
+    }
+    for (shift, down) in [(4, -4), (8, -8)] {
+        let Ok(v) = lu.solve(&cmd.map(|c| c.mul_pow2(down))) else { continue };
+        let up = v.map(|x| x.mul_pow2(shift));
+        if up.iter().all(|x| x.is_valid()) {
+            return Some(up);
+        }
+        let max = v.iter().fold(S::ZERO, |m, x| if m.lt(*x) { *x } else { m });
+        if !S::ZERO.lt(max) {
+            return None;
+        }
+        let mut out = [S::ZERO; 6];
+        for (o, x) in out.iter_mut().zip(v.iter()) {
+            *o = x.checked_div(max)?;
+        }
+        return Some(out);
+    }
+    None
 }
 
 /// Stage 6: if any duty exceeds 1, all are divided by the largest.

@@ -46,11 +46,11 @@ macro_rules! known_failing {
 }
 
 known_failing!(
-    mixer_q8_24: "kernel finding 5: Q8.24 mixer loses the command direction when scaling",
     rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
 );
 
 harness_tests!(
+    mixer_q8_24,
     lu3_q8_24,
     lu6_q8_24,
     scaled_ops_full_q8_24,

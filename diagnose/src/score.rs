@@ -21,7 +21,9 @@ pub struct Score {
     pub worst_param: String,
 }
 
-fn flatten(v: &Value) -> Vec<(String, f64)> {
+/// Flattens `{"k": 1.0, "a": [1, 2]}` to `[("k", 1.0), ("a[0]", 1.0), ("a[1]", 2.0)]`
+/// (how parameters are named when compared with a truth file).
+pub fn flatten(v: &Value) -> Vec<(String, f64)> {
     let mut out = vec![];
     if let Some(o) = v.as_object() {
         for (k, x) in o {

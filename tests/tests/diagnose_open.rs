@@ -3,28 +3,11 @@
 //! files, artefacts counted as data issues), each truth parameter lies inside the
 //! reported uncertainty or within 10 %, and the JSON document has the contract's shape.
 
+use massid_diagnose::score::flatten;
 use massid_diagnose::{diagnose_recording, DiagnosisOutput, Settings};
 use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 use serde_json::Value;
-
-/// Flattens `{"k": 1.0, "a": [1, 2]}` to `[("k", 1.0), ("a[0]", 1.0), ("a[1]", 2.0)]`.
-fn flatten(v: &Value) -> Vec<(String, f64)> {
-    let mut out = vec![];
-    if let Some(o) = v.as_object() {
-        for (k, x) in o {
-            match x {
-                Value::Array(a) => {
-                    for (i, y) in a.iter().enumerate() {
-                        out.push((format!("{k}[{i}]"), y.as_f64().unwrap_or(f64::NAN)));
-                    }
-                }
-                y => out.push((k.clone(), y.as_f64().unwrap_or(f64::NAN))),
-            }
-        }
-    }
-    out
-}
 
 fn diagnose_file(name: &str) -> (DiagnosisOutput, Value) {
     let dir = massid_tests::open_data_dir();

@@ -8,6 +8,8 @@
 //! 0.01 count; the output is an integer in Q12 counts, so the Kalman filter's sums of it stay
 //! exact integers.
 
+use crate::scalar::widening_mul;
+
 /// Fractional bits of the filtered counts.
 pub const COUNT_FRAC_BITS: u32 = 12;
 const COEF_FRAC_BITS: u32 = 30;
@@ -47,32 +49,42 @@ impl LowPassCoefs {
 }
 
 /// Three-axis causal low-pass state.
+///
+/// State and output are `i32`: Q12 counts of a 16-bit gyro are below 2^28, and a section's
+/// impulse response sums in magnitude to `g (1 + (1 + p) / (1 - |p|)) <= 2` (`p` turns
+/// negative below about 2.6 sample periods per `1/wc`, e.g. at 100 Hz), so a state stays below
+/// 2^30. Each coefficient product is one 32 x 32 -> 64 bit multiply (a single `SMULL` on the
+/// M4F, four 16-bit multiplies on the M0): a tick calls no 64 x 64 multiply routine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GyroLowPass {
-    coefs: LowPassCoefs,
-    x_prev: [i64; 3],
-    u: [i64; 3],
-    y: [i64; 3],
+    p_q30: i32,
+    g_q30: i32,
+    x_prev: [i32; 3],
+    u: [i32; 3],
+    y: [i32; 3],
     started: bool,
 }
 
 impl GyroLowPass {
     /// A filter that settles on the first sample it sees.
     pub fn new(coefs: LowPassCoefs) -> Self {
-        GyroLowPass { coefs, x_prev: [0; 3], u: [0; 3], y: [0; 3], started: false }
+        // A stable pole and its gain are in [-1, 1]: |Q30| <= 2^30.
+        let one = 1i64 << COEF_FRAC_BITS;
+        let q30 = |v: i64| i32::try_from(v.clamp(one.wrapping_neg(), one)).unwrap_or(0);
+        GyroLowPass { p_q30: q30(coefs.p_q30), g_q30: q30(coefs.g_q30), x_prev: [0; 3], u: [0; 3], y: [0; 3], started: false }
     }
 
     /// Filters one sample of raw counts; returns the filtered counts in Q12.
     pub fn step(&mut self, counts: [u16; 3]) -> [i32; 3] {
-        let x = counts.map(|c| i64::from(c) << COUNT_FRAC_BITS);
+        // u16 << 12 < 2^28: fits i32.
+        let x = counts.map(|c| i32::from(c) << COUNT_FRAC_BITS);
         if !self.started {
             self.x_prev = x;
             self.u = x;
             self.y = x;
             self.started = true;
         }
-        let LowPassCoefs { p_q30, g_q30 } = self.coefs;
-        let half = 1i64 << (COEF_FRAC_BITS - 1);
+        let (p, g) = (self.p_q30, self.g_q30);
         let mut out = [0i32; 3];
         for a in 0..3 {
             let (Some(xa), Some(xp), Some(ua), Some(ya), Some(o)) = (
@@ -84,22 +96,26 @@ impl GyroLowPass {
             ) else {
                 continue;
             };
-            // |values| < 2^25 and coefficients < 2^30: every product is below 2^56.
-            let u_new = p_q30
-                .saturating_mul(*ua)
-                .saturating_add(g_q30.saturating_mul(xa.saturating_add(*xp)))
-                .saturating_add(half)
-                >> COEF_FRAC_BITS;
-            let y_new = p_q30
-                .saturating_mul(*ya)
-                .saturating_add(g_q30.saturating_mul(u_new.saturating_add(*ua)))
-                .saturating_add(half)
-                >> COEF_FRAC_BITS;
+            let u_new = section(p, g, *ua, xa, *xp);
+            let y_new = section(p, g, *ya, u_new, *ua);
             *xp = xa;
             *ua = u_new;
             *ya = y_new;
-            *o = i32::try_from(y_new).unwrap_or(0);
+            *o = y_new;
         }
         out
     }
+}
+
+/// One first-order section `round(p y + g (x0 + x1))` with Q30 coefficients.
+#[inline]
+fn section(p: i32, g: i32, y: i32, x0: i32, x1: i32) -> i32 {
+    // |y|, |x| < 2^30 and |p|, |g| <= 2^30: products below 2^60 in magnitude, their sum
+    // below 2^62 (no wrap); the result is a state, < 2^30 (see `GyroLowPass`).
+    let half = 1i64 << (COEF_FRAC_BITS - 1);
+    let acc = widening_mul(p, y)
+        .wrapping_add(widening_mul(g, x0))
+        .wrapping_add(widening_mul(g, x1))
+        .wrapping_add(half);
+    i32::try_from(acc >> COEF_FRAC_BITS).unwrap_or(0)
 }

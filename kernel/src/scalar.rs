@@ -92,6 +92,40 @@ pub trait Scalar:
     fn mul_add(self, a: Self, b: Self) -> Self {
         self.plus(a.times(b))
     }
+
+    /// `(m, k)` with `self = m * 2^k` (up to the floor rounding of the down shifts) and
+    /// `|m|` in `[1, 2)`: the block-floating-point normalisation. At most 64 steps each way;
+    /// zero stays `(0, 0)`. The default is the defining loop, one exact halving or doubling
+    /// per step through the trait's own comparisons (so an interval type keeps its meaning);
+    /// the `f32` and fixed impls compute the same result in O(1) from the bit pattern
+    /// (tested against the loop).
+    #[inline]
+    fn split_pow2(self) -> (Self, i32) {
+        split_pow2_by_steps(self)
+    }
+}
+
+/// The defining loop of [`Scalar::split_pow2`].
+pub fn split_pow2_by_steps<S: Scalar>(v: S) -> (S, i32) {
+    let one = S::ONE;
+    let two = S::from_int_pow2(2, 0);
+    let mut m = v;
+    let mut e = 0i32;
+    for _ in 0..64 {
+        if m.abs().lt(two) {
+            break;
+        }
+        m = m.mul_pow2(-1);
+        e = e.saturating_add(1);
+    }
+    for _ in 0..64 {
+        if !m.abs().lt(one) || !S::ZERO.lt(m.abs()) {
+            break;
+        }
+        m = m.mul_pow2(1);
+        e = e.saturating_sub(1);
+    }
+    (m, e)
 }
 
 /// The larger of two magnitudes, through the trait's comparison.
@@ -178,6 +212,18 @@ impl Scalar for f32 {
         let t = x as i64; // truncation toward zero, exact here
         Some(if (t as f64) > x { t.saturating_sub(1) } else { t })
     }
+    #[inline]
+    fn split_pow2(self) -> (Self, i32) {
+        let biased = ((self.to_bits() >> 23) & 0xff) as i32;
+        if biased == 0 || biased == 0xff {
+            // zero, subnormal, infinite, NaN: rare, the defining loop
+            return split_pow2_by_steps(self);
+        }
+        // A normal number is 1.f * 2^(biased - 127); the loop stops after 64 steps.
+        let k = biased.saturating_sub(127).clamp(-64, 64);
+        // exact: the result is normal (|k| <= 64 keeps it far inside the range)
+        (self * pow2_f32(k.saturating_neg()), k)
+    }
 }
 
 /// `2^e` as f32 built from its bit pattern (no libm in `no_std`); clamps to the normal range.
@@ -257,16 +303,80 @@ pub fn mul_32x32_by_halves(a: i32, b: i32) -> i64 {
 // Cortex-M3/M4 built for the soft-float ABI takes this exact path too, just not its SMULL).
 #[cfg(all(target_arch = "arm", target_abi = "eabi"))]
 #[inline]
-fn widening_mul(a: i32, b: i32) -> i64 {
+pub(crate) fn widening_mul(a: i32, b: i32) -> i64 {
     mul_32x32_by_halves(a, b)
 }
 
 #[cfg(not(all(target_arch = "arm", target_abi = "eabi")))]
 #[inline]
-fn widening_mul(a: i32, b: i32) -> i64 {
+pub(crate) fn widening_mul(a: i32, b: i32) -> i64 {
     // 32 x 32 bits always fits 64: cannot wrap.
     i64::from(a).wrapping_mul(i64::from(b))
 }
+/// `trunc(a 2^frac / b)` as the `fixed` crate's `checked_div` defines it (`None` for a zero
+/// divisor or a quotient outside `i32`), by restoring long division in 32-bit words: one
+/// 32-bit divide for the integer part, then one shift-compare-subtract per fractional bit.
+/// Cores without a hardware divide (Cortex-M0) otherwise call the 64-bit division routine,
+/// several hundred instructions per quotient.
+#[inline]
+pub fn fixed_div_by_words(a: i32, b: i32, frac: u32) -> Option<i32> {
+    if frac > 31 {
+        return fixed_div_by_i64(a, b, frac);
+    }
+    let negative = (a < 0) != (b < 0);
+    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
+    let q_int = ua.checked_div(ub)?;
+    let mut r = ua.checked_rem(ub)?;
+    // |quotient| <= 2^31 needs q_int <= 2^(31 - frac)
+    if u64::from(q_int) > (1u64 << 31u32.saturating_sub(frac)) {
+        return None;
+    }
+    let mut q = q_int.checked_shl(frac).unwrap_or(0); // <= 2^31: fits u32
+    let mut bit = frac;
+    while bit > 0 {
+        bit = bit.saturating_sub(1);
+        // r < ub <= 2^31, so 2 r < 2^32
+        r = r.wrapping_shl(1);
+        if r >= ub {
+            r = r.wrapping_sub(ub);
+            q |= 1u32.wrapping_shl(bit);
+        }
+    }
+    if negative {
+        // magnitude 2^31 is i32::MIN itself
+        if q > 1u32 << 31 {
+            None
+        } else {
+            Some((q as i32).wrapping_neg())
+        }
+    } else {
+        i32::try_from(q).ok()
+    }
+}
+
+/// `trunc(a 2^frac / b)` by one 64-bit division (where the core divides in hardware, or the
+/// runtime's routine is cheap enough).
+#[inline]
+pub fn fixed_div_by_i64(a: i32, b: i32, frac: u32) -> Option<i32> {
+    if frac > 32 {
+        return None;
+    }
+    let q = (i64::from(a) << frac).checked_div(i64::from(b))?;
+    i32::try_from(q).ok()
+}
+
+#[cfg(all(target_arch = "arm", target_abi = "eabi"))]
+#[inline]
+fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
+    fixed_div_by_words(a, b, frac)
+}
+
+#[cfg(not(all(target_arch = "arm", target_abi = "eabi")))]
+#[inline]
+fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
+    fixed_div_by_i64(a, b, frac)
+}
+
 impl<Frac: LeEqU32> Neg for Fx<Frac> {
     type Output = Self;
     #[inline]
@@ -304,7 +414,7 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     }
     #[inline]
     fn checked_div(self, rhs: Self) -> Option<Self> {
-        self.0.checked_div(rhs.0).map(Fx)
+        fixed_div(self.0.to_bits(), rhs.0.to_bits(), Frac::U32).map(|b| Fx(FixedI32::from_bits(b)))
     }
     #[inline]
     fn abs(self) -> Self {
@@ -331,6 +441,36 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
         // bits * k fits in i64 (32 + 32 bits); the arithmetic shift floors.
         let prod = i64::from(self.0.to_bits()).checked_mul(i64::from(k))?;
         Some(prod >> Frac::U32.min(63))
+    }
+    #[inline]
+    fn split_pow2(self) -> (Self, i32) {
+        let frac = Frac::U32;
+        if frac > 29 {
+            return split_pow2_by_steps(self);
+        }
+        let b = self.0.to_bits();
+        let mag = b.unsigned_abs();
+        if mag == 0 {
+            return (self, 0);
+        }
+        // bit length of |b|: |b| in [2^(len-1), 2^len)
+        let len = 32u32.saturating_sub(mag.leading_zeros());
+        let two = 1u32 << frac.saturating_add(1); // frac <= 29: no overflow
+        if len > frac.saturating_add(1) {
+            // Down: the loop's floor halvings compose to one arithmetic shift by k; for a
+            // negative value the floor may leave |b >> k| = 2^(frac+1): one more step then.
+            let mut k = len.saturating_sub(frac.saturating_add(1)).min(31);
+            if (b >> k).unsigned_abs() >= two {
+                k = k.saturating_add(1).min(31);
+            }
+            (Fx(FixedI32::from_bits(b >> k)), k as i32)
+        } else if len <= frac {
+            // Up: exact doublings until |b| >= 2^frac (|b| < 2^frac, so no overflow).
+            let k = frac.saturating_add(1).saturating_sub(len);
+            (Fx(FixedI32::from_bits(b.wrapping_shl(k))), (k as i32).saturating_neg())
+        } else {
+            (self, 0)
+        }
     }
 }
 
@@ -437,27 +577,12 @@ impl<S: Scalar> Scaled<S> {
         Scaled { m: S::from_f32(m as f32), e }
     }
 
-    /// Brings the mantissa into [1, 2) in magnitude (at most 64 steps each way; zero stays zero).
+    /// Brings the mantissa into [1, 2) in magnitude (at most 64 steps each way; zero stays
+    /// zero): [`Scalar::split_pow2`].
+    #[inline]
     pub fn normalized(self) -> Self {
-        let one = S::ONE;
-        let two = S::from_int_pow2(2, 0);
-        let mut m = self.m;
-        let mut e = self.e;
-        for _ in 0..64 {
-            if m.abs().lt(two) {
-                break;
-            }
-            m = m.mul_pow2(-1);
-            e = e.saturating_add(1);
-        }
-        for _ in 0..64 {
-            if !m.abs().lt(one) || !S::ZERO.lt(m.abs()) {
-                break;
-            }
-            m = m.mul_pow2(1);
-            e = e.saturating_sub(1);
-        }
-        Scaled { m, e }
+        let (m, k) = self.m.split_pow2();
+        Scaled { m, e: self.e.saturating_add(k) }
     }
 }
 

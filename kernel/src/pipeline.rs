@@ -17,8 +17,9 @@ use crate::gyro_filter::{GyroLowPass, LowPassCoefs, COUNT_FRAC_BITS};
 const _: () = assert!(COUNT_FRAC_BITS == 12, "Gyroscopic::omega assumes Q12 counts");
 use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
 use crate::omega_dot::{KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
-use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
-use crate::scalar::Scalar;
+use crate::lu::LuError;
+use crate::rls::{AddPlan, Factored, MassId, Measurement, RlsConfig, RlsStatus};
+use crate::scalar::{Scalar, Scaled};
 
 /// Pipeline configuration.
 #[derive(Clone, Copy, Debug)]
@@ -123,7 +124,8 @@ pub struct Pipeline<S> {
     firing_has_data: bool,
     last: Option<Measurement<S>>,
     last_estimate: Option<OmegaDotEstimate<S>>,
-    deferred: Option<Deferred<S>>,
+    deferred: Option<DeferredStage>,
+    ended: EndedFiring<S>,
     status: PipelineStatus,
     ticks: u64,
 }
@@ -165,6 +167,7 @@ impl<S: Scalar> Pipeline<S> {
             last: None,
             last_estimate: None,
             deferred: None,
+            ended: EndedFiring::empty(firing_terms),
             status: PipelineStatus::Idle,
             ticks: 0,
         })
@@ -298,78 +301,89 @@ impl<S: Scalar> Pipeline<S> {
             self.accel_before = x;
         }
         let n = self.firings_with_data;
-        self.deferred = Some(Deferred::Measure {
-            kf: self.kf.snapshot(),
-            terms: self.firing_terms,
-            batch: n <= self.cfg.batch_firings,
-            batch_complete: n == self.cfg.batch_firings,
-        });
+        self.ended.kf = self.kf.snapshot();
+        self.ended.terms = self.firing_terms;
+        self.ended.batch = n <= self.cfg.batch_firings;
+        self.ended.batch_complete = n == self.cfg.batch_firings;
+        self.deferred = Some(DeferredStage::Measure);
         true
     }
 
-    /// Runs one stage of a firing's deferred work per tick (fold-in, change test and merge,
-    /// CoM solve, inverse-inertia solve), so no tick carries more than one of them. A firing
-    /// with data lasts more than the stages at 1 kHz; if the next one ends earlier (or at
-    /// `finish`), the stages are caught up at once. Returns true when a solve completed.
+    /// Runs one stage of a firing's deferred work per tick ([`DeferredStage`]: final estimate,
+    /// aggregate, CoM add, inverse-inertia add planned and applied, change test and merges,
+    /// CoM solve, inverse-inertia factorisation and solve), so no tick carries more than one of
+    /// them. At 1 kHz a firing with data lasts longer than the 10 stages (anchor sample, 10 ms
+    /// transient, one update); if the next one ends earlier (slower sampling has no transient
+    /// skip, or at `finish`), the stages are caught up at once. Returns true when a solve
+    /// completed.
     fn run_deferred(&mut self) -> bool {
-        let Some(d) = self.deferred.take() else {
+        let Some(stage) = self.deferred else {
             return false;
         };
-        match d {
-            Deferred::Measure { kf, terms, batch, batch_complete } => {
+        // The stage's data stays in `self.ended` (fixed slots: a stage moves no large value).
+        let e = &mut self.ended;
+        let mut next = None;
+        let mut solved = false;
+        match stage {
+            DeferredStage::Measure => {
                 // The firing's final estimate (detector measurement, telemetry) ...
-                if let Some(est) = self.kf.estimate_of(&kf) {
+                if let Some(est) = self.kf.estimate_of(&e.kf) {
                     self.last_estimate = Some(est);
-                    let last = measurement_for(&self.terms.theta_inertia_matrix, &terms, &est);
-                    self.deferred = Some(Deferred::Aggregate { kf, last, batch, batch_complete });
+                    e.last = measurement_for(&self.terms.theta_inertia_matrix, &e.terms, &est);
+                    next = Some(DeferredStage::Aggregate);
                 }
-                false
             }
-            Deferred::Aggregate { kf, last, batch, batch_complete } => {
+            DeferredStage::Aggregate => {
                 // ... and its per-sample measurements in aggregate (exact: every sample of the
-                // firing has the same regressor); the CoM part is added now.
-                if let Some((weight, mean)) = self.kf.aggregate_of(&kf) {
-                    let pred = mat_vec(&self.terms.theta_inertia_matrix, &last.a_inertia_torque());
-                    let agg = Measurement {
+                // firing has the same regressor).
+                if let Some((weight, mean)) = self.kf.aggregate_of(&e.kf) {
+                    let pred = mat_vec(&self.terms.theta_inertia_matrix, &e.last.a_inertia_torque());
+                    e.agg = Measurement {
                         b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
                         b_inertia: mean,
                         weight,
-                        ..last
+                        ..e.last
                     };
-                    self.mass.add_com_part(&agg, batch);
-                    self.deferred = Some(Deferred::FoldInertia { agg, updates: kf.sums.n, batch, batch_complete, last });
+                    next = Some(DeferredStage::FoldCom);
                 }
-                false
             }
-            Deferred::FoldInertia { agg, updates, batch, batch_complete, last } => {
-                self.mass.add_inertia_part(&agg, batch, updates);
-                if batch {
-                    if batch_complete {
-                        self.deferred = Some(Deferred::SolveCom);
-                    }
+            DeferredStage::FoldCom => {
+                self.mass.add_com_part(&e.agg, e.batch);
+                next = Some(DeferredStage::PlanInertia);
+            }
+            DeferredStage::PlanInertia => {
+                e.plan = self.mass.plan_inertia_part(&e.agg, e.batch);
+                next = Some(DeferredStage::FoldInertia);
+            }
+            DeferredStage::FoldInertia => {
+                self.mass.apply_inertia_part(&e.agg, &e.plan, e.batch, e.kf.sums.n);
+                next = if !e.batch {
+                    Some(DeferredStage::Merge)
+                } else if e.batch_complete {
+                    Some(DeferredStage::SolveCom)
                 } else {
-                    self.deferred = Some(Deferred::Merge { last });
-                }
-                false
+                    None
+                };
             }
-            Deferred::Merge { last } => {
-                self.mass.fold_firing_com(Some(&last));
-                self.deferred = Some(Deferred::MergeInertia);
-                false
+            DeferredStage::Merge => {
+                self.mass.fold_firing_com(Some(&e.last));
+                next = Some(DeferredStage::MergeInertia);
             }
-            Deferred::MergeInertia => {
+            DeferredStage::MergeInertia => {
                 self.mass.fold_firing_inertia();
-                self.deferred = Some(Deferred::SolveCom);
-                false
+                next = Some(DeferredStage::SolveCom);
             }
-            Deferred::SolveCom => {
-                let com = self.mass.solve_com();
-                self.deferred = Some(Deferred::SolveInertia { com });
-                false
+            DeferredStage::SolveCom => {
+                e.com = self.mass.solve_com();
+                next = Some(DeferredStage::FactorInertia);
             }
-            Deferred::SolveInertia { com } => {
-                let inertia = self.mass.solve_inertia();
-                let s = self.mass.combine(com, inertia);
+            DeferredStage::FactorInertia => {
+                e.factored = self.mass.factor_inertia();
+                next = Some(DeferredStage::SolveInertia);
+            }
+            DeferredStage::SolveInertia => {
+                let inertia = self.mass.finish_inertia(e.factored);
+                let s = self.mass.combine(e.com, inertia);
                 self.status = match s {
                     RlsStatus::Ok => PipelineStatus::Ok,
                     RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
@@ -377,15 +391,17 @@ impl<S: Scalar> Pipeline<S> {
                     RlsStatus::Overflow => PipelineStatus::Overflow,
                     RlsStatus::NoData => self.status,
                 };
-                true
+                solved = true;
             }
         }
+        self.deferred = next;
+        solved
     }
 
     /// Runs every pending stage now.
     fn catch_up(&mut self) -> bool {
         let mut solved = false;
-        for _ in 0..8 {
+        for _ in 0..DEFERRED_STAGES {
             if self.deferred.is_none() {
                 break;
             }
@@ -439,6 +455,11 @@ impl<S: Scalar> Pipeline<S> {
         }
     }
 
+    /// The deferred end-of-firing stage the next tick will run, if any.
+    pub fn pending_stage(&self) -> Option<DeferredStage> {
+        self.deferred
+    }
+
     /// The angular-acceleration Kalman filter (its exact sums, for tests and range analysis).
     pub fn kalman(&self) -> &OmegaDotKf<S> {
         &self.kf
@@ -473,25 +494,81 @@ fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, est: &Om
     }
 }
 
-/// A firing's remaining work, one stage per tick after it ended.
-// No allocation in the kernel: the filter copy lives in the (fixed-size) state.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug)]
-enum Deferred<S> {
-    /// Form the firing's final estimate from a snapshot of its Kalman sums.
-    Measure { kf: KfSnapshot<S>, terms: FiringTerms<S>, batch: bool, batch_complete: bool },
-    /// Aggregate the firing's per-sample measurements; add the CoM part.
-    Aggregate { kf: KfSnapshot<S>, last: Measurement<S>, batch: bool, batch_complete: bool },
-    /// Add the inverse-inertia part (batch information or RLS pending).
-    FoldInertia { agg: Measurement<S>, updates: u32, batch: bool, batch_complete: bool, last: Measurement<S> },
-    /// Change test (with the firing's final measurement), forgetting, CoM merge.
-    Merge { last: Measurement<S> },
+/// How many end-of-firing stages there are (the most [`Pipeline::run_deferred`] can have pending).
+const DEFERRED_STAGES: usize = 10;
+
+/// The end-of-firing stage the next tick runs (telemetry: which part of the deferred work a
+/// tick carried, e.g. to attribute its execution time).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum DeferredStage {
+    /// The firing's final angular-acceleration estimate.
+    Measure = 1,
+    /// The firing's measurements in aggregate.
+    Aggregate = 2,
+    /// CoM information added.
+    FoldCom = 3,
+    /// Inverse-inertia add planned (its rounding exponent).
+    PlanInertia = 4,
+    /// Inverse-inertia information added.
+    FoldInertia = 5,
+    /// Change test, forgetting, CoM merge.
+    Merge = 6,
     /// Inverse-inertia merge.
-    MergeInertia,
-    /// Solve the CoM problem.
-    SolveCom,
-    /// Solve the inverse-inertia problem and set the status.
-    SolveInertia { com: RlsStatus },
+    MergeInertia = 7,
+    /// CoM solve.
+    SolveCom = 8,
+    /// Inverse-inertia LU factorisation.
+    FactorInertia = 9,
+    /// Inverse-inertia solve and status.
+    SolveInertia = 10,
+}
+
+/// The ended firing's data that its deferred stages ([`DeferredStage`]) read and write.
+#[derive(Clone, Copy, Debug)]
+struct EndedFiring<S> {
+    /// Snapshot of the firing's Kalman sums.
+    kf: KfSnapshot<S>,
+    /// Its model terms.
+    terms: FiringTerms<S>,
+    /// Its final estimate as a measurement (the change detector's).
+    last: Measurement<S>,
+    /// Its per-sample measurements in aggregate.
+    agg: Measurement<S>,
+    /// The planned inverse-inertia add.
+    plan: AddPlan<S>,
+    /// The inverse-inertia factorisation.
+    factored: Result<Factored<S, 6>, LuError>,
+    /// The CoM solve's status.
+    com: RlsStatus,
+    /// One of the batch firings.
+    batch: bool,
+    /// The last batch firing.
+    batch_complete: bool,
+}
+
+impl<S: Scalar> EndedFiring<S> {
+    fn empty(terms: FiringTerms<S>) -> Self {
+        let m = Measurement {
+            a_com: [[S::ZERO; 3]; 3],
+            b_com: [S::ZERO; 3],
+            a_inertia: [[S::ZERO; 6]; 3],
+            b_inertia: [S::ZERO; 3],
+            weight: [Scaled::zero(); 3],
+            variance: [Scaled::zero(); 3],
+        };
+        EndedFiring {
+            kf: KfSnapshot { prior: [S::ZERO; 3], sums: Default::default(), second: Default::default() },
+            terms,
+            last: m,
+            agg: m,
+            plan: AddPlan::none(),
+            factored: Err(LuError::ZeroMatrix),
+            com: RlsStatus::NoData,
+            batch: false,
+            batch_complete: false,
+        }
+    }
 }
 
 /// The gyroscopic torque `omega x (I_nom omega)` from filtered gyro counts.

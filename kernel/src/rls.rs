@@ -90,11 +90,8 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         if k <= 0 {
             return;
         }
-        for v in self.lam.iter_mut().flatten() {
-            *v = v.mul_pow2(k.saturating_neg());
-        }
-        for v in self.eta.iter_mut() {
-            *v = v.mul_pow2(k.saturating_neg());
+        for v in self.lam.iter_mut().flatten().chain(self.eta.iter_mut()) {
+            *v = v.mul_pow2_nearest(k.saturating_neg());
         }
         self.exp = self.exp.saturating_add(k);
     }
@@ -133,17 +130,92 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         }
     }
 
-    /// Adds three weighted rows: `Lambda += sum_i w_i a_i' a_i`, `eta += sum_i w_i a_i' b_i`.
+    /// Adds three weighted rows: `Lambda += sum_i w_i a_i' a_i`, `eta += sum_i w_i a_i' b_i`:
+    /// [`InfoLs::plan_add`] then [`InfoLs::apply_add`] (the pipeline runs them on separate
+    /// ticks).
     pub fn add(&mut self, rows: &[[S; N]; 3], b: &[S; 3], w: &[Scaled<S>; 3]) {
+        let plan = self.plan_add(rows, b, w);
+        self.apply_add(rows, b, &plan);
+    }
+
+    /// Chooses the exponent the add's products are rounded at; it decides the precision
+    /// (proofs finding 8: a loose bound put them at a coarse exponent, and the result was then
+    /// shifted up). A cheap upper bound gives an exponent at which nothing can overflow; at
+    /// it, the diagonal and information vector after the add, and every intermediate of the
+    /// add that the result does not bound, are computed (a third of the add's products); the
+    /// plan is the finest exponent those figures show safe (every intermediate of the add
+    /// scales by the same power of two). Does not modify the problem.
+    pub fn plan_add(&self, rows: &[[S; N]; 3], b: &[S; 3], w: &[Scaled<S>; 3]) -> AddPlan<S> {
         let w = w.map(|v| v.normalized());
-        let we = w.iter().fold(i32::MIN, |m, v| m.max(v.e));
-        if self.empty {
-            self.exp = we;
-            self.empty = false;
-        } else if we > self.exp {
-            self.shift_down(we.saturating_sub(self.exp));
+        let (safe, wm) = self.safe_exponent(rows, b, &w);
+        let (mag, peak) = self.predict(rows, b, &wm, safe);
+        let mut target = safe;
+        if S::ZERO.lt(mag) {
+            let e_mag = mag.split_pow2().1;
+            let e_peak = max_abs(peak, mag).split_pow2().1;
+            // mag to [2^(L-1), 2^L); every intermediate below 2^(L+1).
+            let up = DIAG_LIMIT_LOG2
+                .saturating_sub(1)
+                .saturating_sub(e_mag)
+                .min(DIAG_LIMIT_LOG2.saturating_sub(e_peak));
+            if up > 0 {
+                target = safe.saturating_sub(up);
+            }
         }
-        let mut wm = w.map(|v| v.mantissa_at(self.exp));
+        AddPlan { w, exp: target }
+    }
+
+    /// Runs a planned add (the same rows, right-hand side and weights as the plan's).
+    pub fn apply_add(&mut self, rows: &[[S; N]; 3], b: &[S; 3], plan: &AddPlan<S>) {
+        self.set_exponent(plan.exp);
+        let wm = plan.w.map(|v| v.mantissa_at(plan.exp));
+        self.accumulate(rows, b, &wm);
+        self.renormalise();
+        self.check_valid();
+    }
+
+    /// A stored mantissa re-expressed at exponent `e` (as [`InfoLs::set_exponent`] would).
+    fn at_exponent(&self, v: S, e: i32) -> S {
+        if self.empty {
+            S::ZERO
+        } else {
+            v.mul_pow2_nearest(self.exp.saturating_sub(e))
+        }
+    }
+
+    /// At exponent `e` with weight mantissas `wm`: the largest diagonal or
+    /// information-vector entry after the add (computed as [`InfoLs::accumulate`] would, so
+    /// exactly its result), and the largest intermediate the result does not bound: the
+    /// entries before the add, the weights, the scaled rows `w_i a_ij`, the information
+    /// vector's products and partial sums (the matrix's partial sums are positive
+    /// semidefinite, so bounded by their diagonals).
+    fn predict(&self, rows: &[[S; N]; 3], b: &[S; 3], wm: &[S; 3], e: i32) -> (S, S) {
+        let mut peak = wm.iter().fold(self.at_exponent(self.magnitude(), e), |m, v| max_abs(m, *v));
+        let mut mag = S::ZERO;
+        for (j, (lam_row, eta_j)) in self.lam.iter().zip(self.eta.iter()).enumerate() {
+            let mut d = self.at_exponent(lam_row.get(j).copied().unwrap_or(S::ZERO), e);
+            let mut acc = self.at_exponent(*eta_j, e);
+            for ((row, bi), wi) in rows.iter().zip(b.iter()).zip(wm.iter()) {
+                let a = row.get(j).copied().unwrap_or(S::ZERO);
+                let v = wi.times(a);
+                d = d.mul_add(v, a);
+                let p = v.times(*bi);
+                acc = acc.plus(p);
+                peak = max_abs(max_abs(peak, v), max_abs(p, acc));
+            }
+            mag = max_abs(mag, max_abs(d, acc));
+        }
+        (mag, peak)
+    }
+
+    /// An exponent (at least the stored one and the weights') at which a cheap bound on the
+    /// update fits (weights times row sizes below 1, every entry after the add below
+    /// `2^(L+1)`), and the weight mantissas there.
+    fn safe_exponent(&self, rows: &[[S; N]; 3], b: &[S; 3], w: &[Scaled<S>; 3]) -> (i32, [S; 3]) {
+        let we = w.iter().fold(i32::MIN, |m, v| m.max(v.e));
+        let mut e = if self.empty { we } else { self.exp.max(we) };
+        let mut wm = w.map(|v| v.mantissa_at(e));
+        let mut old = self.at_exponent(self.magnitude(), e);
         // Row sizes sum_j |a_ij| (regressors are O(10) in kernel units).
         let r = rows.map(|row| row.iter().fold(S::ZERO, |acc, v| acc.plus(v.abs())));
         let one = S::ONE;
@@ -156,21 +228,43 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
                 wi.times(ri)
             });
             let t_max = t.iter().fold(S::ZERO, |m, ti| max_abs(m, *ti));
-            let bound = t.iter().fold(self.magnitude(), |acc, ti| acc.mul_add(*ti, rb));
+            let bound = t.iter().fold(old, |acc, ti| acc.mul_add(*ti, rb));
             if t_max.lt(one) && bound.lt(budget) {
                 break;
             }
             // Everything scales by 2^-k: take the k that brings both below their limits at once
             // (values in [2^e, 2^(e+1)); at least one step).
-            let e_t = Scaled { m: t_max, e: 0 }.normalized().e;
-            let e_b = Scaled { m: bound, e: 0 }.normalized().e;
+            let e_t = t_max.split_pow2().1;
+            let e_b = bound.split_pow2().1;
             let k = e_t
                 .saturating_add(1)
                 .max(e_b.saturating_sub(DIAG_LIMIT_LOG2))
                 .max(1);
-            self.shift_down(k);
-            wm = wm.map(|v| v.mul_pow2(k.saturating_neg()));
+            e = e.saturating_add(k);
+            wm = w.map(|v| v.mantissa_at(e));
+            old = self.at_exponent(self.magnitude(), e);
         }
+        (e, wm)
+    }
+
+    /// Re-expresses the stored mantissas at exponent `target` (an empty problem just takes it).
+    fn set_exponent(&mut self, target: i32) {
+        if self.empty {
+            self.exp = target;
+            self.empty = false;
+        } else if target > self.exp {
+            self.shift_down(target.saturating_sub(self.exp));
+        } else {
+            let up = self.exp.saturating_sub(target);
+            for v in self.lam.iter_mut().flatten().chain(self.eta.iter_mut()) {
+                *v = v.mul_pow2(up);
+            }
+            self.exp = target;
+        }
+    }
+
+    /// The rank-3 update with weight mantissas `wm` at the stored exponent.
+    fn accumulate(&mut self, rows: &[[S; N]; 3], b: &[S; 3], wm: &[S; 3]) {
         for ((row, bi), wi) in rows.iter().zip(b.iter()).zip(wm.iter()) {
             let v: [S; N] = row.map(|a| wi.times(a));
             for (j, (lam_row, vj)) in self.lam.iter_mut().zip(v.iter()).enumerate() {
@@ -179,11 +273,9 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
                 }
             }
             for (eta_j, vj) in self.eta.iter_mut().zip(v.iter()) {
-                *eta_j = eta_j.mul_add(*vj, *bi);
+                *eta_j = eta_j.plus(vj.times(*bi));
             }
         }
-        self.renormalise();
-        self.check_valid();
     }
 
     /// Adds a diagonal prior: information `info_j` about `x0_j` for each term.
@@ -258,6 +350,11 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     /// at `prior` and the rest solved with them fixed. Returns the estimate, the mask and the
     /// factorisation of the reduced system (for covariances).
     pub fn solve(&self, prior: &[S; N], unobs_rel: S, pivot_rel: S) -> Result<Solution<S, N>, LuError> {
+        self.factor(prior, unobs_rel, pivot_rel)?.solve()
+    }
+
+    /// The first half of [`InfoLs::solve`]: the reduced system and its LU factorisation.
+    pub fn factor(&self, prior: &[S; N], unobs_rel: S, pivot_rel: S) -> Result<Factored<S, N>, LuError> {
         if self.empty {
             return Err(LuError::ZeroMatrix);
         }
@@ -292,8 +389,40 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
             }
         }
         let lu = Lu::factor(&m, pivot_rel)?;
-        let x = lu.solve(&rhs)?;
-        Ok(Solution { x, unobservable: unobs, lu, exp: self.exp })
+        Ok(Factored { lu, rhs, unobservable: unobs, exp: self.exp })
+    }
+}
+
+/// A factored [`InfoLs`] problem ([`InfoLs::factor`]), ready to solve.
+#[derive(Clone, Copy, Debug)]
+pub struct Factored<S, const N: usize> {
+    lu: Lu<S, N>,
+    rhs: [S; N],
+    unobservable: [bool; N],
+    exp: i32,
+}
+
+impl<S: Scalar, const N: usize> Factored<S, N> {
+    /// The second half of [`InfoLs::solve`].
+    pub fn solve(&self) -> Result<Solution<S, N>, LuError> {
+        let x = self.lu.solve(&self.rhs)?;
+        Ok(Solution { x, unobservable: self.unobservable, lu: self.lu, exp: self.exp })
+    }
+}
+
+/// The exponent an [`InfoLs`] add rounds its products at ([`InfoLs::plan_add`]).
+#[derive(Clone, Copy, Debug)]
+pub struct AddPlan<S> {
+    /// The weights, normalised.
+    w: [Scaled<S>; 3],
+    /// The exponent of the stored mantissas during and after the add (before renormalising).
+    exp: i32,
+}
+
+impl<S: Scalar> AddPlan<S> {
+    /// A plan that adds nothing (zero weights), e.g. to initialise storage.
+    pub fn none() -> Self {
+        AddPlan { w: [Scaled::zero(); 3], exp: 0 }
     }
 }
 
@@ -537,6 +666,24 @@ impl<S: Scalar> MassId<S> {
         self.updates = self.updates.saturating_add(updates);
     }
 
+    /// The plan of [`MassId::add_inertia_part`]'s add (the first half of its work; reads only).
+    pub fn plan_inertia_part(&self, m: &Measurement<S>, batch: bool) -> AddPlan<S> {
+        let target = if batch { &self.inertia } else { &self.pending_inertia };
+        target.plan_add(&m.a_inertia, &m.b_inertia, &m.weight)
+    }
+
+    /// [`MassId::add_inertia_part`] with its add planned by [`MassId::plan_inertia_part`]
+    /// (same measurement and `batch`; nothing else may change the problem in between).
+    pub fn apply_inertia_part(&mut self, m: &Measurement<S>, plan: &AddPlan<S>, batch: bool, updates: u32) {
+        if batch {
+            self.inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
+        } else {
+            self.pending_inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
+            self.pending_updates = self.pending_updates.saturating_add(updates);
+        }
+        self.updates = self.updates.saturating_add(updates);
+    }
+
     /// Adds an RLS firing's measurements (`updates` per-sample measurements in aggregate),
     /// folded in at [`MassId::end_firing`]. With forgetting, the older information is
     /// multiplied by `lambda^updates` there; the firing's own samples are not weighted among
@@ -675,7 +822,19 @@ impl<S: Scalar> MassId<S> {
 
     /// Solves the inverse-inertia problem alone (its status; the estimate is kept on failure).
     pub fn solve_inertia(&mut self) -> RlsStatus {
-        match self.inertia.solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
+        let f = self.factor_inertia();
+        self.finish_inertia(f)
+    }
+
+    /// The first half of [`MassId::solve_inertia`] (reads only): the factorisation.
+    pub fn factor_inertia(&self) -> Result<Factored<S, 6>, LuError> {
+        self.inertia.factor(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+    }
+
+    /// The second half of [`MassId::solve_inertia`], from [`MassId::factor_inertia`] (nothing
+    /// may change the inverse-inertia problem in between).
+    pub fn finish_inertia(&mut self, factored: Result<Factored<S, 6>, LuError>) -> RlsStatus {
+        match factored.and_then(|f| f.solve()) {
             Ok(sol) => {
                 self.theta_inertia = sol.x;
                 self.unobservable_inertia = sol.unobservable;

@@ -93,6 +93,15 @@ pub trait Scalar:
         self.plus(a.times(b))
     }
 
+    /// [`Scalar::mul_pow2`] rounding to nearest instead of truncating below resolution: for
+    /// rescaling stored sums (the RLS information is shifted down once per merge; a
+    /// truncating shift drifts by half a step each time). Default: `mul_pow2` (exact for
+    /// `f32` in range).
+    #[inline]
+    fn mul_pow2_nearest(self, e: i32) -> Self {
+        self.mul_pow2(e)
+    }
+
     /// `(m, k)` with `self = m * 2^k` (up to the floor rounding of the down shifts) and
     /// `|m|` in `[1, 2)`: the block-floating-point normalisation. At most 64 steps each way;
     /// zero stays `(0, 0)`. The default is the defining loop, one exact halving or doubling
@@ -267,11 +276,16 @@ impl<Frac: LeEqU32> Sub for Fx<Frac> {
 }
 impl<Frac: LeEqU32> Mul for Fx<Frac> {
     type Output = Self;
-    /// Full 64-bit product, arithmetic shift (rounds toward minus infinity), saturated.
+    /// Full 64-bit product rounded to nearest (ties toward plus infinity), saturated.
+    /// Nearest, not the shift's floor: long sums of products (the RLS information) would
+    /// otherwise drift by half a step per product (proofs finding 7).
     #[inline]
     fn mul(self, rhs: Self) -> Self {
         let p = widening_mul(self.0.to_bits(), rhs.0.to_bits());
-        let r = p >> Frac::U32.min(63);
+        let frac = Frac::U32.min(62);
+        let half = if frac == 0 { 0 } else { 1i64 << frac.saturating_sub(1) };
+        // |p| <= 2^62: adding half cannot wrap
+        let r = p.wrapping_add(half) >> frac;
         Fx(FixedI32::from_bits(i32::try_from(r).unwrap_or(if r > 0 { i32::MAX } else { i32::MIN })))
     }
 }
@@ -426,7 +440,17 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     }
     #[inline]
     fn mul_pow2(self, e: i32) -> Self {
-        Fx(FixedI32::from_bits(shift_sat_i64(i64::from(self.0.to_bits()), e)))
+        Fx(FixedI32::from_bits(shift_sat_i32(self.0.to_bits(), e)))
+    }
+    #[inline]
+    fn mul_pow2_nearest(self, e: i32) -> Self {
+        if e >= 0 {
+            return self.mul_pow2(e);
+        }
+        let r = e.unsigned_abs().min(40);
+        // |bits| < 2^31 and r <= 40: bits + 2^(r-1) fits i64, and the shifted value fits i32.
+        let v = i64::from(self.0.to_bits()).wrapping_add(1i64 << r.saturating_sub(1)) >> r;
+        Fx(FixedI32::from_bits(i32::try_from(v).unwrap_or(i32::MAX)))
     }
     #[inline]
     fn is_valid(self) -> bool {
@@ -470,6 +494,28 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
             (Fx(FixedI32::from_bits(b.wrapping_shl(k))), (k as i32).saturating_neg())
         } else {
             (self, 0)
+        }
+    }
+}
+
+/// [`shift_sat_i64`] for an `i32` value, in 32-bit words (no 64-bit shift routine on the M0).
+#[inline]
+fn shift_sat_i32(v: i32, sh: i32) -> i32 {
+    if sh < 0 {
+        // arithmetic shift right (floor); 31 and beyond leave the sign
+        v >> sh.unsigned_abs().min(31)
+    } else if v == 0 {
+        0
+    } else {
+        let s = sh.unsigned_abs();
+        // v fits after the shift iff it has more than s redundant sign bits
+        let redundant = if v < 0 { v.leading_ones() } else { v.leading_zeros() };
+        if s < redundant {
+            v.wrapping_shl(s)
+        } else if v > 0 {
+            i32::MAX
+        } else {
+            i32::MIN
         }
     }
 }

@@ -40,7 +40,7 @@ fn compare_lu<S: Exact, const N: usize>(a: &[[f64; N]; N], b: &[f64; N], w: &mut
     let xr = lu_solve(&am, &bv).ok_or("reference singular")?;
     let scale = xr.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for i in 0..N {
-        w.record_normwise(fmt_of::<S>(), x[i].exact(), xr[i], scale).map_err(|m| format!("x[{i}]: {m}"))?;
+        w.record_normwise(fmt_of::<S>(), x[i].exact(), xr[i], scale, 0.0).map_err(|m| format!("x[{i}]: {m}"))?;
     }
     Ok(())
 }

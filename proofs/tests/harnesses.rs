@@ -45,11 +45,10 @@ macro_rules! known_failing {
     )*};
 }
 
-known_failing!(
-    rls_inertia_q8_24: "kernel finding 8: InfoLs::add loses precision for small rows",
-);
+known_failing!();
 
 harness_tests!(
+    rls_inertia_q8_24,
     mixer_q8_24,
     lu3_q8_24,
     lu6_q8_24,

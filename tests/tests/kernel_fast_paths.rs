@@ -209,3 +209,35 @@ fn gyro_low_pass_pole_is_negative_at_slow_sampling() {
     assert!(LowPassCoefs::design(50.0, 0.010).p_q30 < 0);
     assert!(LowPassCoefs::design(50.0, 0.001).p_q30 > 0);
 }
+
+/// `floor(v 2^e)` (or nearest, ties up) saturated to i32, in i128: the definition of the fixed
+/// `mul_pow2` / `mul_pow2_nearest` shifts.
+fn shift_wide(v: i32, e: i32, nearest: bool) -> i32 {
+    let w = i128::from(v);
+    let r = if e >= 0 {
+        if e >= 64 {
+            w.signum() * (1i128 << 100)
+        } else {
+            w << e
+        }
+    } else {
+        let k = (-e).min(100) as u32;
+        let w = if nearest { w + (1i128 << (k - 1)) } else { w };
+        w >> k
+    };
+    r.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i32
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+    #[test]
+    fn fixed_shifts_equal_the_wide_definition(v in any::<i32>(), small in -300i32..300, e in -70i32..70) {
+        for v in [v, small, 0, -1, i32::MIN, i32::MAX] {
+            let q: Q8_24 = fx_bits(v);
+            prop_assert_eq!(q.mul_pow2(e).0.to_bits(), shift_wide(v, e, false), "{} * 2^{}", v, e);
+            let expect_nearest = if e >= 0 { shift_wide(v, e, false) } else { shift_wide(v, e.max(-40), true) };
+            prop_assert_eq!(q.mul_pow2_nearest(e).0.to_bits(), expect_nearest, "nearest {} * 2^{}", v, e);
+        }
+    }
+}

@@ -20,6 +20,7 @@ use massid_kernel::model::SPH2;
 use massid_kernel::{Estimates, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
 
 use markers::Kind;
+use massid_kernel::pipeline::DeferredStage;
 
 /// Raw bits of a kernel scalar, for exact printing.
 pub trait RawBits: Scalar {
@@ -92,6 +93,7 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
         if word != prev_word && word != 0 {
             firings += 1;
         }
+        let stage = pipeline.pending_stage();
         markers::begin();
         let report = pipeline.tick(gyro, word);
         markers::end();
@@ -100,6 +102,7 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
         since_edge = if edge { 0 } else { since_edge.saturating_add(1) };
         markers::kind(match report.event {
             TickEvent::Coasting | TickEvent::Transient if edge => Kind::Edge,
+            TickEvent::Coasting | TickEvent::Transient if stage.is_some() => Kind::Stage(stage.unwrap_or(DeferredStage::Measure)),
             TickEvent::Coasting | TickEvent::Transient if since_edge <= markers::DEFERRED_TICKS => Kind::Deferred,
             TickEvent::Coasting | TickEvent::Transient => Kind::Idle,
             TickEvent::Updated if rls_active => Kind::KfRls,

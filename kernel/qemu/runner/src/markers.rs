@@ -7,6 +7,7 @@
 //! kind that follows. Each function stores a different constant, so LLVM cannot merge them
 //! into one address; `#[inline(never)]` + `#[no_mangle]` keep them as real, named calls.
 use core::ptr::{addr_of_mut, write_volatile};
+use massid_kernel::pipeline::DeferredStage;
 
 static mut SINK: u32 = 0;
 
@@ -48,6 +49,24 @@ marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo
 marker!(/// A tick shortly after a thruster-word change (thrusters off or in the valve transient),
     /// where the pipeline runs the ended firing's deferred stages one per tick.
     massid_mark_kind_deferred = 0x4d42_0019);
+marker!(/// A deferred tick that ran the `Measure` stage (the firing's final estimate).
+    massid_mark_kind_deferred_measure = 0x4d42_0031);
+marker!(/// A deferred tick that ran the `Aggregate` stage (the aggregate measurement).
+    massid_mark_kind_deferred_aggregate = 0x4d42_0032);
+marker!(/// A deferred tick that ran the `FoldCom` stage (CoM information).
+    massid_mark_kind_deferred_fold_com = 0x4d42_0037);
+marker!(/// A deferred tick that ran the `PlanInertia` stage (the inverse-inertia add's exponent).
+    massid_mark_kind_deferred_plan_inertia = 0x4d42_0038);
+marker!(/// A deferred tick that ran the `FoldInertia` stage (inverse-inertia information).
+    massid_mark_kind_deferred_fold_inertia = 0x4d42_0033);
+marker!(/// A deferred tick that ran the `Merge` stage (change test, forgetting, CoM merge).
+    massid_mark_kind_deferred_merge = 0x4d42_0034);
+marker!(/// A deferred tick that ran the `MergeInertia` stage.
+    massid_mark_kind_deferred_merge_inertia = 0x4d42_0035);
+marker!(/// A deferred tick that ran the `SolveCom` stage (CoM LU solve).
+    massid_mark_kind_deferred_solve_com = 0x4d42_0036);
+marker!(/// A deferred tick that ran the `FactorInertia` stage (inverse-inertia LU factorisation).
+    massid_mark_kind_deferred_factor_inertia = 0x4d42_0039);
 marker!(/// The following calls run the fixed-point kernel.
     massid_mark_flavour_fixed = 0x4d42_0020);
 marker!(/// The following calls run the f32 kernel.
@@ -74,8 +93,12 @@ pub enum Kind {
     Edge,
     /// Mixer rebuild.
     MixerBuild,
-    /// Tick within [`DEFERRED_TICKS`] after a word change (deferred end-of-firing stages).
+    /// Tick within [`DEFERRED_TICKS`] after a word change (deferred end-of-firing stages)
+    /// that ran none of them.
     Deferred,
+    /// A tick that ran one deferred end-of-firing stage (other than the final solve, which
+    /// is [`Kind::Solve`]).
+    Stage(DeferredStage),
 }
 
 /// Ticks after a thruster-word change counted as [`Kind::Deferred`] (fewer than the 10 ms
@@ -108,6 +131,17 @@ pub fn kind(k: Kind) {
         Kind::Edge => massid_mark_kind_edge(),
         Kind::MixerBuild => massid_mark_kind_mixer_build(),
         Kind::Deferred => massid_mark_kind_deferred(),
+        Kind::Stage(DeferredStage::Measure) => massid_mark_kind_deferred_measure(),
+        Kind::Stage(DeferredStage::Aggregate) => massid_mark_kind_deferred_aggregate(),
+        Kind::Stage(DeferredStage::FoldCom) => massid_mark_kind_deferred_fold_com(),
+        Kind::Stage(DeferredStage::PlanInertia) => massid_mark_kind_deferred_plan_inertia(),
+        Kind::Stage(DeferredStage::FoldInertia) => massid_mark_kind_deferred_fold_inertia(),
+        Kind::Stage(DeferredStage::Merge) => massid_mark_kind_deferred_merge(),
+        Kind::Stage(DeferredStage::MergeInertia) => massid_mark_kind_deferred_merge_inertia(),
+        Kind::Stage(DeferredStage::SolveCom) => massid_mark_kind_deferred_solve_com(),
+        Kind::Stage(DeferredStage::FactorInertia) => massid_mark_kind_deferred_factor_inertia(),
+        // the final stage reports `TickEvent::Solved`: filed as `Kind::Solve`
+        Kind::Stage(DeferredStage::SolveInertia) => massid_mark_kind_solve(),
     }
 }
 

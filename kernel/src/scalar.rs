@@ -379,13 +379,84 @@ pub fn fixed_div_by_i64(a: i32, b: i32, frac: u32) -> Option<i32> {
     i32::try_from(q).ok()
 }
 
+/// `trunc(a 2^frac / b)` with two 32 / 16-bit digit steps of long division (Knuth's
+/// algorithm D in base 2^16, as in Hacker's Delight `divlu`): two hardware 32-bit divides
+/// and at most four corrections, where the 64-bit division routine would take ~150
+/// instructions (Cortex-M4F).
+#[inline]
+pub fn fixed_div_by_digits(a: i32, b: i32, frac: u32) -> Option<i32> {
+    if frac > 31 {
+        return fixed_div_by_i64(a, b, frac);
+    }
+    let negative = (a < 0) != (b < 0);
+    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
+    let q_int = ua.checked_div(ub)?;
+    // |quotient| <= 2^31 needs q_int <= 2^(31 - frac); then ua 2^frac / ub < 2^32.
+    if u64::from(q_int) > (1u64 << 31u32.saturating_sub(frac)) {
+        return None;
+    }
+    let num = u64::from(ua) << frac; // < 2^63
+    let q = divlu((num >> 32) as u32, num as u32, ub);
+    if negative {
+        if q > 1u32 << 31 {
+            None
+        } else {
+            Some((q as i32).wrapping_neg())
+        }
+    } else {
+        i32::try_from(q).ok()
+    }
+}
+
+/// `(u1 2^32 + u0) / v` for `u1 < v` (the quotient fits 32 bits), `v != 0`.
+#[inline]
+fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
+    const B: u32 = 1 << 16;
+    let s = v.leading_zeros(); // v != 0 (callers), so s < 32
+    let v = v.wrapping_shl(s); // top bit set
+    let (vn1, vn0) = (v >> 16, v & 0xffff); // vn1 >= 2^15
+    let un32 = if s == 0 { u1 } else { u1.wrapping_shl(s) | u0.wrapping_shr(32u32.wrapping_sub(s)) };
+    let un10 = u0.wrapping_shl(s);
+    let (un1, un0) = (un10 >> 16, un10 & 0xffff);
+    // First digit: estimate from the top two digits, correct at most twice.
+    let mut q1 = un32.checked_div(vn1).unwrap_or(0);
+    let mut rhat = un32.wrapping_sub(q1.wrapping_mul(vn1));
+    while q1 >= B || u64::from(q1).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un1)) {
+        q1 = q1.wrapping_sub(1);
+        rhat = rhat.wrapping_add(vn1);
+        if rhat >= B {
+            break;
+        }
+    }
+    // The partial remainder (fits 32 bits after a correct first digit).
+    let un21 = un32.wrapping_shl(16).wrapping_add(un1).wrapping_sub(q1.wrapping_mul(v));
+    let mut q0 = un21.checked_div(vn1).unwrap_or(0);
+    let mut rhat = un21.wrapping_sub(q0.wrapping_mul(vn1));
+    while q0 >= B || u64::from(q0).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un0)) {
+        q0 = q0.wrapping_sub(1);
+        rhat = rhat.wrapping_add(vn1);
+        if rhat >= B {
+            break;
+        }
+    }
+    q1.wrapping_shl(16) | q0
+}
+
+// Soft-division ARM (Cortex-M0/M0+): shift-subtract, no divide instruction to build on.
 #[cfg(all(target_arch = "arm", target_abi = "eabi"))]
 #[inline]
 fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
     fixed_div_by_words(a, b, frac)
 }
 
-#[cfg(not(all(target_arch = "arm", target_abi = "eabi")))]
+// Hard-float ARM (Cortex-M4F/M7): hardware 32-bit divide.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline]
+fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
+    fixed_div_by_digits(a, b, frac)
+}
+
+#[cfg(not(all(target_arch = "arm", any(target_abi = "eabi", target_abi = "eabihf"))))]
 #[inline]
 fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
     fixed_div_by_i64(a, b, frac)

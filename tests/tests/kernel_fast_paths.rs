@@ -1,7 +1,7 @@
 //! The kernel's O(1) fast paths against the defining slow forms they replace: any difference
 //! would change the kernel's results (and the QEMU-vs-host equality rests on one code path).
 
-use massid_kernel::scalar::{fixed_div_by_i64, fixed_div_by_words, split_pow2_by_steps, Fx, Scalar, Q16_16, Q8_24};
+use massid_kernel::scalar::{fixed_div_by_digits, fixed_div_by_i64, fixed_div_by_words, split_pow2_by_steps, Fx, Scalar, Q16_16, Q8_24};
 use proptest::prelude::*;
 
 type Q4_28 = Fx<fixed::types::extra::U28>;
@@ -107,6 +107,7 @@ fn same_div(a: i32, b: i32) -> Result<(), TestCaseError> {
         let want = crate_div(a, b, f);
         prop_assert_eq!(fixed_div_by_words(a, b, f), want, "words {} / {} frac {}", a, b, f);
         prop_assert_eq!(fixed_div_by_i64(a, b, f), want, "i64 {} / {} frac {}", a, b, f);
+        prop_assert_eq!(fixed_div_by_digits(a, b, f), want, "digits {} / {} frac {}", a, b, f);
     }
     Ok(())
 }

@@ -12,6 +12,9 @@ scripts/setup.sh
 step "workspace tests (host)"
 cargo test --workspace --locked
 
+step "benchmarks compile (run them with cargo bench; ratios: scripts/bench-report.sh)"
+cargo bench --workspace --locked --no-run
+
 if [ -x scripts/cross-check.sh ]; then
   step "embedded targets"
   scripts/cross-check.sh

@@ -181,7 +181,8 @@ worst_tick() {
   echo
   echo "### Instructions per call (exact, QEMU trace)"
   echo
-  echo "Window \`$(basename "$COUNT_RECORDING")\` $COUNT_WINDOW ms (1 kHz ticks; random PWM, 1-4 thrusters). Kinds:"
+  echo "Window \`$(basename "$COUNT_RECORDING")\` $COUNT_WINDOW ms (1 kHz ticks; random PWM, 1-4 thrusters), \`PipelineConfig::seed(1)\`"
+  echo "with forgetting 0.9999 and the change detector (the most work per firing). Kinds:"
   echo "idle = thrusters off or valve transient; edge = the tick of a thruster-word change (firing ends/starts) without a solve;
 deferred = ticks 1-8 after a word change (thrusters off or valve transient) that ran no deferred stage;
 deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending_stage\`; the last stage, the inverse-inertia solve, is \`solve\`);"
@@ -190,8 +191,8 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"
-  for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_merge \
-           deferred_merge_inertia deferred_solve_com deferred_factor_inertia kf kf_rls solve mixer_build mixer other; do
+  for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_detect deferred_detect_finish \
+           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve mixer_build mixer other; do
     [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
     echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
   done

@@ -310,12 +310,13 @@ impl<S: Scalar> Pipeline<S> {
     }
 
     /// Runs one stage of a firing's deferred work per tick ([`DeferredStage`]: final estimate,
-    /// aggregate, CoM add, inverse-inertia add planned and applied, change test and merges,
-    /// CoM solve, inverse-inertia factorisation and solve), so no tick carries more than one of
-    /// them. At 1 kHz a firing with data lasts longer than the 10 stages (anchor sample, 10 ms
-    /// transient, one update); if the next one ends earlier (slower sampling has no transient
-    /// skip, or at `finish`), the stages are caught up at once. Returns true when a solve
-    /// completed.
+    /// aggregate, CoM add, inverse-inertia add planned and applied, change test in two parts,
+    /// merges with the CoM solve, inverse-inertia factorisation and solve), so no tick carries
+    /// more than one of them. At 1 kHz a firing with data spans at least 12 ticks (anchor
+    /// sample, 10 ms transient, one update): room for the 11 stages of an RLS firing with the
+    /// change detector (9 without it, 8 for a batch firing); if the next one ends earlier (slower
+    /// sampling has no transient skip, or at `finish`), the stages are caught up at once.
+    /// Returns true when a solve completed.
     fn run_deferred(&mut self) -> bool {
         let Some(stage) = self.deferred else {
             return false;
@@ -358,20 +359,33 @@ impl<S: Scalar> Pipeline<S> {
             DeferredStage::FoldInertia => {
                 self.mass.apply_inertia_part(&e.agg, &e.plan, e.batch, e.kf.sums.n);
                 next = if !e.batch {
-                    Some(DeferredStage::Merge)
+                    Some(if self.cfg.rls.detector.is_some() { DeferredStage::Detect } else { DeferredStage::MergeInertia })
                 } else if e.batch_complete {
                     Some(DeferredStage::SolveCom)
                 } else {
                     None
                 };
             }
-            DeferredStage::Merge => {
-                self.mass.fold_firing_com(Some(&e.last));
+            DeferredStage::Detect => {
+                // The change test's statistic over the first two rows ...
+                e.nis = self.mass.innovation_part(&e.last, (0, 2), Scaled::zero());
+                next = Some(DeferredStage::DetectFinish);
+            }
+            DeferredStage::DetectFinish => {
+                // ... the third, and the test.
+                if let Some(nis) = e.nis.and_then(|p| self.mass.innovation_part(&e.last, (2, 3), p)) {
+                    self.mass.detect_with(nis);
+                }
                 next = Some(DeferredStage::MergeInertia);
             }
             DeferredStage::MergeInertia => {
-                self.mass.fold_firing_inertia();
-                next = Some(DeferredStage::SolveCom);
+                self.mass.merge_inertia();
+                next = Some(DeferredStage::MergeCom);
+            }
+            DeferredStage::MergeCom => {
+                self.mass.merge_com();
+                e.com = self.mass.solve_com();
+                next = Some(DeferredStage::FactorInertia);
             }
             DeferredStage::SolveCom => {
                 e.com = self.mass.solve_com();
@@ -495,7 +509,7 @@ fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, est: &Om
 }
 
 /// How many end-of-firing stages there are (the most [`Pipeline::run_deferred`] can have pending).
-const DEFERRED_STAGES: usize = 10;
+const DEFERRED_STAGES: usize = 11;
 
 /// The end-of-firing stage the next tick runs (telemetry: which part of the deferred work a
 /// tick carried, e.g. to attribute its execution time).
@@ -512,16 +526,20 @@ pub enum DeferredStage {
     PlanInertia = 4,
     /// Inverse-inertia information added.
     FoldInertia = 5,
-    /// Change test, forgetting, CoM merge.
-    Merge = 6,
-    /// Inverse-inertia merge.
-    MergeInertia = 7,
-    /// CoM solve.
-    SolveCom = 8,
+    /// Change test against the latest solve, first two rows (only with a change detector).
+    Detect = 6,
+    /// Change test, third row and the test itself.
+    DetectFinish = 7,
+    /// Forgetting and merge of the inverse-inertia information.
+    MergeInertia = 8,
+    /// Forgetting and merge of the CoM information, and the CoM solve.
+    MergeCom = 9,
+    /// CoM solve (after the batch, which has nothing to merge).
+    SolveCom = 10,
     /// Inverse-inertia LU factorisation.
-    FactorInertia = 9,
+    FactorInertia = 11,
     /// Inverse-inertia solve and status.
-    SolveInertia = 10,
+    SolveInertia = 12,
 }
 
 /// The ended firing's data that its deferred stages ([`DeferredStage`]) read and write.
@@ -541,6 +559,8 @@ struct EndedFiring<S> {
     factored: Result<Factored<S, 6>, LuError>,
     /// The CoM solve's status.
     com: RlsStatus,
+    /// The change test's statistic over its first rows.
+    nis: Option<Scaled<S>>,
     /// One of the batch firings.
     batch: bool,
     /// The last batch firing.
@@ -565,6 +585,7 @@ impl<S: Scalar> EndedFiring<S> {
             plan: AddPlan::none(),
             factored: Err(LuError::ZeroMatrix),
             com: RlsStatus::NoData,
+            nis: None,
             batch: false,
             batch_complete: false,
         }

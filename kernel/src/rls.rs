@@ -592,6 +592,10 @@ pub struct MassId<S> {
     level_firings: u32,
     /// Last firing's detector statistic (normalised innovation squared over its level), for telemetry.
     pub last_ratio: S,
+    /// The latest solve of each problem, kept while the problem is unchanged: the change
+    /// detector tests a firing against it instead of solving again (a tick's budget).
+    solved_com: Option<Solution<S, 3>>,
+    solved_inertia: Option<Solution<S, 6>>,
 }
 
 impl<S: Scalar> MassId<S> {
@@ -632,6 +636,8 @@ impl<S: Scalar> MassId<S> {
             level: Scaled::zero(),
             level_firings: 0,
             last_ratio: S::ZERO,
+            solved_com: None,
+            solved_inertia: None,
         }
     }
 
@@ -643,6 +649,8 @@ impl<S: Scalar> MassId<S> {
     /// Adds a batch firing's measurements straight into the information; `updates` is how
     /// many per-sample measurements `m` aggregates.
     pub fn add_batch_aggregate(&mut self, m: &Measurement<S>, updates: u32) {
+        self.solved_com = None;
+        self.solved_inertia = None;
         self.com.add(&m.a_com, &m.b_com, &m.weight);
         self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
         self.updates = self.updates.saturating_add(updates);
@@ -650,6 +658,9 @@ impl<S: Scalar> MassId<S> {
 
     /// The CoM half of [`MassId::add_batch_aggregate`] (`batch`) or [`MassId::add_firing`].
     pub fn add_com_part(&mut self, m: &Measurement<S>, batch: bool) {
+        if batch {
+            self.solved_com = None;
+        }
         let target = if batch { &mut self.com } else { &mut self.pending_com };
         target.add(&m.a_com, &m.b_com, &m.weight);
     }
@@ -658,6 +669,7 @@ impl<S: Scalar> MassId<S> {
     /// [`MassId::add_firing`], counting the `updates`.
     pub fn add_inertia_part(&mut self, m: &Measurement<S>, batch: bool, updates: u32) {
         if batch {
+            self.solved_inertia = None;
             self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
         } else {
             self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
@@ -676,6 +688,7 @@ impl<S: Scalar> MassId<S> {
     /// (same measurement and `batch`; nothing else may change the problem in between).
     pub fn apply_inertia_part(&mut self, m: &Measurement<S>, plan: &AddPlan<S>, batch: bool, updates: u32) {
         if batch {
+            self.solved_inertia = None;
             self.inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
         } else {
             self.pending_inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
@@ -717,32 +730,49 @@ impl<S: Scalar> MassId<S> {
 
     /// The first half of [`MassId::end_firing`]: change test, forgetting, fold-in (no solve).
     pub fn fold_firing(&mut self, last: Option<&Measurement<S>>) {
-        self.fold_firing_com(last);
-        self.fold_firing_inertia();
+        self.detect_change(last);
+        self.merge_inertia();
+        self.merge_com();
     }
 
-    /// [`MassId::fold_firing`] up to the CoM merge: change test, forgetting of both problems.
-    pub fn fold_firing_com(&mut self, last: Option<&Measurement<S>>) {
-        if let (Some(det), Some(m)) = (self.cfg.detector, last) {
-            if let Some(nis) = self.innovation_nis(m) {
-                self.detect(&det, nis);
-            }
+    /// The change test of an ended RLS firing (its final measurement `last`) against the
+    /// estimate of the latest solve (no test when that solve failed or the problem changed
+    /// since); an alarm deflates the information (covariance reset). The pipeline runs it in
+    /// two parts ([`MassId::innovation_part`], [`MassId::detect_with`]).
+    pub fn detect_change(&mut self, last: Option<&Measurement<S>>) {
+        if let Some(nis) = last.and_then(|m| self.innovation_part(m, (0, 3), Scaled::zero())) {
+            self.detect_with(nis);
         }
+    }
+
+    /// The change test with its statistic computed (no-op without a detector configured).
+    pub fn detect_with(&mut self, nis: Scaled<S>) {
+        if let Some(det) = self.cfg.detector {
+            self.detect(&det, nis);
+        }
+    }
+
+    /// Forgetting of the inverse-inertia information over the pending firing's updates, and
+    /// the firing's inverse-inertia information merged in.
+    pub fn merge_inertia(&mut self) {
+        self.solved_inertia = None;
         if let Some(l) = self.cfg.forgetting {
-            let f = pow_u32(l, self.pending_updates);
-            self.com.forget(f);
-            self.inertia.forget(f);
+            self.inertia.forget(pow_u32(l, self.pending_updates));
+        }
+        let pi = self.pending_inertia;
+        self.inertia.merge(&pi);
+        self.pending_inertia = InfoLs::new();
+    }
+
+    /// [`MassId::merge_inertia`] for the CoM information; ends the firing's fold (run it last).
+    pub fn merge_com(&mut self) {
+        self.solved_com = None;
+        if let Some(l) = self.cfg.forgetting {
+            self.com.forget(pow_u32(l, self.pending_updates));
         }
         let pc = self.pending_com;
         self.com.merge(&pc);
         self.pending_com = InfoLs::new();
-    }
-
-    /// The rest of [`MassId::fold_firing`]: the inverse-inertia merge.
-    pub fn fold_firing_inertia(&mut self) {
-        let pi = self.pending_inertia;
-        self.inertia.merge(&pi);
-        self.pending_inertia = InfoLs::new();
         self.pending_updates = 0;
     }
 
@@ -764,6 +794,8 @@ impl<S: Scalar> MassId<S> {
         let s = self.cusum.plus(ratio).minus(S::ONE).minus(det.drift);
         self.cusum = if S::ZERO.lt(s) { s } else { S::ZERO };
         if det.threshold.lt(self.cusum) {
+            self.solved_com = None;
+            self.solved_inertia = None;
             self.com.deflate(det.deflate_bits);
             self.inertia.deflate(det.deflate_bits);
             self.cusum = S::ZERO;
@@ -778,12 +810,13 @@ impl<S: Scalar> MassId<S> {
         }
     }
 
-    /// Normalised innovation squared of `m` against the current estimate, from the equations
+    /// Part of the change test's statistic (the normalised innovation squared of `m`, rows
+    /// `rows.0..rows.1`, added to `acc`) against the latest solve (`None`: no test), from the equations
     /// that carry the firing: the inertia equations for a firing with torque (>= 0.5 cN m),
     /// else (a translation) the CoM equations. A translation's inertia rows are near zero,
     /// so after a CoM change the seed's inertia equations (nominal lever arms) cannot explain
     /// its rate change: testing them there would raise alarms on every translation.
-    fn innovation_nis(&self, m: &Measurement<S>) -> Option<Scaled<S>> {
+    pub fn innovation_part(&self, m: &Measurement<S>, rows: (usize, usize), acc: Scaled<S>) -> Option<Scaled<S>> {
         let torque_sq = m
             .a_inertia
             .iter()
@@ -794,9 +827,9 @@ impl<S: Scalar> MassId<S> {
             });
         let strong = S::from_int_pow2(1, -2);
         if strong.lt(torque_sq) {
-            nis_of(&self.inertia, &self.prior_inertia, &m.a_inertia, &m.b_inertia, &m.variance, &self.cfg)
+            nis_of(self.solved_inertia.as_ref()?, &m.a_inertia, &m.b_inertia, &m.variance, rows, acc)
         } else {
-            nis_of(&self.com, &[S::ZERO; 3], &m.a_com, &m.b_com, &m.variance, &self.cfg)
+            nis_of(self.solved_com.as_ref()?, &m.a_com, &m.b_com, &m.variance, rows, acc)
         }
     }
 
@@ -814,9 +847,13 @@ impl<S: Scalar> MassId<S> {
             Ok(sol) => {
                 self.delta_com_m = sol.x;
                 self.unobservable_com = sol.unobservable;
+                self.solved_com = Some(sol);
                 RlsStatus::Ok
             }
-            Err(e) => lu_status(e),
+            Err(e) => {
+                self.solved_com = None;
+                lu_status(e)
+            }
         }
     }
 
@@ -838,9 +875,13 @@ impl<S: Scalar> MassId<S> {
             Ok(sol) => {
                 self.theta_inertia = sol.x;
                 self.unobservable_inertia = sol.unobservable;
+                self.solved_inertia = Some(sol);
                 RlsStatus::Ok
             }
-            Err(e) => lu_status(e),
+            Err(e) => {
+                self.solved_inertia = None;
+                lu_status(e)
+            }
         }
     }
 
@@ -879,24 +920,22 @@ impl<S: Scalar> MassId<S> {
 }
 
 /// `sum_i nu_i^2 / (P_i + (A Q A')_ii)` for one problem; `None` before every term is observable.
+/// The normalised innovation squared of rows `from..to` of a measurement against a solve,
+/// added to `acc` (rows in order, so a statistic computed in parts equals the whole).
 fn nis_of<S: Scalar, const N: usize>(
-    ls: &InfoLs<S, N>,
-    prior: &[S; N],
+    sol: &Solution<S, N>,
     rows: &[[S; N]; 3],
     b: &[S; 3],
     variance: &[Scaled<S>; 3],
-    cfg: &RlsConfig<S>,
+    (from, to): (usize, usize),
+    acc: Scaled<S>,
 ) -> Option<Scaled<S>> {
-    if ls.is_empty() {
-        return None;
-    }
-    let sol = ls.solve(prior, cfg.unobservable_rel, cfg.pivot_rel).ok()?;
     if sol.unobservable.iter().any(|u| *u) {
         // Terms held at the prior have no meaningful predicted variance: no test yet.
         return None;
     }
-    let mut total = Scaled::zero();
-    for ((row, b), var) in rows.iter().zip(b.iter()).zip(variance.iter()) {
+    let mut total = acc;
+    for ((row, b), var) in rows.iter().zip(b.iter()).zip(variance.iter()).take(to).skip(from) {
         let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
         let nu = b.minus(pred);
         let s = sol.predicted_variance(row)?.plus(*var);

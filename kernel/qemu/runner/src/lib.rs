@@ -21,6 +21,7 @@ use massid_kernel::{Estimates, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_2
 
 use markers::Kind;
 use massid_kernel::pipeline::DeferredStage;
+use massid_kernel::rls::DetectorConfig;
 
 /// Raw bits of a kernel scalar, for exact printing.
 pub trait RawBits: Scalar {
@@ -70,7 +71,12 @@ pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
 
 /// Runs one kernel over the sequence.
 pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
-    let Ok(mut pipeline) = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)) else {
+    // The seed's settings plus both options (forgetting, change detector): the most work per
+    // firing, so the instruction counts cover every configuration.
+    let mut cfg = PipelineConfig::seed(1);
+    cfg.rls.forgetting = Some(S::from_f32(0.9999));
+    cfg.rls.detector = Some(DetectorConfig::standard());
+    let Ok(mut pipeline) = Pipeline::<S>::new(&SPH2, cfg) else {
         return writeln!(out, "{} init-error", S::NAME);
     };
     // Target-dependent (alignment of 64-bit fields): not compared, see `compare`.

@@ -59,8 +59,12 @@ marker!(/// A deferred tick that ran the `PlanInertia` stage (the inverse-inerti
     massid_mark_kind_deferred_plan_inertia = 0x4d42_0038);
 marker!(/// A deferred tick that ran the `FoldInertia` stage (inverse-inertia information).
     massid_mark_kind_deferred_fold_inertia = 0x4d42_0033);
-marker!(/// A deferred tick that ran the `Merge` stage (change test, forgetting, CoM merge).
-    massid_mark_kind_deferred_merge = 0x4d42_0034);
+marker!(/// A deferred tick that ran the `Detect` stage (change test, first rows).
+    massid_mark_kind_deferred_detect = 0x4d42_003a);
+marker!(/// A deferred tick that ran the `DetectFinish` stage (change test, last row and test).
+    massid_mark_kind_deferred_detect_finish = 0x4d42_003b);
+marker!(/// A deferred tick that ran the `MergeCom` stage (forgetting, CoM merge and solve).
+    massid_mark_kind_deferred_merge_com = 0x4d42_0034);
 marker!(/// A deferred tick that ran the `MergeInertia` stage.
     massid_mark_kind_deferred_merge_inertia = 0x4d42_0035);
 marker!(/// A deferred tick that ran the `SolveCom` stage (CoM LU solve).
@@ -136,7 +140,9 @@ pub fn kind(k: Kind) {
         Kind::Stage(DeferredStage::FoldCom) => massid_mark_kind_deferred_fold_com(),
         Kind::Stage(DeferredStage::PlanInertia) => massid_mark_kind_deferred_plan_inertia(),
         Kind::Stage(DeferredStage::FoldInertia) => massid_mark_kind_deferred_fold_inertia(),
-        Kind::Stage(DeferredStage::Merge) => massid_mark_kind_deferred_merge(),
+        Kind::Stage(DeferredStage::Detect) => massid_mark_kind_deferred_detect(),
+        Kind::Stage(DeferredStage::DetectFinish) => massid_mark_kind_deferred_detect_finish(),
+        Kind::Stage(DeferredStage::MergeCom) => massid_mark_kind_deferred_merge_com(),
         Kind::Stage(DeferredStage::MergeInertia) => massid_mark_kind_deferred_merge_inertia(),
         Kind::Stage(DeferredStage::SolveCom) => massid_mark_kind_deferred_solve_com(),
         Kind::Stage(DeferredStage::FactorInertia) => massid_mark_kind_deferred_factor_inertia(),

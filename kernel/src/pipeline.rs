@@ -398,18 +398,23 @@ impl<S: Scalar> Pipeline<S> {
             DeferredStage::SolveInertia => {
                 let inertia = self.mass.finish_inertia(e.factored);
                 let s = self.mass.combine(e.com, inertia);
-                self.status = match s {
-                    RlsStatus::Ok => PipelineStatus::Ok,
-                    RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
-                    RlsStatus::Singular => PipelineStatus::Singular,
-                    RlsStatus::Overflow => PipelineStatus::Overflow,
-                    RlsStatus::NoData => self.status,
-                };
+                self.status = self.status_after(s);
                 solved = true;
             }
         }
         self.deferred = next;
         solved
+    }
+
+    /// The pipeline status after a solve with result `s` (no data: unchanged).
+    fn status_after(&self, s: RlsStatus) -> PipelineStatus {
+        match s {
+            RlsStatus::Ok => PipelineStatus::Ok,
+            RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
+            RlsStatus::Singular => PipelineStatus::Singular,
+            RlsStatus::Overflow => PipelineStatus::Overflow,
+            RlsStatus::NoData => self.status,
+        }
     }
 
     /// Runs every pending stage now.
@@ -433,13 +438,7 @@ impl<S: Scalar> Pipeline<S> {
         if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
             // Fewer firings than the batch needs: the batch so far is the estimate.
             let s = self.mass.solve();
-            self.status = match s {
-                RlsStatus::Ok => PipelineStatus::Ok,
-                RlsStatus::PartlyUnobservable => PipelineStatus::PartlyUnobservable,
-                RlsStatus::Singular => PipelineStatus::Singular,
-                RlsStatus::Overflow => PipelineStatus::Overflow,
-                RlsStatus::NoData => self.status,
-            };
+            self.status = self.status_after(s);
         }
         self.word = 0;
         self.firing_has_data = false;

@@ -337,14 +337,8 @@ pub fn fixed_div_by_words(a: i32, b: i32, frac: u32) -> Option<i32> {
     if frac > 31 {
         return fixed_div_by_i64(a, b, frac);
     }
-    let negative = (a < 0) != (b < 0);
-    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
-    let q_int = ua.checked_div(ub)?;
+    let (negative, ua, ub, q_int) = quotient_parts(a, b, frac)?;
     let mut r = ua.checked_rem(ub)?;
-    // |quotient| <= 2^31 needs q_int <= 2^(31 - frac)
-    if u64::from(q_int) > (1u64 << 31u32.saturating_sub(frac)) {
-        return None;
-    }
     let mut q = q_int.checked_shl(frac).unwrap_or(0); // <= 2^31: fits u32
     let mut bit = frac;
     while bit > 0 {
@@ -356,15 +350,32 @@ pub fn fixed_div_by_words(a: i32, b: i32, frac: u32) -> Option<i32> {
             q |= 1u32.wrapping_shl(bit);
         }
     }
-    if negative {
-        // magnitude 2^31 is i32::MIN itself
-        if q > 1u32 << 31 {
-            None
-        } else {
-            Some((q as i32).wrapping_neg())
-        }
-    } else {
+    signed_quotient(q, negative)
+}
+
+/// Sign, magnitudes and integer part of `a 2^frac / b` (`frac <= 31`); `None` for a zero
+/// divisor or an integer part that already puts `|quotient|` above 2^31.
+#[inline]
+fn quotient_parts(a: i32, b: i32, frac: u32) -> Option<(bool, u32, u32, u32)> {
+    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
+    let q_int = ua.checked_div(ub)?;
+    // |quotient| <= 2^31 needs q_int <= 2^(31 - frac)
+    if u64::from(q_int) > (1u64 << 31u32.saturating_sub(frac)) {
+        return None;
+    }
+    Some(((a < 0) != (b < 0), ua, ub, q_int))
+}
+
+/// The quotient with magnitude `q` and the given sign, if it fits `i32` (2^31 only negative).
+#[inline]
+fn signed_quotient(q: u32, negative: bool) -> Option<i32> {
+    if !negative {
         i32::try_from(q).ok()
+    } else if q > 1u32 << 31 {
+        None
+    } else {
+        // magnitude 2^31 is i32::MIN itself
+        Some((q as i32).wrapping_neg())
     }
 }
 
@@ -388,24 +399,11 @@ pub fn fixed_div_by_digits(a: i32, b: i32, frac: u32) -> Option<i32> {
     if frac > 31 {
         return fixed_div_by_i64(a, b, frac);
     }
-    let negative = (a < 0) != (b < 0);
-    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
-    let q_int = ua.checked_div(ub)?;
-    // |quotient| <= 2^31 needs q_int <= 2^(31 - frac); then ua 2^frac / ub < 2^32.
-    if u64::from(q_int) > (1u64 << 31u32.saturating_sub(frac)) {
-        return None;
-    }
+    // quotient_parts bounds the quotient by 2^31, so ua 2^frac / ub < 2^32 (divlu's condition).
+    let (negative, ua, ub, _) = quotient_parts(a, b, frac)?;
     let num = u64::from(ua) << frac; // < 2^63
     let q = divlu((num >> 32) as u32, num as u32, ub);
-    if negative {
-        if q > 1u32 << 31 {
-            None
-        } else {
-            Some((q as i32).wrapping_neg())
-        }
-    } else {
-        i32::try_from(q).ok()
-    }
+    signed_quotient(q, negative)
 }
 
 /// `(u1 2^32 + u0) / v` for `u1 < v` (the quotient fits 32 bits), `v != 0`.

@@ -32,21 +32,6 @@ macro_rules! harness_tests {
     )*};
 }
 
-/// Harnesses that currently find a counterexample in the kernel (reported; see the README's
-/// "Findings"). They stay in the suite and run with `cargo test -- --ignored`; drop the entry
-/// here when the kernel is fixed.
-macro_rules! known_failing {
-    ($($name:ident: $why:literal),* $(,)?) => {$(
-        #[test]
-        #[ignore = $why]
-        fn $name() {
-            run(stringify!($name));
-        }
-    )*};
-}
-
-known_failing!();
-
 harness_tests!(
     rls_inertia_q8_24,
     mixer_q8_24,

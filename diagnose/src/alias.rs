@@ -22,7 +22,7 @@ pub fn candidates(f_app_hz: f64, fs_hz: f64, f_max_hz: f64) -> Vec<f64> {
         }
         k += 1.0;
     }
-    out.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    out.sort_by(|a, b| a.total_cmp(b));
     out
 }
 

@@ -76,16 +76,12 @@ fn fit_nuisance(prob: &Problem, nuis: &[f64]) -> Option<fit::FitResult> {
     fit::fit(prob, &fam, nuis, 10)
 }
 
-/// Mean of the first samples as the starting initial rate.
+/// Mean of the first usable samples per axis as the starting initial rate.
 fn initial_rate(series: &Series) -> [f64; 3] {
-    let n = series.len().min(5);
-    let mut w = [0.0; 3];
-    for i in 0..n {
-        for a in 0..3 {
-            w[a] += series.rate[i][a] / n as f64;
-        }
-    }
-    w
+    std::array::from_fn(|a| {
+        let first: Vec<f64> = (0..series.len()).filter(|&i| series.valid[i][a]).take(5).map(|i| series.rate[i][a]).collect();
+        if first.is_empty() { 0.0 } else { first.iter().sum::<f64>() / first.len() as f64 }
+    })
 }
 
 /// Low-frequency peaks of the nominal residual (slosh starting points), Hz.
@@ -95,7 +91,7 @@ fn slosh_hints(series: &Series, r: &[[f64; 3]]) -> Vec<f64> {
     let mut t = vec![];
     let mut y: [Vec<f64>; 3] = Default::default();
     for i in (0..series.len()).step_by(step) {
-        if mask[i] {
+        if mask[i] && series.valid[i].iter().all(|&v| v) {
             t.push(series.t_ms[i] as f64 * 1e-3);
             for a in 0..3 {
                 y[a].push(r[i][a]);
@@ -115,7 +111,7 @@ fn slosh_hints(series: &Series, r: &[[f64; 3]]) -> Vec<f64> {
         }
     }
     let mut idx: Vec<usize> = (1..freqs.len() - 1).filter(|&i| tot[i] >= tot[i - 1] && tot[i] >= tot[i + 1]).collect();
-    idx.sort_by(|&a, &b| tot[b].partial_cmp(&tot[a]).unwrap());
+    idx.sort_by(|&a, &b| tot[b].total_cmp(&tot[a]));
     let mut out: Vec<f64> = idx.iter().take(2).map(|&i| freqs[i]).collect();
     if out.is_empty() {
         out.push(0.4);
@@ -137,8 +133,8 @@ fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
 /// change before the first or after the last firing is a constant inertia / CoM error (or
 /// nothing), and a blowdown starting after the last firing cannot be observed.
 fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
-    let first = series.word_ms.iter().position(|&w| w != 0).unwrap_or(0) as f64 * 1e-3;
-    let last = series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64 * 1e-3;
+    let first = series.real_ms(series.word_ms.iter().position(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
+    let last = series.real_ms(series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
     match kind {
         Kind::MassPropertyChange => theta[0] > first + 0.5 && theta[0] < last - 0.5,
         Kind::Blowdown => theta[0] < last - 0.5,
@@ -280,7 +276,7 @@ pub fn diagnose(
             }
         }
         // full fits for the best screened candidates
-        screened.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        screened.sort_by(|a, b| a.0.total_cmp(&b.0));
         for (i, (dbic, kind, theta, chi2, note, rf, se)) in screened.into_iter().enumerate() {
             let k_new = effects::n_params(kind, &fired);
             let (dbic, theta, se) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
@@ -308,7 +304,7 @@ pub fn diagnose(
                 ranked.push((dbic, kind, theta, note, rf));
             }
         }
-        ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
         // a mass-property change can mimic a constant inertia error plus a CoM offset by
         // switching half-way; it is named only if it beats that static pair
         if ranked.first().map(|r| r.1 == Kind::MassPropertyChange).unwrap_or(false)
@@ -332,7 +328,7 @@ pub fn diagnose(
         }
         let residual_prev = residual_cur.clone();
         if kind == Kind::GyroRinging {
-            let rf = rf.expect("ringing candidate carries its fit");
+            let Some(rf) = rf else { break };
             alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
             ringing_fit = Some(rf);
         } else {
@@ -370,12 +366,15 @@ pub fn diagnose(
             Kind::PressureDrop | Kind::ThrustScale => 200,
             _ => 1000,
         };
-        let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3);
+        let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3)
+            .into_iter()
+            .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
+            .collect();
         let mut evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, round);
         if kind == Kind::ThrustScale {
             // name the thruster that is most off nominal
             let fired_idx: Vec<usize> = (0..NT).filter(|&i| fired[i]).collect();
-            if let Some((j, v)) = theta.iter().enumerate().max_by(|a, b| (a.1 - 1.0).abs().partial_cmp(&(b.1 - 1.0).abs()).unwrap()) {
+            if let Some((j, v)) = theta.iter().enumerate().max_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs())) {
                 evidence = format!("thruster {} delivers {:.0} % of its nominal force; {evidence}", fired_idx[j] + 1, 100.0 * v);
             }
         }
@@ -504,7 +503,7 @@ fn describe(
         }
     }
     let mut runner: Vec<&Score> = scores.iter().filter(|s| s.round == round && s.effect != kind.name()).collect();
-    runner.sort_by(|a, b| a.delta_bic.partial_cmp(&b.delta_bic).unwrap());
+    runner.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     let alt = runner
         .first()
         .map(|s| format!("; next best mechanism {} at delta BIC {:.0}", s.effect, s.delta_bic))

@@ -44,10 +44,20 @@ impl<'a> Problem<'a> {
         model::predict(self.plant, self.series, &d, p)
     }
 
-    /// Unweighted residual (measured minus predicted) per sample.
+    /// Unweighted residual (measured minus predicted) per sample; zero where the sample
+    /// is not a measurement (railed or stuck gyro), so nothing downstream can mistake a
+    /// rail for a rate.
     pub fn residual(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
         let y = self.predict(p)?;
-        Some(self.series.rate.iter().zip(y.iter()).map(|(m, y)| [m[0] - y[0], m[1] - y[1], m[2] - y[2]]).collect())
+        let s = self.series;
+        Some(
+            s.rate
+                .iter()
+                .zip(y.iter())
+                .zip(s.valid.iter())
+                .map(|((m, y), v)| std::array::from_fn(|a| if v[a] { m[a] - y[a] } else { 0.0 }))
+                .collect(),
+        )
     }
 
     /// Weighted residual vector over the usable samples (stride applied).

@@ -30,18 +30,25 @@ use reference_f64::satellite::Satellite;
 pub enum DiagnoseError {
     #[error("{0}: the recording has no samples")]
     Empty(String),
+    #[error("{0}: no usable gyro sample (every sample is at a rail or stuck on every axis)")]
+    NoUsableSamples(String),
 }
 
 /// Diagnoses `rec` against the nominal model `sat`: the library entry point behind
 /// `massid diagnose`.
 pub fn diagnose_recording(rec: &Recording, sat: &Satellite, settings: &Settings) -> Result<Analysis, DiagnoseError> {
     let series = series::Series::from_recording(rec, sat).ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
+    if series.usable() == 0 {
+        return Err(DiagnoseError::NoUsableSamples(rec.source.clone()));
+    }
     let plant = model::Plant::new(sat);
     let issues = DataIssues {
-        gaps: rec.issues.gaps as u64,
-        missing_samples: rec.issues.missing_samples as u64,
+        // from the time steps, which win over a contradicting declared rate
+        gaps: series.gaps,
+        missing_samples: series.missing_samples,
         duplicates: rec.issues.duplicates as u64,
         saturated: rec.issues.saturated as u64,
+        railed: series.railed,
     };
     let name = std::path::Path::new(&rec.source)
         .file_name()

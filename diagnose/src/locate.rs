@@ -57,38 +57,44 @@ pub fn conditions(series: &Series) -> Vec<Condition> {
 /// Mean-square residual per axis by condition: (condition, samples, ms per axis).
 pub fn by_condition(series: &Series, r: &[[f64; 3]]) -> Vec<(Condition, usize, [f64; 3])> {
     let c = conditions(series);
-    let mut acc: std::collections::BTreeMap<Condition, (usize, [f64; 3])> = Default::default();
+    let mut acc: std::collections::BTreeMap<Condition, (usize, [f64; 3], [usize; 3])> = Default::default();
     for (i, ci) in c.iter().enumerate() {
-        let e = acc.entry(*ci).or_insert((0, [0.0; 3]));
+        let e = acc.entry(*ci).or_insert((0, [0.0; 3], [0; 3]));
         e.0 += 1;
         for a in 0..3 {
-            e.1[a] += r[i][a] * r[i][a];
+            if series.valid[i][a] {
+                e.1[a] += r[i][a] * r[i][a];
+                e.2[a] += 1;
+            }
         }
     }
-    acc.into_iter().map(|(k, (n, s))| (k, n, s.map(|x| x / n.max(1) as f64))).collect()
+    acc.into_iter().map(|(k, (n, s, na))| (k, n, std::array::from_fn(|a| s[a] / na[a].max(1) as f64))).collect()
 }
 
 /// Mean-square residual per axis in consecutive windows of `width_ms`: (start, end, ms).
 pub fn by_window(series: &Series, r: &[[f64; 3]], width_ms: i64) -> Vec<(i64, i64, [f64; 3])> {
     let mut out = vec![];
     let mut start = series.t_ms[0] - series.t_ms[0].rem_euclid(width_ms);
-    let (mut s, mut n) = ([0.0; 3], 0usize);
+    let (mut s, mut n) = ([0.0; 3], [0usize; 3]);
+    let mean = |s: [f64; 3], n: [usize; 3]| std::array::from_fn(|a| s[a] / n[a].max(1) as f64);
     for (i, &t) in series.t_ms.iter().enumerate() {
-        while t >= start + width_ms {
-            if n > 0 {
-                out.push((start, start + width_ms, s.map(|x| x / n as f64)));
+        if t >= start + width_ms {
+            if n.iter().any(|&k| k > 0) {
+                out.push((start, start + width_ms, mean(s, n)));
             }
-            start += width_ms;
+            start += (t - start) / width_ms * width_ms;
             s = [0.0; 3];
-            n = 0;
+            n = [0; 3];
         }
         for a in 0..3 {
-            s[a] += r[i][a] * r[i][a];
+            if series.valid[i][a] {
+                s[a] += r[i][a] * r[i][a];
+                n[a] += 1;
+            }
         }
-        n += 1;
     }
-    if n > 0 {
-        out.push((start, start + width_ms, s.map(|x| x / n as f64)));
+    if n.iter().any(|&k| k > 0) {
+        out.push((start, start + width_ms, mean(s, n)));
     }
     out
 }
@@ -103,7 +109,7 @@ pub fn top_windows(series: &Series, before: &[[f64; 3]], after: &[[f64; 3]], wid
         .zip(wa.iter())
         .map(|(b, a)| ((b.2[0] + b.2[1] + b.2[2]) - (a.2[0] + a.2[1] + a.2[2]), b.0, b.1))
         .collect();
-    gain.sort_by(|x, y| y.0.partial_cmp(&x.0).unwrap());
+    gain.sort_by(|x, y| y.0.total_cmp(&x.0));
     let mut w: Vec<[i64; 2]> = gain.iter().take(count).filter(|g| g.0 > 0.0).map(|g| [g.1, g.2]).collect();
     w.sort();
     w

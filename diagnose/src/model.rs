@@ -206,7 +206,8 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
         Some((_, off, inr)) => Some(MassProps::new(plant, p, inr, off)?),
         None => None,
     };
-    let change_ms = p.mass_change.map(|m| m.0 * 1e3).unwrap_or(f64::INFINITY);
+    // the change time and the blowdown's clock are the recording's; steps run on the model's
+    let change_ms = p.mass_change.map(|m| series.model_ms(m.0 * 1e3)).unwrap_or(f64::INFINITY);
     let slosh_on = p.slosh.is_some();
     let dist = Vector3::from(p.disturbance_nm);
     let pd = plant.base_pressure_drop + p.pressure_drop;
@@ -233,12 +234,15 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
         let ts = series.t_ms[si] as usize;
         while k < ts {
             // one 1 ms step from k to k+1 with the torque averaged over the step
-            let props = if (k as f64) + 0.5 >= change_ms { props_b.as_ref().unwrap() } else { &props_a };
-            let d = if k < n_ms { &duty[k] } else { &duty[n_ms - 1] };
+            let props = match &props_b {
+                Some(b) if (k as f64) + 0.5 >= change_ms => b,
+                _ => &props_a,
+            };
+            let d = duty.get(k).or(duty.last())?;
             let n_open: f64 = d.iter().map(|&x| x as f64).sum();
             let mut scale_t = 1.0;
             if let Some((start, tau)) = p.blowdown {
-                let t = (k as f64 + 0.5) * 1e-3;
+                let t = series.real_ms(k as f64 + 0.5) * 1e-3;
                 if t > start {
                     scale_t = (-(t - start) / tau).exp();
                 }

@@ -137,7 +137,7 @@ fn robust_mean_sq(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v.sort_by(|a, b| a.total_cmp(b));
     // median of chi2(1) is 0.4549 times its mean
     let med = v[v.len() / 2];
     let mean: f64 = v.iter().sum::<f64>() / v.len() as f64;

@@ -25,6 +25,10 @@ pub struct DataIssues {
     pub missing_samples: u64,
     pub duplicates: u64,
     pub saturated: u64,
+    /// Per axis, samples masked out of every fit and statistic because the gyro sat at a
+    /// rail or was stuck.
+    #[serde(default)]
+    pub railed: [u64; 3],
 }
 
 /// The whole document.

@@ -20,6 +20,13 @@ pub fn summary(a: &Analysis) -> String {
         "data issues: {} gaps, {} missing samples, {} duplicates, {} saturated",
         o.data_issues.gaps, o.data_issues.missing_samples, o.data_issues.duplicates, o.data_issues.saturated
     );
+    let r = o.data_issues.railed;
+    if r.iter().any(|&x| x > 0) {
+        let _ = writeln!(s, "masked gyro samples (rail or stuck), x y z: {} {} {} (left out of every fit and statistic)", r[0], r[1], r[2]);
+    }
+    for w in &a.series.warnings {
+        let _ = writeln!(s, "warning: {w}");
+    }
     let f = |v: [f64; 3]| format!("[{:.5} {:.5} {:.5}]", v[0], v[1], v[2]);
     let _ = writeln!(s, "noise (per sample, rad/s): {}", f(a.noise.var.map(f64::sqrt)));
     let _ = writeln!(s, "residual RMS before (rad/s): {}", f(o.residual_rms_before));
@@ -60,8 +67,9 @@ fn residual_svg(series: &Series, r: &[[f64; 3]], title: &str, labels: bool) -> R
     {
         let root = SVGBackend::with_string(&mut out, (900, 260)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let t0 = series.t_ms[0] as f64 * 1e-3;
-        let t1 = (*series.t_ms.last().unwrap() as f64 * 1e-3).max(t0 + 1e-3);
+        let real_s = |i: usize| series.real_ms(series.t_ms[i] as f64) * 1e-3;
+        let t0 = real_s(0);
+        let t1 = real_s(series.len() - 1).max(t0 + 1e-3);
         let lim = r.iter().flat_map(|x| x.iter()).fold(1e-6f64, |m, v| m.max(v.abs()));
         let mut b = ChartBuilder::on(&root);
         b.margin(8);
@@ -79,7 +87,7 @@ fn residual_svg(series: &Series, r: &[[f64; 3]], title: &str, labels: bool) -> R
         let step = (r.len() / 3000).max(1);
         for a in 0..3 {
             let pts: Vec<(f64, f64)> =
-                (0..r.len()).step_by(step).map(|i| (series.t_ms[i] as f64 * 1e-3, r[i][a])).collect();
+                (0..r.len()).step_by(step).map(|i| (real_s(i), r[i][a])).collect();
             chart.draw_series(LineSeries::new(pts, COLORS[a].stroke_width(1))).map_err(|e| e.to_string())?;
         }
         root.present().map_err(|e| e.to_string())?;
@@ -96,7 +104,7 @@ fn spectrum_svg(a: &Analysis, labels: bool) -> Result<String, String> {
         if sp.is_empty() {
             return Ok(String::new());
         }
-        let fmax = sp.last().unwrap().0;
+        let fmax = sp.last().map(|p| p.0).unwrap_or(1.0);
         let pmax = sp.iter().fold(1e-9f64, |m, p| m.max(p.1));
         let mut b = ChartBuilder::on(&root);
         b.margin(8);

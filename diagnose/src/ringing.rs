@@ -103,6 +103,12 @@ fn projections(
                 let n = idx.len();
                 let mut rows: Vec<[f64; 4]> = Vec::with_capacity(n); // t, c, s, r
                 for &i in idx {
+                    // a sample (or one the whitening filter reaches back to) that is not a
+                    // measurement on this axis is left out of the window
+                    let reach = i.saturating_sub(phi.len());
+                    if !(reach..=i).all(|j| series.valid[j][a]) {
+                        continue;
+                    }
                     let dt = series.t_ms[i] as f64 - te;
                     let (mut c, mut sn) = basis(dt);
                     let mut rv = r[i][a];
@@ -119,7 +125,10 @@ fn projections(
                     }
                     rows.push([dt, c, sn, rv]);
                 }
-                let nt = n as f64;
+                let nt = rows.len() as f64;
+                if rows.len() < 4 {
+                    return (Matrix2::zeros(), Vector2::zeros());
+                }
                 let mt = rows.iter().map(|x| x[0]).sum::<f64>() / nt;
                 let stt: f64 = rows.iter().map(|x| (x[0] - mt).powi(2)).sum();
                 for col in 1..4 {
@@ -266,16 +275,15 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64, laten
     if scored.is_empty() {
         return None;
     }
-    scored.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap());
+    scored.sort_by(|a, b| b.1.total_cmp(&a.1));
     let top = scored[0].1;
+    if !top.is_finite() {
+        return None;
+    }
     let close: Vec<(f64, f64, f64)> = scored.iter().cloned().filter(|s| s.1 > top - 10.0).collect();
-    let chosen = close
-        .iter()
-        .cloned()
-        .min_by(|a, b| (a.0 - prior_hz).abs().partial_cmp(&(b.0 - prior_hz).abs()).unwrap())
-        .unwrap();
+    let chosen = close.iter().cloned().min_by(|a, b| (a.0 - prior_hz).abs().total_cmp(&(b.0 - prior_hz).abs()))?;
     let mut ambiguous: Vec<f64> = close.iter().map(|s| s.0).filter(|&f| (f - chosen.0).abs() > 1e-6).collect();
-    ambiguous.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    ambiguous.sort_by(|a, b| a.total_cmp(b));
     let (f, gain, tau) = chosen;
     let (_, s) = statistic(series, r, &win, wh, f, tau);
     // standard errors from the curvature of the statistic (a chi-square): var = 2 / d2

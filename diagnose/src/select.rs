@@ -71,7 +71,8 @@ pub struct Spec {
 
 /// Parameter space of `kind` for this recording.
 pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64]) -> Spec {
-    let dur = prob.series.duration_s();
+    // times of a change are on the recording's clock
+    let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
     let nominal_i = prob.plant.nominal_inertia();
     match kind {
         Kind::ThrusterLatency => Spec {
@@ -261,7 +262,7 @@ fn fit_with_starts(
                 Some((c, st.clone()))
             })
             .collect();
-        scored.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         new_starts = scored.into_iter().take(2).map(|s| s.1).collect();
     }
     let mut best: Option<FitResult> = None;

@@ -157,7 +157,7 @@ fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
             v.extend((0..6).map(|i| (4 + i, nominal_i[i])));
             v
         }
-        Kind::FuelSlosh => vec![(2, 0.0)],
+        Kind::FuelSlosh => vec![(2, 0.0), (3, 0.0), (4, 0.0)],
         Kind::GyroRinging => vec![],
     };
     null.iter()
@@ -592,10 +592,10 @@ fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectRep
         Kind::FuelSlosh => {
             p.insert("freq_hz".into(), num(th[0]));
             p.insert("damping_ratio".into(), num(th[1]));
-            p.insert("fluid_inertia_fraction".into(), num(th[2]));
+            p.insert("fluid_inertia_fraction".into(), nums(&th[2..5]));
             s.insert("freq_hz".into(), num(se(0)));
             s.insert("damping_ratio".into(), num(se(1)));
-            s.insert("fluid_inertia_fraction".into(), num(se(2)));
+            s.insert("fluid_inertia_fraction".into(), nums(&[se(2), se(3), se(4)]));
         }
         Kind::GyroBias => {
             p.insert("counts".into(), nums(&th[..3]));

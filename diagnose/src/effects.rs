@@ -80,7 +80,7 @@ pub fn n_params(kind: Kind, fired: &[bool; NT]) -> usize {
         Kind::ComOffset | Kind::GyroBias | Kind::GyroScale | Kind::DisturbanceTorque => 3,
         Kind::Inertia => 6,
         Kind::MassPropertyChange => 10,
-        Kind::FuelSlosh => 3,
+        Kind::FuelSlosh => 5,
         Kind::GyroRinging => 5,
     }
 }
@@ -108,7 +108,7 @@ pub fn apply(kind: Kind, th: &[f64], fired: &[bool; NT], p: &mut Params) {
         Kind::MassPropertyChange => {
             p.mass_change = Some((th[0], [th[1], th[2], th[3]], std::array::from_fn(|i| th[4 + i])))
         }
-        Kind::FuelSlosh => p.slosh = Some((th[0], th[1], th[2])),
+        Kind::FuelSlosh => p.slosh = Some((th[0], th[1], [th[2], th[3], th[4]])),
         Kind::GyroBias => p.gyro_bias_counts = [th[0], th[1], th[2]],
         Kind::GyroScale => p.gyro_scale = [th[0], th[1], th[2]],
         Kind::DisturbanceTorque => p.disturbance_nm = [th[0], th[1], th[2]],

@@ -17,13 +17,15 @@ pub struct Problem<'a> {
     pub weight: [f64; 3],
     /// Use every `stride`-th sample in the fit (speed); the prediction still runs at 1 ms.
     pub stride: usize,
+    /// Samples the fit may use (None: all): the training blocks of an out-of-sample check.
+    pub train: Option<std::rc::Rc<Vec<bool>>>,
     duty_cache: std::cell::RefCell<Option<((f64, f64), std::rc::Rc<Vec<[f32; NT]>>)>>,
 }
 
 impl<'a> Problem<'a> {
     pub fn new(plant: &'a Plant, series: &'a Series, noise: &NoiseModel) -> Problem<'a> {
         let weight = std::array::from_fn(|a| 1.0 / noise.long_run_var[a].sqrt());
-        Problem { plant, series, weight, stride: 1, duty_cache: Default::default() }
+        Problem { plant, series, weight, stride: 1, train: None, duty_cache: Default::default() }
     }
 
     fn duty(&self, open: f64, close: f64) -> std::rc::Rc<Vec<[f32; NT]>> {
@@ -60,11 +62,23 @@ impl<'a> Problem<'a> {
         )
     }
 
+    /// The same problem fitted only on the samples where `train` is true.
+    pub fn restricted(&self, train: std::rc::Rc<Vec<bool>>) -> Problem<'a> {
+        Problem { plant: self.plant, series: self.series, weight: self.weight, stride: self.stride, train: Some(train), duty_cache: Default::default() }
+    }
+
+    fn in_fit(&self, i: usize) -> bool {
+        self.train.as_ref().map(|t| t[i]).unwrap_or(true)
+    }
+
     /// Weighted residual vector over the usable samples (stride applied).
     pub fn weighted(&self, p: &Params) -> Option<DVector<f64>> {
         let r = self.residual(p)?;
         let mut v = Vec::with_capacity(r.len() * 3 / self.stride + 3);
         for (i, ri) in r.iter().enumerate().step_by(self.stride) {
+            if !self.in_fit(i) {
+                continue;
+            }
             for a in 0..3 {
                 if self.series.valid[i][a] {
                     v.push(ri[a] * self.weight[a]);
@@ -74,11 +88,30 @@ impl<'a> Problem<'a> {
         Some(DVector::from_vec(v))
     }
 
-    /// Chi-square (sum of weighted squares) of `p` at full resolution.
+    /// Chi-square per block of samples (`block[i]`, blocks numbered from 0 up to
+    /// `blocks`), all samples, full resolution: the held-out score.
+    pub fn chi2_by_block(&self, p: &Params, block: &[usize], blocks: usize) -> Option<Vec<f64>> {
+        let r = self.residual(p)?;
+        let mut out = vec![0.0; blocks];
+        for (i, ri) in r.iter().enumerate() {
+            for a in 0..3 {
+                if self.series.valid[i][a] {
+                    out[block[i]] += (ri[a] * self.weight[a]).powi(2);
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// Chi-square (sum of weighted squares) of `p` at full resolution, over the samples
+    /// the fit may use.
     pub fn chi2(&self, p: &Params) -> Option<f64> {
         let r = self.residual(p)?;
         let mut s = 0.0;
         for (i, ri) in r.iter().enumerate() {
+            if !self.in_fit(i) {
+                continue;
+            }
             for a in 0..3 {
                 if self.series.valid[i][a] {
                     s += (ri[a] * self.weight[a]).powi(2);

@@ -33,8 +33,9 @@ pub struct Params {
     pub inertia: Option<[f64; 6]>,
     /// (at_s, CoM offset from the model's in mm, inertia after the change)
     pub mass_change: Option<(f64, [f64; 3], [f64; 6])>,
-    /// (freq_hz, damping_ratio, fluid inertia fraction)
-    pub slosh: Option<(f64, f64, f64)>,
+    /// (freq_hz, damping_ratio, fluid inertia fraction per axis): a liquid may move about
+    /// some axes only (a baffled or part-filled tank), so each axis has its own fraction.
+    pub slosh: Option<(f64, f64, [f64; 3])>,
     /// True gyro bias minus the model's, counts.
     pub gyro_bias_counts: [f64; 3],
     pub gyro_scale: [f64; 3],
@@ -182,7 +183,7 @@ impl MassProps {
             let wn = 2.0 * std::f64::consts::PI * f;
             for a in 0..3 {
                 let iaa = inertia[(a, a)];
-                let j = frac * iaa;
+                let j = frac[a] * iaa;
                 let mu = j * (iaa - j) / iaa;
                 slosh_j[a] = j;
                 slosh_k[a] = mu * wn * wn;

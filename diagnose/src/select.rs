@@ -142,13 +142,20 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
         Kind::FuelSlosh => {
             // a frequency grid plus the residual's own low-frequency peaks; small liquid
             // fraction so every start is close to the current model
+            // (freq, damping, fluid fraction x, y, z): a fraction per axis, since a liquid
+            // can move about some axes only
             let mut starts: Vec<Vec<f64>> =
-                [0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0].iter().map(|&f| vec![f, 0.01, 0.01]).collect();
+                [0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0].iter().map(|&f| vec![f, 0.01, 0.01, 0.01, 0.01]).collect();
             for &f in slosh_hint_hz {
-                starts.push(vec![f, 0.01, 0.01]);
-                starts.push(vec![f, 0.005, 0.03]);
+                starts.push(vec![f, 0.01, 0.01, 0.01, 0.01]);
+                starts.push(vec![f, 0.005, 0.03, 0.03, 0.03]);
             }
-            Spec { lo: vec![0.02, 0.0, 0.001], hi: vec![20.0, 0.5, 0.5], step: vec![1e-3, 2e-4, 1e-3], starts }
+            Spec {
+                lo: vec![0.02, 0.0, 0.0, 0.0, 0.0],
+                hi: vec![20.0, 0.5, 0.5, 0.5, 0.5],
+                step: vec![1e-3, 2e-4, 1e-3, 1e-3, 1e-3],
+                starts,
+            }
         }
         Kind::GyroBias => Spec { lo: vec![-300.0; 3], hi: vec![300.0; 3], step: vec![0.05; 3], starts: vec![vec![0.0; 3]] },
         Kind::GyroScale => Spec { lo: vec![0.5; 3], hi: vec![1.5; 3], step: vec![1e-4; 3], starts: vec![vec![1.0; 3]] },

@@ -4,8 +4,9 @@
 //!   I w_dot = tau - w x (I w)                                (seed eq. 4.1)
 //! the attitude quaternion q (body to inertial, scalar first) follows q_dot = q (x) (0, w) / 2,
 //! and position/velocity are inertial: v_dot = R(q) F / m. Inputs (thrust, mass properties)
-//! are constant over a step except the blowdown factor, evaluated at every RK4 stage; the
-//! caller splits steps at every valve edge so edges fall exactly on step boundaries.
+//! are constant over a step except the blowdown factor and the thrust-rise transient
+//! (`effects/thrust_rise.rs`), evaluated at every RK4 stage; the caller splits steps at
+//! every valve edge so edges fall exactly on step boundaries.
 use crate::effects::PlantConfig;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use reference_f64::satellite::{Satellite, N_THRUSTERS};
@@ -64,6 +65,13 @@ pub struct Segment {
     /// External torque, N m.
     pub disturbance: Vector3<f64>,
     pub mass_kg: f64,
+    /// Thrust rise (`effects/thrust_rise.rs`): the thrusters' force differs from the steady
+    /// `torque0`/`force0` by `rise_torque`/`rise_force` * exp(-(t - rise_t0_ms) / rise_tau_ms)
+    /// (before blowdown). `rise_tau_ms = 0`: no transient (the nominal arithmetic, unchanged).
+    pub rise_torque: Vector3<f64>,
+    pub rise_force: Vector3<f64>,
+    pub rise_t0_ms: f64,
+    pub rise_tau_ms: f64,
 }
 
 /// The satellite with its effects, ready to produce [`Segment`]s.
@@ -151,7 +159,32 @@ impl Plant {
             force0,
             disturbance: Vector3::from(self.cfg.disturbance_torque_nm),
             mass_kg: self.mass_kg,
+            rise_torque: Vector3::zeros(),
+            rise_force: Vector3::zeros(),
+            rise_t0_ms: 0.0,
+            rise_tau_ms: 0.0,
         }
+    }
+
+    /// [`Plant::segment`] with a thrust-rise transient: at `t0_ms` thruster i delivers
+    /// `steady_i + excess_n[i]` (N, before blowdown), the excess decaying with the plant's
+    /// `thrust_rise_tau_ms` (lever arms of the mass properties in force at `t_ms`).
+    pub fn segment_with_rise(&self, valves: u16, t_ms: f64, excess_n: &[f64; N_THRUSTERS], t0_ms: f64) -> Segment {
+        let mut s = self.segment(valves, t_ms);
+        let tau = self.cfg.thrust_rise_tau_ms;
+        if tau > 0.0 && excess_n.iter().any(|&x| x != 0.0) {
+            let com = self.com_nominal + Vector3::from(self.cfg.mass_at(t_ms * 1e-3).com_offset_m);
+            for i in 0..N_THRUSTERS {
+                if excess_n[i] != 0.0 {
+                    let fv = self.dir[i] * excess_n[i];
+                    s.rise_force += fv;
+                    s.rise_torque += (self.pos[i] - com).cross(&fv);
+                }
+            }
+            s.rise_t0_ms = t0_ms;
+            s.rise_tau_ms = tau;
+        }
+        s
     }
 }
 
@@ -172,7 +205,13 @@ pub struct Derivative {
 #[inline]
 pub fn derivative(x: &State, t_ms: f64, seg: &Segment, cfg: &PlantConfig, full: bool) -> Derivative {
     let b = if cfg.blowdowns.is_empty() { 1.0 } else { cfg.blowdown_factor(t_ms * 1e-3) };
-    let mut tau = seg.torque0 * b + seg.disturbance - x.w.cross(&(seg.i_body * x.w));
+    let (torque0, force0) = if seg.rise_tau_ms > 0.0 {
+        let e = (-(t_ms - seg.rise_t0_ms) / seg.rise_tau_ms).exp();
+        (seg.torque0 + seg.rise_torque * e, seg.force0 + seg.rise_force * e)
+    } else {
+        (seg.torque0, seg.force0)
+    };
+    let mut tau = torque0 * b + seg.disturbance - x.w.cross(&(seg.i_body * x.w));
     let mut phi_ddot = Vector3::zeros();
     let w_dot;
     if seg.has_slosh {
@@ -189,7 +228,7 @@ pub fn derivative(x: &State, t_ms: f64, seg: &Segment, cfg: &PlantConfig, full: 
     } else {
         w_dot = seg.i_body_inv * tau;
     }
-    let specific_force = seg.force0 * (b / seg.mass_kg);
+    let specific_force = force0 * (b / seg.mass_kg);
     let (q_dot, vel, acc) = if full {
         let qd = x.q * Quaternion::new(0.0, x.w.x, x.w.y, x.w.z) * 0.5;
         let r = UnitQuaternion::new_unchecked(x.q);

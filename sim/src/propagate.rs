@@ -3,12 +3,25 @@
 //! breakpoint, so no input changes inside a step. [`Propagator`] takes commands one instant
 //! at a time (closed loop needs that); [`propagate`] runs a whole command sequence. Shared
 //! by the fast prediction (rates only) and the full simulation (attitude and translation).
+//!
+//! With a thrust rise (`effects/thrust_rise.rs`) thrust is no longer constant between edges:
+//! at every actual valve edge each thruster's lagged force is re-referenced (its value at the
+//! edge, relaxing towards the steady force of the new valve set), the step's [`Segment`]
+//! carries the decaying excess, and steps are at most tau/8 long for the first 12 tau after
+//! an edge so RK4 resolves the exponential for any tau (1 ms steps stay exact for slow rises).
 use crate::dynamics::{derivative, rk4_step, Derivative, Plant, Segment, State};
 use crate::valves::ValveEdge;
 use reference_f64::satellite::N_THRUSTERS;
 
 /// Time comparisons in ms are made with this slack (edges come from integer ms plus delays).
 const EPS_MS: f64 = 1e-9;
+/// Thrust rise: steps are at most tau / RISE_STEPS_PER_TAU long for RISE_FINE_TAUS * tau
+/// after an edge (exp(-12) = 6e-6 of the transient is left), never shorter than
+/// RISE_MIN_STEP_MS (for tau below 8e-4 ms the transient's whole area, tau * force, is
+/// below 8e-4 ms of thrust).
+const RISE_STEPS_PER_TAU: f64 = 8.0;
+const RISE_FINE_TAUS: f64 = 12.0;
+const RISE_MIN_STEP_MS: f64 = 1e-4;
 
 /// How to integrate.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,6 +65,11 @@ pub struct Propagator<'a> {
     breaks: Vec<f64>,
     next_break: usize,
     cache: Option<(u16, usize, Segment)>,
+    /// Thrust rise: each thruster's force (N, before blowdown) at `rise_t0_ms`, the last
+    /// valve edge; `rise_live` = some force still differs from its steady value there.
+    rise_level: [f64; N_THRUSTERS],
+    rise_t0_ms: f64,
+    rise_live: bool,
 }
 
 impl<'a> Propagator<'a> {
@@ -73,6 +91,9 @@ impl<'a> Propagator<'a> {
             breaks,
             next_break: 0,
             cache: None,
+            rise_level: [0.0; N_THRUSTERS],
+            rise_t0_ms: t0_ms,
+            rise_live: false,
         }
     }
 
@@ -124,6 +145,7 @@ impl<'a> Propagator<'a> {
     }
 
     fn apply_due_edges(&mut self) {
+        let before = self.valves;
         let mut n = 0;
         for e in &self.pending {
             if e.t_ms > self.t_ms + EPS_MS {
@@ -137,6 +159,27 @@ impl<'a> Propagator<'a> {
             n += 1;
         }
         self.applied.extend(self.pending.drain(..n));
+        if self.valves != before {
+            self.rise_rereference(before);
+        }
+    }
+
+    /// Thrust rise: the valves just changed from `before`; every thruster's lagged force
+    /// now (it was relaxing towards the steady force of `before`) becomes the new start.
+    fn rise_rereference(&mut self, before: u16) {
+        let tau = self.plant.cfg.thrust_rise_tau_ms;
+        if tau <= 0.0 {
+            return;
+        }
+        let old = self.plant.thrusts(before);
+        let new = self.plant.thrusts(self.valves);
+        let decay = (-(self.t_ms - self.rise_t0_ms) / tau).exp();
+        for i in 0..N_THRUSTERS {
+            self.rise_level[i] = old[i] + (self.rise_level[i] - old[i]) * decay;
+        }
+        self.rise_t0_ms = self.t_ms;
+        self.rise_live = (0..N_THRUSTERS).any(|i| self.rise_level[i] != new[i]);
+        self.cache = None;
     }
 
     fn segment(&mut self, t_ms: f64) -> Segment {
@@ -144,7 +187,13 @@ impl<'a> Propagator<'a> {
         match self.cache {
             Some((v, ph, s)) if v == self.valves && ph == phase => s,
             _ => {
-                let s = self.plant.segment(self.valves, t_ms);
+                let s = if self.rise_live {
+                    let steady = self.plant.thrusts(self.valves);
+                    let excess = std::array::from_fn(|i| self.rise_level[i] - steady[i]);
+                    self.plant.segment_with_rise(self.valves, t_ms, &excess, self.rise_t0_ms)
+                } else {
+                    self.plant.segment(self.valves, t_ms)
+                };
                 self.cache = Some((self.valves, phase, s));
                 s
             }
@@ -162,7 +211,14 @@ impl<'a> Propagator<'a> {
         while self.t_ms < t_end_ms - EPS_MS {
             self.apply_due_edges();
             let t = self.t_ms;
-            let mut next = t_end_ms.min(t + self.opts.max_step_ms);
+            let mut h_max = self.opts.max_step_ms;
+            if self.rise_live {
+                let tau = self.plant.cfg.thrust_rise_tau_ms;
+                if t - self.rise_t0_ms < RISE_FINE_TAUS * tau {
+                    h_max = h_max.min((tau / RISE_STEPS_PER_TAU).max(RISE_MIN_STEP_MS));
+                }
+            }
+            let mut next = t_end_ms.min(t + h_max);
             if let Some(e) = self.pending.first() {
                 if e.t_ms < next {
                     next = e.t_ms;

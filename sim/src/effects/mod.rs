@@ -5,6 +5,10 @@
 //!
 //! [`Effect`] (de)serialises exactly as the contract:
 //! `{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}`.
+//!
+//! One variant is deliberately outside the contract's vocabulary: [`ThrustRise`]
+//! (`thrust_rise`), physics the diagnosis cannot name, for testing that it reports a
+//! mismatch it has no word for. It is not in [`EFFECT_NAMES`].
 
 mod blowdown;
 mod com_offset;
@@ -16,6 +20,7 @@ mod gyro_scale;
 mod inertia;
 mod mass_property_change;
 mod pressure_drop;
+mod thrust_rise;
 mod thrust_scale;
 mod thruster_latency;
 
@@ -29,6 +34,7 @@ pub use gyro_scale::GyroScale;
 pub use inertia::Inertia;
 pub use mass_property_change::MassPropertyChange;
 pub use pressure_drop::PressureDrop;
+pub use thrust_rise::ThrustRise;
 pub use thrust_scale::ThrustScale;
 pub use thruster_latency::ThrusterLatency;
 
@@ -70,6 +76,9 @@ pub struct PlantConfig {
     pub gyro_scale: [f64; 3],
     pub ringing: Vec<GyroRinging>,
     pub disturbance_torque_nm: [f64; 3],
+    /// First-order thrust rise/decay time constant at the valve edges, ms (0 = instantaneous;
+    /// outside the vocabulary, see `thrust_rise.rs`).
+    pub thrust_rise_tau_ms: f64,
 }
 
 impl PlantConfig {
@@ -89,6 +98,7 @@ impl PlantConfig {
             gyro_scale: [1.0; 3],
             ringing: Vec::new(),
             disturbance_torque_nm: [0.0; 3],
+            thrust_rise_tau_ms: 0.0,
         }
     }
 
@@ -134,9 +144,11 @@ pub enum Effect {
     GyroScale(GyroScale),
     GyroRinging(GyroRinging),
     DisturbanceTorque(DisturbanceTorque),
+    /// Not in the contract's vocabulary (see the module doc): `thrust_rise`, `tau_ms`.
+    ThrustRise(ThrustRise),
 }
 
-/// The contract's effect names, in the table's order.
+/// The contract's effect names, in the table's order (without `thrust_rise`, which is not one).
 pub const EFFECT_NAMES: [&str; 12] = [
     "thruster_latency",
     "pressure_drop",
@@ -168,6 +180,7 @@ impl Effect {
             Effect::GyroScale(e) => e,
             Effect::GyroRinging(e) => e,
             Effect::DisturbanceTorque(e) => e,
+            Effect::ThrustRise(e) => e,
         }
     }
 
@@ -186,6 +199,7 @@ impl Effect {
             Effect::GyroScale(_) => "gyro_scale",
             Effect::GyroRinging(_) => "gyro_ringing",
             Effect::DisturbanceTorque(_) => "disturbance_torque",
+            Effect::ThrustRise(_) => "thrust_rise",
         }
     }
 
@@ -281,6 +295,7 @@ impl Effect {
                 positive("freq_hz", e.freq_hz)?;
                 positive("decay_ms", e.decay_ms)
             }
+            Effect::ThrustRise(e) => non_negative("tau_ms", e.tau_ms),
             _ => Ok(()),
         }
     }

@@ -3,6 +3,7 @@
 
 use serde_json::Map;
 
+use crate::acceptance;
 use crate::effects::{self, Kind};
 use crate::fit::{self, Family, Problem};
 use crate::locate;
@@ -49,6 +50,8 @@ pub struct Analysis {
     /// Apparent tone and the true frequencies it could fold from.
     pub alias_marks: (f64, Vec<f64>),
     pub scores: Vec<Score>,
+    /// Strong candidates that were not named, with the reason.
+    pub rejections: Vec<Rejection>,
     pub by_condition_before: Vec<(locate::Condition, usize, [f64; 3])>,
     pub by_condition_after: Vec<(locate::Condition, usize, [f64; 3])>,
 }
@@ -209,6 +212,7 @@ pub fn diagnose(
     let mut ringing_fit: Option<RingingFit> = None;
     let mut k_cur = 0usize;
     let mut scores = vec![];
+    let mut rejections: Vec<Rejection> = vec![];
     let mut rigid_residual = residual_before.clone();
     let mut residual_cur = residual_before.clone();
     let mut alias_marks = (0.0, vec![]);
@@ -298,9 +302,18 @@ pub fn diagnose(
             // backing test: the effect's own parameters must differ from "no effect" by
             // more than the BIC penalty in their own (colour-corrected) uncertainty, so a
             // candidate that only helps the others converge is not taken for physics
-            let significant = kind == Kind::GyroRinging
-                || (wald(kind, &theta, &se, &prob) >= k_new as f64 * ln_n && observable(kind, &theta, series));
-            if significant {
+            let w = if kind == Kind::GyroRinging { f64::INFINITY } else { wald(kind, &theta, &se, &prob) };
+            if w < k_new as f64 * ln_n {
+                if dbic <= -settings.accept_margin {
+                    let reason = format!("its own parameters are within their noise of no effect (Wald {w:.1} < {:.1})", k_new as f64 * ln_n);
+                    rejections.push(Rejection { round, effect: kind.name(), delta_bic: dbic, reason });
+                }
+            } else if !observable(kind, &theta, series) {
+                if dbic <= -settings.accept_margin {
+                    let reason = "its change time has no firing on one side, so it cannot be told from a constant error".into();
+                    rejections.push(Rejection { round, effect: kind.name(), delta_bic: dbic, reason });
+                }
+            } else {
                 ranked.push((dbic, kind, theta, note, rf));
             }
         }
@@ -321,43 +334,81 @@ pub fn diagnose(
                 }
             }
         }
-        let best = ranked.into_iter().next();
-        let Some((dbic, kind, theta, note, rf)) = best else { break };
-        if dbic > -settings.accept_margin {
-            break;
+        // the strongest candidates by BIC, each tried against the checks that generalise
+        // (acceptance.rs); the first that passes is named, the others say why not
+        let sigma = noise.var.map(f64::sqrt);
+        let rms_prev = locate::rms(&residual_cur, &series.valid);
+        let tests_prev = stats::residual_tests(series, &residual_cur);
+        let rigid_acc: Vec<(Kind, Vec<f64>)> = acc_pairs.iter().filter(|p| p.0 != Kind::GyroRinging).cloned().collect();
+        let mut taken = None;
+        for (dbic, kind, theta, note, rf) in ranked.into_iter().take(MAX_TRIES) {
+            if dbic > -settings.accept_margin {
+                break;
+            }
+            let tried = try_candidate(
+                &prob, &fired, &rigid_acc, kind, &theta, rf, &omega0, &slosh_hint, settings, &rigid_residual, &whitening,
+                ringing_fit.is_some(),
+            );
+            let verdict = tried.and_then(|t| {
+                let material = acceptance::materiality(&t.contribution, &series.valid, sigma);
+                let rms_new = locate::rms(&t.residual, &series.valid);
+                let tests_new = stats::residual_tests(series, &t.residual);
+                if let Some(why) = t.implausible.clone() {
+                    return Err(format!("implausible: {why}"));
+                }
+                if material.iter().all(|&m| m < acceptance::MATERIAL_FRACTION) {
+                    return Err(format!(
+                        "not material: it adds at most {:.2} of the gyro noise where it acts (needs {})",
+                        material.iter().cloned().fold(0.0, f64::max),
+                        acceptance::MATERIAL_FRACTION
+                    ));
+                }
+                if let Some(why) = acceptance::axis_worse(rms_prev, rms_new, &tests_prev, &tests_new) {
+                    return Err(why);
+                }
+                if kind != Kind::GyroRinging {
+                    match acceptance::holdout(&prob, &fired, &rigid_acc, (kind, &theta), &omega0, &slosh_hint, settings.max_iter) {
+                        Some(h) => {
+                            if let Some(why) = h.failure() {
+                                return Err(why);
+                            }
+                        }
+                        None => return Err("the out-of-sample fit failed".into()),
+                    }
+                }
+                Ok(t)
+            });
+            match verdict {
+                Ok(t) => {
+                    taken = Some((dbic, kind, note, t));
+                    break;
+                }
+                Err(reason) => rejections.push(Rejection { round, effect: kind.name(), delta_bic: dbic, reason }),
+            }
         }
+        let Some((dbic, kind, note, t)) = taken else { break };
         let residual_prev = residual_cur.clone();
         if kind == Kind::GyroRinging {
-            let Some(rf) = rf else { break };
-            alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
-            ringing_fit = Some(rf);
-        } else {
-            let mut pairs = acc_pairs.clone();
-            pairs.push((kind, theta.clone()));
-            let rigid_pairs: Vec<(Kind, Vec<f64>)> = pairs.iter().filter(|p| p.0 != Kind::GyroRinging).cloned().collect();
-            let (new_pairs, chi2_new, w_new, se, sz) = refit_all(&prob, &fired, &rigid_pairs, &omega0, &slosh_hint, settings);
-            omega0 = w_new;
-            chi2_rigid = chi2_new;
-            let params = select::build(&fired, &new_pairs, &omega0);
-            rigid_residual = prob.residual(&params).unwrap_or_else(|| rigid_residual.clone());
-            for a in accepted.iter_mut() {
-                if let Some((_, th)) = new_pairs.iter().find(|p| p.0 == a.kind) {
-                    a.theta = th.clone();
-                }
+            if let Some(rf) = &t.ringing {
+                alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
             }
-            joint_stderr = se;
-            sizes = sz;
+        } else {
+            omega0 = t.nuis.clone();
+            chi2_rigid = t.chi2_rigid;
+            rigid_residual = t.rigid_residual.clone();
+            joint_stderr = t.stderr.clone();
+            sizes = t.sizes.clone();
             ringing_cache = None;
-            latency = latency_of(&new_pairs);
-            if ringing_fit.is_some() {
-                latency = latency_of(&new_pairs);
-                ringing_fit = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz, latency);
+            latency = t.latency;
+        }
+        for a in accepted.iter_mut() {
+            if let Some((_, th)) = t.pairs.iter().find(|p| p.0 == a.kind) {
+                a.theta = th.clone();
             }
         }
-        residual_cur = match &ringing_fit {
-            Some(rf) => ringing::remove(series, &rigid_residual, &whitening, rf, latency),
-            None => rigid_residual.clone(),
-        };
+        ringing_fit = t.ringing.clone();
+        residual_cur = t.residual.clone();
+        let theta = t.pairs.iter().find(|p| p.0 == kind).map(|p| p.1.clone()).unwrap_or_default();
         k_cur += effects::n_params(kind, &fired);
         let chi2_total = chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let delta_bic_total = chi2_total - chi2_nominal + k_cur as f64 * ln_n;
@@ -370,7 +421,7 @@ pub fn diagnose(
             .into_iter()
             .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
             .collect();
-        let mut evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, round);
+        let mut evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, &rejections, round);
         if kind == Kind::ThrustScale {
             // name the thruster that is most off nominal
             let fired_idx: Vec<usize> = (0..NT).filter(|&i| fired[i]).collect();
@@ -427,7 +478,94 @@ pub fn diagnose(
         spectrum_before,
         alias_marks,
         scores,
+        rejections,
     }
+}
+
+/// How many of a round's strongest candidates are tried against the acceptance checks.
+const MAX_TRIES: usize = 3;
+
+/// A candidate the diagnosis did not name, and why.
+#[derive(Clone, Debug)]
+pub struct Rejection {
+    pub round: usize,
+    pub effect: &'static str,
+    pub delta_bic: f64,
+    pub reason: String,
+}
+
+/// The model with one more effect, as it would be if the effect were accepted.
+struct Tried {
+    /// Accepted rigid effects plus the candidate, refitted jointly (ringing not included).
+    pairs: Vec<(Kind, Vec<f64>)>,
+    nuis: Vec<f64>,
+    chi2_rigid: f64,
+    stderr: Vec<f64>,
+    sizes: Vec<usize>,
+    rigid_residual: Vec<[f64; 3]>,
+    latency: (f64, f64),
+    ringing: Option<RingingFit>,
+    residual: Vec<[f64; 3]>,
+    /// What the candidate adds to the predicted rates (or removes from the residual).
+    contribution: Vec<[f64; 3]>,
+    implausible: Option<String>,
+}
+
+/// Refits the model with the candidate added and measures what it changes.
+#[allow(clippy::too_many_arguments)]
+fn try_candidate(
+    prob: &Problem,
+    fired: &[bool; NT],
+    rigid_acc: &[(Kind, Vec<f64>)],
+    kind: Kind,
+    theta: &[f64],
+    rf: Option<RingingFit>,
+    nuis: &[f64],
+    hint: &[f64],
+    settings: &Settings,
+    rigid_residual: &[[f64; 3]],
+    whitening: &ringing::Whitening,
+    ringing_on: bool,
+) -> Result<Tried, String> {
+    let series = prob.series;
+    if kind == Kind::GyroRinging {
+        let rf = rf.ok_or("no ringing fit")?;
+        let latency = latency_of(rigid_acc);
+        let residual = ringing::remove(series, rigid_residual, whitening, &rf, latency);
+        let contribution = rigid_residual.iter().zip(&residual).map(|(a, b)| std::array::from_fn(|i| a[i] - b[i])).collect();
+        return Ok(Tried {
+            pairs: rigid_acc.to_vec(),
+            nuis: nuis.to_vec(),
+            chi2_rigid: f64::NAN,
+            stderr: vec![],
+            sizes: vec![],
+            rigid_residual: rigid_residual.to_vec(),
+            latency,
+            implausible: acceptance::implausible_ringing(rf.decay_ms, rf.freq_hz),
+            ringing: Some(rf),
+            residual,
+            contribution,
+        });
+    }
+    let mut pairs = rigid_acc.to_vec();
+    pairs.push((kind, theta.to_vec()));
+    let (pairs, chi2_rigid, w, stderr, sizes) = refit_all(prob, fired, &pairs, nuis, hint, settings);
+    let with = select::build(fired, &pairs, &w);
+    let without: Vec<(Kind, Vec<f64>)> = pairs.iter().filter(|p| p.0 != kind).cloned().collect();
+    let y1 = prob.predict(&with).ok_or("the model with it cannot be predicted")?;
+    let y0 = prob.predict(&select::build(fired, &without, &w)).ok_or("the model without it cannot be predicted")?;
+    let contribution = y1.iter().zip(&y0).map(|(a, b)| std::array::from_fn(|i| a[i] - b[i])).collect();
+    let rigid_residual = prob.residual(&with).ok_or("no residual")?;
+    let latency = latency_of(&pairs);
+    let ringing = if ringing_on { ringing::fit(series, &rigid_residual, whitening, settings.ringing_prior_hz, latency) } else { None };
+    let residual = match &ringing {
+        Some(r) => ringing::remove(series, &rigid_residual, whitening, r, latency),
+        None => rigid_residual.clone(),
+    };
+    let th = pairs.iter().find(|p| p.0 == kind).map(|p| p.1.clone()).unwrap_or_default();
+    let sp = select::spec(kind, prob, fired, hint);
+    let implausible = acceptance::implausible(kind, &th, prob.plant, &sp.lo, &sp.hi);
+    Ok(Tried { pairs, nuis: w, chi2_rigid, stderr, sizes, rigid_residual, latency, ringing, residual, contribution, implausible })
 }
 
 type Refit = (Vec<(Kind, Vec<f64>)>, f64, Vec<f64>, Vec<f64>, Vec<usize>);
@@ -484,6 +622,7 @@ fn describe(
     dbic: f64,
     note: &str,
     scores: &[Score],
+    rejections: &[Rejection],
     round: usize,
 ) -> String {
     // where the explained error is created: the residual's change over 20 ms, by condition
@@ -502,12 +641,20 @@ fn describe(
             best_cond = (per_sample, b.0.label());
         }
     }
-    let mut runner: Vec<&Score> = scores.iter().filter(|s| s.round == round && s.effect != kind.name()).collect();
+    // the runner-up among candidates not rejected, and every stronger one with its reason
+    let rejected: Vec<&Rejection> = rejections.iter().filter(|r| r.round == round && r.effect != kind.name()).collect();
+    let mut runner: Vec<&Score> = scores
+        .iter()
+        .filter(|s| s.round == round && s.effect != kind.name() && !rejected.iter().any(|r| r.effect == s.effect))
+        .collect();
     runner.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    let alt = runner
+    let mut alt = runner
         .first()
         .map(|s| format!("; next best mechanism {} at delta BIC {:.0}", s.effect, s.delta_bic))
         .unwrap_or_default();
+    for r in rejected.iter().filter(|r| r.delta_bic < dbic) {
+        alt.push_str(&format!("; {} scored better (delta BIC {:.0}) but was rejected: {}", r.effect, r.delta_bic, r.reason));
+    }
     let what = match kind {
         Kind::ThrusterLatency => "residual concentrates at valve edges: torque arrives later than commanded",
         Kind::PressureDrop => "torque deficit grows with the number of valves open together",

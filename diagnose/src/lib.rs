@@ -3,6 +3,7 @@
 //! condition, frequency with alias folding), fit each mechanism of the effect
 //! vocabulary, accept them one at a time by BIC backed by whiteness tests, and report.
 
+pub mod acceptance;
 pub mod model;
 pub mod series;
 pub mod alias;

@@ -42,6 +42,9 @@ pub fn summary(a: &Analysis) -> String {
         let _ = writeln!(s, "     why: {}", e.evidence);
         let _ = writeln!(s, "     residual RMS after: {}", f(e.rms_after));
     }
+    for r in &a.rejections {
+        let _ = writeln!(s, "not named (round {}): {} (delta BIC {:.0}): {}", r.round + 1, r.effect, r.delta_bic, r.reason);
+    }
     let _ = writeln!(s, "residual RMS after (rad/s): {}", f(o.residual_rms_after));
     let lb = |t: &crate::stats::ResidualTests| {
         format!(

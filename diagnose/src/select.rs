@@ -39,6 +39,13 @@ impl Default for Settings {
     }
 }
 
+/// Starting change times of a mass-property change, spread evenly over the run.
+const MASS_CHANGE_STARTS: usize = 16;
+/// Points of the change-time scan around a fitted mass-property change.
+const CHANGE_SCAN_POINTS: usize = 40;
+/// LM iterations that rank starts which all predict the same (a new effect at "no effect").
+const RANKING_ITERATIONS: usize = 2;
+
 /// Parameters of a model made of `accepted` effects and the nuisances `nuis` (initial
 /// rate, then 3 per gap reset).
 pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], nuis: &[f64]) -> Params {
@@ -129,8 +136,10 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
             for s in step.iter_mut().skip(4) {
                 *s = 2e-5;
             }
-            let starts = [0.25, 0.5, 0.75]
-                .iter()
+            // the change time barely has a gradient (the fit only sees it move across a
+            // firing), so it is started on a grid of the whole run
+            let starts = (0..MASS_CHANGE_STARTS)
+                .map(|k| (k as f64 + 0.5) / MASS_CHANGE_STARTS as f64)
                 .map(|f| {
                     let mut s = vec![f * dur, 0.0, 0.0, 0.0];
                     s.extend_from_slice(&nominal_i);
@@ -257,18 +266,31 @@ fn fit_with_starts(
         hi,
         frozen_from,
     };
-    // many starts: keep the two with the lowest chi-square before iterating
+    // many starts: keep the two with the lowest chi-square before iterating; when every
+    // start predicts the same (the new effect starts at "no effect"), after a short fit
     if new_starts.len() > 2 {
+        let start_of = |st: &Vec<f64>| {
+            let mut th0 = base.clone();
+            th0.extend(st.iter().cloned());
+            th0.extend_from_slice(nuis);
+            th0
+        };
         let mut scored: Vec<(f64, Vec<f64>)> = new_starts
             .iter()
-            .filter_map(|st| {
-                let mut th0 = base.clone();
-                th0.extend(st.iter().cloned());
-                th0.extend_from_slice(nuis);
-                let c = (fam.apply)(&th0).and_then(|p| prob.chi2(&p))?;
-                Some((c, st.clone()))
-            })
+            .filter_map(|st| Some(((fam.apply)(&start_of(st)).and_then(|p| prob.chi2(&p))?, st.clone())))
             .collect();
+        let (lo_c, hi_c) = scored.iter().fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s.0), b.max(s.0)));
+        if hi_c - lo_c <= 1e-9 * lo_c.abs() {
+            let off = base.len();
+            let k_new = new_starts[0].len();
+            scored = new_starts
+                .iter()
+                .filter_map(|st| {
+                    let r = fit::fit(prob, &fam, &start_of(st), RANKING_ITERATIONS.min(max_iter))?;
+                    Some((r.chi2, r.theta[off..off + k_new].to_vec()))
+                })
+                .collect();
+        }
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         new_starts = scored.into_iter().take(2).map(|s| s.1).collect();
     }
@@ -280,6 +302,30 @@ fn fit_with_starts(
         if let Some(r) = fit::fit(prob, &fam, &th0, max_iter) {
             if best.as_ref().map(|b| r.chi2 < b.chi2).unwrap_or(true) {
                 best = Some(r);
+            }
+        }
+    }
+    // a change time only moves the prediction when it crosses a firing, so LM cannot walk
+    // it: scan it around the fitted value, then let LM settle the rest there
+    if let (Some(Kind::MassPropertyChange), Some(b)) = (new, best.as_ref()) {
+        let i = base.len();
+        let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
+        let half = dur / MASS_CHANGE_STARTS as f64;
+        let mut top = (b.chi2, b.theta.clone());
+        for k in 0..=CHANGE_SCAN_POINTS {
+            let mut th = b.theta.clone();
+            th[i] = (b.theta[i] - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64).clamp(0.0, dur);
+            if let Some(c) = (fam.apply)(&th).and_then(|p| prob.chi2(&p)) {
+                if c < top.0 {
+                    top = (c, th);
+                }
+            }
+        }
+        if top.0 < b.chi2 {
+            if let Some(r) = fit::fit(prob, &fam, &top.1, max_iter) {
+                if r.chi2 < b.chi2 {
+                    best = Some(r);
+                }
             }
         }
     }

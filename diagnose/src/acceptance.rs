@@ -1,0 +1,210 @@
+//! Acceptance that generalises. The in-sample BIC ranks candidates, but with a slightly
+//! optimistic noise model any small systematic misfit (a timing convention, an effect on
+//! fewer axes than a family assumes, a rail) lowers it. So a candidate is *named* only when,
+//! besides its BIC and Wald test, it passes four checks that such misfits fail:
+//!
+//! 1. **plausible**: its parameters lie inside a physical bound stated per effect below,
+//!    and not on the edge of the search box (a fit that ran to its bound is soaking up
+//!    something else);
+//! 2. **material**: what it adds to the predicted rates, over the samples where it acts, is
+//!    at least [`MATERIAL_FRACTION`] of the gyro noise on some axis;
+//! 3. **no axis worse**: the residual RMS and whiteness (Ljung-Box) of no axis get worse;
+//! 4. **out of sample**: fitted on alternate blocks of the recording and scored on the
+//!    blocks it did not see, it predicts better in total by [`HOLDOUT_MIN`] and makes no
+//!    held-out block worse by more than noise ([`BLOCK_WORSE`]).
+
+use std::rc::Rc;
+
+use crate::effects::Kind;
+use crate::fit::Problem;
+use crate::model::{Plant, NT};
+use crate::select;
+use crate::stats::ResidualTests;
+
+/// An effect must add at least this fraction of the per-sample gyro noise (RMS over the
+/// samples where it acts, best axis) to be named: below it no engineer could see it in
+/// the rates and a systematic misfit of that size is more likely than physics.
+pub const MATERIAL_FRACTION: f64 = 0.2;
+/// Where an effect "acts": samples where its contribution exceeds this fraction of its
+/// largest contribution on that axis.
+const SUPPORT_FRACTION: f64 = 0.1;
+/// Number of contiguous blocks of the out-of-sample check; even and odd blocks are the two
+/// folds, so both folds span the whole run (a change in time is seen by both).
+pub const HOLDOUT_BLOCKS: usize = 8;
+/// Held-out chi-square must fall by at least this much in total (a likelihood ratio of
+/// e^5 on data the fit did not see).
+pub const HOLDOUT_MIN: f64 = 10.0;
+/// A held-out block may not get worse by more than this (chi-square units, about 3 sigma
+/// for a one-parameter change) plus [`BLOCK_WORSE_REL`] of its own chi-square.
+pub const BLOCK_WORSE: f64 = 9.0;
+pub const BLOCK_WORSE_REL: f64 = 0.002;
+/// Residual RMS of an axis may not grow by more than this fraction.
+const RMS_WORSE_REL: f64 = 1e-3;
+/// An axis whose residual RMS falls by this fraction may change its shape (whiteness).
+const RMS_GAIN_FOR_SHAPE: f64 = 0.02;
+/// Ljung-Box Q of an axis may not grow by more than this factor above the white level.
+const LB_WORSE_REL: f64 = 1.2;
+/// Ljung-Box Q over 20 lags below which a residual counts as white here: the chi-square(20)
+/// 99.9 % quantile, so three axes of a correct model pass together 99.7 % of the time.
+pub const WHITE_BELOW: f64 = 45.31;
+
+/// Physical bounds per effect: why a value is not physics. `theta` is in the family's
+/// own layout (see `select::spec`).
+pub fn implausible(kind: Kind, theta: &[f64], plant: &Plant, lo: &[f64], hi: &[f64]) -> Option<String> {
+    // a parameter on the edge of its search box: the fit ran away
+    let at_bound = |i: usize| {
+        let w = (hi[i] - lo[i]).abs().max(1e-300);
+        (theta[i] - lo[i]).abs() < 1e-6 * w || (hi[i] - theta[i]).abs() < 1e-6 * w
+    };
+    let nominal = plant.nominal_inertia();
+    let inertia_ok = |i: &[f64]| -> Option<String> {
+        let m = nalgebra::Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2]);
+        let eig = m.symmetric_eigenvalues();
+        if eig.iter().any(|&e| e <= 0.0) {
+            return Some("inertia not positive definite".into());
+        }
+        let (a, b, c) = (eig[0], eig[1], eig[2]);
+        if a + b < c || a + c < b || b + c < a {
+            return Some("principal inertias break the triangle inequality".into());
+        }
+        None
+    };
+    match kind {
+        // valves open/close within 0..50 ms (seed ch. 2 measures ~6 ms)
+        Kind::ThrusterLatency if at_bound(0) && theta[0] > 0.0 || at_bound(1) && theta[1] > 0.0 => {
+            Some("latency at the 50 ms search bound".into())
+        }
+        // a tank cannot lose more than half a thruster's force per other open valve
+        Kind::PressureDrop if theta[0] >= 0.5 * (0..NT).map(|i| plant.thrust_n(i)).fold(f64::MAX, f64::min) => {
+            Some("pressure drop above half a thruster's force".into())
+        }
+        // blowdown: a time constant between 1 s and 10^4 s
+        Kind::Blowdown if theta[1] > 1.0 || theta[1] < 1e-4 => Some("blowdown time constant outside 1 s .. 10^4 s".into()),
+        // thrust scale within 0 .. 1.5 of nominal, not at the search bound 2
+        Kind::ThrustScale if theta.iter().any(|&s| !(0.0..=1.5).contains(&s)) => Some("thrust scale outside 0 .. 1.5".into()),
+        // a CoM more than 50 mm from the model's is outside a 0.2 m craft's tolerance
+        Kind::ComOffset if theta.iter().any(|&x| x.abs() > 45.0) => Some("CoM offset beyond 45 mm".into()),
+        Kind::Inertia => inertia_ok(theta).or_else(|| {
+            (0..3)
+                .any(|i| theta[i] < 0.5 * nominal[i] || theta[i] > 2.0 * nominal[i])
+                .then(|| "principal inertia outside 0.5 .. 2 x the model's".into())
+        }),
+        Kind::MassPropertyChange => inertia_ok(&theta[4..10])
+            .or_else(|| theta[1..4].iter().any(|x| x.abs() > 45.0).then(|| "CoM offset beyond 45 mm".into())),
+        // slosh: a mode between 0.02 and 20 Hz, damping below 0.4, some liquid on some axis,
+        // fractions below a third of the craft's inertia
+        Kind::FuelSlosh if theta[1] > 0.4 || at_bound(0) => Some("slosh frequency or damping at its search bound".into()),
+        Kind::FuelSlosh if theta[2..5].iter().any(|&f| f > 0.34) => Some("fluid inertia fraction above 1/3".into()),
+        // gyro: a bias within 200 counts, a scale within 20 %
+        Kind::GyroBias if theta.iter().any(|x| x.abs() > 200.0) => Some("gyro bias beyond 200 counts".into()),
+        Kind::GyroScale if theta.iter().any(|x| (x - 1.0).abs() > 0.2) => Some("gyro scale beyond 20 %".into()),
+        // an external torque above 1e-3 N m would be a thruster, not a disturbance
+        Kind::DisturbanceTorque if theta.iter().any(|x| x.abs() > 1e-3) => Some("disturbance above 1e-3 N m".into()),
+        _ => None,
+    }
+}
+
+/// Gyro ringing's bounds: a tuning-fork tone decays within 1..100 ms (seed App. A ~30 ms).
+pub fn implausible_ringing(decay_ms: f64, freq_hz: f64) -> Option<String> {
+    if !(1.0..=100.0).contains(&decay_ms) {
+        Some(format!("ringing decay {decay_ms:.0} ms outside 1 .. 100 ms"))
+    } else if !(5.0..=crate::ringing::F_MAX_HZ).contains(&freq_hz) {
+        Some(format!("ringing frequency {freq_hz:.1} Hz outside 5 .. 600 Hz"))
+    } else {
+        None
+    }
+}
+
+/// Per axis, RMS of the contribution `d` over the samples where it acts, in units of the
+/// noise standard deviation `sigma`.
+pub fn materiality(d: &[[f64; 3]], valid: &[[bool; 3]], sigma: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|a| {
+        let peak = d.iter().zip(valid).filter(|(_, v)| v[a]).fold(0.0f64, |m, (x, _)| m.max(x[a].abs()));
+        if peak <= 0.0 || sigma[a] <= 0.0 {
+            return 0.0;
+        }
+        let (mut s, mut n) = (0.0, 0usize);
+        for (x, v) in d.iter().zip(valid) {
+            if v[a] && x[a].abs() >= SUPPORT_FRACTION * peak {
+                s += x[a] * x[a];
+                n += 1;
+            }
+        }
+        (s / n.max(1) as f64).sqrt() / sigma[a]
+    })
+}
+
+/// Which axis got worse from `before` to `after` (RMS or whiteness), if any.
+pub fn axis_worse(rms_before: [f64; 3], rms_after: [f64; 3], before: &ResidualTests, after: &ResidualTests) -> Option<String> {
+    let names = ["x", "y", "z"];
+    for a in 0..3 {
+        if rms_after[a] > rms_before[a] * (1.0 + RMS_WORSE_REL) + 1e-15 {
+            return Some(format!("residual RMS on {} rises from {:.5} to {:.5} rad/s", names[a], rms_before[a], rms_after[a]));
+        }
+        let (qb, qa) = (before.ljung_box_q[a], after.ljung_box_q[a]);
+        // less white only counts where the effect did not also take error away: the
+        // Ljung-Box statistic of a residual far from white measures its shape, not noise
+        if qa > WHITE_BELOW && qa > qb * LB_WORSE_REL && rms_after[a] > rms_before[a] * (1.0 - RMS_GAIN_FOR_SHAPE) {
+            return Some(format!("residual on {} gets less white (Ljung-Box {qb:.0} -> {qa:.0})", names[a]));
+        }
+    }
+    None
+}
+
+/// Block number of every sample: [`HOLDOUT_BLOCKS`] contiguous runs of equal sample count.
+pub fn blocks(n: usize) -> Vec<usize> {
+    (0..n).map(|i| i * HOLDOUT_BLOCKS / n.max(1)).collect()
+}
+
+/// The out-of-sample score of one candidate: per block, the held-out chi-square of the
+/// current model and its change when the candidate is added (each fitted on the other
+/// fold).
+#[derive(Clone, Debug)]
+pub struct Holdout {
+    pub base: Vec<f64>,
+    pub delta: Vec<f64>,
+}
+
+impl Holdout {
+    /// Why the candidate does not generalise, if it does not.
+    pub fn failure(&self) -> Option<String> {
+        let total: f64 = self.delta.iter().sum();
+        if total > -HOLDOUT_MIN {
+            return Some(format!("out of sample it predicts no better (held-out chi-square change {total:.1})"));
+        }
+        for (b, (d, c)) in self.delta.iter().zip(&self.base).enumerate() {
+            if *d > BLOCK_WORSE + BLOCK_WORSE_REL * c {
+                return Some(format!("out of sample it predicts block {} of {HOLDOUT_BLOCKS} worse (chi-square +{d:.1})", b + 1));
+            }
+        }
+        None
+    }
+}
+
+/// Fits the current model and the current model plus the candidate on even blocks and
+/// scores them on odd ones, then the other way round. None when a fit fails.
+pub fn holdout(
+    prob: &Problem,
+    fired: &[bool; NT],
+    current: &[(Kind, Vec<f64>)],
+    candidate: (Kind, &[f64]),
+    nuis: &[f64],
+    slosh_hint: &[f64],
+    max_iter: usize,
+) -> Option<Holdout> {
+    let block = blocks(prob.series.len());
+    let mut out = Holdout { base: vec![0.0; HOLDOUT_BLOCKS], delta: vec![0.0; HOLDOUT_BLOCKS] };
+    for fold in 0..2 {
+        let train = Rc::new(block.iter().map(|b| b % 2 != fold).collect::<Vec<bool>>());
+        let p = prob.restricted(train);
+        let (base, _) = select::fit_joint(&p, fired, current, None, nuis, slosh_hint, max_iter)?;
+        let (with, _) = select::fit_from(&p, fired, current, candidate.0, candidate.1, nuis, slosh_hint, max_iter)?;
+        let c0 = prob.chi2_by_block(&base.params, &block, HOLDOUT_BLOCKS)?;
+        let c1 = prob.chi2_by_block(&with.params, &block, HOLDOUT_BLOCKS)?;
+        for b in (0..HOLDOUT_BLOCKS).filter(|b| b % 2 == fold) {
+            out.base[b] = c0[b];
+            out.delta[b] = c1[b] - c0[b];
+        }
+    }
+    out.delta.iter().all(|d| d.is_finite()).then_some(out)
+}

@@ -455,6 +455,16 @@ pub fn diagnose(
     }
 
     let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
+    // a named ringing accounts for its post-edge windows as a random tone
+    let mut ringing_windows = vec![false; series.len()];
+    if let Some(rf) = &ringing_fit {
+        for (te, idx) in ringing::edge_windows(series, latency) {
+            for i in idx {
+                ringing_windows[i] = series.t_ms[i] as f64 - te < 5.0 * rf.decay_ms;
+            }
+        }
+    }
+    let unexplained = crate::unexplained::verdict(series, &residual_cur, &noise, &ringing_windows);
     let output = DiagnosisOutput {
         format: FORMAT.into(),
         recording: recording.into(),
@@ -463,6 +473,7 @@ pub fn diagnose(
         residual_rms_before: locate::rms(&residual_before, &series.valid),
         residual_rms_after: locate::rms(&residual_cur, &series.valid),
         effects: effects_out,
+        unexplained,
         data_issues: issues,
     };
     Analysis {

@@ -17,6 +17,7 @@ pub mod ringing;
 pub mod select;
 pub mod spectrum;
 pub mod stats;
+pub mod unexplained;
 pub mod report;
 
 pub use diagnosis::{diagnose, Analysis};

@@ -41,6 +41,9 @@ pub struct DiagnosisOutput {
     pub residual_rms_before: [f64; 3],
     pub residual_rms_after: [f64; 3],
     pub effects: Vec<EffectReport>,
+    /// What remains after the named effects when it is above the noise or not white.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<crate::unexplained::Unexplained>,
     pub data_issues: DataIssues,
 }
 

@@ -46,6 +46,25 @@ pub fn summary(a: &Analysis) -> String {
         let _ = writeln!(s, "not named (round {}): {} (delta BIC {:.0}): {}", r.round + 1, r.effect, r.delta_bic, r.reason);
     }
     let _ = writeln!(s, "residual RMS after (rad/s): {}", f(o.residual_rms_after));
+    match &o.unexplained {
+        Some(u) => {
+            let _ = writeln!(s, "UNEXPLAINED: {}", u.note);
+            let _ = writeln!(
+                s,
+                "     residual RMS {} against noise {}; Ljung-Box {:.0} {:.0} {:.0} (white below {:.0}); windows (ms) {:?}",
+                f(u.rms),
+                f(u.noise_rms),
+                u.ljung_box[0],
+                u.ljung_box[1],
+                u.ljung_box[2],
+                u.white_below,
+                u.windows_ms
+            );
+        }
+        None => {
+            let _ = writeln!(s, "nothing unexplained: the residual after the named effects is at the noise and white");
+        }
+    }
     let lb = |t: &crate::stats::ResidualTests| {
         format!(
             "Ljung-Box Q {:.0} {:.0} {:.0} (white < {:.0}), input cross-corr z {:.1} {:.1} {:.1}",

@@ -458,10 +458,16 @@ pub fn diagnose(
     // a named ringing accounts for its post-edge windows as a random tone
     let mut ringing_windows = vec![false; series.len()];
     if let Some(rf) = &ringing_fit {
-        for (te, idx) in ringing::edge_windows(series, latency) {
-            for i in idx {
-                ringing_windows[i] = series.t_ms[i] as f64 - te < 5.0 * rf.decay_ms;
+        // every sample within five decay times of the last valve shock (however short the
+        // pulse, so not only the windows long enough to fit the tone in)
+        let edges = series.edges();
+        let mut e = 0;
+        for (i, m) in ringing_windows.iter_mut().enumerate() {
+            let t = series.t_ms[i] as f64;
+            while e < edges.len() && (edges[e].0 as f64) + latency.0.min(latency.1) <= t {
+                e += 1;
             }
+            *m = e > 0 && t - edges[e - 1].0 as f64 <= 5.0 * rf.decay_ms + latency.0.max(latency.1);
         }
     }
     let unexplained = crate::unexplained::verdict(series, &residual_cur, &noise, &ringing_windows);

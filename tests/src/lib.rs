@@ -5,3 +5,9 @@ use std::path::PathBuf;
 pub fn open_data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open")
 }
+
+/// The second open set (`../shared/data/open2/`): other rates, an effect on some axes only,
+/// a stuck gyro, a dead thruster, more noise.
+pub fn open2_data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open2")
+}

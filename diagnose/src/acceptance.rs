@@ -38,8 +38,12 @@ pub const HOLDOUT_MIN: f64 = 10.0;
 /// for a one-parameter change) plus [`BLOCK_WORSE_REL`] of its own chi-square.
 pub const BLOCK_WORSE: f64 = 9.0;
 pub const BLOCK_WORSE_REL: f64 = 0.002;
-/// Residual RMS of an axis may not grow by more than this fraction.
-const RMS_WORSE_REL: f64 = 1e-3;
+/// Residual RMS of an axis may not grow by more than this fraction. Not zero: in forward
+/// selection the first of two correlated true effects (an inertia error with a CoM
+/// offset) can move a little error between axes before the second is added (+0.7 % on y
+/// in the simulated s22 case); a fit that trades one axis for another, or a tone fitted
+/// to a railed gyro (x3.4), is far beyond it.
+const RMS_WORSE_REL: f64 = 0.02;
 /// An axis whose residual RMS falls by this fraction may change its shape (whiteness).
 const RMS_GAIN_FOR_SHAPE: f64 = 0.02;
 /// Ljung-Box Q of an axis may not grow by more than this factor above the white level.

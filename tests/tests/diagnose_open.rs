@@ -37,10 +37,30 @@ const KNOWN_MISSES: [&str; 4] = [
 
 fn check(dir: &std::path::Path, name: &str) -> Vec<String> {
     let (out, truth) = diagnose_file(dir, name);
+    // one row of the README's table (diagnose/README.md, "Open recordings")
+    let truth_names: Vec<&str> = truth["effects"].as_array().unwrap().iter().filter_map(|e| e["effect"].as_str()).collect();
+    let named: Vec<String> = out
+        .effects
+        .iter()
+        .map(|e| {
+            let p: Vec<String> = flatten(&Value::Object(e.params.clone()))
+                .into_iter()
+                .filter(|(k, v)| {
+                    !k.starts_with("amplitude") && (!k.starts_with("scale") || e.effect == "gyro_scale" || (v - 1.0).abs() > 0.05)
+                })
+                .map(|(k, v)| format!("{k} {v:.4}"))
+                .collect();
+            format!("{} ({})", e.effect, p.join(", "))
+        })
+        .collect();
+    let r = |v: [f64; 3]| format!("{:.5} {:.5} {:.5}", v[0], v[1], v[2]);
     eprintln!(
-        "{name}: named {:?}; unexplained: {}",
-        out.effects.iter().map(|e| e.effect.as_str()).collect::<Vec<_>>(),
-        out.unexplained.as_ref().map(|u| u.note.as_str()).unwrap_or("none")
+        "| {name} | {} | {} | {} | {} | {} |",
+        if truth_names.is_empty() { "-".to_string() } else { truth_names.join(" + ") },
+        if named.is_empty() { "-".to_string() } else { named.join("; ") },
+        r(out.residual_rms_before),
+        r(out.residual_rms_after),
+        out.unexplained.as_ref().map(|u| format!("axes {} ({})", u.axes.join(" "), u.condition)).unwrap_or("-".into())
     );
     let mut fails = vec![];
     let want: Vec<&str> = truth["effects"].as_array().unwrap().iter().map(|e| e["effect"].as_str().unwrap()).collect();

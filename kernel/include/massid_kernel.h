@@ -57,7 +57,8 @@ enum {
     MASSID_EVENT_UPDATED = 2,       /* Kalman update (and an RLS measurement after the batch) */
     MASSID_EVENT_SOLVED = 3,        /* a firing ended and the estimate was re-solved */
     MASSID_EVENT_KF_OVERFLOW = 4,   /* the Kalman filter could not form an estimate: sample skipped */
-    MASSID_EVENT_FIRING_TOO_LONG = 5
+    MASSID_EVENT_FIRING_TOO_LONG = 5,
+    MASSID_EVENT_RAILED = 6         /* a gyro sample at a rail: the rest of the firing is unused */
 };
 
 /* Pipeline status codes (massid_tick_report.status, massid_estimates_*.status). */
@@ -67,7 +68,16 @@ enum {
     MASSID_PIPELINE_OK = 2,
     MASSID_PIPELINE_PARTLY_UNOBSERVABLE = 3,
     MASSID_PIPELINE_SINGULAR = 4,
-    MASSID_PIPELINE_OVERFLOW = 5
+    MASSID_PIPELINE_OVERFLOW = 5,
+    MASSID_PIPELINE_IMPLAUSIBLE = 6 /* last solve not physical: previous estimate kept (see invalid) */
+};
+
+/* Why a solve was rejected (massid_estimates_*.invalid). */
+enum {
+    MASSID_VALID = 0,
+    MASSID_INVALID_NOT_POSITIVE_DEFINITE = 1,
+    MASSID_INVALID_TRIANGLE_INEQUALITY = 2,
+    MASSID_INVALID_COM_OUTSIDE_ENVELOPE = 3
 };
 
 /* Satellite parameters (SI units unless named otherwise). */
@@ -96,6 +106,10 @@ typedef struct massid_estimates_fixed {
     uint32_t updates;
     uint32_t firings;
     uint32_t resets;
+    uint8_t invalid;                 /* MASSID_VALID or MASSID_INVALID_* */
+    uint32_t railed_samples;         /* gyro samples at a rail */
+    uint32_t railed_firings;         /* firings cut short at a railed sample */
+    uint32_t unresponsive_firings;   /* firings with no gyro response: not fitted */
 } massid_estimates_fixed;
 
 /* Estimates, f32. */
@@ -108,6 +122,10 @@ typedef struct massid_estimates_f32 {
     uint32_t updates;
     uint32_t firings;
     uint32_t resets;
+    uint8_t invalid;
+    uint32_t railed_samples;
+    uint32_t railed_firings;
+    uint32_t unresponsive_firings;
 } massid_estimates_f32;
 
 /* ON/OFF times of one control period, ms from the period start (on == off == 0: off). */

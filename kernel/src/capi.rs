@@ -97,9 +97,11 @@ impl From<&SatelliteParams> for MassidSatelliteParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MassidTickReport {
-    /// 0 coasting, 1 transient, 2 updated, 3 solved, 4 KF overflow, 5 firing too long.
+    /// 0 coasting, 1 transient, 2 updated, 3 solved, 4 KF overflow, 5 firing too long,
+    /// 6 railed gyro sample (rest of the firing unused).
     pub event: u8,
-    /// Pipeline status: 0 idle, 1 batch, 2 ok, 3 partly unobservable, 4 singular, 5 overflow.
+    /// Pipeline status: 0 idle, 1 batch, 2 ok, 3 partly unobservable, 4 singular, 5 overflow,
+    /// 6 implausible (previous estimate kept).
     pub status: u8,
 }
 
@@ -112,6 +114,7 @@ impl From<TickReport> for MassidTickReport {
             TickEvent::Solved => 3,
             TickEvent::KfOverflow => 4,
             TickEvent::FiringTooLong => 5,
+            TickEvent::Railed => 6,
         };
         MassidTickReport { event, status: r.status as u8 }
     }
@@ -137,6 +140,15 @@ pub struct MassidEstimates<T> {
     pub firings: u32,
     /// Covariance resets by the change detector.
     pub resets: u32,
+    /// Why the last solve was rejected: 0 none, 1 inertia not positive definite, 2 triangle
+    /// inequality broken, 3 CoM outside the thruster envelope.
+    pub invalid: u8,
+    /// Gyro samples at a rail.
+    pub railed_samples: u32,
+    /// Firings cut short at a railed sample.
+    pub railed_firings: u32,
+    /// Firings with no gyro response to a clear predicted acceleration (not fitted).
+    pub unresponsive_firings: u32,
 }
 
 /// ON/OFF times of one control period, ms from the period start (`on == off == 0`: off).
@@ -271,6 +283,10 @@ fn estimates_to_c<S: CScalar>(e: &Estimates<S>) -> MassidEstimates<S::C> {
         updates: e.updates,
         firings: e.firings,
         resets: e.resets,
+        invalid: e.invalid.map_or(0, |v| v as u8),
+        railed_samples: e.data.railed_samples,
+        railed_firings: e.data.railed_firings,
+        unresponsive_firings: e.data.unresponsive_firings,
     }
 }
 

@@ -25,10 +25,12 @@ pub mod gyro_filter;
 pub mod lu;
 pub mod mixer;
 pub mod model;
+pub mod observability;
 pub mod omega_dot;
 pub mod pipeline;
 pub mod rls;
 pub mod scalar;
+pub mod validity;
 
 pub use pipeline::{Estimates, Pipeline, PipelineConfig, PipelineStatus, TickEvent, TickReport};
 pub use scalar::{Fx, Scalar, Scaled, Q16_16, Q8_24};

@@ -303,6 +303,21 @@ impl<S: Scalar> OmegaDotKf<S> {
         KfStatus::Updated
     }
 
+    /// `periods` calls of [`OmegaDotKf::update`] without a sample, in O(1): the clock
+    /// advances; once anchored, `k^2` is set to what the per-tick increments would give
+    /// (they stop at [`MAX_FIRING_TICKS`]).
+    pub fn skip(&mut self, periods: u64) {
+        if periods == 0 {
+            return;
+        }
+        let last = self.ticks.saturating_add(u32::try_from(periods.saturating_sub(1)).unwrap_or(u32::MAX));
+        self.ticks = last.saturating_add(1);
+        if self.anchored {
+            let k = u64::from(last.saturating_sub(self.anchor_tick).min(MAX_FIRING_TICKS));
+            self.k_sq = k.saturating_mul(k);
+        }
+    }
+
     /// Measurement updates since the last reset.
     pub fn updates(&self) -> u32 {
         self.sums.n

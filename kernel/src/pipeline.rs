@@ -18,8 +18,10 @@ const _: () = assert!(COUNT_FRAC_BITS == 12, "Gyroscopic::omega assumes Q12 coun
 use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
 use crate::omega_dot::{KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
 use crate::lu::LuError;
+use crate::observability::{min_updates_for, Excitation, N_TERMS};
 use crate::rls::{AddPlan, Factored, MassId, Measurement, RlsConfig, RlsStatus};
 use crate::scalar::{Scalar, Scaled};
+use crate::validity::{Invalid, Validity};
 
 /// Pipeline configuration.
 #[derive(Clone, Copy, Debug)]
@@ -35,13 +37,22 @@ pub struct PipelineConfig<S> {
     /// measured rate, so the Kalman state is the thrust-induced acceleration (as the f64
     /// reference does); `None` = the seed's flight code, which neglects it.
     pub gyro_bias_counts: Option<[f32; 3]>,
+    /// Excited Kalman updates a term needs to be observable
+    /// ([`crate::observability`]; the reference's 50 ms of samples).
+    pub min_excitation_updates: u32,
 }
 
 impl<S: Scalar> PipelineConfig<S> {
     /// The seed's settings at sample period `dt_ms`: R0 of Fig. 4.5, P0 = 0.5, 10 ms transient,
     /// batch over two firings, RLS without forgetting or change detection.
     pub fn seed(dt_ms: u32) -> Self {
-        PipelineConfig { kf: KfConfig::seed(dt_ms), rls: RlsConfig::default(), batch_firings: 2, gyro_bias_counts: None }
+        PipelineConfig {
+            kf: KfConfig::seed(dt_ms),
+            rls: RlsConfig::default(),
+            batch_firings: 2,
+            gyro_bias_counts: None,
+            min_excitation_updates: min_updates_for(dt_ms),
+        }
     }
 
     /// [`PipelineConfig::seed`] plus the gyroscopic terms (gyro bias `bias_counts`), the
@@ -67,6 +78,8 @@ pub enum PipelineStatus {
     Singular = 4,
     /// A value did not fit the scalar format at the last solve; previous estimate kept.
     Overflow = 5,
+    /// The last solve was not physical (see [`Estimates::invalid`]); previous estimate kept.
+    Implausible = 6,
 }
 
 /// What happened during one tick.
@@ -84,6 +97,8 @@ pub enum TickEvent {
     KfOverflow,
     /// The firing is longer than the Kalman accumulators allow: frozen.
     FiringTooLong,
+    /// A gyro sample at a rail (count 0 or 4095): the rest of the firing is not used.
+    Railed,
 }
 
 /// Per-tick output.
@@ -128,6 +143,27 @@ pub struct Pipeline<S> {
     ended: EndedFiring<S>,
     status: PipelineStatus,
     ticks: u64,
+    /// Which terms the current firing's word excites ([`crate::observability`]).
+    firing_excites: [bool; N_TERMS],
+    excitation: Excitation<S>,
+    validity: Validity<S>,
+    invalid: Option<Invalid>,
+    /// A railed sample ended the current firing's use.
+    firing_railed: bool,
+    counters: DataCounters,
+}
+
+/// What the pipeline left out, and why (telemetry; never silently).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DataCounters {
+    /// Gyro samples with some axis at a rail (count 0 or 4095).
+    pub railed_samples: u32,
+    /// Firings cut short (or wholly dropped) at a railed sample.
+    pub railed_firings: u32,
+    /// Firings whose gyros showed no response to a clearly predicted acceleration: not fitted.
+    pub unresponsive_firings: u32,
+    /// Sample periods without a sample (telemetry gaps).
+    pub gap_ticks: u64,
 }
 
 impl<S: Scalar> Pipeline<S> {
@@ -170,6 +206,12 @@ impl<S: Scalar> Pipeline<S> {
             ended: EndedFiring::empty(firing_terms),
             status: PipelineStatus::Idle,
             ticks: 0,
+            firing_excites: [false; N_TERMS],
+            excitation: Excitation::new(params, cfg.min_excitation_updates),
+            validity: Validity::new(params, &terms.theta_inertia_nominal),
+            invalid: None,
+            firing_railed: false,
+            counters: DataCounters::default(),
         })
     }
 
@@ -180,12 +222,41 @@ impl<S: Scalar> Pipeline<S> {
 
     /// One sample period without a sample (telemetry gap): time advances, the word is unchanged.
     pub fn tick_gap(&mut self) -> TickReport {
+        self.counters.gap_ticks = self.counters.gap_ticks.saturating_add(1);
         self.step(None, self.word)
+    }
+
+    /// `periods` sample periods without a sample, in O(1) whatever the count: exactly what
+    /// `periods` calls of [`Pipeline::tick_gap`] leave behind (the pending end-of-firing work
+    /// is run at once, the Kalman filter's clock jumps), in one call. The returned event is
+    /// `Solved` if a pending solve completed.
+    pub fn tick_gaps(&mut self, periods: u64) -> TickReport {
+        if periods == 0 {
+            return TickReport { event: TickEvent::Coasting, status: self.status };
+        }
+        let solved = self.catch_up();
+        self.ticks = self.ticks.saturating_add(periods);
+        self.counters.gap_ticks = self.counters.gap_ticks.saturating_add(periods);
+        if self.word != 0 {
+            self.gyro_step_ticks = self.gyro_step_ticks.saturating_add(u32::try_from(periods).unwrap_or(u32::MAX));
+            self.kf.skip(periods);
+        }
+        let event = if solved { TickEvent::Solved } else { TickEvent::Coasting };
+        TickReport { event, status: self.status }
+    }
+
+    /// Counters of the data the pipeline did not use (rails, unresponsive firings, gaps).
+    pub fn data_counters(&self) -> DataCounters {
+        self.counters
     }
 
     fn step(&mut self, gyro: Option<[u16; 3]>, word: u16) -> TickReport {
         self.ticks = self.ticks.saturating_add(1);
         let solved = self.run_deferred();
+        let railed = gyro.is_some_and(|c| c.iter().any(|&v| v == 0 || v >= RAIL_COUNT));
+        if railed {
+            self.counters.railed_samples = self.counters.railed_samples.saturating_add(1);
+        }
         let filtered = gyro.map(|c| self.filter.step(c));
         if let Some(f) = filtered {
             self.filtered = f;
@@ -198,7 +269,9 @@ impl<S: Scalar> Pipeline<S> {
                 changed = true;
                 self.firings = self.firings.saturating_add(1);
                 self.firing_has_data = false;
+                self.firing_railed = false;
                 self.firing_terms = self.terms.firing_terms(word);
+                self.firing_excites = self.excitation.excited_by(&self.firing_terms);
                 let prior = self.nominal_omega_dot();
                 // Extrapolate the lagging filtered rate by the previous firing's acceleration.
                 let offset: [i32; 3] = core::array::from_fn(|a| {
@@ -221,6 +294,14 @@ impl<S: Scalar> Pipeline<S> {
         let event = if self.word == 0 {
             self.accel_before = [S::ZERO; 3];
             TickEvent::Coasting
+        } else if railed || self.firing_railed {
+            // A railed sample and everything after it in this firing stay out of the filter
+            // (the low-pass filter carries the rail value for a while): the firing is cut here.
+            if !self.firing_railed {
+                self.firing_railed = true;
+                self.counters.railed_firings = self.counters.railed_firings.saturating_add(1);
+            }
+            TickEvent::Railed
         } else {
             self.gyro_step_ticks = self.gyro_step_ticks.saturating_add(1);
             let measured = filtered.map(|f| self.remove_gyroscopic(f, changed));
@@ -303,6 +384,7 @@ impl<S: Scalar> Pipeline<S> {
         let n = self.firings_with_data;
         self.ended.kf = self.kf.snapshot();
         self.ended.terms = self.firing_terms;
+        self.ended.excites = self.firing_excites;
         self.ended.batch = n <= self.cfg.batch_firings;
         self.ended.batch_complete = n == self.cfg.batch_firings;
         self.deferred = Some(DeferredStage::Measure);
@@ -330,8 +412,17 @@ impl<S: Scalar> Pipeline<S> {
                 // The firing's final estimate (detector measurement, telemetry) ...
                 if let Some(est) = self.kf.estimate_of(&e.kf) {
                     self.last_estimate = Some(est);
-                    e.last = measurement_for(&self.terms.theta_inertia_matrix, &e.terms, &est);
-                    next = Some(DeferredStage::Aggregate);
+                    let torque_firing = e.excites.iter().skip(3).any(|x| *x);
+                    if torque_firing && unresponsive(&e.terms.omega_dot_nominal, &est) {
+                        // The gyros did not move although the model predicts a clear
+                        // acceleration (a dead gyro, a disconnected valve): fitting this
+                        // firing would drive the inertia towards infinity. Not fitted; counted.
+                        self.counters.unresponsive_firings = self.counters.unresponsive_firings.saturating_add(1);
+                        self.firings_with_data = self.firings_with_data.saturating_sub(1);
+                    } else {
+                        e.last = measurement_for(&self.terms.theta_inertia_matrix, &e.terms, &est);
+                        next = Some(DeferredStage::Aggregate);
+                    }
                 }
             }
             DeferredStage::Aggregate => {
@@ -339,10 +430,13 @@ impl<S: Scalar> Pipeline<S> {
                 // firing has the same regressor).
                 if let Some((weight, mean)) = self.kf.aggregate_of(&e.kf) {
                     let pred = mat_vec(&self.terms.theta_inertia_matrix, &e.last.a_inertia_torque());
+                    let one = Scaled::from_i64(1);
+                    let variance = weight.map(|w| one.over(w).unwrap_or(one));
                     e.agg = Measurement {
                         b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
                         b_inertia: mean,
                         weight,
+                        variance,
                         ..e.last
                     };
                     next = Some(DeferredStage::FoldCom);
@@ -358,8 +452,11 @@ impl<S: Scalar> Pipeline<S> {
             }
             DeferredStage::FoldInertia => {
                 self.mass.apply_inertia_part(&e.agg, &e.plan, e.batch, e.kf.sums.n);
+                self.excitation.add(&e.excites, e.kf.sums.n);
+                let (c, i) = self.excitation.unobservable();
+                self.mass.hold_unexcited(c, i);
                 next = if !e.batch {
-                    Some(if self.cfg.rls.detector.is_some() { DeferredStage::Detect } else { DeferredStage::MergeInertia })
+                    Some(DeferredStage::Detect)
                 } else if e.batch_complete {
                     Some(DeferredStage::SolveCom)
                 } else {
@@ -368,13 +465,20 @@ impl<S: Scalar> Pipeline<S> {
             }
             DeferredStage::Detect => {
                 // The change test's statistic over the first two rows ...
-                e.nis = self.mass.innovation_part(&e.last, (0, 2), Scaled::zero());
+                // On the aggregate, with the weights the LS uses: its mean over the firings is
+                // the a-posteriori variance factor of those weights.
+                e.nis = self.mass.innovation_part(&e.agg, (0, 2), Scaled::zero());
                 next = Some(DeferredStage::DetectFinish);
             }
             DeferredStage::DetectFinish => {
                 // ... the third, and the test.
-                if let Some(nis) = e.nis.and_then(|p| self.mass.innovation_part(&e.last, (2, 3), p)) {
-                    self.mass.detect_with(nis);
+                // The innovation counts into the variance factor; the change test runs only
+                // against a solve with every term estimated.
+                if let Some(nis) = e.nis.and_then(|p| self.mass.innovation_part(&e.agg, (2, 3), p)) {
+                    self.mass.record_innovation(nis, self.mass.tests_inertia(&e.agg));
+                    if !self.mass.holds_terms_for(&e.agg) {
+                        self.mass.detect_with(nis);
+                    }
                 }
                 next = Some(DeferredStage::MergeInertia);
             }
@@ -384,10 +488,12 @@ impl<S: Scalar> Pipeline<S> {
             }
             DeferredStage::MergeCom => {
                 self.mass.merge_com();
+                e.before = self.mass.estimate();
                 e.com = self.mass.solve_com();
                 next = Some(DeferredStage::FactorInertia);
             }
             DeferredStage::SolveCom => {
+                e.before = self.mass.estimate();
                 e.com = self.mass.solve_com();
                 next = Some(DeferredStage::FactorInertia);
             }
@@ -398,12 +504,27 @@ impl<S: Scalar> Pipeline<S> {
             DeferredStage::SolveInertia => {
                 let inertia = self.mass.finish_inertia(e.factored);
                 let s = self.mass.combine(e.com, inertia);
-                self.status = self.status_after(s);
+                let before = e.before;
+                self.status = self.accept(s, &before);
                 solved = true;
             }
         }
         self.deferred = next;
         solved
+    }
+
+    /// The status after a solve with result `s`; a solved estimate that is not physical
+    /// ([`crate::validity`]) is replaced by `before` (the estimate the solve started from).
+    fn accept(&mut self, s: RlsStatus, before: &crate::rls::EstimateState<S>) -> PipelineStatus {
+        if matches!(s, RlsStatus::Ok | RlsStatus::PartlyUnobservable) {
+            if let Err(why) = self.validity.check(&self.mass.theta_inertia, &self.mass.delta_com_m) {
+                self.mass.restore(before);
+                self.invalid = Some(why);
+                return PipelineStatus::Implausible;
+            }
+            self.invalid = None;
+        }
+        self.status_after(s)
     }
 
     /// The pipeline status after a solve with result `s` (no data: unchanged).
@@ -437,8 +558,9 @@ impl<S: Scalar> Pipeline<S> {
         let solved = self.catch_up();
         if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
             // Fewer firings than the batch needs: the batch so far is the estimate.
+            let before = self.mass.estimate();
             let s = self.mass.solve();
-            self.status = self.status_after(s);
+            self.status = self.accept(s, &before);
         }
         self.word = 0;
         self.firing_has_data = false;
@@ -456,6 +578,8 @@ impl<S: Scalar> Pipeline<S> {
             updates: self.mass.updates,
             firings: self.firings,
             resets: self.mass.resets,
+            invalid: self.invalid,
+            data: self.counters,
         }
     }
 
@@ -487,6 +611,29 @@ impl<S: Scalar> Pipeline<S> {
     pub fn model_terms(&self) -> &ModelTerms<S> {
         &self.terms
     }
+}
+
+/// Gyro counts at or above this (or at 0) are at a rail (12-bit ADC).
+pub const RAIL_COUNT: u16 = 4095;
+
+/// True when a firing's final estimate `est` shows no response to its nominal acceleration
+/// (asked only of firings whose torque excites an inertia term, so the prediction is at
+/// least half a single thruster's)
+/// `nominal`: the prediction is clear (its squared size over the estimate's variance, summed
+/// over the axes, above 100: 10 sigma) and the measured acceleration along it is below an
+/// eighth of it (so a model up to 8 times off in inertia still identifies).
+fn unresponsive<S: Scalar>(nominal: &[S; 3], est: &OmegaDotEstimate<S>) -> bool {
+    let mut significance = Scaled::zero();
+    let mut along = S::ZERO;
+    let mut size = S::ZERO;
+    for ((p, x), info) in nominal.iter().zip(est.omega_dot.iter()).zip(est.information.iter()) {
+        let ps = Scaled { m: *p, e: 0 }.normalized();
+        significance = significance.plus(ps.times(ps).times(*info));
+        along = along.mul_add(*p, *x);
+        size = size.mul_add(*p, *p);
+    }
+    let clear = S::from_int_pow2(100, 0).lt(significance.value());
+    clear && along.lt(size.mul_pow2(-3))
 }
 
 /// The measurement of one angular-acceleration estimate for a firing's regressors
@@ -525,9 +672,9 @@ pub enum DeferredStage {
     PlanInertia = 4,
     /// Inverse-inertia information added.
     FoldInertia = 5,
-    /// Change test against the latest solve, first two rows (only with a change detector).
+    /// Innovation against the latest solve, first two rows.
     Detect = 6,
-    /// Change test, third row and the test itself.
+    /// Innovation, third row; variance factor and (with a detector) the change test.
     DetectFinish = 7,
     /// Forgetting and merge of the inverse-inertia information.
     MergeInertia = 8,
@@ -548,6 +695,10 @@ struct EndedFiring<S> {
     kf: KfSnapshot<S>,
     /// Its model terms.
     terms: FiringTerms<S>,
+    /// The terms its word excites.
+    excites: [bool; N_TERMS],
+    /// The estimate before its solve (kept if the solve is not physical).
+    before: crate::rls::EstimateState<S>,
     /// Its final estimate as a measurement (the change detector's).
     last: Measurement<S>,
     /// Its per-sample measurements in aggregate.
@@ -579,6 +730,8 @@ impl<S: Scalar> EndedFiring<S> {
         EndedFiring {
             kf: KfSnapshot { prior: [S::ZERO; 3], sums: Default::default(), second: Default::default() },
             terms,
+            excites: [false; N_TERMS],
+            before: crate::rls::EstimateState::empty(),
             last: m,
             agg: m,
             plan: AddPlan::none(),
@@ -657,6 +810,10 @@ pub struct Estimates<S> {
     pub firings: u32,
     /// Covariance resets by the change detector.
     pub resets: u32,
+    /// Why the last solve was rejected (status [`PipelineStatus::Implausible`]).
+    pub invalid: Option<Invalid>,
+    /// Data left out: railed samples and firings, unresponsive firings, gap ticks.
+    pub data: DataCounters,
 }
 
 impl<S: Scalar> Estimates<S> {

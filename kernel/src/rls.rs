@@ -337,7 +337,8 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         self.check_valid();
     }
 
-    /// The terms whose information is not certainly above `rel * max diag`.
+    /// The terms whose information is not certainly above `rel * max diag` (a numerical
+    /// safeguard; observability itself is decided by [`crate::observability`]).
     pub fn unobservable(&self, rel: S) -> [bool; N] {
         let thr = rel.times(self.max_diag());
         core::array::from_fn(|i| {
@@ -349,19 +350,23 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     /// Solves for the estimate; unobservable terms (see [`InfoLs::unobservable`]) are held
     /// at `prior` and the rest solved with them fixed. Returns the estimate, the mask and the
     /// factorisation of the reduced system (for covariances).
-    pub fn solve(&self, prior: &[S; N], unobs_rel: S, pivot_rel: S) -> Result<Solution<S, N>, LuError> {
-        self.factor(prior, unobs_rel, pivot_rel)?.solve()
+    pub fn solve(&self, prior: &[S; N], held: &[bool; N], unobs_rel: S, pivot_rel: S) -> Result<Solution<S, N>, LuError> {
+        self.factor(prior, held, unobs_rel, pivot_rel)?.solve()
     }
 
     /// The first half of [`InfoLs::solve`]: the reduced system and its LU factorisation.
-    pub fn factor(&self, prior: &[S; N], unobs_rel: S, pivot_rel: S) -> Result<Factored<S, N>, LuError> {
+    /// Terms in `held` (not excited) and numerically unobservable ones are held at `prior`.
+    pub fn factor(&self, prior: &[S; N], held: &[bool; N], unobs_rel: S, pivot_rel: S) -> Result<Factored<S, N>, LuError> {
         if self.empty {
             return Err(LuError::ZeroMatrix);
         }
         if self.saturated {
             return Err(LuError::Overflow);
         }
-        let unobs = self.unobservable(unobs_rel);
+        let mut unobs = self.unobservable(unobs_rel);
+        for (u, h) in unobs.iter_mut().zip(held.iter()) {
+            *u |= *h;
+        }
         let mut m = self.information();
         let mut rhs = self.eta;
         let scale = self.max_diag();
@@ -596,6 +601,34 @@ pub struct MassId<S> {
     /// detector tests a firing against it instead of solving again (a tick's budget).
     solved_com: Option<Solution<S, 3>>,
     solved_inertia: Option<Solution<S, 6>>,
+    /// Terms the excitation so far leaves unobservable ([`crate::observability`]): held at
+    /// the prior in every solve. None until told (standalone use: numerical criterion only).
+    held_com: [bool; 3],
+    held_inertia: [bool; 6],
+    /// Sum of the RLS firings' normalised innovations squared and their row count, per
+    /// problem (CoM, inverse inertia).
+    innovations: [(Scaled<S>, u32); 2],
+}
+
+/// The estimate part of a [`MassId`] (kept to undo a solve that is not physical).
+#[derive(Clone, Copy, Debug)]
+pub struct EstimateState<S> {
+    delta_com_m: [S; 3],
+    theta_inertia: [S; 6],
+    unobservable_com: [bool; 3],
+    unobservable_inertia: [bool; 6],
+}
+
+impl<S: Scalar> EstimateState<S> {
+    /// A placeholder (storage initialisation).
+    pub fn empty() -> Self {
+        EstimateState {
+            delta_com_m: [S::ZERO; 3],
+            theta_inertia: [S::ZERO; 6],
+            unobservable_com: [true; 3],
+            unobservable_inertia: [true; 6],
+        }
+    }
 }
 
 impl<S: Scalar> MassId<S> {
@@ -638,7 +671,43 @@ impl<S: Scalar> MassId<S> {
             last_ratio: S::ZERO,
             solved_com: None,
             solved_inertia: None,
+            held_com: [false; 3],
+            held_inertia: [false; 6],
+            innovations: [(Scaled::zero(), 0); 2],
         }
+    }
+
+    /// Which terms to hold at the prior (the excitation's unobservable terms).
+    pub fn hold_unexcited(&mut self, com: [bool; 3], inertia: [bool; 6]) {
+        if com != self.held_com {
+            self.solved_com = None;
+        }
+        if inertia != self.held_inertia {
+            self.solved_inertia = None;
+        }
+        self.held_com = com;
+        self.held_inertia = inertia;
+    }
+
+    /// The current estimate (to [`MassId::restore`] it).
+    pub fn estimate(&self) -> EstimateState<S> {
+        EstimateState {
+            delta_com_m: self.delta_com_m,
+            theta_inertia: self.theta_inertia,
+            unobservable_com: self.unobservable_com,
+            unobservable_inertia: self.unobservable_inertia,
+        }
+    }
+
+    /// Puts back an earlier estimate (a solve was rejected); the change detector has no
+    /// solve to test against until the next one.
+    pub fn restore(&mut self, e: &EstimateState<S>) {
+        self.delta_com_m = e.delta_com_m;
+        self.theta_inertia = e.theta_inertia;
+        self.unobservable_com = e.unobservable_com;
+        self.unobservable_inertia = e.unobservable_inertia;
+        self.solved_com = None;
+        self.solved_inertia = None;
     }
 
     /// Adds one batch measurement (first two firings) straight into the information.
@@ -740,8 +809,12 @@ impl<S: Scalar> MassId<S> {
     /// since); an alarm deflates the information (covariance reset). The pipeline runs it in
     /// two parts ([`MassId::innovation_part`], [`MassId::detect_with`]).
     pub fn detect_change(&mut self, last: Option<&Measurement<S>>) {
-        if let Some(nis) = last.and_then(|m| self.innovation_part(m, (0, 3), Scaled::zero())) {
-            self.detect_with(nis);
+        let Some(m) = last else { return };
+        if let Some(nis) = self.innovation_part(m, (0, 3), Scaled::zero()) {
+            self.record_innovation(nis, self.tests_inertia(m));
+            if !self.holds_terms_for(m) {
+                self.detect_with(nis);
+            }
         }
     }
 
@@ -817,6 +890,16 @@ impl<S: Scalar> MassId<S> {
     /// so after a CoM change the seed's inertia equations (nominal lever arms) cannot explain
     /// its rate change: testing them there would raise alarms on every translation.
     pub fn innovation_part(&self, m: &Measurement<S>, rows: (usize, usize), acc: Scaled<S>) -> Option<Scaled<S>> {
+        if self.tests_inertia(m) {
+            nis_of(self.solved_inertia.as_ref()?, &m.a_inertia, &m.b_inertia, &m.variance, rows, acc)
+        } else {
+            nis_of(self.solved_com.as_ref()?, &m.a_com, &m.b_com, &m.variance, rows, acc)
+        }
+    }
+
+    /// True when a firing's innovation is taken on the inverse-inertia equations (a firing
+    /// with torque), false for the CoM equations (a translation).
+    pub fn tests_inertia(&self, m: &Measurement<S>) -> bool {
         let torque_sq = m
             .a_inertia
             .iter()
@@ -826,11 +909,42 @@ impl<S: Scalar> MassId<S> {
                 acc.mul_add(a, a)
             });
         let strong = S::from_int_pow2(1, -2);
-        if strong.lt(torque_sq) {
-            nis_of(self.solved_inertia.as_ref()?, &m.a_inertia, &m.b_inertia, &m.variance, rows, acc)
+        strong.lt(torque_sq)
+    }
+
+    /// True if the latest solve of the problem `m` is tested on holds some term at the prior
+    /// (the change detector then has no meaningful prediction; the variance factor still
+    /// counts the innovation).
+    pub fn holds_terms_for(&self, m: &Measurement<S>) -> bool {
+        if self.tests_inertia(m) {
+            self.solved_inertia.as_ref().is_none_or(|s| s.unobservable.iter().any(|u| *u))
         } else {
-            nis_of(self.solved_com.as_ref()?, &m.a_com, &m.b_com, &m.variance, rows, acc)
+            self.solved_com.as_ref().is_none_or(|s| s.unobservable.iter().any(|u| *u))
         }
+    }
+
+    /// Counts one ended firing's normalised innovation squared `nis` over its three rows
+    /// into the variance factor of the problem it was taken on ([`MassId::variance_factors`]).
+    pub fn record_innovation(&mut self, nis: Scaled<S>, inertia: bool) {
+        let (sum, n) = if inertia { &mut self.innovations[1] } else { &mut self.innovations[0] };
+        *sum = sum.plus(nis);
+        *n = n.saturating_add(3);
+    }
+
+    /// The a-posteriori variance factors (CoM, inverse inertia): the mean normalised
+    /// innovation squared per row of the RLS firings against the estimate from before each
+    /// firing, at least 1. Under the model each row's value averages 1; larger means the
+    /// Kalman filter's variances (and every unmodelled error) are bigger than predicted,
+    /// and the LS variances are scaled by it, as the reference scales its covariance by the
+    /// observed/predicted residual ratio. 1 before any innovation.
+    pub fn variance_factors(&self) -> [Scaled<S>; 2] {
+        self.innovations.map(|(sum, n)| {
+            let one = Scaled::from_i64(1);
+            match sum.over(Scaled::from_i64(i64::from(n))) {
+                Some(v) if n > 0 && S::ONE.lt(v.value()) => v,
+                _ => one,
+            }
+        })
     }
 
     /// Solves both problems for the current estimate.
@@ -843,7 +957,7 @@ impl<S: Scalar> MassId<S> {
     /// Solves the CoM problem alone (its status; the estimate is kept on failure).
     pub fn solve_com(&mut self) -> RlsStatus {
         let zero3 = [S::ZERO; 3];
-        match self.com.solve(&zero3, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
+        match self.com.solve(&zero3, &self.held_com, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
             Ok(sol) => {
                 self.delta_com_m = sol.x;
                 self.unobservable_com = sol.unobservable;
@@ -865,7 +979,7 @@ impl<S: Scalar> MassId<S> {
 
     /// The first half of [`MassId::solve_inertia`] (reads only): the factorisation.
     pub fn factor_inertia(&self) -> Result<Factored<S, 6>, LuError> {
-        self.inertia.factor(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+        self.inertia.factor(&self.prior_inertia, &self.held_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
     }
 
     /// The second half of [`MassId::solve_inertia`], from [`MassId::factor_inertia`] (nothing
@@ -897,17 +1011,35 @@ impl<S: Scalar> MassId<S> {
         status
     }
 
-    /// Variances of the CoM terms (m^2) and of the inverse-inertia parameters, where they fit.
+    /// Variances of the CoM terms (m^2) and of the inverse-inertia parameters, where they
+    /// fit, scaled by the [`MassId::variance_factors`]. Terms held at the prior have no
+    /// variance from the data (`None`; the caller reports the prior's).
     pub fn variances(&self) -> (MaybeVariances<S, 3>, MaybeVariances<S, 6>) {
+        let (c, i) = self.ls_variances();
+        let [fc, fi] = self.variance_factors();
+        let held = |v: Option<Scaled<S>>, h: bool, f: Scaled<S>| if h { None } else { v.map(|v| v.times(f)) };
+        let mut c2 = [None; 3];
+        for ((o, v), h) in c2.iter_mut().zip(c.iter()).zip(self.unobservable_com.iter()) {
+            *o = held(*v, *h, fc);
+        }
+        let mut i2 = [None; 6];
+        for ((o, v), h) in i2.iter_mut().zip(i.iter()).zip(self.unobservable_inertia.iter()) {
+            *o = held(*v, *h, fi);
+        }
+        (c2, i2)
+    }
+
+    /// The LS variances alone (the information's inverse, no variance factor).
+    pub fn ls_variances(&self) -> (MaybeVariances<S, 3>, MaybeVariances<S, 6>) {
         let zero3 = [S::ZERO; 3];
         let c = self
             .com
-            .solve(&zero3, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+            .solve(&zero3, &self.held_com, self.cfg.unobservable_rel, self.cfg.pivot_rel)
             .map(|s| s.variances())
             .unwrap_or([None; 3]);
         let i = self
             .inertia
-            .solve(&self.prior_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+            .solve(&self.prior_inertia, &self.held_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
             .map(|s| s.variances())
             .unwrap_or([None; 6]);
         (c, i)
@@ -919,7 +1051,7 @@ impl<S: Scalar> MassId<S> {
     }
 }
 
-/// `sum_i nu_i^2 / (P_i + (A Q A')_ii)` for one problem; `None` before every term is observable.
+/// `sum_i nu_i^2 / (P_i + (A Q A')_ii)` for one problem (held terms count as known).
 /// The normalised innovation squared of rows `from..to` of a measurement against a solve,
 /// added to `acc` (rows in order, so a statistic computed in parts equals the whole).
 fn nis_of<S: Scalar, const N: usize>(
@@ -930,10 +1062,6 @@ fn nis_of<S: Scalar, const N: usize>(
     (from, to): (usize, usize),
     acc: Scaled<S>,
 ) -> Option<Scaled<S>> {
-    if sol.unobservable.iter().any(|u| *u) {
-        // Terms held at the prior have no meaningful predicted variance: no test yet.
-        return None;
-    }
     let mut total = acc;
     for ((row, b), var) in rows.iter().zip(b.iter()).zip(variance.iter()).take(to).skip(from) {
         let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));

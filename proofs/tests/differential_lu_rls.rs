@@ -109,7 +109,7 @@ fn rls_inertia<S: Exact>(torques: &[[f64; 3]], theta: &[f64; 6], weight_exp: &[i
         }
     }
     let xr = lu_solve(&info, &rhs);
-    let sol = ls.solve(&[S::ZERO; 6], S::from_int_pow2(1, -14), S::from_int_pow2(1, -20));
+    let sol = ls.solve(&[S::ZERO; 6], &[false; 6], S::from_int_pow2(1, -14), S::from_int_pow2(1, -20));
     let cond = {
         let e = info.symmetric_eigen().eigenvalues;
         e.max() / e.min().max(1e-300)

@@ -117,6 +117,32 @@ pub fn inertia_from_inverse(
     Some((sym_to_vec6(&i), g * cov_x * g.transpose()))
 }
 
+/// Physical validity of an estimate, the criterion the kernel implements too
+/// (`massid_kernel::validity`): the inertia (xx yy zz xy xz yz, kg m^2) is positive
+/// definite and its diagonal obeys the triangle inequalities (`Ixx + Iyy >= Izz`, cyclic),
+/// and the CoM (model CoM + `com_offset_mm`) lies inside the box of the thruster positions.
+/// `Err` names the first check that fails, as the estimate JSON's status does.
+pub fn physical_validity(sat: &Satellite, com_offset_mm: &[f64; 3], inertia: &[f64; 6]) -> Result<(), &'static str> {
+    let [xx, yy, zz, xy, xz, yz] = *inertia;
+    let m = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+    let minors = [xx, xx * yy - xy * xy, m.determinant()];
+    if !minors.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return Err("implausible_inertia_not_positive_definite");
+    }
+    if xx + yy < zz || xx + zz < yy || yy + zz < xx {
+        return Err("implausible_inertia_triangle_inequality");
+    }
+    for a in 0..3 {
+        let lo = sat.thruster_pos_m.iter().map(|p| p[a]).fold(f64::INFINITY, f64::min);
+        let hi = sat.thruster_pos_m.iter().map(|p| p[a]).fold(f64::NEG_INFINITY, f64::max);
+        let c = (sat.com_offset_mm[a] + com_offset_mm[a]) * 1e-3;
+        if !(c.is_finite() && lo <= c && c <= hi) {
+            return Err("implausible_com_outside_envelope");
+        }
+    }
+    Ok(())
+}
+
 /// `M^-1 b` by LU with partial pivoting (nalgebra's, on a dynamic copy so that it works
 /// for any size `N`). None when `M` is singular.
 pub fn lu_solve<const N: usize>(m: &SMatrix<f64, N, N>, b: &SVector<f64, N>) -> Option<SVector<f64, N>> {
@@ -377,18 +403,28 @@ impl Excitation {
         Excitation { com: [0.0; 3], inertia: [0.0; 6], force_ref: 0.5 * f_min, torque_ref: 0.5 * t_min }
     }
 
-    /// Adds one update with thruster word `word` at rate `omega`.
-    pub fn add(&mut self, sat: &Satellite, word: u16, omega: &Vector3<f64>) {
+    /// The terms one update with thruster word `word` excites. The rows are taken at zero
+    /// rate, as the observations are (the Kalman state is the thrust-induced acceleration),
+    /// so the decision depends on the word and the model only and the kernel makes it exactly.
+    pub fn excited(&self, sat: &Satellite, word: u16) -> ([bool; 3], [bool; 6]) {
         let (c, _) = force_and_nominal_torque(sat, word);
         let sc = skew(&c);
+        let com = [0, 1, 2].map(|j| sc.column(j).norm() >= self.force_ref);
+        let (a2, _) = inertia_row(sat, word, &Vector3::zeros(), &Vector3::zeros());
+        let inertia = [0, 1, 2, 3, 4, 5].map(|j| a2.column(j).norm() >= self.torque_ref);
+        (com, inertia)
+    }
+
+    /// Adds one update with thruster word `word`.
+    pub fn add(&mut self, sat: &Satellite, word: u16) {
+        let (com, inertia) = self.excited(sat, word);
         for j in 0..3 {
-            if sc.column(j).norm() >= self.force_ref {
+            if com[j] {
                 self.com[j] += 1.0;
             }
         }
-        let (a2, _) = inertia_row(sat, word, omega, &Vector3::zeros());
         for j in 0..6 {
-            if a2.column(j).norm() >= self.torque_ref {
+            if inertia[j] {
                 self.inertia[j] += 1.0;
             }
         }
@@ -550,12 +586,12 @@ mod tests {
         let s = sat();
         let mut ex = Excitation::new(&s);
         for _ in 0..1000 {
-            ex.add(&s, 2064, &Vector3::new(0.5, 0.0, 0.0)); // thrusters 5 + 12: +x torque couple
+            ex.add(&s, 2064); // thrusters 5 + 12: +x torque couple
         }
         let u = ex.unobservable(50.0);
         assert_eq!(u, vec!["cm_x", "cm_y", "cm_z", "Iyy", "Izz", "Iyz"]);
         for _ in 0..1000 {
-            ex.add(&s, 0b11, &Vector3::zeros()); // thrusters 1 + 2: +x translation
+            ex.add(&s, 0b11); // thrusters 1 + 2: +x translation
         }
         assert_eq!(ex.unobservable(50.0), vec!["cm_x", "Iyy", "Izz", "Iyz"]);
     }

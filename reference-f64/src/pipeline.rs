@@ -7,7 +7,8 @@
 //! and in the offline form knowing in advance which terms the maneuver leaves unobservable
 //! (they are then held at the nominal values, seed eq. 3.13's reduction).
 use crate::mass_id::{
-    com_row, inertia_from_inverse, inertia_row, lu_inverse, nominal_inverse_inertia, pin_terms, BatchLs, ChangeDetector,
+    com_row, inertia_from_inverse, inertia_row, lu_inverse, nominal_inverse_inertia, physical_validity, pin_terms, BatchLs,
+    ChangeDetector,
     Excitation, LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
 };
 use crate::omega_dot::{gyroscopic_omega_dot, kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
@@ -147,6 +148,22 @@ pub struct MassIdAccumulator {
     /// predicted variance).
     cov_at_firing_start: Option<SMatrix<f64, 6, 6>>,
     last_in_firing: Option<OmegaDotEstimate>,
+    /// The current firing's estimates, fitted when it ends (unless unresponsive).
+    firing_buf: Vec<OmegaDotEstimate>,
+    /// Firings whose gyros did not respond (not fitted).
+    pub unresponsive_firings: usize,
+}
+
+/// True when a firing's final estimate `e` shows no response to its nominal acceleration
+/// `p`: the prediction is clear (`sum p_i^2 / var_i > 100`, 10 sigma) and the measured
+/// acceleration along it is below an eighth of it (a model up to 8 times off in inertia
+/// still identifies). Asked only of firings whose torque excites an inertia term. The
+/// kernel's rule (`massid_kernel::pipeline`) is the same.
+pub fn unresponsive(sat: &Satellite, e: &OmegaDotEstimate) -> bool {
+    let p = nominal_omega_dot(sat, e.word, Vector3::zeros());
+    let x = Vector3::from(e.omega_dot);
+    let significance: f64 = (0..3).map(|i| p[i] * p[i] / e.variance[i]).sum();
+    significance > 100.0 && x.dot(&p) < p.dot(&p) / 8.0
 }
 
 impl MassIdAccumulator {
@@ -193,6 +210,8 @@ impl MassIdAccumulator {
             x_at_firing_start: None,
             cov_at_firing_start: None,
             last_in_firing: None,
+            firing_buf: Vec::new(),
+            unresponsive_firings: 0,
         }
     }
 
@@ -209,8 +228,30 @@ impl MassIdAccumulator {
         (Observation { a: a1, b: b1, r }, Observation { a: a2, b: b2, r })
     }
 
-    /// Adds one Kalman-filter estimate.
+    /// Adds one Kalman-filter estimate. A firing's estimates are held until the firing ends
+    /// and are dropped (counted in `unresponsive_firings`) when the gyros did not respond to
+    /// it ([`unresponsive`]), the rule the kernel applies too.
     pub fn push(&mut self, e: &OmegaDotEstimate) {
+        if self.firing_buf.last().is_some_and(|l| l.firing != e.firing) {
+            self.flush_firing();
+        }
+        self.firing_buf.push(*e);
+    }
+
+    fn flush_firing(&mut self) {
+        let buf = std::mem::take(&mut self.firing_buf);
+        let Some(last) = buf.last() else { return };
+        let (_, inertia) = self.excitation.excited(&self.sat, last.word);
+        if inertia.iter().any(|x| *x) && unresponsive(&self.sat, last) {
+            self.unresponsive_firings += 1;
+            return;
+        }
+        for e in &buf {
+            self.push_now(e);
+        }
+    }
+
+    fn push_now(&mut self, e: &OmegaDotEstimate) {
         if self.error.is_some() {
             return;
         }
@@ -226,7 +267,7 @@ impl MassIdAccumulator {
         }
         self.last_in_firing = Some(*e);
         let (oc, oi) = Self::observations(&self.sat, e);
-        self.excitation.add(&self.sat, e.word, &Vector3::from(e.omega));
+        self.excitation.add(&self.sat, e.word);
         self.com_all.add(&oc);
         self.inertia_all.add(&oi);
         self.updates += 1;
@@ -320,6 +361,7 @@ impl MassIdAccumulator {
 
     /// The final estimate. `dt` is the sample period (for the observability threshold).
     pub fn finish(mut self, dt: f64) -> Estimate {
+        self.flush_firing();
         self.end_of_firing();
         let mut unobservable = self.unobservable(dt);
         for p in &self.pinned {
@@ -328,11 +370,18 @@ impl MassIdAccumulator {
             }
         }
         order_terms(&mut unobservable);
+        // Without an estimate, the honest uncertainty is the weak prior's (never 0).
+        let prior_inertia_std = {
+            let cov = SMatrix::<f64, 6, 6>::from_diagonal(&self.weak_std_inertia.map(|v| v * v));
+            inertia_from_inverse(&nominal_inverse_inertia(&self.sat), &cov)
+                .map(|(_, c)| [0, 1, 2, 3, 4, 5].map(|j| c[(j, j)].max(0.0).sqrt()))
+                .unwrap_or([f64::NAN; 6])
+        };
         let nominal = Estimate {
             com_offset_mm: [0.0; 3],
-            com_offset_stderr_mm: [0.0; 3],
+            com_offset_stderr_mm: [0, 1, 2].map(|j| self.weak_std_com[j] * 1e3),
             inertia_kgm2: self.sat.inertia_kgm2,
-            inertia_stderr_kgm2: [0.0; 6],
+            inertia_stderr_kgm2: prior_inertia_std,
             unobservable: unobservable.clone(),
             updates: self.updates,
             status: String::new(),
@@ -344,7 +393,8 @@ impl MassIdAccumulator {
         };
         if self.updates == 0 {
             let all: Vec<String> = COM_TERMS.iter().chain(INERTIA_TERMS.iter()).map(|s| s.to_string()).collect();
-            return Estimate { status: "no_firings".into(), unobservable: all, ..nominal };
+            let status = if self.unresponsive_firings > 0 { "no_gyro_response" } else { "no_firings" };
+            return Estimate { status: status.into(), unobservable: all, ..nominal };
         }
         if self.rls.is_none() && self.error.is_none() {
             // fewer firings than the batch needs: the batch is the estimate
@@ -387,7 +437,12 @@ impl MassIdAccumulator {
             let (xb_c, _) = pin_terms(&self.com_all.solve()?, &self.com_all.info, &pin_c, &zero_c).ok_or(LsError::SingularInformation)?;
             let (xb_i, _) = pin_terms(&self.inertia_all.solve()?, &self.inertia_all.info, &pin_i, &nominal_i).ok_or(LsError::SingularInformation)?;
             let (ib, _) = inertia_from_inverse(&xb_i, &SMatrix::<f64, 6, 6>::zeros()).ok_or(LsError::SingularInformation)?;
-            let status = if unobservable.is_empty() { "ok" } else { "unobservable_terms" };
+            let com_mm: [f64; 3] = (xc * 1e3).into();
+            let status = match physical_validity(&self.sat, &com_mm, &ivec.into()) {
+                Err(why) => why,
+                Ok(()) if unobservable.is_empty() => "ok",
+                Ok(()) => "unobservable_terms",
+            };
             Ok(Estimate {
                 com_offset_mm: (xc * 1e3).into(),
                 com_offset_stderr_mm: [0, 1, 2].map(|j| cc[(j, j)].max(0.0).sqrt() * 1e3),
@@ -419,7 +474,7 @@ pub fn estimate_from_rates(rates: &Rates, sat: &Satellite, cfg: &PipelineConfig)
     // the whole run's excitation decides which terms are held at the nominal values
     let mut ex = Excitation::new(sat);
     for e in &est {
-        ex.add(sat, e.word, &Vector3::from(e.omega));
+        ex.add(sat, e.word);
     }
     let dt = if rates.dt > 0.0 { rates.dt } else { 0.001 };
     let pinned = ex.unobservable(cfg.min_excitation_s / dt);

@@ -64,6 +64,8 @@ pub struct Recording {
     /// Samples, duplicates removed (first wins), gaps left as gaps.
     pub samples: Vec<Sample>,
     pub issues: DataIssues,
+    /// The 1-based line of the `sample_rate_hz` key, when read from a file.
+    pub rate_line: Option<usize>,
 }
 
 /// A rejected recording: the file, the 1-based line and the reason.
@@ -116,6 +118,7 @@ impl Recording {
             metadata,
             samples: kept,
             issues: DataIssues { gaps, missing_samples, duplicates, saturated },
+            rate_line: None,
         }
     }
 
@@ -141,6 +144,7 @@ impl Recording {
             source: source.to_string(),
             metadata: reader.metadata().to_vec(),
             issues: reader.issues(),
+            rate_line: reader.rate_line,
             samples,
         })
     }
@@ -220,6 +224,36 @@ impl Recording {
         steps.median().map(|p| 1000.0 / p).unwrap_or(DEFAULT_SAMPLE_RATE_HZ)
     }
 
+    /// The sample period in whole milliseconds, checked: a declared `sample_rate_hz` must
+    /// agree with the median `time_ms` step within 10 % (flight code counts time in ticks of
+    /// the declared period, so a mislabel would scale every acceleration). The error names the
+    /// file and the key's line. Without a declared rate, the median step; a recording with
+    /// fewer than two samples, the declared (or default) period.
+    pub fn checked_period_ms(&self) -> Result<u64, RecordingError> {
+        let mut steps = StepHistogram::default();
+        for w in self.samples.windows(2) {
+            steps.add(w[1].time_ms - w[0].time_ms);
+        }
+        let declared = self.meta("sample_rate_hz").and_then(|v| v.trim().parse::<f64>().ok()).filter(|r| r.is_finite() && *r > 0.0);
+        match (declared, steps.median()) {
+            (Some(r), Some(step)) => {
+                let period = 1000.0 / r;
+                if (step - period).abs() > 0.1 * period.max(step) {
+                    return Err(RecordingError {
+                        file: self.source.clone(),
+                        line: self.rate_line.unwrap_or(0),
+                        reason: format!(
+                            "sample_rate_hz = {r} declares a {period} ms period, but the time_ms steps are {step} ms (median); fix the rate or the time stamps"
+                        ),
+                    });
+                }
+                Ok((period.round() as u64).max(1))
+            }
+            (None, Some(step)) => Ok((step.round() as u64).max(1)),
+            _ => Ok(self.sample_period_ms()),
+        }
+    }
+
     /// Nominal sample period in whole milliseconds (at least 1).
     pub fn sample_period_ms(&self) -> u64 {
         ((1000.0 / self.sample_rate_hz()).round() as u64).max(1)
@@ -286,6 +320,7 @@ pub struct RecordingReader<R> {
     /// column index in the file -> field slot in COLUMNS order
     column_slot: Vec<usize>,
     nominal_period_ms: Option<f64>,
+    rate_line: Option<usize>,
     last_time: Option<u64>,
     steps: StepHistogram,
     duplicates: usize,
@@ -305,6 +340,7 @@ impl<R: BufRead> RecordingReader<R> {
             metadata: Vec::new(),
             column_slot: Vec::new(),
             nominal_period_ms: None,
+            rate_line: None,
             last_time: None,
             steps: StepHistogram::default(),
             duplicates: 0,
@@ -335,7 +371,10 @@ impl<R: BufRead> RecordingReader<R> {
                     }
                     if k == "sample_rate_hz" && rd.nominal_period_ms.is_none() {
                         match v.parse::<f64>() {
-                            Ok(r) if r.is_finite() && r > 0.0 => rd.nominal_period_ms = Some(1000.0 / r),
+                            Ok(r) if r.is_finite() && r > 0.0 => {
+                                rd.nominal_period_ms = Some(1000.0 / r);
+                                rd.rate_line = Some(rd.line_no);
+                            }
                             _ => return Err(rd.error(format!("sample_rate_hz '{v}' is not a positive number"))),
                         }
                     }

@@ -11,3 +11,5 @@ pub fn open_data_dir() -> PathBuf {
 pub fn open2_data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open2")
 }
+
+pub mod coverage;

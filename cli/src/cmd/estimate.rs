@@ -112,108 +112,17 @@ pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite, form: Refere
     }
 }
 
-/// Glue between a recording/satellite of the ground tools and the onboard kernel.
+/// Glue between a recording/satellite of the ground tools and the onboard kernel (the
+/// `massid-kernel-host` library; re-exported for the demo).
 pub mod onboard {
-    use super::{Estimate, Recording, Satellite};
-    use massid_kernel::model::SatelliteParams;
-    use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scalar};
-    use reference_f64::mass_id::{COM_TERMS, INERTIA_TERMS};
+    pub use massid_kernel_host::params;
 
-    /// The kernel's plain-array parameters (f32) from a ground model.
-    pub fn params(sat: &Satellite) -> SatelliteParams {
-        SatelliteParams {
-            thruster_pos_m: sat.thruster_pos_m.map(|p| p.map(|v| v as f32)),
-            thrust_dir: sat.thrust_dir.map(|p| p.map(|v| v as f32)),
-            thrust_n: sat.thrust_n.map(|v| v as f32),
-            inertia_kgm2: sat.inertia_kgm2.map(|v| v as f32),
-            com_offset_mm: sat.com_offset_mm.map(|v| v as f32),
-            gyro_counts_per_rad_s: sat.gyro_counts_per_rad_s.map(|v| v as f32),
-            pressure_drop_n_per_extra: sat.pressure_drop_n_per_extra as f32,
-        }
-    }
-
-    pub fn estimate<S: Scalar>(rec: &Recording, sat: &Satellite) -> anyhow::Result<Estimate> {
-        let dt = rec.sample_period_ms().max(1);
-        let cfg = PipelineConfig::<S>::with_gyroscopic(dt as u32, sat.gyro_bias_counts.map(|v| v as f32));
-        let mut p = Pipeline::<S>::new(&params(sat), cfg)
-            .map_err(|e| anyhow::anyhow!("satellite {}: the kernel rejects the model ({e:?})", sat.name))?;
-        let mut prev: Option<u64> = None;
-        for s in &rec.samples {
-            if let Some(t0) = prev {
-                for _ in 0..(s.time_ms.saturating_sub(t0) / dt).saturating_sub(1) {
-                    p.tick_gap();
-                }
-            }
-            p.tick(s.gyro, s.thrusters);
-            prev = Some(s.time_ms);
-        }
-        p.finish();
-        let e = p.estimates();
-        let (var_c, var_i) = p.mass_id().variances();
-        let mut unobservable: Vec<String> = Vec::new();
-        for (n, u) in COM_TERMS.iter().zip(e.unobservable_com.iter()) {
-            if *u {
-                unobservable.push(n.to_string());
-            }
-        }
-        for (n, u) in INERTIA_TERMS.iter().zip(e.unobservable_inertia.iter()) {
-            if *u {
-                unobservable.push(n.to_string());
-            }
-        }
-        let status = match e.status {
-            PipelineStatus::Idle => "no_firings",
-            PipelineStatus::Batch | PipelineStatus::Ok if unobservable.is_empty() => "ok",
-            PipelineStatus::Batch | PipelineStatus::Ok | PipelineStatus::PartlyUnobservable => "unobservable_terms",
-            PipelineStatus::Singular => "singular_information",
-            PipelineStatus::Overflow => "overflow",
-        };
-        let inertia = match e.status {
-            PipelineStatus::Idle => sat.inertia_kgm2,
-            _ => e.inertia_kgm2().unwrap_or(sat.inertia_kgm2),
-        };
-        // stderrs: the kernel's LS variances (CoM in m^2, inverse inertia in its units) scaled,
-        // as the reference does, by the updates per firing (a firing's cumulative Kalman
-        // estimates share one error); inertia by first-order propagation dI = -I dJ I
-        // (J = 100 theta), terms taken as independent.
-        let per_firing = (f64::from(e.updates) / f64::from(e.firings.max(1))).max(1.0);
-        let com_stderr = var_c.map(|v| v.map(|v| (v.to_f64().max(0.0) * per_firing).sqrt() * 1e3).unwrap_or(f64::NAN));
-        let var_j: [f64; 6] = var_i.map(|v| v.map(|v| v.to_f64().max(0.0) * 1e4 * per_firing).unwrap_or(f64::NAN));
-        let im = [[inertia[0], inertia[3], inertia[4]], [inertia[3], inertia[1], inertia[5]], [inertia[4], inertia[5], inertia[2]]];
-        let idx = |a: usize, b: usize| -> usize {
-            match (a.min(b), a.max(b)) {
-                (0, 0) => 0,
-                (1, 1) => 1,
-                (2, 2) => 2,
-                (0, 1) => 3,
-                (0, 2) => 4,
-                _ => 5,
-            }
-        };
-        let pairs = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
-        let inertia_stderr = pairs.map(|(a, b)| {
-            let mut v = 0.0;
-            for c in 0..3 {
-                for d in 0..3 {
-                    v += (im[a][c] * im[d][b]).powi(2) * var_j[idx(c, d)];
-                }
-            }
-            v.sqrt()
-        });
-        Ok(Estimate {
-            com_offset_mm: e.com_offset_mm(),
-            com_offset_stderr_mm: com_stderr,
-            inertia_kgm2: inertia,
-            inertia_stderr_kgm2: inertia_stderr,
-            unobservable,
-            updates: e.updates as usize,
-            status: status.into(),
-            history: Vec::new(),
-            batch_all_com_offset_mm: e.com_offset_mm(),
-            batch_all_inertia_kgm2: inertia,
-            variance_factor: [1.0; 2],
-            detections_s: Vec::new(),
-        })
+    /// The kernel's estimate of a recording, as the contract's result.
+    pub fn estimate<S: massid_kernel::Scalar>(
+        rec: &super::Recording,
+        sat: &super::Satellite,
+    ) -> anyhow::Result<super::Estimate> {
+        Ok(massid_kernel_host::estimate::<S>(rec, sat)?)
     }
 }
 
@@ -287,6 +196,9 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let kernels = parse_kernels(&args.kernel)?;
     let rec = Recording::read(&args.recording)?;
+    // A declared rate that contradicts the time steps is an error (file and line) for every
+    // implementation: flight code counts time in ticks of the declared period.
+    rec.checked_period_ms()?;
     let sat = load_satellite(&rec, args.satellite.as_deref(), args.model.as_deref())?;
     if let Some(out) = &args.json {
         let mut inputs: Vec<&Path> = vec![args.recording.as_path()];

@@ -119,7 +119,7 @@ fn information_update<S: Exact, const N: usize>() {
     }
     // The solve gives a status or valid numbers.
     let prior = [S::ZERO; N];
-    if let Ok(sol) = ls.solve(&prior, S::from_int_pow2(1, -14), S::from_int_pow2(1, -20)) {
+    if let Ok(sol) = ls.solve(&prior, &[false; N], S::from_int_pow2(1, -14), S::from_int_pow2(1, -20)) {
         cover!(true, "solved");
         assert!(sol.x.iter().all(|v| v.is_valid()));
     }

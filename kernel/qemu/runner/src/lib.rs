@@ -114,7 +114,7 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
             TickEvent::Updated if rls_active => Kind::KfRls,
             TickEvent::Updated => Kind::Kf,
             TickEvent::Solved => Kind::Solve,
-            TickEvent::KfOverflow | TickEvent::FiringTooLong => Kind::Other,
+            TickEvent::KfOverflow | TickEvent::FiringTooLong | TickEvent::Railed => Kind::Other,
         });
         prev_word = word;
         if report.event == TickEvent::Solved {

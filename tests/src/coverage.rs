@@ -86,6 +86,11 @@ impl Table {
 
 /// Flies `n` rga12 flights (seeds `seed0..seed0+n`) and tabulates the coverage.
 pub fn run_flights(n: u64, seed0: u64) -> Table {
+    run_flights_with(n, seed0, |_| {})
+}
+
+/// [`run_flights`] with the kernels' estimates altered by `fault` first (planted-fault tests).
+pub fn run_flights_with(n: u64, seed0: u64, fault: impl Fn(&mut Estimate)) -> Table {
     let sat = Satellite::builtin("sph2").expect("sph2");
     let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
     let mut t = Table::default();
@@ -94,10 +99,12 @@ pub fn run_flights(n: u64, seed0: u64) -> Table {
         spec.seed = seed;
         let rec = simulate(&spec).expect("simulation").recording;
         t.add(0, &estimate_online(&rec, &sat, &cfg), &sat);
-        if let Ok(e) = massid_kernel_host::estimate::<f32>(&rec, &sat) {
+        if let Ok(mut e) = massid_kernel_host::estimate::<f32>(&rec, &sat) {
+            fault(&mut e);
             t.add(1, &e, &sat);
         }
-        if let Ok(e) = massid_kernel_host::estimate::<massid_kernel::Q8_24>(&rec, &sat) {
+        if let Ok(mut e) = massid_kernel_host::estimate::<massid_kernel::Q8_24>(&rec, &sat) {
+            fault(&mut e);
             t.add(2, &e, &sat);
         }
     }

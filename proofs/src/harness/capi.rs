@@ -94,12 +94,12 @@ fn c_abi_any_use(fixed: bool) {
         }
         assert_eq!(st, MassidStatus::Ok, "tick: {st:?}");
         if !rptr.is_null() {
-            assert!(report.event <= 5 && report.status <= 5, "codes out of range: {report:?}");
+            assert!(report.event <= 6 && report.status <= 6, "codes out of range: {report:?}");
         }
     }
     let mut code = 0u8;
     assert_eq!(finish(&mut *block, &mut code), MassidStatus::Ok);
-    assert!(code <= 5);
+    assert!(code <= 6);
     assert_eq!(finish(&mut *block, core::ptr::null_mut()), MassidStatus::Ok, "finish with a NULL status is allowed");
     if est {
         let mut out: MassidEstimates<i32> = unsafe { core::mem::zeroed() };

@@ -43,6 +43,12 @@ pub fn word() -> u16 {
     any_in(0u16, u16::MAX)
 }
 
+/// Three gyro counts off the rails (a sample at a rail cuts the firing, so runs that should
+/// reach a solve draw these most of the time).
+pub fn counts_off_rail() -> [u16; 3] {
+    [0; 3].map(|_| any_in(env::GYRO_COUNTS.0.saturating_add(1), env::GYRO_COUNTS.1.saturating_sub(1)))
+}
+
 /// Three gyro counts.
 pub fn counts() -> [u16; 3] {
     [0; 3].map(|_| any_in(env::GYRO_COUNTS.0, env::GYRO_COUNTS.1))

@@ -330,7 +330,16 @@ pub fn diagnose(
             {
                 let static_bic = fr.chi2 - ring_gain - chi2_cur + 9.0 * ln_n;
                 if static_bic < ranked[0].0 {
-                    ranked.remove(0);
+                    let r = ranked.remove(0);
+                    // said, so that no later text calls it merely the next best
+                    rejections.push(Rejection {
+                        round,
+                        effect: r.1.name(),
+                        delta_bic: r.0,
+                        reason: format!(
+                            "a constant inertia error plus CoM offset, which a change half-way can mimic, fits better (delta BIC {static_bic:.0})"
+                        ),
+                    });
                 }
             }
         }
@@ -421,14 +430,8 @@ pub fn diagnose(
             .into_iter()
             .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
             .collect();
-        let mut evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, &rejections, round);
-        if kind == Kind::ThrustScale {
-            // name the thruster that is most off nominal
-            let fired_idx: Vec<usize> = (0..NT).filter(|&i| fired[i]).collect();
-            if let Some((j, v)) = theta.iter().enumerate().max_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs())) {
-                evidence = format!("thruster {} delivers {:.0} % of its nominal force; {evidence}", fired_idx[j] + 1, 100.0 * v);
-            }
-        }
+        // thrust scale names its most-off thruster below, from the final fit
+        let evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, &rejections, round);
         accepted.push(Accepted {
             kind,
             theta,
@@ -454,6 +457,19 @@ pub fn diagnose(
         }
     }
 
+    for a in accepted.iter_mut().filter(|a| a.kind == Kind::ThrustScale) {
+        // name the thruster that is most off nominal, as finally fitted, with its uncertainty
+        let fired_idx: Vec<usize> = (0..NT).filter(|&i| fired[i]).collect();
+        if let Some((j, v)) = a.theta.iter().enumerate().max_by(|x, y| (x.1 - 1.0).abs().total_cmp(&(y.1 - 1.0).abs())) {
+            let se = a.stderr.get(j).copied().unwrap_or(f64::INFINITY);
+            a.evidence = format!(
+                "thruster {} delivers {} % of its nominal force; {}",
+                fired_idx.get(j).map(|i| i + 1).unwrap_or(0),
+                crate::numfmt::value_pm(100.0 * v, 100.0 * se),
+                a.evidence
+            );
+        }
+    }
     let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
     // a named ringing accounts for its post-edge windows as a random tone
     let mut ringing_windows = vec![false; series.len()];
@@ -658,20 +674,7 @@ fn describe(
             best_cond = (per_sample, b.0.label());
         }
     }
-    // the runner-up among candidates not rejected, and every stronger one with its reason
-    let rejected: Vec<&Rejection> = rejections.iter().filter(|r| r.round == round && r.effect != kind.name()).collect();
-    let mut runner: Vec<&Score> = scores
-        .iter()
-        .filter(|s| s.round == round && s.effect != kind.name() && !rejected.iter().any(|r| r.effect == s.effect))
-        .collect();
-    runner.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    let mut alt = runner
-        .first()
-        .map(|s| format!("; next best mechanism {} at delta BIC {:.0}", s.effect, s.delta_bic))
-        .unwrap_or_default();
-    for r in rejected.iter().filter(|r| r.delta_bic < dbic) {
-        alt.push_str(&format!("; {} scored better (delta BIC {:.0}) but was rejected: {}", r.effect, r.delta_bic, r.reason));
-    }
+    let alt = alternatives(kind.name(), dbic, scores, rejections, round);
     let what = match kind {
         Kind::ThrusterLatency => "residual concentrates at valve edges: torque arrives later than commanded",
         Kind::PressureDrop => "torque deficit grows with the number of valves open together",
@@ -696,6 +699,33 @@ fn describe(
         s = format!("{note}; {s}");
     }
     s
+}
+
+/// What the named effect beat in its round: every candidate that scored better, with the
+/// reason it was not named, then the best one that scored worse as the "next best". A
+/// candidate that scored better is never called the next best; one that scored better
+/// without a recorded reason (none is expected: every such path records one) is said to
+/// be "not named" rather than passed over.
+fn alternatives(effect: &str, dbic: f64, scores: &[Score], rejections: &[Rejection], round: usize) -> String {
+    let rejected: Vec<&Rejection> = rejections.iter().filter(|r| r.round == round && r.effect != effect).collect();
+    let mut alt = String::new();
+    let mut better: Vec<&Rejection> = rejected.iter().copied().filter(|r| r.delta_bic < dbic).collect();
+    better.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    for r in better {
+        alt.push_str(&format!("; {} scored better (delta BIC {:.0}) but was not named: {}", r.effect, r.delta_bic, r.reason));
+    }
+    let mut others: Vec<&Score> = scores
+        .iter()
+        .filter(|s| s.round == round && s.effect != effect && !rejected.iter().any(|r| r.effect == s.effect))
+        .collect();
+    others.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    for s in others.iter().filter(|s| s.delta_bic < dbic) {
+        alt.push_str(&format!("; {} scored better (delta BIC {:.0}) but was not named", s.effect, s.delta_bic));
+    }
+    if let Some(s) = others.iter().find(|s| s.delta_bic >= dbic) {
+        alt.push_str(&format!("; next best mechanism {} at delta BIC {:.0}", s.effect, s.delta_bic));
+    }
+    alt
 }
 
 fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectReport {
@@ -791,5 +821,39 @@ fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectRep
         windows_ms: a.windows.clone(),
         rms_after: a.rms_after,
         delta_bic: a.delta_bic,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn score(effect: &'static str, delta_bic: f64) -> Score {
+        Score { round: 0, effect, delta_bic }
+    }
+
+    /// p04's first round: a candidate that scored better than the named one and was set
+    /// aside is given with its reason, never as "next best".
+    #[test]
+    fn a_better_rejected_candidate_is_never_the_next_best() {
+        let scores = [
+            score("mass_property_change", -18_103_378.0),
+            score("gyro_bias", -13_611_189.0),
+            score("com_offset", -13_414_902.0),
+            score("thruster_latency", -90_678.0),
+        ];
+        let rej = [Rejection { round: 0, effect: "mass_property_change", delta_bic: -18_103_378.0, reason: "REASON".into() }];
+        let t = alternatives("gyro_bias", -13_611_189.0, &scores, &rej, 0);
+        assert!(t.contains("mass_property_change scored better (delta BIC -18103378) but was not named: REASON"), "{t}");
+        assert!(t.contains("next best mechanism com_offset"), "{t}");
+        assert!(!t.contains("next best mechanism mass_property_change"), "{t}");
+        // a better candidate without a recorded reason is still not the next best
+        let t = alternatives("gyro_bias", -13_611_189.0, &scores, &[], 0);
+        assert!(!t.contains("next best mechanism mass_property_change"), "{t}");
+        assert!(t.contains("mass_property_change scored better"), "{t}");
+        // worse rejected candidates are not repeated in the sentence
+        let rej = [Rejection { round: 0, effect: "com_offset", delta_bic: -13_414_902.0, reason: "R2".into() }];
+        let t = alternatives("mass_property_change", -18_103_378.0, &scores, &rej, 0);
+        assert_eq!(t, "; next best mechanism gyro_bias at delta BIC -13611189");
     }
 }

@@ -19,6 +19,7 @@ pub mod spectrum;
 pub mod stats;
 pub mod unexplained;
 pub mod report;
+pub mod numfmt;
 
 pub use diagnosis::{diagnose, Analysis};
 pub use output::{DataIssues, DiagnosisOutput, EffectReport};

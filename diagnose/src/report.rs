@@ -1,20 +1,55 @@
 //! Reports for people: a terminal summary, and an HTML page with SVG plots (residual
-//! before and after, where the mismatch concentrates, the post-edge spectrum with the
-//! apparent tone and its possible true frequencies marked).
+//! before and after on one scale, measured vs nominal vs fitted rates at every located
+//! window, where the mismatch concentrates, the post-edge spectrum with the apparent tone
+//! and its possible true frequencies marked). Parameters are printed with their
+//! uncertainty rounded to 1-2 digits (`numfmt`); the JSON keeps every digit.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::diagnosis::Analysis;
+use crate::numfmt::{self, ParamText};
 use crate::series::Series;
+
+/// Array parameters with more entries than this are printed a few entries per line.
+const ENTRIES_PER_LINE: usize = 4;
+
+fn param_lines(p: &ParamText) -> Vec<String> {
+    if p.entries.len() <= 6 {
+        return vec![p.line()];
+    }
+    let u = if p.unit.is_empty() { String::new() } else { format!(" ({})", p.unit) };
+    let mut out = vec![format!("{}{u}:", p.name)];
+    for chunk in p.entries.chunks(ENTRIES_PER_LINE) {
+        let list: Vec<String> = chunk.iter().map(|(l, v)| format!("{l} {v}")).collect();
+        out.push(format!("  {}", list.join(", ")));
+    }
+    out
+}
+
+fn windows_text(w: &[[i64; 2]]) -> String {
+    if w.is_empty() {
+        return "none".into();
+    }
+    w.iter().map(|&w| numfmt::window(w)).collect::<Vec<_>>().join(", ")
+}
 
 /// Terminal summary.
 pub fn summary(a: &Analysis) -> String {
     let o = &a.output;
+    let f = numfmt::rates;
     let mut s = String::new();
-    let _ = writeln!(s, "recording {} ({} samples) against model {}", o.recording, o.samples, o.model);
+    let _ = writeln!(
+        s,
+        "recording {} ({} samples, {} Hz) against model {}",
+        o.recording,
+        o.samples,
+        numfmt::value(a.series.sample_rate_hz),
+        o.model
+    );
     let _ = writeln!(
         s,
         "data issues: {} gaps, {} missing samples, {} duplicates, {} saturated",
@@ -27,38 +62,39 @@ pub fn summary(a: &Analysis) -> String {
     for w in &a.series.warnings {
         let _ = writeln!(s, "warning: {w}");
     }
-    let f = |v: [f64; 3]| format!("[{:.5} {:.5} {:.5}]", v[0], v[1], v[2]);
-    let _ = writeln!(s, "noise (per sample, rad/s): {}", f(a.noise.var.map(f64::sqrt)));
-    let _ = writeln!(s, "residual RMS before (rad/s): {}", f(o.residual_rms_before));
+    let _ = writeln!(s, "noise (per sample, rad/s, x y z): {}", f(a.noise.var.map(f64::sqrt)));
+    let _ = writeln!(s, "residual RMS before (rad/s, x y z): {}", f(o.residual_rms_before));
     if o.effects.is_empty() {
-        let _ = writeln!(s, "no effect: the nominal model explains the recording (residual at noise level)");
+        let _ = writeln!(s, "no effect named: no mechanism of the vocabulary improves the nominal model's prediction in a way that generalises");
     }
     for (i, e) in o.effects.iter().enumerate() {
-        let _ = writeln!(s, "{}. {}  (delta BIC {:.1})", i + 1, e.effect, e.delta_bic);
-        for (k, v) in &e.params {
-            let se = e.stderr.get(k).map(|x| x.to_string()).unwrap_or_default();
-            let _ = writeln!(s, "     {k} = {v}  +/- {se}");
+        let _ = writeln!(s, "{}. {}  (delta BIC {:.0})", i + 1, e.effect, e.delta_bic);
+        for p in numfmt::effect_params(e) {
+            for l in param_lines(&p) {
+                let _ = writeln!(s, "     {l}");
+            }
         }
         let _ = writeln!(s, "     why: {}", e.evidence);
-        let _ = writeln!(s, "     residual RMS after: {}", f(e.rms_after));
+        let _ = writeln!(s, "     where: {}", windows_text(&e.windows_ms));
+        let _ = writeln!(s, "     residual RMS after (rad/s): {}", f(e.rms_after));
     }
     for r in &a.rejections {
         let _ = writeln!(s, "not named (round {}): {} (delta BIC {:.0}): {}", r.round + 1, r.effect, r.delta_bic, r.reason);
     }
-    let _ = writeln!(s, "residual RMS after (rad/s): {}", f(o.residual_rms_after));
+    let _ = writeln!(s, "residual RMS after (rad/s, x y z): {}", f(o.residual_rms_after));
     match &o.unexplained {
         Some(u) => {
             let _ = writeln!(s, "UNEXPLAINED: {}", u.note);
             let _ = writeln!(
                 s,
-                "     residual RMS {} against noise {}; Ljung-Box {:.0} {:.0} {:.0} (white below {:.0}); windows (ms) {:?}",
+                "     residual RMS {} against noise {} rad/s; Ljung-Box {:.0} {:.0} {:.0} (white below {:.0}); where: {}",
                 f(u.rms),
                 f(u.noise_rms),
                 u.ljung_box[0],
                 u.ljung_box[1],
                 u.ljung_box[2],
                 u.white_below,
-                u.windows_ms
+                windows_text(&u.windows_ms)
             );
         }
         None => {
@@ -82,69 +118,234 @@ pub fn summary(a: &Analysis) -> String {
     s
 }
 
-const COLORS: [RGBColor; 3] = [RGBColor(200, 30, 30), RGBColor(30, 140, 30), RGBColor(30, 60, 200)];
+const AXES: [&str; 3] = ["x", "y", "z"];
+const MEASURED: RGBColor = RGBColor(90, 90, 90);
+const NOMINAL: RGBColor = RGBColor(40, 90, 220);
+const FITTED: RGBColor = RGBColor(220, 60, 20);
+const WINDOW_FILL: RGBColor = RGBColor(255, 236, 170);
 
-fn residual_svg(series: &Series, r: &[[f64; 3]], title: &str, labels: bool) -> Result<String, String> {
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+/// A title on the left and a legend (coloured line, label) on the right of a strip.
+fn title_strip(area: &Area, title: &str, items: &[(&str, RGBColor, u32)]) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<_>| x.to_string();
+    area.draw(&Text::new(title.to_string(), (10, 6), ("sans-serif", 16).into_font())).map_err(e)?;
+    let (w, _) = area.dim_in_pixel();
+    let mut x = w as i32 - 10 - items.iter().map(|i| 40 + 8 * i.0.len() as i32).sum::<i32>();
+    for (label, color, width) in items {
+        area.draw(&PathElement::new(vec![(x, 14), (x + 26, 14)], color.stroke_width(*width))).map_err(e)?;
+        area.draw(&Text::new(label.to_string(), (x + 30, 6), ("sans-serif", 14).into_font())).map_err(e)?;
+        x += 40 + 8 * label.len() as i32;
+    }
+    Ok(())
+}
+
+/// Real time (s) of every sample.
+fn times_s(series: &Series) -> Vec<f64> {
+    series.t_ms.iter().map(|&t| series.real_ms(t as f64) * 1e-3).collect()
+}
+
+/// Largest |residual| over the usable samples of both residuals: one y scale for the
+/// before and after plots.
+fn residual_limit(series: &Series, rs: &[&[[f64; 3]]]) -> f64 {
+    let mut lim = 1e-6f64;
+    for r in rs {
+        for (x, v) in r.iter().zip(&series.valid) {
+            for a in 0..3 {
+                if v[a] {
+                    lim = lim.max(x[a].abs());
+                }
+            }
+        }
+    }
+    lim * 1.05
+}
+
+/// The residual of the nominal model and after the named effects, one row per axis, all on
+/// one y scale (`lim`), in the colours of the window panels' models.
+fn residual_svg(series: &Series, t: &[f64], before: &[[f64; 3]], after: &[[f64; 3]], lim: f64) -> Result<String, String> {
     let mut out = String::new();
     {
-        let root = SVGBackend::with_string(&mut out, (900, 260)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut out, (900, 520)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let real_s = |i: usize| series.real_ms(series.t_ms[i] as f64) * 1e-3;
-        let t0 = real_s(0);
-        let t1 = real_s(series.len() - 1).max(t0 + 1e-3);
-        let lim = r.iter().flat_map(|x| x.iter()).fold(1e-6f64, |m, v| m.max(v.abs()));
-        let mut b = ChartBuilder::on(&root);
-        b.margin(8);
-        if labels {
-            b.caption(title, ("sans-serif", 16)).x_label_area_size(30).y_label_area_size(60);
-        }
-        let mut chart = b.build_cartesian_2d(t0..t1, -lim..lim).map_err(|e| e.to_string())?;
-        let mut mesh = chart.configure_mesh();
-        if labels {
-            mesh.x_desc("time (s)").y_desc("rad/s");
-        } else {
-            mesh.x_labels(0).y_labels(0);
-        }
-        mesh.disable_mesh().draw().map_err(|e| e.to_string())?;
-        let step = (r.len() / 3000).max(1);
-        for a in 0..3 {
-            let pts: Vec<(f64, f64)> =
-                (0..r.len()).step_by(step).map(|i| (real_s(i), r[i][a])).collect();
-            chart.draw_series(LineSeries::new(pts, COLORS[a].stroke_width(1))).map_err(|e| e.to_string())?;
+        let (top, body) = root.split_vertically(28);
+        title_strip(
+            &top,
+            "residual (measured minus model), one scale",
+            &[("nominal model", NOMINAL, 2), ("after the named effects", FITTED, 2)],
+        )?;
+        let t0 = t.first().copied().unwrap_or(0.0);
+        let t1 = t.last().copied().unwrap_or(0.0).max(t0 + 1e-3);
+        let step = (before.len() / 3000).max(1);
+        for (ax, area) in body.split_evenly((3, 1)).iter().enumerate() {
+            let last = ax == 2;
+            let mut chart = ChartBuilder::on(area)
+                .margin_left(8)
+                .margin_right(12)
+                .margin_top(6)
+                .x_label_area_size(if last { 34 } else { 18 })
+                .y_label_area_size(72)
+                .build_cartesian_2d(t0..t1, -lim..lim)
+                .map_err(|e| e.to_string())?;
+            let fmt_y = |y: &f64| tick(y, 2.0 * lim);
+            let ydesc = format!("{} (rad/s)", AXES[ax]);
+            let mut mesh = chart.configure_mesh();
+            mesh.disable_mesh().y_label_formatter(&fmt_y).y_desc(ydesc.as_str()).y_labels(5);
+            if last {
+                mesh.x_desc("time (s)");
+            }
+            mesh.draw().map_err(|e| e.to_string())?;
+            for (r, color) in [(before, NOMINAL), (after, FITTED)] {
+                let pts: Vec<(f64, f64)> =
+                    (0..r.len()).step_by(step).filter(|&i| series.valid[i][ax]).map(|i| (t[i], r[i][ax])).collect();
+                chart.draw_series(LineSeries::new(pts, color.stroke_width(1))).map_err(|e| e.to_string())?;
+            }
         }
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(out)
 }
 
-fn spectrum_svg(a: &Analysis, labels: bool) -> Result<String, String> {
+/// Windows that touch or overlap merged, for plotting (ms).
+fn merge_windows(w: &[[i64; 2]]) -> Vec<[i64; 2]> {
+    let mut v = w.to_vec();
+    v.sort();
+    let mut out: Vec<[i64; 2]> = vec![];
+    for x in v {
+        match out.last_mut() {
+            Some(l) if x[0] <= l[1] => l[1] = l[1].max(x[1]),
+            _ => out.push(x),
+        }
+    }
+    out
+}
+
+/// A y tick label: two significant digits, and 0 for the rounding dust of a zero tick.
+fn tick(y: &f64, span: f64) -> String {
+    if y.abs() < 1e-9 * span.max(1e-300) { "0".into() } else { numfmt::sig(*y, 2) }
+}
+
+/// What a window panel marks: the located window (shaded) or a fitted time (a line, s).
+#[derive(Clone, Copy)]
+enum Mark {
+    Shade,
+    At(f64),
+}
+
+/// Measured, nominal-model and fitted-model rates per axis around `window` (ms of the
+/// recording), the window itself shaded or a time marked.
+fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark) -> Result<String, String> {
+    let series = &a.series;
+    let (w0, w1) = (window[0] as f64 * 1e-3, window[1] as f64 * 1e-3);
+    let pad = (0.5 * (w1 - w0)).max(0.03);
+    // the view stays inside the recording (a located window may reach past its end)
+    let (first, last) = (t.first().copied().unwrap_or(0.0), t.last().copied().unwrap_or(0.0));
+    let (v0, v1) = ((w0 - pad).max(first), (w1 + pad).min(last));
+    if v1 <= v0 {
+        return Err("the window is outside the recording".into());
+    }
+    let i0 = t.partition_point(|&x| x < v0);
+    let i1 = t.partition_point(|&x| x <= v1);
+    if i1 <= i0 + 1 {
+        return Err("no samples in the window".into());
+    }
+    let n = i1 - i0;
+    let step = (n / 2000).max(1);
+    let idx: Vec<usize> = (i0..i1).step_by(step).collect();
     let mut out = String::new();
     {
-        let root = SVGBackend::with_string(&mut out, (900, 260)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut out, (900, 520)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let sp = &a.spectrum_before;
-        if sp.is_empty() {
-            return Ok(String::new());
+        let (top, body) = root.split_vertically(28);
+        let mut legend = vec![("measured", MEASURED, 1), ("nominal model", NOMINAL, 2), ("fitted model", FITTED, 2)];
+        if let Mark::At(_) = mark {
+            legend.push(("fitted time", BLACK, 1));
         }
+        title_strip(&top, title, &legend)?;
+        let rows = body.split_evenly((3, 1));
+        let decimals = if v1 - v0 < 2.0 { 3 } else { 1 };
+        for (ax, area) in rows.iter().enumerate() {
+            let usable: Vec<usize> = idx.iter().copied().filter(|&i| series.valid[i][ax]).collect();
+            let meas: Vec<(f64, f64)> = usable.iter().map(|&i| (t[i], series.rate[i][ax])).collect();
+            let nom: Vec<(f64, f64)> = usable.iter().map(|&i| (t[i], series.rate[i][ax] - a.residual_before[i][ax])).collect();
+            let fit: Vec<(f64, f64)> = usable.iter().map(|&i| (t[i], series.rate[i][ax] - a.residual_after[i][ax])).collect();
+            let (mut lo, mut hi) = meas.iter().chain(&nom).chain(&fit).fold((f64::MAX, f64::MIN), |m, p| (m.0.min(p.1), m.1.max(p.1)));
+            if lo > hi {
+                (lo, hi) = (-1e-3, 1e-3);
+            }
+            let span = (hi - lo).max(1e-4);
+            let (lo, hi) = (lo - 0.08 * span, hi + 0.08 * span);
+            let last = ax == 2;
+            let mut chart = ChartBuilder::on(area)
+                .margin_left(8)
+                .margin_right(12)
+                .margin_top(6)
+                .x_label_area_size(if last { 34 } else { 18 })
+                .y_label_area_size(72)
+                .build_cartesian_2d(v0..v1, lo..hi)
+                .map_err(|e| e.to_string())?;
+            let fmt_x = |x: &f64| format!("{:.*}", decimals, x);
+            let fmt_y = |y: &f64| tick(y, hi - lo);
+            let ydesc = format!("{} rate (rad/s)", AXES[ax]);
+            let mut mesh = chart.configure_mesh();
+            mesh.disable_mesh().x_label_formatter(&fmt_x).y_label_formatter(&fmt_y).y_desc(ydesc.as_str()).y_labels(5);
+            if last {
+                mesh.x_desc("time (s)");
+            }
+            mesh.draw().map_err(|e| e.to_string())?;
+            match mark {
+                Mark::Shade => {
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new([(w0.max(v0), lo), (w1.min(v1), hi)], WINDOW_FILL.filled())))
+                        .map_err(|e| e.to_string())?;
+                }
+                Mark::At(at) => {
+                    chart
+                        .draw_series(DashedLineSeries::new(vec![(at, lo), (at, hi)], 6, 4, BLACK.stroke_width(1)))
+                        .map_err(|e| e.to_string())?;
+                }
+            }
+            // the models first, the measurement on top of them (thin, so both stay visible)
+            chart.draw_series(LineSeries::new(nom, NOMINAL.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart.draw_series(LineSeries::new(fit, FITTED.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart.draw_series(LineSeries::new(meas.iter().copied(), MEASURED.stroke_width(1))).map_err(|e| e.to_string())?;
+            if meas.len() <= 300 {
+                chart
+                    .draw_series(meas.iter().map(|&p| Circle::new(p, 2, MEASURED.filled())))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok(out)
+}
+
+fn spectrum_svg(a: &Analysis) -> Result<String, String> {
+    let sp = &a.spectrum_before;
+    if sp.is_empty() {
+        return Ok(String::new());
+    }
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (900, 280)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let (top, body) = root.split_vertically(28);
+        let (fa, _) = &a.alias_marks;
+        let mut legend = vec![("tone statistic", BLACK, 1)];
+        if *fa > 0.0 {
+            legend.push(("named ringing (apparent)", RED, 2));
+        }
+        title_strip(&top, "post-edge tone statistic (2 ln LR) vs apparent frequency", &legend)?;
         let fmax = sp.last().map(|p| p.0).unwrap_or(1.0);
         let pmax = sp.iter().fold(1e-9f64, |m, p| m.max(p.1));
-        let mut b = ChartBuilder::on(&root);
-        b.margin(8);
-        if labels {
-            b.caption("post-edge tone statistic (2 ln LR) vs apparent frequency", ("sans-serif", 16))
-                .x_label_area_size(30)
-                .y_label_area_size(60);
-        }
-        let mut chart = b.build_cartesian_2d(0.0..fmax, 0.0..pmax * 1.05).map_err(|e| e.to_string())?;
-        let mut mesh = chart.configure_mesh();
-        if labels {
-            mesh.x_desc("Hz").y_desc("2 ln LR");
-        } else {
-            mesh.x_labels(0).y_labels(0);
-        }
-        mesh.disable_mesh().draw().map_err(|e| e.to_string())?;
+        let mut chart = ChartBuilder::on(&body)
+            .margin(8)
+            .x_label_area_size(34)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..fmax, 0.0..pmax * 1.05)
+            .map_err(|e| e.to_string())?;
+        chart.configure_mesh().disable_mesh().x_desc("apparent frequency (Hz)").y_desc("2 ln LR").draw().map_err(|e| e.to_string())?;
         chart.draw_series(LineSeries::new(sp.iter().cloned(), BLACK.stroke_width(1))).map_err(|e| e.to_string())?;
-        let (fa, _) = &a.alias_marks;
         if *fa > 0.0 {
             chart
                 .draw_series(LineSeries::new(vec![(*fa, 0.0), (*fa, pmax * 1.05)], RED.stroke_width(2)))
@@ -155,57 +356,311 @@ fn spectrum_svg(a: &Analysis, labels: bool) -> Result<String, String> {
     Ok(out)
 }
 
-/// Writes `DIR/report.html` (plots inline as SVG) and `DIR/summary.txt`.
-pub fn write_html(dir: &Path, a: &Analysis) -> std::io::Result<()> {
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// The located windows of one list as panels (adjacent windows merged into one panel).
+fn window_panels(h: &mut String, a: &Analysis, t: &[f64], windows: &[[i64; 2]], what: &str) {
+    for w in merge_windows(windows) {
+        let title = format!("{what}: {}", numfmt::window(w));
+        match window_svg(a, t, w, &title, Mark::Shade) {
+            Ok(svg) => {
+                let _ = write!(h, "<div class=\"panel\">{svg}</div>");
+            }
+            Err(e) => {
+                let _ = write!(h, "<p>{}: no plot ({})</p>", esc(&title), esc(&e));
+            }
+        }
+    }
+}
+
+const CSS: &str = "body{font-family:sans-serif;max-width:980px;margin:auto;padding:0 12px;line-height:1.4}\
+pre{white-space:pre-wrap;overflow-wrap:anywhere;font-size:13px}\
+table{border-collapse:collapse;margin:6px 0}\
+td,th{padding:2px 8px;text-align:left;vertical-align:top;border-bottom:1px solid #ddd}\
+td.n{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}\
+svg{max-width:100%;height:auto}\
+.verdict{background:#f3f3f3;border-left:5px solid #4a4;padding:6px 12px}\
+.verdict.warn{border-left-color:#d70}\
+.why{overflow-wrap:anywhere}\
+.panel{margin:8px 0}\
+h3{margin-bottom:4px}";
+
+/// The HTML report (plots inline as SVG).
+pub fn html(a: &Analysis) -> String {
+    let o = &a.output;
     let series = &a.series;
-    std::fs::create_dir_all(dir)?;
-    let plot = |f: &dyn Fn(bool) -> Result<String, String>| f(true).or_else(|_| f(false)).unwrap_or_default();
-    let before = plot(&|l| residual_svg(series, &a.residual_before, "residual before (x red, y green, z blue)", l));
-    let after = plot(&|l| residual_svg(series, &a.residual_after, "residual after all accepted effects", l));
-    let spec = plot(&|l| spectrum_svg(a, l));
+    let t = times_s(series);
     let mut h = String::new();
-    h.push_str("<!doctype html><html><head><meta charset=\"utf-8\"><title>massid diagnosis</title>");
-    h.push_str("<style>body{font-family:sans-serif;max-width:960px;margin:auto}td,th{padding:2px 8px;text-align:right}</style></head><body>");
-    let _ = write!(h, "<h1>Diagnosis of {}</h1><pre>{}</pre>", esc(&a.output.recording), esc(&summary(a)));
-    let _ = write!(h, "<h2>Residual before</h2>{before}<h2>Residual after</h2>{after}");
-    h.push_str("<h2>Where the mismatch concentrates</h2><table><tr><th>condition</th><th>samples</th><th>RMS before x y z (rad/s)</th><th>RMS after x y z</th></tr>");
+    h.push_str("<!doctype html><html><head><meta charset=\"utf-8\"><title>massid diagnosis</title><style>");
+    h.push_str(CSS);
+    h.push_str("</style></head><body>");
+    let _ = write!(
+        h,
+        "<h1>Diagnosis of {}</h1><p>{} samples at {} Hz, {} s, against the nominal model <b>{}</b>.</p>",
+        esc(&o.recording),
+        o.samples,
+        numfmt::value(series.sample_rate_hz),
+        numfmt::sig(series.duration_s(), 3),
+        esc(&o.model)
+    );
+
+    // verdict
+    let named: Vec<&str> = o.effects.iter().map(|e| e.effect.as_str()).collect();
+    let warn = if o.unexplained.is_some() { " warn" } else { "" };
+    let _ = write!(h, "<div class=\"verdict{warn}\"><p><b>Named:</b> {}</p>", if named.is_empty() { "nothing (the nominal model explains the recording as far as the vocabulary can tell)".to_string() } else { esc(&named.join(", ")) });
+    match &o.unexplained {
+        Some(u) => {
+            let _ = write!(h, "<p><b>Unexplained:</b> {}</p>", esc(&u.note));
+        }
+        None => h.push_str("<p><b>Unexplained:</b> nothing; the residual after the named effects is at the noise and white.</p>"),
+    }
+    let _ = write!(
+        h,
+        "<p>Residual RMS (rad/s, x y z): before {}, after {}; gyro noise {}.</p></div>",
+        numfmt::rates(o.residual_rms_before),
+        numfmt::rates(o.residual_rms_after),
+        numfmt::rates(a.noise.var.map(f64::sqrt))
+    );
+
+    // data issues
+    let d = &o.data_issues;
+    let _ = write!(
+        h,
+        "<h2>Data issues</h2><p>{} gaps, {} missing samples, {} duplicates, {} saturated; masked gyro samples (rail or stuck) x y z: {} {} {}.</p>",
+        d.gaps, d.missing_samples, d.duplicates, d.saturated, d.railed[0], d.railed[1], d.railed[2]
+    );
+    for w in &series.warnings {
+        let _ = write!(h, "<p>Warning: {}</p>", esc(w));
+    }
+
+    // named effects
+    h.push_str("<h2>Named effects</h2>");
+    if o.effects.is_empty() {
+        h.push_str("<p>None.</p>");
+    }
+    for (i, e) in o.effects.iter().enumerate() {
+        let _ = write!(h, "<h3>{}. {} <small>(delta BIC {:.0})</small></h3>", i + 1, esc(&e.effect), e.delta_bic);
+        h.push_str("<table><tr><th>parameter</th><th></th><th>value ± uncertainty</th><th>unit</th></tr>");
+        for p in numfmt::effect_params(e) {
+            for (l, v) in &p.entries {
+                let _ = write!(h, "<tr><td>{}</td><td>{}</td><td class=\"n\">{}</td><td>{}</td></tr>", esc(&p.name), esc(l), esc(v), esc(p.unit));
+            }
+        }
+        h.push_str("</table>");
+        let _ = write!(h, "<p class=\"why\"><b>Why:</b> {}</p>", esc(&e.evidence));
+        let _ = write!(
+            h,
+            "<p>Residual RMS with this and the earlier effects (rad/s, x y z): {}.</p><p><b>Located windows</b> (where the mismatch this effect explains is concentrated, shaded below): {}.</p>",
+            numfmt::rates(e.rms_after),
+            esc(&windows_text(&e.windows_ms))
+        );
+        window_panels(&mut h, a, &t, &e.windows_ms, &e.effect);
+        // a change in time is shown where it happens, too
+        for key in ["at_s", "start_s"] {
+            if let Some(at) = e.params.get(key).and_then(|v| v.as_f64()) {
+                let ms = (at * 1e3).round() as i64;
+                let title = format!("{} at its fitted {key} = {} s", e.effect, numfmt::sig(at, 4));
+                match window_svg(a, &t, [ms - 1000, ms + 1000], &title, Mark::At(at)) {
+                    Ok(svg) => {
+                        let _ = write!(h, "<div class=\"panel\">{svg}</div>");
+                    }
+                    Err(err) => {
+                        let _ = write!(h, "<p>{}: no plot ({})</p>", esc(&title), esc(&err));
+                    }
+                }
+            }
+        }
+    }
+
+    // rejected candidates
+    h.push_str("<h2>Strong candidates not named</h2>");
+    if a.rejections.is_empty() {
+        h.push_str("<p>None: no candidate was set aside by the acceptance checks.</p>");
+    } else {
+        h.push_str("<table><tr><th>round</th><th>mechanism</th><th>delta BIC</th><th>why not</th></tr>");
+        for r in &a.rejections {
+            let _ = write!(
+                h,
+                "<tr><td class=\"n\">{}</td><td>{}</td><td class=\"n\">{:.0}</td><td class=\"why\">{}</td></tr>",
+                r.round + 1,
+                r.effect,
+                r.delta_bic,
+                esc(&r.reason)
+            );
+        }
+        h.push_str("</table>");
+    }
+
+    // unexplained
+    h.push_str("<h2>Unexplained</h2>");
+    match &o.unexplained {
+        None => h.push_str("<p>Nothing: after the named effects the residual is at the gyro noise and white on every axis.</p>"),
+        Some(u) => {
+            let _ = write!(h, "<p class=\"why\">{}</p>", esc(&u.note));
+            h.push_str("<table><tr><th>axis</th><th>residual RMS (rad/s)</th><th>noise RMS (rad/s)</th><th>ratio</th><th>Ljung-Box</th><th>flagged</th></tr>");
+            for ax in 0..3 {
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{:.2}</td><td class=\"n\">{:.0}</td><td>{}</td></tr>",
+                    AXES[ax],
+                    numfmt::sig(u.rms[ax], 3),
+                    numfmt::sig(u.noise_rms[ax], 3),
+                    u.rms[ax] / u.noise_rms[ax].max(1e-30),
+                    u.ljung_box[ax],
+                    if u.axes.iter().any(|x| x == AXES[ax]) { "yes" } else { "" }
+                );
+            }
+            let _ = write!(
+                h,
+                "</table><p>White below Ljung-Box {:.0}. Concentrated: {}; apparent tone: {}; windows: {}.</p>",
+                u.white_below,
+                esc(&u.condition),
+                u.apparent_hz.map(|f| format!("{} Hz", numfmt::sig(f, 3))).unwrap_or_else(|| "none".into()),
+                esc(&windows_text(&u.windows_ms))
+            );
+            window_panels(&mut h, a, &t, &u.windows_ms, "unexplained");
+        }
+    }
+
+    // residuals on one scale
+    let lim = residual_limit(series, &[&a.residual_before, &a.residual_after]);
+    h.push_str("<h2>Residual before and after, on one scale</h2>");
+    if o.effects.is_empty() {
+        h.push_str("<p>Nothing was named, so the two residuals are the same curve.</p>");
+    }
+    match residual_svg(series, &t, &a.residual_before, &a.residual_after, lim) {
+        Ok(svg) => {
+            let _ = write!(h, "<div class=\"panel\">{svg}</div>");
+        }
+        Err(e) => {
+            let _ = write!(h, "<p>no plot ({})</p>", esc(&e));
+        }
+    }
+
+    h.push_str("<h2>Where the mismatch concentrates</h2><table><tr><th>condition</th><th>samples</th><th>RMS before x y z (rad/s)</th><th>RMS after x y z (rad/s)</th></tr>");
     for (b, af) in a.by_condition_before.iter().zip(a.by_condition_after.iter()) {
         let _ = write!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{:.5} {:.5} {:.5}</td><td>{:.5} {:.5} {:.5}</td></tr>",
+            "<tr><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>",
             esc(&b.0.label()),
             b.1,
-            b.2[0].sqrt(),
-            b.2[1].sqrt(),
-            b.2[2].sqrt(),
-            af.2[0].sqrt(),
-            af.2[1].sqrt(),
-            af.2[2].sqrt()
+            numfmt::rates(b.2.map(f64::sqrt)),
+            numfmt::rates(af.2.map(f64::sqrt))
         );
     }
     h.push_str("</table>");
+
+    h.push_str("<h2>Spectrum after valve edges</h2>");
+    match spectrum_svg(a) {
+        Ok(svg) if !svg.is_empty() => {
+            let _ = write!(h, "<div class=\"panel\">{svg}</div>");
+        }
+        _ => h.push_str("<p>No post-edge spectrum (no ringing scan was possible on this recording).</p>"),
+    }
     let (fa, cands) = &a.alias_marks;
-    let _ = write!(h, "<h2>Spectrum after valve edges</h2>{spec}");
     if *fa > 0.0 {
         let c: Vec<String> = cands.iter().map(|f| format!("{f:.1}")).collect();
         let _ = write!(
             h,
-            "<p>Red line: strongest post-edge tone, {:.1} Hz apparent at {} Hz sampling; it could fold from the true frequencies {} Hz.</p>",
+            "<p>Red line: the named ringing's tone, {:.1} Hz apparent at {} Hz sampling; it could fold from the true frequencies {} Hz.</p>",
             fa,
-            series.sample_rate_hz,
+            numfmt::value(series.sample_rate_hz),
             c.join(", ")
         );
     }
-    h.push_str("<h2>Candidate scores (delta BIC per selection round)</h2><table><tr><th>round</th><th>mechanism</th><th>delta BIC</th></tr>");
+
+    h.push_str("<h2>Candidate scores (delta BIC per selection round)</h2><table><tr><th>round</th><th>mechanism</th><th>delta BIC</th><th>outcome</th></tr>");
+    // `massid diagnose` runs the default settings
+    let margin = crate::select::Settings::default().accept_margin;
     for s in &a.scores {
-        let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{:.1}</td></tr>", s.round + 1, s.effect, s.delta_bic);
+        let named_here = o.effects.get(s.round).map(|e| e.effect.as_str());
+        let named_score = a.scores.iter().find(|x| x.round == s.round && Some(x.effect) == named_here).map(|x| x.delta_bic);
+        let outcome = if named_here == Some(s.effect) {
+            "named"
+        } else if a.rejections.iter().any(|r| r.round == s.round && r.effect == s.effect) {
+            "not named (reason above)"
+        } else if s.delta_bic >= 0.0 {
+            "no gain"
+        } else if named_score.map(|n| s.delta_bic > n).unwrap_or(false) {
+            "weaker than the named one"
+        } else if s.delta_bic > -margin {
+            "below the acceptance level"
+        } else {
+            "not tried (only a round's strongest few are)"
+        };
+        let _ = write!(
+            h,
+            "<tr><td class=\"n\">{}</td><td>{}</td><td class=\"n\">{:.0}</td><td>{}</td></tr>",
+            s.round + 1,
+            s.effect,
+            s.delta_bic,
+            outcome
+        );
     }
-    h.push_str("</table></body></html>\n");
-    std::fs::write(dir.join("report.html"), h)?;
+    h.push_str("</table>");
+    let _ = write!(h, "<h2>Terminal summary</h2><pre>{}</pre>", esc(&summary(a)));
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// Writes `DIR/report.html` (plots inline as SVG) and `DIR/summary.txt`.
+pub fn write_html(dir: &Path, a: &Analysis) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    std::fs::write(dir.join("report.html"), html(a))?;
     std::fs::write(dir.join("summary.txt"), summary(a))?;
     Ok(())
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{self, Maneuver};
+    use crate::{diagnose_recording, Settings};
+
+    /// A recording with an effect: the report shows it with rounded digits, its located
+    /// windows as measured / nominal / fitted panels with a legend, residuals on one scale,
+    /// and never a raw placeholder.
+    #[test]
+    fn html_has_window_panels_with_a_legend_for_a_named_effect() {
+        let eff = synth::effect(r#"{"effect":"thruster_latency","params":{"open_ms":6.0,"close_ms":6.0}}"#);
+        let s = synth::make("sph4", Maneuver::Combo { seconds: 20 }, 100, vec![eff], 104);
+        let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default()).expect("diagnosis");
+        assert!(a.output.effects.iter().any(|e| e.effect == "thruster_latency"), "{}", summary(&a));
+        let e = &a.output.effects[0];
+        assert!(!e.windows_ms.is_empty());
+        let h = html(&a);
+        // one panel per (merged) located window, each with three axes and the legend
+        let panels: Vec<&str> = h.split("<div class=\"panel\">").skip(1).collect();
+        for w in merge_windows(&e.windows_ms) {
+            let title = format!("thruster_latency: {}", numfmt::window(w));
+            let p = panels.iter().find(|p| p.contains(&title)).unwrap_or_else(|| panic!("no panel {title}"));
+            for label in ["measured", "nominal model", "fitted model", "x rate (rad/s)", "y rate (rad/s)", "z rate (rad/s)"] {
+                assert!(p.contains(label), "{title}: no {label}");
+            }
+        }
+        let n_windows = a.output.effects.iter().map(|e| merge_windows(&e.windows_ms).len()).sum::<usize>()
+            + a.output.unexplained.as_ref().map(|u| merge_windows(&u.windows_ms).len()).unwrap_or(0);
+        assert!(panels.len() >= n_windows + 1, "{} panels for {n_windows} windows + the residual plot", panels.len());
+        assert!(h.contains(&numfmt::window(e.windows_ms[0])), "located windows listed");
+        // parameters rounded, in their units
+        let open = e.params["open_ms"].as_f64().unwrap();
+        let se = e.stderr["open_ms"].as_f64().unwrap();
+        let text = numfmt::value_pm(open, se);
+        assert!(h.contains(&format!("{text}</td><td>ms")), "{text}");
+        assert!(summary(&a).contains(&format!("open_ms = {text} ms")));
+        assert!(!h.contains(&format!("{open}")), "full-precision {open} printed");
+        // sections people read
+        for section in ["Strong candidates not named", "<h2>Unexplained</h2>", "after the named effects", "white-space:pre-wrap"] {
+            assert!(h.contains(section), "{section}");
+        }
+        assert!(!h.contains("1000000000"));
+    }
+
+    #[test]
+    fn adjacent_windows_merge_into_one_panel() {
+        assert_eq!(merge_windows(&[[41000, 42000], [40000, 41000], [45000, 46000]]), vec![[40000, 42000], [45000, 46000]]);
+        assert_eq!(merge_windows(&[]), Vec::<[i64; 2]>::new());
+    }
 }

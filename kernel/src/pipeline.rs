@@ -632,7 +632,8 @@ fn unresponsive<S: Scalar>(nominal: &[S; 3], est: &OmegaDotEstimate<S>) -> bool 
         along = along.mul_add(*p, *x);
         size = size.mul_add(*p, *p);
     }
-    let clear = S::from_int_pow2(100, 0).lt(significance.value());
+    // Compared in block floating point: the significance can be far beyond the format.
+    let clear = S::ZERO.lt(significance.minus(Scaled::from_i64(100)).m);
     clear && along.lt(size.mul_pow2(-3))
 }
 

@@ -1,51 +1,15 @@
 //! The onboard kernel (f32 and Q8_24 fixed point) against the f64 reference and the
 //! recordings' truth.
-use massid_kernel::model::SatelliteParams;
-use massid_kernel::{Pipeline, PipelineConfig, Scalar, Q8_24};
+use massid_kernel::{Scalar, Q8_24};
 use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 
-/// The kernel's plain-array parameters from a reference model.
-fn params(sat: &Satellite) -> SatelliteParams {
-    SatelliteParams {
-        thruster_pos_m: sat.thruster_pos_m.map(|p| p.map(|v| v as f32)),
-        thrust_dir: sat.thrust_dir.map(|p| p.map(|v| v as f32)),
-        thrust_n: sat.thrust_n.map(|v| v as f32),
-        inertia_kgm2: sat.inertia_kgm2.map(|v| v as f32),
-        com_offset_mm: sat.com_offset_mm.map(|v| v as f32),
-        gyro_counts_per_rad_s: sat.gyro_counts_per_rad_s.map(|v| v as f32),
-        pressure_drop_n_per_extra: sat.pressure_drop_n_per_extra as f32,
-    }
-}
+use massid_kernel_host::params;
 
-/// Runs a recording through the kernel as flight code would: one tick per sample period,
-/// a telemetry gap as gap ticks (time advances without a sample).
+/// Runs a recording through the kernel as flight code would (the one host driver: one tick
+/// per sample period, a telemetry gap as one gap call).
 fn run<S: Scalar>(rec: &Recording, sat: &Satellite) -> massid_kernel::Estimates<S> {
-    run_with(rec, sat, true)
-}
-
-fn kernel_config<S: Scalar>(rec: &Recording, sat: &Satellite) -> PipelineConfig<S> {
-    let dt = rec.sample_period_ms().max(1) as u32;
-    PipelineConfig::with_gyroscopic(dt, sat.gyro_bias_counts.map(|v| v as f32))
-}
-
-/// `gaps`: feed telemetry gaps as gap ticks (time advances without a sample).
-fn run_with<S: Scalar>(rec: &Recording, sat: &Satellite, gaps: bool) -> massid_kernel::Estimates<S> {
-    let dt = rec.sample_period_ms().max(1);
-    let mut p = Pipeline::<S>::new(&params(sat), kernel_config(rec, sat)).expect("model");
-    let mut prev_t: Option<u64> = None;
-    for s in &rec.samples {
-        if let (Some(t0), true) = (prev_t, gaps) {
-            let missing = (s.time_ms.saturating_sub(t0) / dt).saturating_sub(1);
-            for _ in 0..missing {
-                p.tick_gap();
-            }
-        }
-        p.tick(s.gyro, s.thrusters);
-        prev_t = Some(s.time_ms);
-    }
-    p.finish();
-    p.estimates()
+    massid_kernel_host::run::<S>(rec, sat).expect("kernel runs").estimates()
 }
 
 fn open_recordings() -> Vec<std::path::PathBuf> {

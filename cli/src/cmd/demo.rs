@@ -6,11 +6,10 @@
 //! on, so the attachment is tracked rather than averaged away). It prints a table like the
 //! seed's Table 4.1 (true, f64, f32, fixed; with the kernels' differences from f64) and writes
 //! convergence plots with 1-sigma bounds like seed Figs. 4.9 and 4.13.
-use crate::cmd::estimate::onboard;
 use anyhow::{anyhow, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use massid_kernel::rls::DetectorConfig;
-use massid_kernel::{Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
+use massid_kernel::{Pipeline, Scalar, TickEvent, Q8_24};
 use massid_sim::effects::MassPropertyChange;
 use massid_sim::{simulate, Effect, Maneuver, SimSpec};
 use nalgebra::{Matrix3, Vector3};
@@ -168,11 +167,10 @@ fn run_reference(rec: &Recording, sat: &Satellite) -> (Estimate, Track) {
 
 fn run_kernel<S: Scalar>(rec: &Recording, sat: &Satellite, name: &str) -> anyhow::Result<(Track, String, u32)> {
     let pb = progress(rec.samples.len() as u64, name);
-    let dt = rec.sample_period_ms().max(1);
-    let mut cfg = PipelineConfig::<S>::with_gyroscopic(dt as u32, sat.gyro_bias_counts.map(|v| v as f32));
+    let dt = rec.checked_period_ms()?;
+    let mut cfg = massid_kernel_host::config::<S>(dt, sat);
     cfg.rls.detector = Some(DetectorConfig::standard());
-    let mut p = Pipeline::<S>::new(&onboard::params(sat), cfg)
-        .map_err(|e| anyhow!("{name}: the kernel rejects the model ({e:?})"))?;
+    let mut p = massid_kernel_host::pipeline::<S>(sat, cfg)?;
     let mut track = Track::default();
     let record = |p: &Pipeline<S>, t_ms: u64, track: &mut Track| {
         let e = p.estimates();
@@ -182,15 +180,16 @@ fn run_kernel<S: Scalar>(rec: &Recording, sat: &Satellite, name: &str) -> anyhow
             track.inertia.push(i);
         }
     };
-    for (i, s) in rec.samples.iter().enumerate() {
-        let r = p.tick(s.gyro, s.thrusters);
+    let mut i = 0u64;
+    massid_kernel_host::drive(rec, &mut p, dt, |p, t_ms, r| {
         if r.event == TickEvent::Solved {
-            record(&p, s.time_ms, &mut track);
+            record(p, t_ms, &mut track);
         }
+        i += 1;
         if i % 1000 == 0 {
-            pb.set_position(i as u64);
+            pb.set_position(i);
         }
-    }
+    });
     p.finish();
     record(&p, rec.samples.last().map_or(0, |s| s.time_ms), &mut track);
     pb.finish();

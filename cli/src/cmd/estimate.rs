@@ -113,10 +113,8 @@ pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite, form: Refere
 }
 
 /// Glue between a recording/satellite of the ground tools and the onboard kernel (the
-/// `massid-kernel-host` library; re-exported for the demo).
+/// `massid-kernel-host` library).
 pub mod onboard {
-    pub use massid_kernel_host::params;
-
     /// The kernel's estimate of a recording, as the contract's result.
     pub fn estimate<S: massid_kernel::Scalar>(
         rec: &super::Recording,

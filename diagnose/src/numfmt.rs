@@ -91,6 +91,10 @@ pub fn value_pm(v: f64, se: f64) -> String {
     }
     let (r, d) = round_uncertainty(se);
     let big = v.abs().max(r);
+    if !(r.is_finite() && r > 0.0 && big.is_finite()) {
+        // only for uncertainties near the smallest f64 (subnormal): no rounding to show
+        return format!("{} ± {}", value(v), value(se));
+    }
     // fixed notation unless it would need more than four leading zeros after the point
     if big < 1e6 && ((big >= 1e-3 && d <= 8) || d <= 5) {
         return format!("{} ± {}", fixed(v, d), fixed(r, d));
@@ -242,6 +246,10 @@ mod tests {
         assert_eq!(value_pm(1.2e-5, 3.1e-7), "(1.20 ± 0.03)e-5");
         assert_eq!(value_pm(0.0, 0.0), "0 ± 0");
         assert_eq!(value(1e-9), "1.000e-9");
+        // no panic at the ends of the f64 range
+        for (v, se) in [(0.0, 5e-324), (1e300, 1e-300), (-1e-300, 1e5), (0.0, 1e-320)] {
+            assert!(!value_pm(v, se).is_empty());
+        }
         // p08's dead thruster
         assert_eq!(value_pm(0.00033, 0.00013), "0.00033 ± 0.00013");
     }

@@ -30,6 +30,11 @@ fn param_lines(p: &ParamText) -> Vec<String> {
     out
 }
 
+/// A sample rate: "100", "1000", "333.3".
+fn hz(x: f64) -> String {
+    if (x - x.round()).abs() < 1e-6 { format!("{:.0}", x) } else { numfmt::sig(x, 4) }
+}
+
 fn windows_text(w: &[[i64; 2]]) -> String {
     if w.is_empty() {
         return "none".into();
@@ -47,7 +52,7 @@ pub fn summary(a: &Analysis) -> String {
         "recording {} ({} samples, {} Hz) against model {}",
         o.recording,
         o.samples,
-        numfmt::value(a.series.sample_rate_hz),
+        hz(a.series.sample_rate_hz),
         o.model
     );
     let _ = writeln!(
@@ -237,7 +242,8 @@ enum Mark {
 fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark) -> Result<String, String> {
     let series = &a.series;
     let (w0, w1) = (window[0] as f64 * 1e-3, window[1] as f64 * 1e-3);
-    let pad = (0.5 * (w1 - w0)).max(0.03);
+    // context on both sides: half the window, at least 30 ms and 10 samples
+    let pad = (0.5 * (w1 - w0)).max(0.03).max(10.0 / series.sample_rate_hz.max(1e-3));
     // the view stays inside the recording (a located window may reach past its end)
     let (first, last) = (t.first().copied().unwrap_or(0.0), t.last().copied().unwrap_or(0.0));
     let (v0, v1) = ((w0 - pad).max(first), (w1 + pad).min(last));
@@ -401,7 +407,7 @@ pub fn html(a: &Analysis) -> String {
         "<h1>Diagnosis of {}</h1><p>{} samples at {} Hz, {} s, against the nominal model <b>{}</b>.</p>",
         esc(&o.recording),
         o.samples,
-        numfmt::value(series.sample_rate_hz),
+        hz(series.sample_rate_hz),
         numfmt::sig(series.duration_s(), 3),
         esc(&o.model)
     );
@@ -566,7 +572,7 @@ pub fn html(a: &Analysis) -> String {
             h,
             "<p>Red line: the named ringing's tone, {:.1} Hz apparent at {} Hz sampling; it could fold from the true frequencies {} Hz.</p>",
             fa,
-            numfmt::value(series.sample_rate_hz),
+            hz(series.sample_rate_hz),
             c.join(", ")
         );
     }

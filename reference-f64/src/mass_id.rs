@@ -82,6 +82,18 @@ pub fn inertia_row(
     (a2, *omega_dot)
 }
 
+/// The inverse-inertia rows of eq. 3.8 for a given torque `a` (N m): `A2 a`-layout with
+/// `b2 = omega_dot`.
+pub fn inertia_row_for_torque(a: &Vector3<f64>, omega_dot: &Vector3<f64>) -> (SMatrix<f64, 3, 6>, Vector3<f64>) {
+    #[rustfmt::skip]
+    let a2 = SMatrix::<f64, 3, 6>::from_row_slice(&[
+        a.x, 0.0, 0.0, a.y, a.z, 0.0,
+        0.0, a.y, 0.0, a.x, 0.0, a.z,
+        0.0, 0.0, a.z, 0.0, a.x, a.y,
+    ]);
+    (a2, *omega_dot)
+}
+
 /// The inverse-inertia vector `[Ixx', Iyy', Izz', Ixy', Ixz', Iyz']` as a symmetric matrix
 /// (seed `I_inv_mat`).
 pub fn inverse_inertia_matrix(x: &SVector<f64, 6>) -> Matrix3<f64> {
@@ -286,6 +298,12 @@ pub struct ChangeDetector {
 impl ChangeDetector {
     pub fn new(drift: f64, threshold: f64, warmup: usize, refractory: usize) -> Self {
         ChangeDetector { drift, threshold, warmup, refractory, g: 0.0, seen: 0, e_sum: 0.0, rest: 0 }
+    }
+
+    /// True once the innovation level is learnt and no change is being absorbed (the
+    /// estimate can be trusted to form other rows with).
+    pub fn in_control(&self) -> bool {
+        self.seen > self.warmup && self.rest == 0
     }
 
     /// Feeds one firing's normalised innovation; true when a change is declared.

@@ -7,8 +7,8 @@
 //! and in the offline form knowing in advance which terms the maneuver leaves unobservable
 //! (they are then held at the nominal values, seed eq. 3.13's reduction).
 use crate::mass_id::{
-    com_row, inertia_from_inverse, inertia_row, lu_inverse, nominal_inverse_inertia, physical_validity, pin_terms, BatchLs,
-    ChangeDetector,
+    inertia_from_inverse, inertia_row_for_torque, inverse_inertia_matrix, lu_inverse, nominal_inverse_inertia,
+    physical_validity, pin_terms, skew, BatchLs, ChangeDetector,
     Excitation, LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
 };
 use crate::omega_dot::{gyroscopic_omega_dot, kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
@@ -150,6 +150,10 @@ pub struct MassIdAccumulator {
     last_in_firing: Option<OmegaDotEstimate>,
     /// The current firing's estimates, fitted when it ends (unless unresponsive).
     firing_buf: Vec<OmegaDotEstimate>,
+    /// The estimate the current firing's rows are formed at ([`MassIdAccumulator::observations`]).
+    coupling: Matrix3<f64>,
+    /// Sample period, s (the observability count's unit).
+    sample_period_s: f64,
     /// Firings whose gyros did not respond (not fitted).
     pub unresponsive_firings: usize,
 }
@@ -212,20 +216,69 @@ impl MassIdAccumulator {
             last_in_firing: None,
             firing_buf: Vec::new(),
             unresponsive_firings: 0,
+            coupling: inverse_inertia_matrix(&nominal_inverse_inertia(sat)),
+            sample_period_s: 1e-3,
         }
     }
 
-    /// The seed's two observations for one angular-acceleration estimate (eqs. 3.7-3.8),
-    /// each with `R = diag(P)` of the Kalman filter (seed `R_acc = diag(diag(P))`).
-    /// The estimate is the thrust-induced acceleration (its gyroscopic part removed by the
-    /// Kalman filter), so the rows are taken at zero rate.
-    pub fn observations(sat: &Satellite, e: &OmegaDotEstimate) -> (Observation<3>, Observation<6>) {
-        let omega = Vector3::zeros();
+    /// The two observations for one angular-acceleration estimate (seed eqs. 3.7-3.8), each
+    /// with `R = diag(P)` of the Kalman filter (seed `R_acc = diag(diag(P))`). The CoM rows
+    /// are taken at the current inverse-inertia estimate `j` (`J [F]x`, `b = omega_dot -
+    /// J tau_nom`) where the seed uses the model's: after a proof mass raised the inertia by
+    /// 7-9 %, its CoM estimate fell short of the shift by that ratio. The inertia rows keep
+    /// the torque about the model's CoM (taking it about the estimated CoM made the
+    /// translations' inertia rows borrow their information from the CoM estimate: worse on
+    /// the demo, see `reference-f64/README.md`). The estimate is the
+    /// thrust-induced acceleration (its gyroscopic part removed by the Kalman filter), so the
+    /// rows are taken at zero rate.
+    pub fn observations(sat: &Satellite, e: &OmegaDotEstimate, j: &Matrix3<f64>) -> (Observation<3>, Observation<6>) {
         let wd = Vector3::from(e.omega_dot);
         let r = Matrix3::from_diagonal(&Vector3::from(e.variance));
-        let (a1, b1) = com_row(sat, e.word, &omega, &wd);
-        let (a2, b2) = inertia_row(sat, e.word, &omega, &wd);
+        let (f, tau_nom) = sat.force_torque_for_word(e.word);
+        let a1 = j * skew(&f);
+        let b1 = wd - j * tau_nom;
+        let (a2, b2) = inertia_row_for_torque(&tau_nom, &wd);
         (Observation { a: a1, b: b1, r }, Observation { a: a2, b: b2, r })
+    }
+
+    /// The inverse inertia the next firing's CoM rows are formed at: the RLS estimate, or the
+    /// batch's once it is complete, else the model's; with forgetting, while a change
+    /// detector is not in control, the previous one.
+    /// Terms the excitation so far leaves unobservable are held at the model (conditioned on,
+    /// as the kernel's solves hold them), so an unconstrained term cannot steer the rows.
+    fn current_estimate(&self) -> Matrix3<f64> {
+        if self.cfg.forgetting.is_some() && self.detector.as_ref().is_some_and(|d| !d.in_control()) {
+            // With forgetting, directions not excited since a detected change have lost their
+            // information while the level is re-learnt: keep the last trusted estimate (the
+            // kernel's `MassId::in_control`).
+            return self.coupling;
+        }
+        let nominal_i = nominal_inverse_inertia(&self.sat);
+        let nominal = inverse_inertia_matrix(&nominal_i);
+        let (xi, info_i) = if let Some((_, ri)) = &self.rls {
+            (ri.x, ri.info)
+        } else if self.firings_seen > self.cfg.batch_firings {
+            match self.inertia_batch.solve() {
+                Ok(i) => (i, self.inertia_batch.info),
+                _ => return nominal,
+            }
+        } else {
+            return nominal;
+        };
+        let mut held = self.unobservable(self.sample_period_s);
+        held.extend(self.pinned.iter().cloned());
+        let idx = |names: &[&str]| -> Vec<usize> {
+            names.iter().enumerate().filter(|(_, n)| held.iter().any(|u| u == *n)).map(|(j, _)| j).collect()
+        };
+        pin_terms(&xi, &info_i, &idx(&INERTIA_TERMS), &nominal_i).map_or(nominal, |(x, _)| inverse_inertia_matrix(&x))
+    }
+
+    /// The sample period the observability count refers to (default 1 ms).
+    pub fn with_sample_period(mut self, dt_s: f64) -> Self {
+        if dt_s.is_finite() && dt_s > 0.0 {
+            self.sample_period_s = dt_s;
+        }
+        self
     }
 
     /// Adds one Kalman-filter estimate. A firing's estimates are held until the firing ends
@@ -259,6 +312,7 @@ impl MassIdAccumulator {
             self.end_of_firing();
             self.last_firing = Some(e.firing);
             self.firings_seen += 1;
+            self.coupling = self.current_estimate();
             self.x_at_firing_start = self.rls.as_ref().map(|(_, ri)| ri.x);
             self.cov_at_firing_start = match (&self.detector, self.rls.as_ref()) {
                 (Some(_), Some((_, ri))) => ri.covariance().ok(),
@@ -266,7 +320,7 @@ impl MassIdAccumulator {
             };
         }
         self.last_in_firing = Some(*e);
-        let (oc, oi) = Self::observations(&self.sat, e);
+        let (oc, oi) = Self::observations(&self.sat, e, &self.coupling);
         self.excitation.add(&self.sat, e.word);
         self.com_all.add(&oc);
         self.inertia_all.add(&oi);
@@ -309,7 +363,7 @@ impl MassIdAccumulator {
         else {
             return;
         };
-        let (_, oi) = Self::observations(&self.sat, &last);
+        let (_, oi) = Self::observations(&self.sat, &last, &self.coupling);
         let nu = oi.b - oi.a * x0;
         let s = oi.r + oi.a * q0 * oi.a.transpose();
         let Some(s_inv) = lu_inverse(&s) else { return };
@@ -478,7 +532,7 @@ pub fn estimate_from_rates(rates: &Rates, sat: &Satellite, cfg: &PipelineConfig)
     }
     let dt = if rates.dt > 0.0 { rates.dt } else { 0.001 };
     let pinned = ex.unobservable(cfg.min_excitation_s / dt);
-    let mut acc = MassIdAccumulator::new(sat, cfg, &pinned);
+    let mut acc = MassIdAccumulator::new(sat, cfg, &pinned).with_sample_period(dt);
     for e in &est {
         acc.push(e);
     }
@@ -547,7 +601,7 @@ impl OnlineEstimator {
             gyro_prev: Vector3::zeros(),
             last_time_ms: 0,
             firing: 0,
-            acc: MassIdAccumulator::new(sat, &cfg, &[]),
+            acc: MassIdAccumulator::new(sat, &cfg, &[]).with_sample_period(dt),
             last_estimate: None,
         }
     }

@@ -14,7 +14,8 @@ use crate::diagnosis::Analysis;
 use crate::numfmt::{self, ParamText};
 use crate::series::Series;
 
-/// Array parameters with more entries than this are printed a few entries per line.
+/// Array parameters with more than six entries (thrust scales) are printed this many
+/// entries per line.
 const ENTRIES_PER_LINE: usize = 4;
 
 fn param_lines(p: &ParamText) -> Vec<String> {
@@ -415,7 +416,12 @@ pub fn html(a: &Analysis) -> String {
     // verdict
     let named: Vec<&str> = o.effects.iter().map(|e| e.effect.as_str()).collect();
     let warn = if o.unexplained.is_some() { " warn" } else { "" };
-    let _ = write!(h, "<div class=\"verdict{warn}\"><p><b>Named:</b> {}</p>", if named.is_empty() { "nothing (the nominal model explains the recording as far as the vocabulary can tell)".to_string() } else { esc(&named.join(", ")) });
+    let named_text = match (named.is_empty(), o.unexplained.is_some()) {
+        (false, _) => esc(&named.join(", ")),
+        (true, false) => "nothing: the nominal model explains the recording".to_string(),
+        (true, true) => "nothing: no mechanism of the vocabulary improves the prediction in a way that generalises".to_string(),
+    };
+    let _ = write!(h, "<div class=\"verdict{warn}\"><p><b>Named:</b> {named_text}</p>");
     match &o.unexplained {
         Some(u) => {
             let _ = write!(h, "<p><b>Unexplained:</b> {}</p>", esc(&u.note));

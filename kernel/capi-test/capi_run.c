@@ -37,6 +37,11 @@ static void check(int ok, const char *what) {
     }
 }
 
+/* --options mode: the pipeline options C callers can choose, and gaps as one call each. */
+static const massid_options *g_opts = NULL;
+static int g_gaps_at_once = 0;
+static const massid_options OPTIONS = {1, 1, {2077.0f, 2070.0f, 2058.0f}, 0.9999f};
+
 static int selftest(void) {
     massid_satellite_params sp;
     static massid_pipeline p;
@@ -53,6 +58,7 @@ static int selftest(void) {
     check(massid_type_size(4) == sizeof(massid_firing), "sizeof(massid_firing)");
     check(massid_type_size(5) == sizeof(massid_pipeline), "sizeof(massid_pipeline)");
     check(massid_type_size(6) == sizeof(massid_mixer), "sizeof(massid_mixer)");
+    check(massid_type_size(7) == sizeof(massid_options), "sizeof(massid_options)");
     check(massid_pipeline_state_bytes(1) < sizeof(massid_pipeline), "fixed state fits the block");
     check(massid_pipeline_state_bytes(0) < sizeof(massid_pipeline), "f32 state fits the block");
     check(massid_mixer_state_bytes(1) < sizeof(massid_mixer), "fixed mixer fits the block");
@@ -67,6 +73,16 @@ static int selftest(void) {
     check(massid_fixed_init(NULL, &sp, 1) == MASSID_NULL_POINTER, "init NULL block");
     check(massid_fixed_init(&p, NULL, 1) == MASSID_NULL_POINTER, "init NULL params");
     check(massid_fixed_init(&p, &sp, 0) == MASSID_BAD_PARAMETERS, "init zero period");
+    {
+        massid_options bad = OPTIONS;
+        bad.forgetting = 2.0f;
+        check(massid_fixed_init_with(&p, &sp, 1, &bad) == MASSID_BAD_PARAMETERS, "init_with forgetting > 1");
+        bad = OPTIONS;
+        bad.gyro_bias_counts[1] = 1e9f;
+        check(massid_f32_init_with(&p, &sp, 1, &bad) == MASSID_BAD_PARAMETERS, "init_with bias off the ADC");
+        check(massid_fixed_init_with(&p, &sp, 1, NULL) == MASSID_OK, "init_with NULL options");
+        check(massid_fixed_tick_gaps(&p, 100000000000ULL, NULL) == MASSID_OK, "tick_gaps 1e11");
+    }
     check(massid_fixed_init(&p, &sp, 1) == MASSID_OK, "init");
     check(massid_f32_tick(&p, g, 0, &r) == MASSID_NOT_INITIALISED, "f32 tick on a fixed block");
     check(massid_fixed_tick(&p, NULL, 0, &r) == MASSID_NULL_POINTER, "tick NULL gyro");
@@ -173,14 +189,14 @@ static row_t *read_recording(const char *path, size_t *n_out) {
     return rows;
 }
 
-#define RUN_FLAVOUR(NAME, CT, INIT, TICK, GAP, FINISH, EST, EST_T, MFROM, MIX, PRINT, CMD)                \
+#define RUN_FLAVOUR(NAME, CT, INIT, TICK, GAP, GAPS, FINISH, EST, EST_T, MFROM, MIX, PRINT, CMD)          \
     static int run_##NAME(const row_t *rows, size_t n, const massid_satellite_params *sp) {           \
         static massid_pipeline p;                                                                     \
         static massid_mixer m;                                                                        \
         massid_tick_report r;                                                                         \
         EST_T e;                                                                                      \
         massid_firing f;                                                                              \
-        if (INIT(&p, sp, 1) != MASSID_OK) {                                                           \
+        if (INIT(&p, sp, 1, g_opts) != MASSID_OK) {                                                   \
             printf(#NAME " init-error\n");                                                            \
             return 1;                                                                                 \
         }                                                                                             \
@@ -191,6 +207,11 @@ static row_t *read_recording(const char *path, size_t *n_out) {
             if (i < n) {                                                                              \
                 t = rows[i].time_ms;                                                                  \
                 if (last >= 0 && t <= last) continue; /* duplicate: the first row wins */             \
+                if (g_gaps_at_once && last >= 0 && last + 1 < t) {                                    \
+                    GAPS(&p, (uint64_t)(t - last - 1), &r);                                           \
+                    last = t - 1;                                                                     \
+                    if (r.event == MASSID_EVENT_SOLVED) solved = 1;                                   \
+                }                                                                                     \
                 while (last >= 0 && last + 1 < t) {                                                   \
                     GAP(&p, &r);                                                                      \
                     last++;                                                                           \
@@ -230,21 +251,26 @@ static row_t *read_recording(const char *path, size_t *n_out) {
 #define CMD_FIXED(bits) (bits)
 #define CMD_F32(bits) ((float)(bits) / (float)MASSID_Q24_ONE)
 
-RUN_FLAVOUR(fixed, int32_t, massid_fixed_init, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_finish,
+RUN_FLAVOUR(fixed, int32_t, massid_fixed_init_with, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_tick_gaps,
+            massid_fixed_finish,
             massid_fixed_estimates, massid_estimates_fixed, massid_fixed_mixer_from_pipeline, massid_fixed_mix,
             print_hex_i32, CMD_FIXED)
-RUN_FLAVOUR(f32, float, massid_f32_init, massid_f32_tick, massid_f32_tick_gap, massid_f32_finish,
+RUN_FLAVOUR(f32, float, massid_f32_init_with, massid_f32_tick, massid_f32_tick_gap, massid_f32_tick_gaps,
+            massid_f32_finish,
             massid_f32_estimates, massid_estimates_f32, massid_f32_mixer_from_pipeline, massid_f32_mix,
             print_hex_f32, CMD_F32)
 
 int main(int argc, char **argv) {
     if (argc == 2 && strcmp(argv[1], "--selftest") == 0) return selftest();
-    if (argc != 2) {
-        fprintf(stderr, "usage: capi_run --selftest | capi_run RECORDING.csv\n");
+    if (argc == 3 && strcmp(argv[1], "--options") == 0) {
+        g_opts = &OPTIONS;
+        g_gaps_at_once = 1;
+    } else if (argc != 2) {
+        fprintf(stderr, "usage: capi_run --selftest | capi_run [--options] RECORDING.csv\n");
         return 2;
     }
     size_t n = 0;
-    row_t *rows = read_recording(argv[1], &n);
+    row_t *rows = read_recording(argv[argc - 1], &n);
     if (!rows) return 1;
     massid_satellite_params sp;
     massid_params_sph2(&sp);

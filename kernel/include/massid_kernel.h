@@ -91,6 +91,14 @@ typedef struct massid_satellite_params {
     float pressure_drop_n_per_extra;             /* N lost per extra open thruster */
 } massid_satellite_params;
 
+/* Pipeline options for massid_*_init_with (all zero: the seed's settings). */
+typedef struct massid_options {
+    uint8_t change_detector;     /* non-zero: CUSUM change detector on the RLS innovations */
+    uint8_t gyroscopic;          /* non-zero: remove the gyroscopic acceleration (needs the bias) */
+    float gyro_bias_counts[3];   /* gyro zero-rate counts per axis */
+    float forgetting;            /* forgetting factor per update in (0,1); 0 or 1: none */
+} massid_options;
+
 typedef struct massid_tick_report {
     uint8_t event;  /* MASSID_EVENT_* */
     uint8_t status; /* MASSID_PIPELINE_* */
@@ -147,7 +155,7 @@ typedef struct massid_mixer {
 massid_status massid_params_sph2(massid_satellite_params *out);
 
 /* Layout checks: size of an ABI type as Rust lays it out (0 params, 1 tick report,
- * 2 fixed estimates, 3 f32 estimates, 4 firing, 5 pipeline block, 6 mixer block). */
+ * 2 fixed estimates, 3 f32 estimates, 4 firing, 5 pipeline block, 6 mixer block, 7 options). */
 uint32_t massid_type_size(uint32_t which);
 /* Bytes of the kernel state inside a block (fixed_point != 0: Q8.24, else f32). */
 uint32_t massid_pipeline_state_bytes(uint8_t fixed_point);
@@ -156,9 +164,14 @@ uint32_t massid_mixer_state_bytes(uint8_t fixed_point);
 /* ---- fixed point (Q8.24) ---- */
 massid_status massid_fixed_init(massid_pipeline *p, const massid_satellite_params *params,
                                 uint32_t sample_period_ms);
+massid_status massid_fixed_init_with(massid_pipeline *p, const massid_satellite_params *params,
+                                     uint32_t sample_period_ms,
+                                     const massid_options *options /* NULL: seed settings */);
 massid_status massid_fixed_tick(massid_pipeline *p, const uint16_t gyro_counts[3],
                                 uint16_t thrusters, massid_tick_report *report /* may be NULL */);
 massid_status massid_fixed_tick_gap(massid_pipeline *p, massid_tick_report *report);
+/* `periods` sample periods without a sample, in O(1). */
+massid_status massid_fixed_tick_gaps(massid_pipeline *p, uint64_t periods, massid_tick_report *report);
 massid_status massid_fixed_finish(massid_pipeline *p, uint8_t *status /* may be NULL */);
 massid_status massid_fixed_estimates(massid_pipeline *p, massid_estimates_fixed *out);
 massid_status massid_fixed_mixer_init(massid_mixer *m, const massid_satellite_params *params,
@@ -173,9 +186,12 @@ massid_status massid_fixed_mix(massid_mixer *m, const int32_t force_n[3], const 
 /* ---- f32 ---- */
 massid_status massid_f32_init(massid_pipeline *p, const massid_satellite_params *params,
                               uint32_t sample_period_ms);
+massid_status massid_f32_init_with(massid_pipeline *p, const massid_satellite_params *params,
+                                   uint32_t sample_period_ms, const massid_options *options);
 massid_status massid_f32_tick(massid_pipeline *p, const uint16_t gyro_counts[3],
                               uint16_t thrusters, massid_tick_report *report);
 massid_status massid_f32_tick_gap(massid_pipeline *p, massid_tick_report *report);
+massid_status massid_f32_tick_gaps(massid_pipeline *p, uint64_t periods, massid_tick_report *report);
 massid_status massid_f32_finish(massid_pipeline *p, uint8_t *status);
 massid_status massid_f32_estimates(massid_pipeline *p, massid_estimates_f32 *out);
 massid_status massid_f32_mixer_init(massid_mixer *m, const massid_satellite_params *params,

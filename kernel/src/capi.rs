@@ -13,6 +13,10 @@
 //! * Every function returns a [`MassidStatus`] and checks its pointers; a state block that
 //!   was never initialised (no magic word) is refused rather than read.
 //! * Nothing panics: bad numbers and bad parameters become status codes.
+//! * Every function that reads or writes through a caller's pointer is an `unsafe extern "C"
+//!   fn` with a `# Safety` section: the NULL checks cannot tell a dangling or short buffer.
+//! * C callers choose what Rust callers can ([`MassidOptions`]: change detector, forgetting,
+//!   gyroscopic correction), and a long telemetry gap is one O(1) call (`*_tick_gaps`).
 #![allow(unsafe_code)]
 
 use core::mem::{align_of, size_of};
@@ -20,6 +24,7 @@ use core::mem::{align_of, size_of};
 use crate::mixer::{Firing, Mixer, MixerConfig, MixerError};
 use crate::model::{SatelliteParams, N_THRUSTERS, SPH2};
 use crate::pipeline::{Estimates, Pipeline, PipelineConfig, PipelineStatus, TickEvent, TickReport};
+use crate::rls::DetectorConfig;
 use crate::scalar::{Fx, Q8_24};
 use crate::Scalar;
 
@@ -91,6 +96,21 @@ impl From<&SatelliteParams> for MassidSatelliteParams {
             pressure_drop_n_per_extra: p.pressure_drop_n_per_extra,
         }
     }
+}
+
+/// Pipeline options for `massid_*_init_with` (the seed's settings when all are zero).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MassidOptions {
+    /// Non-zero: the CUSUM change detector on the RLS innovations (`DetectorConfig::standard`).
+    pub change_detector: u8,
+    /// Non-zero: take the gyroscopic acceleration of the nominal inertia off the measured rate
+    /// (needs `gyro_bias_counts`).
+    pub gyroscopic: u8,
+    /// Gyro zero-rate counts per axis (used with `gyroscopic`).
+    pub gyro_bias_counts: [f32; 3],
+    /// Exponential forgetting factor per update, in (0, 1); 0 or 1: none.
+    pub forgetting: f32,
 }
 
 /// What one tick did (codes of [`TickEvent`] and [`PipelineStatus`]).
@@ -302,8 +322,11 @@ fn fill_params(out: *mut MassidSatelliteParams, p: &SatelliteParams) -> MassidSt
 }
 
 /// Fills `out` with the built-in SPH2 parameters (seed App. C, contract `satellites.md`).
+///
+/// # Safety
+/// `out` is NULL or points to a writable `massid_satellite_params`.
 #[no_mangle]
-pub extern "C" fn massid_params_sph2(out: *mut MassidSatelliteParams) -> MassidStatus {
+pub unsafe extern "C" fn massid_params_sph2(out: *mut MassidSatelliteParams) -> MassidStatus {
     fill_params(out, &SPH2)
 }
 
@@ -316,7 +339,7 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 
 /// Size in bytes of an ABI type as Rust lays it out, so that C code can check the header:
 /// 0 params, 1 tick report, 2 fixed estimates, 3 f32 estimates, 4 firing, 5 pipeline block,
-/// 6 mixer block; 0 for any other code.
+/// 6 mixer block, 7 options; 0 for any other code.
 #[no_mangle]
 pub extern "C" fn massid_type_size(which: u32) -> u32 {
     let n = match which {
@@ -327,6 +350,7 @@ pub extern "C" fn massid_type_size(which: u32) -> u32 {
         4 => size_of::<MassidFiring>(),
         5 => size_of::<MassidPipeline>(),
         6 => size_of::<MassidMixer>(),
+        7 => size_of::<MassidOptions>(),
         _ => 0,
     };
     u32::try_from(n).unwrap_or(0)
@@ -339,11 +363,36 @@ pub extern "C" fn massid_mixer_state_bytes(fixed_point: u8) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
+/// The pipeline configuration for options `o` (`None`: the seed's); `None` if an option is
+/// out of range.
+fn config_for<S: CScalar>(sample_period_ms: u32, o: Option<&MassidOptions>) -> Option<PipelineConfig<S>> {
+    let mut cfg = PipelineConfig::<S>::seed(sample_period_ms);
+    let Some(o) = o else { return Some(cfg) };
+    if o.change_detector != 0 {
+        cfg.rls.detector = Some(DetectorConfig::standard());
+    }
+    if o.gyroscopic != 0 {
+        if !o.gyro_bias_counts.iter().all(|b| b.is_finite() && (0.0..=4095.0).contains(b)) {
+            return None;
+        }
+        cfg.gyro_bias_counts = Some(o.gyro_bias_counts);
+    }
+    let l = o.forgetting;
+    if !(l.is_finite() && (0.0..=1.0).contains(&l)) {
+        return None;
+    }
+    if l > 0.0 && l < 1.0 {
+        cfg.rls.forgetting = Some(S::from_f32(l));
+    }
+    Some(cfg)
+}
+
 fn pipeline_init<S: CScalar>(
     block: *mut MassidPipeline,
     magic: u32,
     params: *const MassidSatelliteParams,
     sample_period_ms: u32,
+    options: *const MassidOptions,
 ) -> MassidStatus {
     if block.is_null() || params.is_null() {
         return MassidStatus::NullPointer;
@@ -353,7 +402,11 @@ fn pipeline_init<S: CScalar>(
     }
     // SAFETY: checked non-NULL; the caller passes a valid parameter struct.
     let p = SatelliteParams::from(unsafe { &*params });
-    match Pipeline::<S>::new(&p, PipelineConfig::seed(sample_period_ms)) {
+    // SAFETY: NULL (the seed's settings) or a valid options struct (caller's contract).
+    let Some(cfg) = config_for::<S>(sample_period_ms, unsafe { options.as_ref() }) else {
+        return MassidStatus::BadParameters;
+    };
+    match Pipeline::<S>::new(&p, cfg) {
         Ok(pipe) => {
             // SAFETY: `block` is a non-NULL MassidPipeline (size/alignment asserted above).
             unsafe { store(block.cast::<u8>(), magic, pipe) };
@@ -406,6 +459,13 @@ fn pipeline_tick<S: CScalar>(
 fn pipeline_tick_gap<S: CScalar>(block: *mut MassidPipeline, magic: u32, report: *mut MassidTickReport) -> MassidStatus {
     with_pipeline::<S>(block, magic, |p| {
         write_out(report, MassidTickReport::from(p.tick_gap()));
+        MassidStatus::Ok
+    })
+}
+
+fn pipeline_tick_gaps<S: CScalar>(block: *mut MassidPipeline, magic: u32, periods: u64, report: *mut MassidTickReport) -> MassidStatus {
+    with_pipeline::<S>(block, magic, |p| {
+        write_out(report, MassidTickReport::from(p.tick_gaps(periods)));
         MassidStatus::Ok
     })
 }
@@ -518,23 +578,47 @@ fn mixer_mix<S: CScalar>(
 
 macro_rules! flavour {
     ($S:ty, $C:ty, $pm:expr, $mm:expr,
-     $init:ident, $tick:ident, $gap:ident, $finish:ident, $est:ident,
+     $init:ident, $init_with:ident, $tick:ident, $gap:ident, $gaps:ident, $finish:ident, $est:ident,
      $minit:ident, $mfrom:ident, $mix:ident) => {
         /// Initialises a pipeline block for `params` with the seed's settings at the given
         /// sample period (1 for 1 kHz).
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a writable, 8-aligned `massid_pipeline`; `params` is
+        /// NULL or points to a readable `massid_satellite_params`.
         #[no_mangle]
-        pub extern "C" fn $init(
+        pub unsafe extern "C" fn $init(
             block: *mut MassidPipeline,
             params: *const MassidSatelliteParams,
             sample_period_ms: u32,
         ) -> MassidStatus {
-            pipeline_init::<$S>(block, $pm, params, sample_period_ms)
+            pipeline_init::<$S>(block, $pm, params, sample_period_ms, core::ptr::null())
+        }
+
+        /// `*_init` with options (change detector, forgetting, gyroscopic correction);
+        /// `options` NULL is the seed's settings. Out-of-range options: `BadParameters`.
+        ///
+        /// # Safety
+        /// As `*_init`; `options` is NULL or points to a readable `massid_options`.
+        #[no_mangle]
+        pub unsafe extern "C" fn $init_with(
+            block: *mut MassidPipeline,
+            params: *const MassidSatelliteParams,
+            sample_period_ms: u32,
+            options: *const MassidOptions,
+        ) -> MassidStatus {
+            pipeline_init::<$S>(block, $pm, params, sample_period_ms, options)
         }
 
         /// One sample period: three raw gyro counts and the commanded thruster word
         /// (bit i = thruster i+1). `report` may be NULL.
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a `massid_pipeline`; `gyro_counts` is NULL or points
+        /// to three readable `uint16_t`; `report` is NULL or points to a writable
+        /// `massid_tick_report`.
         #[no_mangle]
-        pub extern "C" fn $tick(
+        pub unsafe extern "C" fn $tick(
             block: *mut MassidPipeline,
             gyro_counts: *const u16,
             thrusters: u16,
@@ -544,28 +628,54 @@ macro_rules! flavour {
         }
 
         /// One sample period without a sample (telemetry gap). `report` may be NULL.
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a `massid_pipeline`; `report` is NULL or points to a
+        /// writable `massid_tick_report`.
         #[no_mangle]
-        pub extern "C" fn $gap(block: *mut MassidPipeline, report: *mut MassidTickReport) -> MassidStatus {
+        pub unsafe extern "C" fn $gap(block: *mut MassidPipeline, report: *mut MassidTickReport) -> MassidStatus {
             pipeline_tick_gap::<$S>(block, $pm, report)
+        }
+
+        /// `periods` sample periods without a sample, in O(1) whatever the count.
+        ///
+        /// # Safety
+        /// As `*_tick_gap`.
+        #[no_mangle]
+        pub unsafe extern "C" fn $gaps(block: *mut MassidPipeline, periods: u64, report: *mut MassidTickReport) -> MassidStatus {
+            pipeline_tick_gaps::<$S>(block, $pm, periods, report)
         }
 
         /// Ends the current firing (end of data); writes the pipeline status code if `status`
         /// is not NULL.
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a `massid_pipeline`; `status` is NULL or points to a
+        /// writable `uint8_t`.
         #[no_mangle]
-        pub extern "C" fn $finish(block: *mut MassidPipeline, status: *mut u8) -> MassidStatus {
+        pub unsafe extern "C" fn $finish(block: *mut MassidPipeline, status: *mut u8) -> MassidStatus {
             pipeline_finish::<$S>(block, $pm, status)
         }
 
         /// Reads the current estimates.
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a `massid_pipeline`; `out` is NULL or points to a
+        /// writable estimates struct of this flavour.
         #[no_mangle]
-        pub extern "C" fn $est(block: *mut MassidPipeline, out: *mut MassidEstimates<$C>) -> MassidStatus {
+        pub unsafe extern "C" fn $est(block: *mut MassidPipeline, out: *mut MassidEstimates<$C>) -> MassidStatus {
             pipeline_estimates::<$S>(block, $pm, out)
         }
 
         /// Builds a mixer for `params` with lever arms about the model CoM plus `com_delta_m`
         /// (three values, m; NULL for the model CoM).
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a writable, 8-aligned `massid_mixer`; `params` is NULL
+        /// or points to a readable `massid_satellite_params`; `com_delta_m` is NULL or points
+        /// to three readable values.
         #[no_mangle]
-        pub extern "C" fn $minit(
+        pub unsafe extern "C" fn $minit(
             block: *mut MassidMixer,
             params: *const MassidSatelliteParams,
             com_delta_m: *const $C,
@@ -577,8 +687,11 @@ macro_rules! flavour {
 
         /// Rebuilds a mixer from the pipeline's current CoM estimate (the seed's point:
         /// identified mass properties change the firing times).
+        ///
+        /// # Safety
+        /// As `*_mixer_init`; `pipeline` is NULL or points to a `massid_pipeline`.
         #[no_mangle]
-        pub extern "C" fn $mfrom(
+        pub unsafe extern "C" fn $mfrom(
             block: *mut MassidMixer,
             params: *const MassidSatelliteParams,
             pipeline: *mut MassidPipeline,
@@ -590,8 +703,13 @@ macro_rules! flavour {
 
         /// Mixes a force (N, 3 values) and torque (N m about the CoM, 3 values) command into
         /// integer-millisecond ON/OFF times.
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a `massid_mixer`; `force_n` and `torque_nm` are NULL or
+        /// point to three readable values each; `out` is NULL or points to a writable
+        /// `massid_firing`.
         #[no_mangle]
-        pub extern "C" fn $mix(
+        pub unsafe extern "C" fn $mix(
             block: *mut MassidMixer,
             force_n: *const $C,
             torque_nm: *const $C,
@@ -604,11 +722,13 @@ macro_rules! flavour {
 
 flavour!(
     Q8_24, i32, MAGIC_FIXED_PIPELINE, MAGIC_FIXED_MIXER,
-    massid_fixed_init, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_finish, massid_fixed_estimates,
+    massid_fixed_init, massid_fixed_init_with, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_tick_gaps,
+    massid_fixed_finish, massid_fixed_estimates,
     massid_fixed_mixer_init, massid_fixed_mixer_from_pipeline, massid_fixed_mix
 );
 flavour!(
     f32, f32, MAGIC_F32_PIPELINE, MAGIC_F32_MIXER,
-    massid_f32_init, massid_f32_tick, massid_f32_tick_gap, massid_f32_finish, massid_f32_estimates,
+    massid_f32_init, massid_f32_init_with, massid_f32_tick, massid_f32_tick_gap, massid_f32_tick_gaps,
+    massid_f32_finish, massid_f32_estimates,
     massid_f32_mixer_init, massid_f32_mixer_from_pipeline, massid_f32_mix
 );

@@ -129,7 +129,20 @@ fn read_rows(path: &Path) -> Vec<(i64, [u16; 3], u16)> {
 
 /// The run of `capi_run.c`, made through the Rust API.
 fn rust_run<S: Flavour>(rows: &[(i64, [u16; 3], u16)], out: &mut String) {
-    let mut p = Pipeline::<S>::new(&SPH2, PipelineConfig::seed(1)).expect("SPH2 is valid");
+    rust_run_with(PipelineConfig::<S>::seed(1), false, rows, out)
+}
+
+/// The run of `capi_run --options`: change detector, gyroscopic correction at SPH2's bias,
+/// forgetting 0.9999, gaps as one `tick_gaps` call each (the C side's `OPTIONS`).
+fn rust_run_options<S: Flavour>(rows: &[(i64, [u16; 3], u16)], out: &mut String) {
+    let mut cfg = PipelineConfig::<S>::with_gyroscopic(1, [2077.0, 2070.0, 2058.0]);
+    cfg.rls.detector = Some(massid_kernel::rls::DetectorConfig::standard());
+    cfg.rls.forgetting = Some(S::from_f32(0.9999));
+    rust_run_with(cfg, true, rows, out)
+}
+
+fn rust_run_with<S: Flavour>(cfg: PipelineConfig<S>, gaps_at_once: bool, rows: &[(i64, [u16; 3], u16)], out: &mut String) {
+    let mut p = Pipeline::<S>::new(&SPH2, cfg).expect("SPH2 is valid");
     let rebuild = |p: &Pipeline<S>| {
         let cfg = MixerConfig { period_ms: PERIOD_MS, min_pulse_ms: MIN_PULSE_MS, pressure_drop_n: S::from_f32(SPH2.pressure_drop_n_per_extra) };
         Mixer::new(&SPH2, p.estimates().delta_com_m, cfg).map_err(mixer_status)
@@ -140,6 +153,10 @@ fn rust_run<S: Flavour>(rows: &[(i64, [u16; 3], u16)], out: &mut String) {
             continue;
         }
         let mut solved = false;
+        if gaps_at_once && last >= 0 && last + 1 < t {
+            solved |= p.tick_gaps((t - last - 1) as u64).event == TickEvent::Solved;
+            last = t - 1;
+        }
         while last >= 0 && last + 1 < t {
             solved |= p.tick_gap().event == TickEvent::Solved;
             last += 1;
@@ -217,5 +234,23 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
             assert_eq!(c, r, "{name}: line {} differs (C vs Rust)", n + 1);
         }
         assert_eq!(c_out.lines().count(), expected.lines().count(), "{name}: line counts differ");
+    }
+    // C callers choose the options Rust callers can (detector, forgetting, gyroscopic
+    // correction) and skip a gap in one call: the same output as the Rust API.
+    for name in ["o09_nominal_artefacts_combo.csv", "o01_nominal_rga12.csv"] {
+        let path = open_data().join(name);
+        let c_out = String::from_utf8(run(Command::new(&exe).arg("--options").arg(&path), name).stdout).expect("utf-8");
+        let rows = read_rows(&path);
+        let mut expected = String::new();
+        rust_run_options::<Q8_24>(&rows, &mut expected);
+        rust_run_options::<f32>(&rows, &mut expected);
+        let mut plain = String::new();
+        rust_run::<Q8_24>(&rows, &mut plain);
+        rust_run::<f32>(&rows, &mut plain);
+        assert_ne!(expected, plain, "{name}: the options must change the run");
+        for (n, (c, r)) in c_out.lines().zip(expected.lines()).enumerate() {
+            assert_eq!(c, r, "{name} --options: line {} differs (C vs Rust)", n + 1);
+        }
+        assert_eq!(c_out.lines().count(), expected.lines().count(), "{name} --options: line counts differ");
     }
 }

@@ -40,15 +40,17 @@ fn params() -> MassidSatelliteParams {
 }
 
 fn c_abi_any_use(fixed: bool) {
+    // SAFETY: every pointer passed is NULL or to a live local of the right type and size.
+    unsafe {
     let mut block: Box<MassidPipeline> = zeroed();
     let mut other: Box<MassidPipeline> = zeroed();
     let p = params();
     let period = [0u32, 1, 1, 1, 10, 20][any_in(0usize, 5)];
     let (init, tick, gap, finish, est): (
-        extern "C" fn(*mut MassidPipeline, *const MassidSatelliteParams, u32) -> MassidStatus,
-        extern "C" fn(*mut MassidPipeline, *const u16, u16, *mut MassidTickReport) -> MassidStatus,
-        extern "C" fn(*mut MassidPipeline, *mut MassidTickReport) -> MassidStatus,
-        extern "C" fn(*mut MassidPipeline, *mut u8) -> MassidStatus,
+        unsafe extern "C" fn(*mut MassidPipeline, *const MassidSatelliteParams, u32) -> MassidStatus,
+        unsafe extern "C" fn(*mut MassidPipeline, *const u16, u16, *mut MassidTickReport) -> MassidStatus,
+        unsafe extern "C" fn(*mut MassidPipeline, *mut MassidTickReport) -> MassidStatus,
+        unsafe extern "C" fn(*mut MassidPipeline, *mut u8) -> MassidStatus,
         bool,
     ) = if fixed {
         (massid_fixed_init, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_finish, true)
@@ -56,7 +58,7 @@ fn c_abi_any_use(fixed: bool) {
         (massid_f32_init, massid_f32_tick, massid_f32_tick_gap, massid_f32_finish, false)
     };
     // The other flavour's block must be refused.
-    let other_init: extern "C" fn(*mut MassidPipeline, *const MassidSatelliteParams, u32) -> MassidStatus =
+    let other_init: unsafe extern "C" fn(*mut MassidPipeline, *const MassidSatelliteParams, u32) -> MassidStatus =
         if fixed { massid_f32_init } else { massid_fixed_init };
     let sph2 = MassidSatelliteParams::from(&massid_kernel::model::SPH2);
     assert_eq!(other_init(&mut *other, &sph2, 1), MassidStatus::Ok);
@@ -102,16 +104,19 @@ fn c_abi_any_use(fixed: bool) {
     assert!(code <= 6);
     assert_eq!(finish(&mut *block, core::ptr::null_mut()), MassidStatus::Ok, "finish with a NULL status is allowed");
     if est {
-        let mut out: MassidEstimates<i32> = unsafe { core::mem::zeroed() };
+        let mut out: MassidEstimates<i32> = core::mem::zeroed();
         assert_eq!(massid_fixed_estimates(&mut *block, &mut out), MassidStatus::Ok);
         assert_eq!(massid_fixed_estimates(&mut *block, core::ptr::null_mut()), MassidStatus::NullPointer);
     } else {
-        let mut out: MassidEstimates<f32> = unsafe { core::mem::zeroed() };
+        let mut out: MassidEstimates<f32> = core::mem::zeroed();
         assert_eq!(massid_f32_estimates(&mut *block, &mut out), MassidStatus::Ok);
+    }
     }
 }
 
 fn c_abi_mixer(fixed: bool) {
+    // SAFETY: every pointer passed is NULL or to a live local of the right type and size.
+    unsafe {
     let mut block: Box<MassidMixer> = zeroed();
     let p = MassidSatelliteParams::from(&draw::params_or_sph2());
     let period = any_in(env::MIXER_PERIOD_MS.0, env::MIXER_PERIOD_MS.1);
@@ -140,6 +145,7 @@ fn c_abi_mixer(fixed: bool) {
         cover!(true, "mixed");
         let firing = massid_kernel::mixer::Firing { on_ms: out.on_ms, off_ms: out.off_ms };
         super::mixer::check_firing(&firing, period, min);
+    }
     }
 }
 

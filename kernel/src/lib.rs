@@ -21,6 +21,7 @@
 
 #[cfg(feature = "capi")]
 pub mod capi;
+pub mod fold;
 pub mod gyro_filter;
 pub mod lu;
 pub mod mixer;

@@ -17,9 +17,9 @@ use crate::gyro_filter::{GyroLowPass, LowPassCoefs, COUNT_FRAC_BITS};
 const _: () = assert!(COUNT_FRAC_BITS == 12, "Gyroscopic::omega assumes Q12 counts");
 use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
 use crate::omega_dot::{KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
-use crate::lu::LuError;
 use crate::observability::{min_updates_for, Excitation, N_TERMS};
-use crate::rls::{AddPlan, Factored, MassId, Measurement, RlsConfig, RlsStatus};
+use crate::fold::{FiringFold, FoldStep};
+use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use crate::scalar::{Scalar, Scaled};
 use crate::validity::{Invalid, Validity};
 
@@ -139,7 +139,9 @@ pub struct Pipeline<S> {
     firing_has_data: bool,
     last: Option<Measurement<S>>,
     last_estimate: Option<OmegaDotEstimate<S>>,
-    deferred: Option<DeferredStage>,
+    deferred: Option<Pending>,
+    /// The ended firing's fold (valid while `deferred` is `Pending::Fold`).
+    fold: FiringFold<S>,
     ended: EndedFiring<S>,
     status: PipelineStatus,
     ticks: u64,
@@ -206,6 +208,7 @@ impl<S: Scalar> Pipeline<S> {
             last: None,
             last_estimate: None,
             deferred: None,
+            fold: FiringFold::new(Measurement::zero(), 0, true, false),
             ended: EndedFiring::empty(firing_terms),
             status: PipelineStatus::Idle,
             ticks: 0,
@@ -391,7 +394,7 @@ impl<S: Scalar> Pipeline<S> {
         self.ended.excites = self.firing_excites;
         self.ended.batch = n <= self.cfg.batch_firings;
         self.ended.batch_complete = n == self.cfg.batch_firings;
-        self.deferred = Some(DeferredStage::Measure);
+        self.deferred = Some(Pending::Measure);
         true
     }
 
@@ -412,7 +415,7 @@ impl<S: Scalar> Pipeline<S> {
         let mut next = None;
         let mut solved = false;
         match stage {
-            DeferredStage::Measure => {
+            Pending::Measure => {
                 // The firing's final estimate (detector measurement, telemetry) ...
                 if let Some(est) = self.kf.estimate_of(&e.kf) {
                     self.last_estimate = Some(est);
@@ -430,93 +433,41 @@ impl<S: Scalar> Pipeline<S> {
                         let (theta, a_com) = coupled(&e.terms, &self.trusted_theta);
                         e.theta = theta;
                         e.last = measurement_for(&theta, &e.terms, &a_com, &est);
-                        next = Some(DeferredStage::Aggregate);
+                        next = Some(Pending::Aggregate);
                     }
                 }
             }
-            DeferredStage::Aggregate => {
+            Pending::Aggregate => {
                 // ... and its per-sample measurements in aggregate (exact: every sample of the
                 // firing has the same regressor).
                 if let Some((weight, mean)) = self.kf.aggregate_of(&e.kf) {
                     let pred = mat_vec(&e.theta, &e.terms.torque_cnm);
                     let one = Scaled::from_i64(1);
                     let variance = weight.map(|w| one.over(w).unwrap_or(one));
-                    e.agg = Measurement {
+                    let agg = Measurement {
                         b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
                         b_inertia: mean,
                         weight,
                         variance,
                         ..e.last
                     };
-                    next = Some(DeferredStage::FoldCom);
+                    // The firing counts into the observability, then the terms it leaves
+                    // unexcited are held in the fold's solves.
+                    self.excitation.add(&e.excites, e.kf.sums.n);
+                    let (c, i) = self.excitation.unobservable();
+                    self.mass.hold_unexcited(c, i);
+                    self.fold = FiringFold::new(agg, e.kf.sums.n, e.batch, e.batch_complete);
+                    next = Some(Pending::Fold);
                 }
             }
-            DeferredStage::FoldCom => {
-                self.mass.add_com_part(&e.agg, e.batch);
-                next = Some(DeferredStage::PlanInertia);
-            }
-            DeferredStage::PlanInertia => {
-                e.plan = self.mass.plan_inertia_part(&e.agg, e.batch);
-                next = Some(DeferredStage::FoldInertia);
-            }
-            DeferredStage::FoldInertia => {
-                self.mass.apply_inertia_part(&e.agg, &e.plan, e.batch, e.kf.sums.n);
-                self.excitation.add(&e.excites, e.kf.sums.n);
-                let (c, i) = self.excitation.unobservable();
-                self.mass.hold_unexcited(c, i);
-                next = if !e.batch {
-                    Some(DeferredStage::Detect)
-                } else if e.batch_complete {
-                    Some(DeferredStage::SolveCom)
-                } else {
-                    None
-                };
-            }
-            DeferredStage::Detect => {
-                // The change test's statistic over the first two rows ...
-                // On the aggregate, with the weights the LS uses: its mean over the firings is
-                // the a-posteriori variance factor of those weights.
-                e.nis = self.mass.innovation_part(&e.agg, (0, 2), Scaled::zero());
-                next = Some(DeferredStage::DetectFinish);
-            }
-            DeferredStage::DetectFinish => {
-                // ... the third, and the test.
-                // The innovation counts into the variance factor; the change test runs only
-                // against a solve with every term estimated.
-                if let Some(nis) = e.nis.and_then(|p| self.mass.innovation_part(&e.agg, (2, 3), p)) {
-                    self.mass.record_innovation(nis, self.mass.tests_inertia(&e.agg));
-                    if !self.mass.holds_terms_for(&e.agg) {
-                        self.mass.detect_with(nis);
-                    }
+            Pending::Fold => match self.fold.step(&mut self.mass) {
+                FoldStep::Pending => next = Some(Pending::Fold),
+                FoldStep::Done(Some(solved_fold)) => {
+                    self.status = self.accept(solved_fold.status, &solved_fold.before);
+                    solved = true;
                 }
-                next = Some(DeferredStage::MergeInertia);
-            }
-            DeferredStage::MergeInertia => {
-                self.mass.merge_inertia();
-                next = Some(DeferredStage::MergeCom);
-            }
-            DeferredStage::MergeCom => {
-                self.mass.merge_com();
-                e.before = self.mass.estimate();
-                e.com = self.mass.solve_com();
-                next = Some(DeferredStage::FactorInertia);
-            }
-            DeferredStage::SolveCom => {
-                e.before = self.mass.estimate();
-                e.com = self.mass.solve_com();
-                next = Some(DeferredStage::FactorInertia);
-            }
-            DeferredStage::FactorInertia => {
-                e.factored = self.mass.factor_inertia();
-                next = Some(DeferredStage::SolveInertia);
-            }
-            DeferredStage::SolveInertia => {
-                let inertia = self.mass.finish_inertia(e.factored);
-                let s = self.mass.combine(e.com, inertia);
-                let before = e.before;
-                self.status = self.accept(s, &before);
-                solved = true;
-            }
+                FoldStep::Done(None) => {}
+            },
         }
         self.deferred = next;
         solved
@@ -601,9 +552,14 @@ impl<S: Scalar> Pipeline<S> {
         }
     }
 
-    /// The deferred end-of-firing stage the next tick will run, if any.
+    /// The deferred end-of-firing stage the next tick will run, if any (telemetry: the
+    /// fold's own stage once it has started).
     pub fn pending_stage(&self) -> Option<DeferredStage> {
-        self.deferred
+        match self.deferred? {
+            Pending::Measure => Some(DeferredStage::Measure),
+            Pending::Aggregate => Some(DeferredStage::Aggregate),
+            Pending::Fold => self.fold.stage(),
+        }
     }
 
     /// The angular-acceleration Kalman filter (its exact sums, for tests and range analysis).
@@ -693,7 +649,7 @@ fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, a_com: &
 }
 
 /// How many end-of-firing stages there are (the most [`Pipeline::run_deferred`] can have pending).
-const DEFERRED_STAGES: usize = 11;
+const DEFERRED_STAGES: usize = 2 + crate::fold::STAGES;
 
 /// The end-of-firing stage the next tick runs (telemetry: which part of the deferred work a
 /// tick carried, e.g. to attribute its execution time).
@@ -726,7 +682,16 @@ pub enum DeferredStage {
     SolveInertia = 12,
 }
 
-/// The ended firing's data that its deferred stages ([`DeferredStage`]) read and write.
+/// The end-of-firing work still to run: the firing's final estimate, its aggregate, then its
+/// [`FiringFold`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pending {
+    Measure,
+    Aggregate,
+    Fold,
+}
+
+/// The ended firing's data that its pre-fold stages read and write.
 #[derive(Clone, Copy, Debug)]
 struct EndedFiring<S> {
     /// Snapshot of the firing's Kalman sums.
@@ -737,20 +702,8 @@ struct EndedFiring<S> {
     excites: [bool; N_TERMS],
     /// The inverse inertia its measurement was formed with (the estimate at its end).
     theta: [[S; 3]; 3],
-    /// The estimate before its solve (kept if the solve is not physical).
-    before: crate::rls::EstimateState<S>,
-    /// Its final estimate as a measurement (the change detector's).
+    /// Its final estimate as a measurement (the aggregate takes its regressors).
     last: Measurement<S>,
-    /// Its per-sample measurements in aggregate.
-    agg: Measurement<S>,
-    /// The planned inverse-inertia add.
-    plan: AddPlan<S>,
-    /// The inverse-inertia factorisation.
-    factored: Result<Factored<S, 6>, LuError>,
-    /// The CoM solve's status.
-    com: RlsStatus,
-    /// The change test's statistic over its first rows.
-    nis: Option<Scaled<S>>,
     /// One of the batch firings.
     batch: bool,
     /// The last batch firing.
@@ -759,26 +712,13 @@ struct EndedFiring<S> {
 
 impl<S: Scalar> EndedFiring<S> {
     fn empty(terms: FiringTerms<S>) -> Self {
-        let m = Measurement {
-            a_com: [[S::ZERO; 3]; 3],
-            b_com: [S::ZERO; 3],
-            a_inertia: [[S::ZERO; 6]; 3],
-            b_inertia: [S::ZERO; 3],
-            weight: [Scaled::zero(); 3],
-            variance: [Scaled::zero(); 3],
-        };
+        let m = Measurement::zero();
         EndedFiring {
             kf: KfSnapshot { prior: [S::ZERO; 3], sums: Default::default(), second: Default::default() },
             terms,
             excites: [false; N_TERMS],
             theta: [[S::ZERO; 3]; 3],
-            before: crate::rls::EstimateState::empty(),
             last: m,
-            agg: m,
-            plan: AddPlan::none(),
-            factored: Err(LuError::ZeroMatrix),
-            com: RlsStatus::NoData,
-            nis: None,
             batch: false,
             batch_complete: false,
         }

@@ -483,6 +483,18 @@ pub struct Measurement<S> {
 }
 
 impl<S: Scalar> Measurement<S> {
+    /// All zero (storage initialisation; adds nothing).
+    pub fn zero() -> Self {
+        Measurement {
+            a_com: [[S::ZERO; 3]; 3],
+            b_com: [S::ZERO; 3],
+            a_inertia: [[S::ZERO; 6]; 3],
+            b_inertia: [S::ZERO; 3],
+            weight: [Scaled::zero(); 3],
+            variance: [Scaled::zero(); 3],
+        }
+    }
+
     /// The torque (cN m) the inverse-inertia rows were built from (their diagonal entries).
     pub fn a_inertia_torque(&self) -> [S; 3] {
         [0usize, 1, 2].map(|i| self.a_inertia.get(i).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO))
@@ -710,23 +722,9 @@ impl<S: Scalar> MassId<S> {
         self.solved_inertia = None;
     }
 
-    /// Adds one batch measurement (first two firings) straight into the information.
-    pub fn add_batch(&mut self, m: &Measurement<S>) {
-        self.add_batch_aggregate(m, 1);
-    }
-
-    /// Adds a batch firing's measurements straight into the information; `updates` is how
-    /// many per-sample measurements `m` aggregates.
-    pub fn add_batch_aggregate(&mut self, m: &Measurement<S>, updates: u32) {
-        self.solved_com = None;
-        self.solved_inertia = None;
-        self.com.add(&m.a_com, &m.b_com, &m.weight);
-        self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
-        self.updates = self.updates.saturating_add(updates);
-    }
-
-    /// The CoM half of [`MassId::add_batch_aggregate`] (`batch`) or [`MassId::add_firing`].
-    pub fn add_com_part(&mut self, m: &Measurement<S>, batch: bool) {
+    /// Adds the CoM rows of a firing's aggregate measurement: straight into the information
+    /// (`batch`) or into the pending firing ([`crate::fold::FiringFold`] runs these steps).
+    pub(crate) fn add_com_part(&mut self, m: &Measurement<S>, batch: bool) {
         if batch {
             self.solved_com = None;
         }
@@ -734,28 +732,15 @@ impl<S: Scalar> MassId<S> {
         target.add(&m.a_com, &m.b_com, &m.weight);
     }
 
-    /// The inverse-inertia half of [`MassId::add_batch_aggregate`] (`batch`) or
-    /// [`MassId::add_firing`], counting the `updates`.
-    pub fn add_inertia_part(&mut self, m: &Measurement<S>, batch: bool, updates: u32) {
-        if batch {
-            self.solved_inertia = None;
-            self.inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
-        } else {
-            self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
-            self.pending_updates = self.pending_updates.saturating_add(updates);
-        }
-        self.updates = self.updates.saturating_add(updates);
-    }
-
-    /// The plan of [`MassId::add_inertia_part`]'s add (the first half of its work; reads only).
-    pub fn plan_inertia_part(&self, m: &Measurement<S>, batch: bool) -> AddPlan<S> {
+    /// Plans the add of a firing's inverse-inertia rows (the first half of its work; reads only).
+    pub(crate) fn plan_inertia_part(&self, m: &Measurement<S>, batch: bool) -> AddPlan<S> {
         let target = if batch { &self.inertia } else { &self.pending_inertia };
         target.plan_add(&m.a_inertia, &m.b_inertia, &m.weight)
     }
 
-    /// [`MassId::add_inertia_part`] with its add planned by [`MassId::plan_inertia_part`]
+    /// Adds a firing's inverse-inertia rows (counting the `updates`) as planned by [`MassId::plan_inertia_part`]
     /// (same measurement and `batch`; nothing else may change the problem in between).
-    pub fn apply_inertia_part(&mut self, m: &Measurement<S>, plan: &AddPlan<S>, batch: bool, updates: u32) {
+    pub(crate) fn apply_inertia_part(&mut self, m: &Measurement<S>, plan: &AddPlan<S>, batch: bool, updates: u32) {
         if batch {
             self.solved_inertia = None;
             self.inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
@@ -764,58 +749,6 @@ impl<S: Scalar> MassId<S> {
             self.pending_updates = self.pending_updates.saturating_add(updates);
         }
         self.updates = self.updates.saturating_add(updates);
-    }
-
-    /// Adds an RLS firing's measurements (`updates` per-sample measurements in aggregate),
-    /// folded in at [`MassId::end_firing`]. With forgetting, the older information is
-    /// multiplied by `lambda^updates` there; the firing's own samples are not weighted among
-    /// themselves (their weights grow as k^3, so the early ones barely count anyway).
-    pub fn add_firing(&mut self, m: &Measurement<S>, updates: u32) {
-        self.pending_com.add(&m.a_com, &m.b_com, &m.weight);
-        self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
-        self.pending_updates = self.pending_updates.saturating_add(updates);
-        self.updates = self.updates.saturating_add(updates);
-    }
-
-    /// Adds one per-sample RLS measurement of the current firing (folded in at
-    /// [`MassId::end_firing`]), with exact per-update forgetting.
-    pub fn add_tick(&mut self, m: &Measurement<S>) {
-        if let Some(l) = self.cfg.forgetting {
-            self.pending_com.forget(l);
-            self.pending_inertia.forget(l);
-        }
-        self.pending_com.add(&m.a_com, &m.b_com, &m.weight);
-        self.pending_inertia.add(&m.a_inertia, &m.b_inertia, &m.weight);
-        self.pending_updates = self.pending_updates.saturating_add(1);
-        self.updates = self.updates.saturating_add(1);
-    }
-
-    /// Ends an RLS firing: change test with the firing's final measurement against the
-    /// estimate from before the firing, forgetting, fold-in, solve.
-    pub fn end_firing(&mut self, last: Option<&Measurement<S>>) -> RlsStatus {
-        self.fold_firing(last);
-        self.solve()
-    }
-
-    /// The first half of [`MassId::end_firing`]: change test, forgetting, fold-in (no solve).
-    pub fn fold_firing(&mut self, last: Option<&Measurement<S>>) {
-        self.detect_change(last);
-        self.merge_inertia();
-        self.merge_com();
-    }
-
-    /// The change test of an ended RLS firing (its final measurement `last`) against the
-    /// estimate of the latest solve (no test when that solve failed or the problem changed
-    /// since); an alarm deflates the information (covariance reset). The pipeline runs it in
-    /// two parts ([`MassId::innovation_part`], [`MassId::detect_with`]).
-    pub fn detect_change(&mut self, last: Option<&Measurement<S>>) {
-        let Some(m) = last else { return };
-        if let Some(nis) = self.innovation_part(m, (0, 3), Scaled::zero()) {
-            self.record_innovation(nis, self.tests_inertia(m));
-            if !self.holds_terms_for(m) {
-                self.detect_with(nis);
-            }
-        }
     }
 
     /// True when the estimate can be trusted to form other rows with: always without
@@ -828,7 +761,7 @@ impl<S: Scalar> MassId<S> {
     }
 
     /// The change test with its statistic computed (no-op without a detector configured).
-    pub fn detect_with(&mut self, nis: Scaled<S>) {
+    pub(crate) fn detect_with(&mut self, nis: Scaled<S>) {
         if let Some(det) = self.cfg.detector {
             self.detect(&det, nis);
         }
@@ -836,7 +769,7 @@ impl<S: Scalar> MassId<S> {
 
     /// Forgetting of the inverse-inertia information over the pending firing's updates, and
     /// the firing's inverse-inertia information merged in.
-    pub fn merge_inertia(&mut self) {
+    pub(crate) fn merge_inertia(&mut self) {
         self.solved_inertia = None;
         if let Some(l) = self.cfg.forgetting {
             self.inertia.forget(pow_u32(l, self.pending_updates));
@@ -847,7 +780,7 @@ impl<S: Scalar> MassId<S> {
     }
 
     /// [`MassId::merge_inertia`] for the CoM information; ends the firing's fold (run it last).
-    pub fn merge_com(&mut self) {
+    pub(crate) fn merge_com(&mut self) {
         self.solved_com = None;
         if let Some(l) = self.cfg.forgetting {
             self.com.forget(pow_u32(l, self.pending_updates));
@@ -898,7 +831,7 @@ impl<S: Scalar> MassId<S> {
     /// else (a translation) the CoM equations. A translation's inertia rows are near zero,
     /// so after a CoM change the seed's inertia equations (nominal lever arms) cannot explain
     /// its rate change: testing them there would raise alarms on every translation.
-    pub fn innovation_part(&self, m: &Measurement<S>, rows: (usize, usize), acc: Scaled<S>) -> Option<Scaled<S>> {
+    pub(crate) fn innovation_part(&self, m: &Measurement<S>, rows: (usize, usize), acc: Scaled<S>) -> Option<Scaled<S>> {
         if self.tests_inertia(m) {
             nis_of(self.solved_inertia.as_ref()?, &m.a_inertia, &m.b_inertia, &m.variance, rows, acc)
         } else {
@@ -908,7 +841,7 @@ impl<S: Scalar> MassId<S> {
 
     /// True when a firing's innovation is taken on the inverse-inertia equations (a firing
     /// with torque), false for the CoM equations (a translation).
-    pub fn tests_inertia(&self, m: &Measurement<S>) -> bool {
+    pub(crate) fn tests_inertia(&self, m: &Measurement<S>) -> bool {
         let torque_sq = m
             .a_inertia
             .iter()
@@ -924,7 +857,7 @@ impl<S: Scalar> MassId<S> {
     /// True if the latest solve of the problem `m` is tested on holds some term at the prior
     /// (the change detector then has no meaningful prediction; the variance factor still
     /// counts the innovation).
-    pub fn holds_terms_for(&self, m: &Measurement<S>) -> bool {
+    pub(crate) fn holds_terms_for(&self, m: &Measurement<S>) -> bool {
         if self.tests_inertia(m) {
             self.solved_inertia.as_ref().is_none_or(|s| s.unobservable.iter().any(|u| *u))
         } else {
@@ -934,7 +867,7 @@ impl<S: Scalar> MassId<S> {
 
     /// Counts one ended firing's normalised innovation squared `nis` over its three rows
     /// into the variance factor of the problem it was taken on ([`MassId::variance_factors`]).
-    pub fn record_innovation(&mut self, nis: Scaled<S>, inertia: bool) {
+    pub(crate) fn record_innovation(&mut self, nis: Scaled<S>, inertia: bool) {
         let (sum, n) = if inertia { &mut self.innovations[1] } else { &mut self.innovations[0] };
         *sum = sum.plus(nis);
         *n = n.saturating_add(3);
@@ -964,7 +897,7 @@ impl<S: Scalar> MassId<S> {
     }
 
     /// Solves the CoM problem alone (its status; the estimate is kept on failure).
-    pub fn solve_com(&mut self) -> RlsStatus {
+    pub(crate) fn solve_com(&mut self) -> RlsStatus {
         let zero3 = [S::ZERO; 3];
         match self.com.solve(&zero3, &self.held_com, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
             Ok(sol) => {
@@ -981,19 +914,19 @@ impl<S: Scalar> MassId<S> {
     }
 
     /// Solves the inverse-inertia problem alone (its status; the estimate is kept on failure).
-    pub fn solve_inertia(&mut self) -> RlsStatus {
+    pub(crate) fn solve_inertia(&mut self) -> RlsStatus {
         let f = self.factor_inertia();
         self.finish_inertia(f)
     }
 
     /// The first half of [`MassId::solve_inertia`] (reads only): the factorisation.
-    pub fn factor_inertia(&self) -> Result<Factored<S, 6>, LuError> {
+    pub(crate) fn factor_inertia(&self) -> Result<Factored<S, 6>, LuError> {
         self.inertia.factor(&self.prior_inertia, &self.held_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
     }
 
     /// The second half of [`MassId::solve_inertia`], from [`MassId::factor_inertia`] (nothing
     /// may change the inverse-inertia problem in between).
-    pub fn finish_inertia(&mut self, factored: Result<Factored<S, 6>, LuError>) -> RlsStatus {
+    pub(crate) fn finish_inertia(&mut self, factored: Result<Factored<S, 6>, LuError>) -> RlsStatus {
         match factored.and_then(|f| f.solve()) {
             Ok(sol) => {
                 self.theta_inertia = sol.x;
@@ -1009,7 +942,7 @@ impl<S: Scalar> MassId<S> {
     }
 
     /// The overall status of a solve from its two halves.
-    pub fn combine(&mut self, com: RlsStatus, inertia: RlsStatus) -> RlsStatus {
+    pub(crate) fn combine(&mut self, com: RlsStatus, inertia: RlsStatus) -> RlsStatus {
         let mut status = worst(com, inertia);
         if status == RlsStatus::Ok
             && (self.unobservable_com.iter().any(|u| *u) || self.unobservable_inertia.iter().any(|u| *u))

@@ -10,6 +10,7 @@
 //! mask), never silently drifting numbers.
 
 use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
+use massid_kernel::fold::FiringFold;
 use massid_kernel::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scaled, TickEvent, Q8_24};
 use massid_proofs::budget::{fmt_of, Exact, Worst};
@@ -84,9 +85,9 @@ struct RunFigures {
 }
 
 /// The RLS (information form, LU solves) driven with 10^6 per-tick measurements in firings,
-/// exactly as the pipeline feeds it (`MassId::add_batch` for the first two firings, then
-/// `add_tick` and `end_firing`), against `reference_f64`'s batch least squares of the
-/// identical weighted measurements. Measurements: the kernel's own regressors for each word
+/// folded exactly as the pipeline folds them (each firing's aggregate through
+/// `massid_kernel::fold::FiringFold`: batch for the first two firings, then RLS), against
+/// `reference_f64`'s batch least squares of the identical weighted measurements. Measurements: the kernel's own regressors for each word
 /// (`ModelTerms::firing_terms`), right-hand sides from a truth (CoM moved 5.4 mm, inverse
 /// inertia 8 % lower) plus noise of the Kalman filter's variance after `k` updates, weights
 /// its information.
@@ -108,52 +109,50 @@ fn long_run<S: Exact>(updates: u64, seed: u64) -> RunFigures {
         let ft = terms.firing_terms(word);
         let rows = inertia_rows(&ft.torque_cnm);
         let len = 150 + (rng.u() * 350.0) as u64;
-        let mut last = None;
+        // Every per-sample measurement of a firing has the firing's regressors; the pipeline
+        // folds them in aggregate (total information, information-weighted mean).
         let mut s2 = 0.0f64;
+        let (mut w_sum, mut wb_in, mut wb_cm) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
         for k in 1..=len {
             s2 += (k * k) as f64;
             // Variance of the Kalman estimate after k updates: (R/dt^2) / (alpha + sum k^2).
             let var: [f64; 3] = core::array::from_fn(|i| (r0[i] / 1e-6) / (r0[i] / 0.5e-6 + s2));
             let noise: [f64; 3] = core::array::from_fn(|i| var[i].sqrt() * rng.normal());
-            let b_in: [f64; 3] = core::array::from_fn(|i| (0..6).map(|j| rows[i][j].exact() * theta_true[j]).sum::<f64>() + noise[i]);
-            let b_cm: [f64; 3] = core::array::from_fn(|i| (0..3).map(|j| ft.a_com[i][j].exact() * com_true[j]).sum::<f64>() + noise[i]);
-            let to_s = |v: f64| S::from_f32(v as f32);
-            let m = Measurement {
-                a_com: ft.a_com,
-                b_com: b_cm.map(to_s),
-                a_inertia: rows,
-                b_inertia: b_in.map(to_s),
-                weight: var.map(|v| Scaled::<S>::from_f64(1.0 / v)),
-                variance: var.map(Scaled::<S>::from_f64),
-            };
-            if firing <= 2 {
-                mass.add_batch(&m);
-            } else {
-                mass.add_tick(&m);
+            for i in 0..3 {
+                let b_in = (0..6).map(|j| rows[i][j].exact() * theta_true[j]).sum::<f64>() + noise[i];
+                let b_cm = (0..3).map(|j| ft.a_com[i][j].exact() * com_true[j]).sum::<f64>() + noise[i];
+                w_sum[i] += 1.0 / var[i];
+                wb_in[i] += b_in / var[i];
+                wb_cm[i] += b_cm / var[i];
             }
-            // The reference gets exactly what the kernel holds (inputs rounded into S).
-            let w: [f64; 3] = core::array::from_fn(|i| m.weight[i].m.exact() * (2.0f64).powi(m.weight[i].e));
-            let r = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| 1.0 / w[i]));
-            ref_com.add(&Observation {
-                a: SMatrix::<f64, 3, 3>::from_fn(|i, j| m.a_com[i][j].exact()),
-                b: Vector3::from_fn(|i, _| m.b_com[i].exact()),
-                r,
-            });
-            ref_inertia.add(&Observation {
-                a: SMatrix::<f64, 3, 6>::from_fn(|i, j| m.a_inertia[i][j].exact()),
-                b: Vector3::from_fn(|i, _| m.b_inertia[i].exact()),
-                r,
-            });
-            last = Some(m);
             fig.updates += 1;
         }
-        let status = if firing < 2 {
-            continue;
-        } else if firing == 2 {
-            mass.solve()
-        } else {
-            mass.end_firing(last.as_ref())
+        let to_s = |v: f64| S::from_f32(v as f32);
+        let m = Measurement {
+            a_com: ft.a_com,
+            b_com: core::array::from_fn(|i| to_s(wb_cm[i] / w_sum[i])),
+            a_inertia: rows,
+            b_inertia: core::array::from_fn(|i| to_s(wb_in[i] / w_sum[i])),
+            weight: w_sum.map(Scaled::<S>::from_f64),
+            variance: w_sum.map(|w| Scaled::<S>::from_f64(1.0 / w)),
         };
+        // The reference gets exactly what the kernel holds (inputs rounded into S).
+        let w: [f64; 3] = core::array::from_fn(|i| m.weight[i].m.exact() * (2.0f64).powi(m.weight[i].e));
+        let r = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| 1.0 / w[i]));
+        ref_com.add(&Observation {
+            a: SMatrix::<f64, 3, 3>::from_fn(|i, j| m.a_com[i][j].exact()),
+            b: Vector3::from_fn(|i, _| m.b_com[i].exact()),
+            r,
+        });
+        ref_inertia.add(&Observation {
+            a: SMatrix::<f64, 3, 6>::from_fn(|i, j| m.a_inertia[i][j].exact()),
+            b: Vector3::from_fn(|i, _| m.b_inertia[i].exact()),
+            r,
+        });
+        // The deployed end-of-firing fold: batch over the first two firings, solved after
+        // the second, then RLS.
+        let Some(solved) = FiringFold::new(m, len as u32, firing <= 2, firing == 2).run(&mut mass) else { continue };
+        let status = solved.status;
         fig.solves += 1;
         fig.statuses[status as usize] += 1;
         check_solve(&mass, status, &ref_com, &ref_inertia, &mut fig.worst, fig.updates);

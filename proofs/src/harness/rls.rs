@@ -149,6 +149,7 @@ pub const HARNESSES: [Harness; 2] = [
 /// status is Ok / PartlyUnobservable, the information never silently saturates, and a
 /// detector alarm (covariance reset) only deflates the information.
 fn mass_id_options<S: Exact>() {
+    use massid_kernel::fold::FiringFold;
     use massid_kernel::rls::{DetectorConfig, MassId, Measurement, RlsConfig, RlsStatus};
     let p = super::draw::params_or_sph2();
     let Ok(terms) = p.terms::<S>() else { panic!("envelope parameters rejected") };
@@ -173,27 +174,32 @@ fn mass_id_options<S: Exact>() {
         let ft = terms.firing_terms(word);
         let rows = massid_kernel::model::inertia_rows(&ft.torque_cnm);
         let len = any_in(1usize, 6);
-        let mut last = None;
+        // The firing's per-sample measurements share the regressors; the pipeline folds them
+        // in aggregate (total information, information-weighted mean), as here.
+        let (mut w_sum, mut wb_in, mut wb_com) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
         for k in 1..=len {
             let var = [0; 3].map(|_| any_f64_in(1e-9, 1e-3));
-            let b_in: [S; 3] = core::array::from_fn(|i| S::from_f32(((0..6).map(|j| rows[i][j].exact() * theta[j]).sum::<f64>() + any_f64_in(-1.0, 1.0) * var[i].sqrt()) as f32));
-            let m = Measurement {
-                a_com: ft.a_com,
-                b_com: [0; 3].map(|_| S::from_f32(any_f64_in(-1.0, 1.0) as f32)),
-                a_inertia: rows,
-                b_inertia: b_in,
-                weight: var.map(|v| Scaled::<S>::from_f64(1.0 / (v * k as f64))),
-                variance: var.map(|v| Scaled::<S>::from_f64(v * k as f64)),
-            };
-            if f < 2 {
-                mass.add_batch(&m);
-            } else {
-                mass.add_tick(&m);
+            for i in 0..3 {
+                let w = 1.0 / (var[i] * k as f64);
+                let b_in = (0..6).map(|j| rows[i][j].exact() * theta[j]).sum::<f64>() + any_f64_in(-1.0, 1.0) * var[i].sqrt();
+                w_sum[i] += w;
+                wb_in[i] += w * b_in;
+                wb_com[i] += w * any_f64_in(-1.0, 1.0);
             }
-            last = Some(m);
         }
+        let agg = Measurement {
+            a_com: ft.a_com,
+            b_com: core::array::from_fn(|i| S::from_f32((wb_com[i] / w_sum[i]) as f32)),
+            a_inertia: rows,
+            b_inertia: core::array::from_fn(|i| S::from_f32((wb_in[i] / w_sum[i]) as f32)),
+            weight: w_sum.map(Scaled::<S>::from_f64),
+            variance: w_sum.map(|w| Scaled::<S>::from_f64(1.0 / w)),
+        };
         let resets_before = mass.resets;
-        let st = if f < 1 { continue } else if f == 1 { mass.solve() } else { mass.end_firing(last.as_ref()) };
+        // The deployed end-of-firing fold (batch for the first two firings, solved after the
+        // second; then RLS with the change test and forgetting).
+        let Some(solved) = FiringFold::new(agg, len as u32, f < 2, f == 1).run(&mut mass) else { continue };
+        let st = solved.status;
         cover!(mass.resets > resets_before, "change detector reset");
         cover!(st == RlsStatus::Ok, "ok");
         cover!(forgetting && st == RlsStatus::Ok, "ok with forgetting");

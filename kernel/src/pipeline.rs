@@ -259,7 +259,7 @@ impl<S: Scalar> Pipeline<S> {
 
     fn step(&mut self, gyro: Option<[u16; 3]>, word: u16) -> TickReport {
         self.ticks = self.ticks.saturating_add(1);
-        let solved = self.run_deferred();
+        let mut solved = self.run_deferred();
         let railed = gyro.is_some_and(|c| c.iter().any(|&v| v == 0 || v >= RAIL_COUNT));
         if railed {
             self.counters.railed_samples = self.counters.railed_samples.saturating_add(1);
@@ -270,7 +270,9 @@ impl<S: Scalar> Pipeline<S> {
         }
         let mut changed = false;
         if word != self.word {
-            self.end_firing();
+            // A fold the previous firing left unfinished is completed here; its solve is
+            // this tick's event.
+            solved |= self.end_firing();
             self.word = word;
             if word != 0 {
                 changed = true;
@@ -376,13 +378,14 @@ impl<S: Scalar> Pipeline<S> {
         TickEvent::Updated
     }
 
-    /// Folds the ending firing in; returns true if it had data. Its solve runs on the next
-    /// tick ([`Pipeline::run_deferred`]).
+    /// Folds the ending firing in (its stages run on the next ticks, [`Pipeline::run_deferred`]);
+    /// an earlier firing's fold still pending is completed first. Returns true if that
+    /// completed a solve.
     fn end_firing(&mut self) -> bool {
         if self.word == 0 || !self.firing_has_data {
             return false;
         }
-        self.catch_up();
+        let solved = self.catch_up();
         // Only what the next firing's reset needs is computed now: the acceleration to
         // extrapolate the lagging filtered rate. The rest works on a copy of the filter.
         if let Some(x) = self.kf.omega_dot() {
@@ -395,7 +398,7 @@ impl<S: Scalar> Pipeline<S> {
         self.ended.batch = n <= self.cfg.batch_firings;
         self.ended.batch_complete = n == self.cfg.batch_firings;
         self.deferred = Some(Pending::Measure);
-        true
+        solved
     }
 
     /// Runs one stage of a firing's deferred work per tick ([`DeferredStage`]: final estimate,
@@ -513,9 +516,9 @@ impl<S: Scalar> Pipeline<S> {
     /// Ends the current firing (if any) as if the thrusters had turned off, e.g. at the end
     /// of a recording, so its data is folded in.
     pub fn finish(&mut self) -> PipelineStatus {
-        self.catch_up();
-        self.end_firing();
-        let solved = self.catch_up();
+        let mut solved = self.catch_up();
+        solved |= self.end_firing();
+        solved |= self.catch_up();
         if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
             // Fewer firings than the batch needs: the batch so far is the estimate.
             let before = self.mass.estimate();

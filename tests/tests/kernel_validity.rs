@@ -216,3 +216,32 @@ fn a_huge_time_jump_costs_nothing_and_changes_nothing_in_a_coast() {
         assert_eq!(a, b, "a gap in a coast must not change the estimate");
     }
 }
+
+#[test]
+fn a_solve_completed_by_a_catch_up_is_reported() {
+    // At 10 ms sampling a firing of 3 samples ends long before its fold's 12 stages have run:
+    // the next word change completes the fold at once. That tick must say `Solved` (it was
+    // silently dropped before), once per completed solve.
+    use massid_kernel::{model::SPH2, Pipeline, PipelineConfig, TickEvent};
+    let words = [0x0021u16, 0x0810, 0x0003, 0x000c, 0x0300, 0x00c0];
+    let mut p = Pipeline::<f32>::new(&SPH2, PipelineConfig::seed(10)).expect("sph2");
+    let mut solved = 0;
+    let mut changes = 0;
+    for f in 0..60 {
+        changes += 1;
+        for k in 0..3u16 {
+            let c = 2070 + (f as u16 % 7) * 3 + k * 5;
+            if p.tick([c, c + 1, c + 2], words[f % words.len()]).event == TickEvent::Solved {
+                solved += 1;
+            }
+        }
+    }
+    // Every fitted firing but the first (batch) one ends in a solve, and no fold can finish
+    // within 3 ticks, so all of them come from catch-ups (before the fix: 0 events). The last
+    // firing is never ended here; firings the gyros did not respond to are not fitted; two
+    // solves falling on one tick count once.
+    let dropped = p.data_counters().unresponsive_firings;
+    assert!(p.estimates().updates > 0 && dropped < changes / 2, "dropped {dropped}");
+    let folded = changes - 1 - dropped;
+    assert!(solved + 2 >= folded - 1 && solved < folded, "{solved} Solved events for {folded} folded firings");
+}

@@ -13,3 +13,4 @@ pub fn open2_data_dir() -> PathBuf {
 }
 
 pub mod coverage;
+pub mod crlb;

@@ -89,6 +89,10 @@ pub struct HistoryPoint {
     pub com_sigma_mm: [f64; 3],
     pub inertia_kgm2: [f64; 6],
     pub inertia_sigma_kgm2: [f64; 6],
+    /// Terms the updates so far leave unobservable (cm_x cm_y cm_z Ixx .. Iyz order): their
+    /// values here are the unconstrained RLS's, not estimates (the final result holds them
+    /// at the model).
+    pub unobservable: [bool; 9],
 }
 
 /// The result: what `contracts/estimate-output.md` needs, and more.
@@ -398,9 +402,15 @@ impl MassIdAccumulator {
         let cc = rc.covariance().ok()?;
         let ci = ri.covariance().ok()?;
         let (ivec, icov) = inertia_from_inverse(&ri.x, &ci)?;
+        let held = self.unobservable(self.sample_period_s);
+        let unobservable = core::array::from_fn(|j| {
+            let name = if j < 3 { COM_TERMS[j] } else { INERTIA_TERMS[j - 3] };
+            held.iter().any(|h| h == name)
+        });
         Some(HistoryPoint {
             t_s,
             update: self.updates,
+            unobservable,
             com_offset_mm: (rc.x * 1e3).into(),
             com_sigma_mm: [0, 1, 2].map(|j| cc[(j, j)].sqrt() * 1e3),
             inertia_kgm2: ivec.into(),

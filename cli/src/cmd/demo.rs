@@ -155,12 +155,20 @@ fn run_reference(rec: &Recording, sat: &Satellite) -> (Estimate, Track) {
     pb.finish();
     let e = est.finish();
     let mut t = Track::default();
+    // The history's sigma is the RLS covariance as the seed plots it; the band shows it scaled
+    // as the final standard errors are (variance factor, updates per firing), so it is the
+    // uncertainty the estimator reports. Terms not yet observable are drawn at the model, the
+    // value the result holds them at, without a band.
+    let scale = |last: f64, reported: f64| if last > 0.0 && reported.is_finite() { reported / last } else { 1.0 };
+    let last = e.history.last();
+    let com_scale: [f64; 3] = core::array::from_fn(|j| last.map_or(1.0, |h| scale(h.com_sigma_mm[j], e.com_offset_stderr_mm[j])));
+    let inertia_scale: [f64; 6] = core::array::from_fn(|j| last.map_or(1.0, |h| scale(h.inertia_sigma_kgm2[j], e.inertia_stderr_kgm2[j])));
     for h in &e.history {
         t.t_s.push(h.t_s);
-        t.com_mm.push(h.com_offset_mm);
-        t.inertia.push(h.inertia_kgm2);
-        t.com_sigma.push(h.com_sigma_mm);
-        t.inertia_sigma.push(h.inertia_sigma_kgm2);
+        t.com_mm.push(core::array::from_fn(|j| if h.unobservable[j] { 0.0 } else { h.com_offset_mm[j] }));
+        t.inertia.push(core::array::from_fn(|j| if h.unobservable[3 + j] { sat.inertia_kgm2[j] } else { h.inertia_kgm2[j] }));
+        t.com_sigma.push(core::array::from_fn(|j| if h.unobservable[j] { 0.0 } else { h.com_sigma_mm[j] * com_scale[j] }));
+        t.inertia_sigma.push(core::array::from_fn(|j| if h.unobservable[3 + j] { 0.0 } else { h.inertia_sigma_kgm2[j] * inertia_scale[j] }));
     }
     (e, t)
 }
@@ -365,6 +373,8 @@ where
     };
     let r = d.r;
     let t_end = r.t_s.last().copied().unwrap_or(1.0).max(d.change.at_s * 2.0);
+    // The axes hold every estimate and the truth (no curve is clipped); the band may leave
+    // them where the estimator itself says it knows little (just after the batch or a reset).
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
     for j in 0..3 {
@@ -372,14 +382,24 @@ where
             lo = lo.min(d.truth(j, after));
             hi = hi.max(d.truth(j, after));
         }
+        for t in [d.r, d.a, d.b] {
+            for k in 0..t.t_s.len() {
+                let v = d.value(t, k, j);
+                if v.is_finite() {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+        }
     }
-    let pad = (hi - lo).max(1e-9) * 0.6;
+    let pad = (hi - lo).max(1e-9) * 0.06;
     let (lo, hi) = (lo - pad, hi + pad);
-    let clamp = |v: f64| v.clamp(lo, hi);
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("{e:?}");
 
     root.fill(&WHITE).map_err(err)?;
-    let mut chart = ChartBuilder::on(&root)
+    // The legend gets its own column, so it covers no data.
+    let (plot_area, legend_area) = root.split_horizontally(880);
+    let mut chart = ChartBuilder::on(&plot_area)
         .caption(title, ("sans-serif", 22))
         .margin(12)
         .x_label_area_size(40)
@@ -391,7 +411,7 @@ where
         PlotKind::Inertia => ["Ixx", "Iyy", "Izz"],
         PlotKind::Com => ["cm_x", "cm_y", "cm_z"],
     };
-    for (j, label) in labels.iter().enumerate() {
+    for j in 0..labels.len() {
         let col = match j {
             0 => RED,
             1 => BLUE,
@@ -399,27 +419,21 @@ where
         };
         let n = r.t_s.len();
         let band: Vec<(f64, f64)> = (0..n)
-            .map(|k| (r.t_s[k], clamp(d.value(r, k, j) + d.sigma(k, j))))
-            .chain((0..n).rev().map(|k| (r.t_s[k], clamp(d.value(r, k, j) - d.sigma(k, j)))))
+            .map(|k| (r.t_s[k], (d.value(r, k, j) + d.sigma(k, j)).min(hi)))
+            .chain((0..n).rev().map(|k| (r.t_s[k], (d.value(r, k, j) - d.sigma(k, j)).max(lo))))
             .collect();
         chart.draw_series(std::iter::once(Polygon::new(band, col.mix(0.15)))).map_err(err)?;
         chart
-            .draw_series(LineSeries::new((0..n).map(|k| (r.t_s[k], clamp(d.value(r, k, j)))), col.stroke_width(2)))
-            .map_err(err)?
-            .label(format!("{label} f64"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+            .draw_series(LineSeries::new((0..n).map(|k| (r.t_s[k], d.value(r, k, j))), col.stroke_width(2)))
+            .map_err(err)?;
         let a = d.a;
         chart
-            .draw_series(LineSeries::new((0..a.t_s.len()).map(|k| (a.t_s[k], clamp(d.value(a, k, j)))), col.mix(0.5)))
-            .map_err(err)?
-            .label(format!("{label} f32"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.mix(0.5)));
+            .draw_series(LineSeries::new((0..a.t_s.len()).map(|k| (a.t_s[k], d.value(a, k, j))), col.mix(0.5)))
+            .map_err(err)?;
         let b = d.b;
         chart
-            .draw_series((0..b.t_s.len()).map(|k| Circle::new((b.t_s[k], clamp(d.value(b, k, j))), 2, col.filled())))
-            .map_err(err)?
-            .label(format!("{label} fixed"))
-            .legend(move |(x, y)| Circle::new((x + 10, y), 2, col.filled()));
+            .draw_series((0..b.t_s.len()).map(|k| Circle::new((b.t_s[k], d.value(b, k, j)), 2, col.filled())))
+            .map_err(err)?;
         for (t0, t1, after) in [(0.0, d.change.at_s, false), (d.change.at_s, t_end, true)] {
             let v = d.truth(j, after);
             let segs = 80;
@@ -437,16 +451,31 @@ where
             vec![(d.change.at_s, lo), (d.change.at_s, hi)],
             BLACK.mix(0.5).stroke_width(1),
         )))
-        .map_err(err)?
-        .label("proof mass attached; truth dashed")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.5)));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
         .map_err(err)?;
+    let mut y = 60;
+    for (j, label) in labels.iter().enumerate() {
+        let col = match j {
+            0 => RED,
+            1 => BLUE,
+            _ => RGBColor(0, 140, 0),
+        };
+        for (what, style) in [("f64 (band: 1 sigma)", 0), ("f32 kernel", 1), ("fixed kernel", 2)] {
+            match style {
+                0 => legend_area.draw(&PathElement::new(vec![(10, y), (34, y)], col.stroke_width(3))),
+                1 => legend_area.draw(&PathElement::new(vec![(10, y), (34, y)], col.mix(0.5))),
+                _ => legend_area.draw(&Circle::new((22, y), 3, col.filled())),
+            }
+            .map_err(err)?;
+            legend_area.draw(&Text::new(format!("{label} {what}"), (40, y - 7), ("sans-serif", 14))).map_err(err)?;
+            y += 22;
+        }
+        y += 8;
+    }
+    legend_area.draw(&PathElement::new(vec![(10, y), (34, y)], BLACK.stroke_width(1))).map_err(err)?;
+    legend_area.draw(&Text::new("truth (dashed)", (40, y - 7), ("sans-serif", 14))).map_err(err)?;
+    y += 22;
+    legend_area.draw(&PathElement::new(vec![(10, y), (34, y)], BLACK.mix(0.5))).map_err(err)?;
+    legend_area.draw(&Text::new("proof mass attached", (40, y - 7), ("sans-serif", 14))).map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
 }
@@ -510,6 +539,25 @@ mod tests {
                 assert!((com[j] - offset[j]).abs() < 0.1, "CoM after: {com:?} vs {offset:?}");
             }
         }
+        // While it re-converges after the detected change, the reference stays within 3 of its
+        // own (reported-scale) sigmas of the new truth, on every CoM and principal-inertia term.
+        let det = est.detections_s[0];
+        let mut checked = 0;
+        for k in (0..r.t_s.len()).filter(|&k| r.t_s[k] > det) {
+            for j in 0..3 {
+                let (c, s) = (r.com_mm[k][j], r.com_sigma[k][j]);
+                if s > 0.0 {
+                    assert!((c - offset[j]).abs() <= 3.0 * s, "t {} cm {j}: {c} vs {} +- {s}", r.t_s[k], offset[j]);
+                    checked += 1;
+                }
+                let (i, s) = (r.inertia[k][j], r.inertia_sigma[k][j]);
+                if s > 0.0 {
+                    assert!((i - inertia[j]).abs() <= 3.0 * s, "t {} I {j}: {i} vs {} +- {s}", r.t_s[k], inertia[j]);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 100, "{checked} points checked");
     }
 
     #[test]

@@ -1,11 +1,11 @@
 //! `massid characterize`: the ground characterization tools of seed chapters 2-3 and the
 //! appendix B slosh discretisation, one subcommand each, all from `reference_f64`.
 use super::mix::{emit, parse_triple};
-use std::fmt::Write as _;
 use anyhow::{anyhow, bail, Context};
 use nalgebra::{Matrix3, Vector3};
 use reference_f64::characterize::{self as ch, LoadCellMoments, Trifilar};
 use reference_f64::slosh::SloshModel;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -101,7 +101,12 @@ enum Tool {
     #[command(allow_negative_numbers = true)]
     Products {
         /// A measurement ANGLE_DEG:INERTIA (repeat, at least 3 distinct angles).
-        #[arg(long = "measurement", value_name = "ANGLE_DEG:INERTIA", required = true, allow_hyphen_values = true)]
+        #[arg(
+            long = "measurement",
+            value_name = "ANGLE_DEG:INERTIA",
+            required = true,
+            allow_hyphen_values = true
+        )]
         measurements: Vec<String>,
     },
     /// Full inertia tensor from the six-measurement scheme (X, Y, Z and 45 deg between
@@ -207,8 +212,12 @@ fn parse_pair(s: &str) -> Result<[f64; 2], String> {
     if parts.len() != 2 {
         return Err(format!("expected two comma-separated numbers, got {s:?}"));
     }
-    let a: f64 = parts[0].parse().map_err(|_| format!("{:?} is not a number", parts[0]))?;
-    let b: f64 = parts[1].parse().map_err(|_| format!("{:?} is not a number", parts[1]))?;
+    let a: f64 = parts[0]
+        .parse()
+        .map_err(|_| format!("{:?} is not a number", parts[0]))?;
+    let b: f64 = parts[1]
+        .parse()
+        .map_err(|_| format!("{:?} is not a number", parts[1]))?;
     if !(a.is_finite() && b.is_finite()) {
         return Err(format!("{s:?} is not finite"));
     }
@@ -230,8 +239,11 @@ impl Out {
     fn print(self, json: bool) -> anyhow::Result<()> {
         let mut text = String::new();
         if json {
-            let map: serde_json::Map<String, serde_json::Value> =
-                self.0.into_iter().map(|(n, v, _)| (n.to_string(), v)).collect();
+            let map: serde_json::Map<String, serde_json::Value> = self
+                .0
+                .into_iter()
+                .map(|(n, v, _)| (n.to_string(), v))
+                .collect();
             text = serde_json::to_string_pretty(&map)?;
             text.push('\n');
         } else {
@@ -244,7 +256,8 @@ impl Out {
 }
 
 fn read_force_samples(path: &PathBuf) -> anyhow::Result<Vec<Vector3<f64>>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
     let mut out = Vec::new();
     for (n, line) in text.lines().enumerate() {
         let t = line.trim();
@@ -253,7 +266,9 @@ fn read_force_samples(path: &PathBuf) -> anyhow::Result<Vec<Vector3<f64>>> {
         }
         match parse_triple(t) {
             Ok(v) => out.push(Vector3::from(v)),
-            Err(_) if out.is_empty() && n == 0 && t.chars().any(|c| c.is_ascii_alphabetic()) => continue, // header
+            Err(_) if out.is_empty() && n == 0 && t.chars().any(|c| c.is_ascii_alphabetic()) => {
+                continue
+            } // header
             Err(e) => bail!("{}:{}: {e}", path.display(), n + 1),
         }
     }
@@ -266,14 +281,21 @@ fn read_force_samples(path: &PathBuf) -> anyhow::Result<Vec<Vector3<f64>>> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let json = args.json;
     let out = match args.tool {
-        Tool::Pendulum { setup, omega, period, stopwatch, oscillations } => {
+        Tool::Pendulum {
+            setup,
+            omega,
+            period,
+            stopwatch,
+            oscillations,
+        } => {
             let p = setup.trifilar();
             let w = match (omega, period, stopwatch) {
                 (Some(w), None, None) => w,
                 (None, Some(t), None) => ch::omega_from_period(t)?,
-                (None, None, Some(t)) => {
-                    ch::omega_from_stopwatch(t, oscillations.ok_or_else(|| anyhow!("--stopwatch needs --oscillations"))?)?
-                }
+                (None, None, Some(t)) => ch::omega_from_stopwatch(
+                    t,
+                    oscillations.ok_or_else(|| anyhow!("--stopwatch needs --oscillations"))?,
+                )?,
                 _ => bail!("give exactly one of --omega, --period, --stopwatch"),
             };
             Out(vec![])
@@ -282,43 +304,91 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .num("base_inertia", p.base_inertia_kgm2, "kg m^2")
                 .num("inertia", p.inertia(w)?, "kg m^2")
         }
-        Tool::Kappa { setup, inertia, omega } => match (inertia, omega) {
-            (Some(i), Some(w)) => Out(vec![]).num("kappa", ch::torsion_kappa(i, w)?, "N m/rad").val("equation", "2.8".into(), ""),
-            (None, None) => Out(vec![]).num("kappa", setup.trifilar().kappa()?, "N m/rad").val("equation", "2.9".into(), ""),
+        Tool::Kappa {
+            setup,
+            inertia,
+            omega,
+        } => match (inertia, omega) {
+            (Some(i), Some(w)) => Out(vec![])
+                .num("kappa", ch::torsion_kappa(i, w)?, "N m/rad")
+                .val("equation", "2.8".into(), ""),
+            (None, None) => Out(vec![])
+                .num("kappa", setup.trifilar().kappa()?, "N m/rad")
+                .val("equation", "2.9".into(), ""),
             (None, Some(w)) => {
                 let k = setup.trifilar().kappa()?;
                 Out(vec![])
                     .num("kappa", k, "N m/rad")
-                    .num("inertia_from_kappa", ch::inertia_from_kappa(k, w)?, "kg m^2")
+                    .num(
+                        "inertia_from_kappa",
+                        ch::inertia_from_kappa(k, w)?,
+                        "kg m^2",
+                    )
                     .val("equation", "2.9, then 2.8 inverted".into(), "")
             }
             (Some(_), None) => bail!("--inertia needs --omega"),
         },
-        Tool::Damping { a0, an, oscillations } => {
+        Tool::Damping {
+            a0,
+            an,
+            oscillations,
+        } => {
             let z = ch::damping_ratio(a0, an, oscillations)?;
-            Out(vec![]).num("zeta", z, "").num("inertia_error_percent", ch::damping_inertia_error_percent(z)?, "%")
+            Out(vec![]).num("zeta", z, "").num(
+                "inertia_error_percent",
+                ch::damping_inertia_error_percent(z)?,
+                "%",
+            )
         }
         Tool::Products { measurements } => {
             let mut ms = Vec::new();
             for m in &measurements {
-                let (a, i) = m.split_once(':').ok_or_else(|| anyhow!("measurement {m:?}: expected ANGLE_DEG:INERTIA"))?;
-                let a: f64 = a.trim().parse().map_err(|_| anyhow!("measurement {m:?}: angle {a:?} is not a number"))?;
-                let i: f64 = i.trim().parse().map_err(|_| anyhow!("measurement {m:?}: inertia {i:?} is not a number"))?;
+                let (a, i) = m
+                    .split_once(':')
+                    .ok_or_else(|| anyhow!("measurement {m:?}: expected ANGLE_DEG:INERTIA"))?;
+                let a: f64 = a
+                    .trim()
+                    .parse()
+                    .map_err(|_| anyhow!("measurement {m:?}: angle {a:?} is not a number"))?;
+                let i: f64 = i
+                    .trim()
+                    .parse()
+                    .map_err(|_| anyhow!("measurement {m:?}: inertia {i:?} is not a number"))?;
                 ms.push((a.to_radians(), i));
             }
             let fit = ch::products_of_inertia_from_rotations(&ms)?;
             Out(vec![])
                 .num("iyy", fit.iyy, "kg m^2")
                 .num("izz", fit.izz, "kg m^2")
-                .num("pyz", fit.pyz, "kg m^2 (product of inertia; tensor entry is -pyz)")
+                .num(
+                    "pyz",
+                    fit.pyz,
+                    "kg m^2 (product of inertia; tensor entry is -pyz)",
+                )
                 .num("rms_residual", fit.rms_residual, "kg m^2")
         }
-        Tool::Six { ixx, iyy, izz, ixy45, iyz45, izx45 } => {
+        Tool::Six {
+            ixx,
+            iyy,
+            izz,
+            ixy45,
+            iyz45,
+            izx45,
+        } => {
             let t = ch::inertia_tensor_from_six(ixx, iyy, izz, ixy45, iyz45, izx45)?;
-            let rows: Vec<Vec<f64>> = (0..3).map(|r| (0..3).map(|c| t[(r, c)]).collect()).collect();
+            let rows: Vec<Vec<f64>> = (0..3)
+                .map(|r| (0..3).map(|c| t[(r, c)]).collect())
+                .collect();
             Out(vec![]).val("inertia_tensor", serde_json::json!(rows), "kg m^2")
         }
-        Tool::Com { mass, g, upright, upright_bias, side, side_bias } => {
+        Tool::Com {
+            mass,
+            g,
+            upright,
+            upright_bias,
+            side,
+            side_bias,
+        } => {
             let mut tests = vec![LoadCellMoments {
                 body_to_cell: Matrix3::identity(),
                 moment_nm: Vector3::new(upright[0], upright[1], 0.0),
@@ -337,14 +407,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 if !(w.is_finite() && w > 0.0) {
                     bail!("mass and gravity must be positive");
                 }
-                let m = Vector3::new(upright[0] - upright_bias[0], upright[1] - upright_bias[1], 0.0);
+                let m = Vector3::new(
+                    upright[0] - upright_bias[0],
+                    upright[1] - upright_bias[1],
+                    0.0,
+                );
                 Out(vec![])
                     .num("com_x_mm", m.y / w * 1e3, "mm")
                     .num("com_y_mm", -m.x / w * 1e3, "mm")
-                    .val("com_z_mm", serde_json::Value::Null, "(unobserved: add --side)")
+                    .val(
+                        "com_z_mm",
+                        serde_json::Value::Null,
+                        "(unobserved: add --side)",
+                    )
             } else {
                 let c = ch::com_from_load_cell(&tests, mass, g)?;
-                Out(vec![]).num("com_x_mm", c.x * 1e3, "mm").num("com_y_mm", c.y * 1e3, "mm").num("com_z_mm", c.z * 1e3, "mm")
+                Out(vec![])
+                    .num("com_x_mm", c.x * 1e3, "mm")
+                    .num("com_y_mm", c.y * 1e3, "mm")
+                    .num("com_z_mm", c.z * 1e3, "mm")
             }
         }
         Tool::Thrust { samples, bias } => {
@@ -355,10 +436,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .num("magnitude_n", t.magnitude_n, "N")
                 .val("direction", serde_json::json!(t.direction), "")
         }
-        Tool::ParallelAxis { mass, offset, inertia } => {
-            let mut o = Out(vec![]).num("inertia_error", ch::parallel_axis_error(mass, offset)?, "kg m^2");
+        Tool::ParallelAxis {
+            mass,
+            offset,
+            inertia,
+        } => {
+            let mut o = Out(vec![]).num(
+                "inertia_error",
+                ch::parallel_axis_error(mass, offset)?,
+                "kg m^2",
+            );
             if let Some(i) = inertia {
-                o = o.num("parallel_axis_inertia", ch::parallel_axis(i, mass, offset)?, "kg m^2");
+                o = o.num(
+                    "parallel_axis_inertia",
+                    ch::parallel_axis(i, mass, offset)?,
+                    "kg m^2",
+                );
             }
             o
         }
@@ -370,24 +463,40 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .num("error_m", err, "m")
                 .num("error_percent", 100.0 * err / arc, "%")
         }
-        Tool::Energy { setup, rotation_deg, swing } => {
+        Tool::Energy {
+            setup,
+            rotation_deg,
+            swing,
+        } => {
             let p = setup.trifilar();
             let ea = p.rotational_energy(rotation_deg.to_radians())?;
             let eb = p.translational_energy(swing)?;
             Out(vec![])
                 .num("rotational_energy_j", ea, "J")
                 .num("translational_energy_j", eb, "J")
-                .num("inertia_error_percent", 100.0 * p.swing_inertia_error_fraction(rotation_deg.to_radians(), swing)?, "%")
+                .num(
+                    "inertia_error_percent",
+                    100.0 * p.swing_inertia_error_fraction(rotation_deg.to_radians(), swing)?,
+                    "%",
+                )
         }
         Tool::Slosh { dt } => {
             let d = SloshModel::SEED.discretize_zoh(dt)?;
             let (num, den) = d.transfer_function();
             Out(vec![])
                 .num("dt_s", dt, "s")
-                .val("ad", serde_json::json!([[d.ad[(0, 0)], d.ad[(0, 1)]], [d.ad[(1, 0)], d.ad[(1, 1)]]]), "")
+                .val(
+                    "ad",
+                    serde_json::json!([[d.ad[(0, 0)], d.ad[(0, 1)]], [d.ad[(1, 0)], d.ad[(1, 1)]]]),
+                    "",
+                )
                 .val("bd", serde_json::json!([d.bd[0], d.bd[1]]), "")
                 .val("numerator_z1_z0", serde_json::json!(num), "")
-                .val("denominator_z1_z0", serde_json::json!(den), "(z^2 + d1 z + d0)")
+                .val(
+                    "denominator_z1_z0",
+                    serde_json::json!(den),
+                    "(z^2 + d1 z + d0)",
+                )
         }
     };
     out.print(json)

@@ -34,20 +34,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .clone()
             .or_else(|| rec.satellite().map(str::to_string))
             .with_context(|| {
-                format!("{}: no `satellite` metadata; pass --satellite or --model", args.recording.display())
+                format!(
+                    "{}: no `satellite` metadata; pass --satellite or --model",
+                    args.recording.display()
+                )
             })?;
-        Satellite::builtin(&name).with_context(|| format!("unknown satellite `{name}` (built-in: sph1..sph5)"))?
+        Satellite::builtin(&name)
+            .with_context(|| format!("unknown satellite `{name}` (built-in: sph1..sph5)"))?
     };
     let analysis = diagnose_recording(&rec, &sat, &Settings::default())?;
     print!("{}", report::summary(&analysis));
     if let Some(out) = &args.json {
         super::check_output(out, &[&args.recording])?;
         let text = serde_json::to_string_pretty(&analysis.output)?;
-        std::fs::write(out, text + "\n").with_context(|| format!("{}: cannot write", out.display()))?;
+        std::fs::write(out, text + "\n")
+            .with_context(|| format!("{}: cannot write", out.display()))?;
     }
     if let Some(dir) = &args.report {
         super::check_output(&dir.join("report.html"), &[&args.recording])?;
-        report::write_html(dir, &analysis).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        report::write_html(dir, &analysis)
+            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         println!("report: {}", dir.join("report.html").display());
     }
     Ok(())

@@ -76,7 +76,11 @@ fn parse_kernels(s: &str) -> anyhow::Result<Vec<Kernel>> {
 
 /// Loads the satellite: `--model` (reference TOML, else a simulator model file), else
 /// `--satellite`, else the recording's `satellite` metadata.
-pub fn load_satellite(rec: &Recording, satellite: Option<&str>, model: Option<&Path>) -> anyhow::Result<Satellite> {
+pub fn load_satellite(
+    rec: &Recording,
+    satellite: Option<&str>,
+    model: Option<&Path>,
+) -> anyhow::Result<Satellite> {
     if let Some(path) = model {
         return match Satellite::from_toml_file(path) {
             Ok(s) => Ok(s),
@@ -89,7 +93,10 @@ pub fn load_satellite(rec: &Recording, satellite: Option<&str>, model: Option<&P
     let name = match satellite {
         Some(n) => n.to_string(),
         None => rec.satellite().map(str::to_string).ok_or_else(|| {
-            anyhow!("{}: no `satellite` metadata; pass --satellite sphN or --model FILE", rec.source)
+            anyhow!(
+                "{}: no `satellite` metadata; pass --satellite sphN or --model FILE",
+                rec.source
+            )
         })?,
     };
     Satellite::builtin(&name).ok_or_else(|| {
@@ -102,8 +109,16 @@ pub fn load_satellite(rec: &Recording, satellite: Option<&str>, model: Option<&P
 
 /// The f64 reference or one of the onboard kernels (`massid_kernel::Pipeline`, f32 or Q8.24
 /// fixed point) run sample by sample as flight code would, telemetry gaps as gap ticks.
-pub fn run_kernel(kernel: Kernel, rec: &Recording, sat: &Satellite, form: ReferenceForm) -> anyhow::Result<Estimate> {
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+pub fn run_kernel(
+    kernel: Kernel,
+    rec: &Recording,
+    sat: &Satellite,
+    form: ReferenceForm,
+) -> anyhow::Result<Estimate> {
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     match kernel {
         Kernel::F64 if form == ReferenceForm::Offline => Ok(estimate_offline(rec, sat, &cfg)),
         Kernel::F64 => Ok(estimate_online(rec, sat, &cfg)),
@@ -139,7 +154,12 @@ pub fn result_json(e: &Estimate) -> Value {
 
 /// Largest absolute difference of each field from the f64 result.
 pub fn max_diff_json(e: &Estimate, f64_result: &Estimate) -> Value {
-    let maxdiff = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    let maxdiff = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
     json!({
         "com_offset_mm": maxdiff(&e.com_offset_mm, &f64_result.com_offset_mm),
         "com_offset_stderr_mm": maxdiff(&e.com_offset_stderr_mm, &f64_result.com_offset_stderr_mm),
@@ -173,7 +193,12 @@ pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Estimate)])
 }
 
 fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
-    println!("[{}] status {}  updates {}", kernel.name(), e.status, e.updates);
+    println!(
+        "[{}] status {}  updates {}",
+        kernel.name(),
+        e.status,
+        e.updates
+    );
     let c = e.com_offset_mm;
     let cs = e.com_offset_stderr_mm;
     println!(
@@ -187,7 +212,10 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
         );
     }
     if !e.unobservable.is_empty() {
-        println!("  unobservable (held at the model's values): {}", e.unobservable.join(", "));
+        println!(
+            "  unobservable (held at the model's values): {}",
+            e.unobservable.join(", ")
+        );
     }
 }
 
@@ -205,7 +233,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         crate::cmd::check_output(out, &inputs)?;
     }
-    let form = if args.offline { ReferenceForm::Offline } else { ReferenceForm::Online };
+    let form = if args.offline {
+        ReferenceForm::Offline
+    } else {
+        ReferenceForm::Online
+    };
     let mut results = Vec::new();
     for k in kernels {
         let e = run_kernel(k, &rec, &sat, form)?;
@@ -238,8 +270,14 @@ mod tests {
 
     #[test]
     fn kernels_parse_and_unknown_is_an_error() {
-        assert_eq!(parse_kernels("all").unwrap(), vec![Kernel::F64, Kernel::F32, Kernel::Fixed]);
-        assert!(parse_kernels("f16").unwrap_err().to_string().contains("f16"));
+        assert_eq!(
+            parse_kernels("all").unwrap(),
+            vec![Kernel::F64, Kernel::F32, Kernel::Fixed]
+        );
+        assert!(parse_kernels("f16")
+            .unwrap_err()
+            .to_string()
+            .contains("f16"));
     }
 
     #[test]
@@ -248,10 +286,22 @@ mod tests {
         let rec = Recording::new("r.csv", Some("sph2"), Some(1000.0), Vec::new());
         let e = run_kernel(Kernel::F64, &rec, &sat, ReferenceForm::Online).unwrap();
         assert_eq!(e.status, "no_firings");
-        let doc = output_json("r.csv", "sph2", &[(Kernel::F64, e.clone()), (Kernel::F64, e)]);
+        let doc = output_json(
+            "r.csv",
+            "sph2",
+            &[(Kernel::F64, e.clone()), (Kernel::F64, e)],
+        );
         assert_eq!(doc["format"], "massid-estimate/1");
         let r = &doc["results"]["f64"];
-        for k in ["com_offset_mm", "com_offset_stderr_mm", "inertia_kgm2", "inertia_stderr_kgm2", "unobservable", "updates", "status"] {
+        for k in [
+            "com_offset_mm",
+            "com_offset_stderr_mm",
+            "inertia_kgm2",
+            "inertia_stderr_kgm2",
+            "unobservable",
+            "updates",
+            "status",
+        ] {
             assert!(!r[k].is_null(), "missing {k}");
         }
         assert_eq!(r["inertia_kgm2"].as_array().unwrap().len(), 6);

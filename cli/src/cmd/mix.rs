@@ -1,9 +1,9 @@
 //! `massid mix`: one force/torque command through the f64 reference PWM mixer (seed 3.3,
 //! Fig. 3.2), printing each thruster's ON/OFF time in ms within the control period.
 use anyhow::{anyhow, bail, Context};
-use std::fmt::Write as _;
 use reference_f64::mixer::{Mixer, DEFAULT_PERIOD_MS};
 use reference_f64::satellite::{Satellite, N_THRUSTERS};
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -54,7 +54,9 @@ pub fn parse_triple(s: &str) -> Result<[f64; 3], String> {
     }
     let mut out = [0.0; 3];
     for (o, p) in out.iter_mut().zip(&parts) {
-        let v: f64 = p.parse().map_err(|_| format!("{p:?} is not a number (in {s:?})"))?;
+        let v: f64 = p
+            .parse()
+            .map_err(|_| format!("{p:?} is not a number (in {s:?})"))?;
         if !v.is_finite() {
             return Err(format!("{p:?} is not finite (in {s:?})"));
         }
@@ -66,7 +68,10 @@ pub fn parse_triple(s: &str) -> Result<[f64; 3], String> {
 fn load_satellite(args: &Args) -> anyhow::Result<Satellite> {
     match (&args.satellite, &args.model) {
         (Some(name), None) => Satellite::builtin(name).ok_or_else(|| {
-            anyhow!("unknown satellite {name:?}; built-in models are {}", Satellite::BUILTIN_NAMES.join(", "))
+            anyhow!(
+                "unknown satellite {name:?}; built-in models are {}",
+                Satellite::BUILTIN_NAMES.join(", ")
+            )
         }),
         (None, Some(path)) => Satellite::from_toml_file(path).map_err(|e| anyhow!("{e}")),
         _ => bail!("give exactly one of --satellite or --model"),
@@ -76,10 +81,13 @@ fn load_satellite(args: &Args) -> anyhow::Result<Satellite> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let sat = load_satellite(&args)?;
     let com = args.com_mm.map(|c| nalgebra::Vector3::from(c) * 1e-3);
-    let mixer = Mixer::from_satellite(&sat, com, args.period_ms).context("cannot build the mixer")?;
+    let mixer =
+        Mixer::from_satellite(&sat, com, args.period_ms).context("cannot build the mixer")?;
     let force = nalgebra::Vector3::from(args.force);
     let torque = nalgebra::Vector3::from(args.torque);
-    let trace = mixer.mix_traced(force, torque).context("cannot mix the command")?;
+    let trace = mixer
+        .mix_traced(force, torque)
+        .context("cannot mix the command")?;
     let firing = &trace.firing;
     let stages = [
         ("pinv_duty", trace.pinv_duty),
@@ -128,10 +136,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         writeln!(
             text,
             "satellite {}  period {} ms  minimum pulse {} ms  pressure drop {} N/extra thruster",
-            sat.name, firing.period_ms, firing.min_pulse_ms, mixer.config().pressure_drop_n_per_extra
+            sat.name,
+            firing.period_ms,
+            firing.min_pulse_ms,
+            mixer.config().pressure_drop_n_per_extra
         )?;
         if firing.scale < 1.0 {
-            writeln!(text, "command beyond the thrusters' reach: scaled by {:.6} (direction kept)", firing.scale)?;
+            writeln!(
+                text,
+                "command beyond the thrusters' reach: scaled by {:.6} (direction kept)",
+                firing.scale
+            )?;
         }
         if args.trace {
             for (name, v) in &stages {
@@ -142,7 +157,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         writeln!(text, "thruster  on_ms  off_ms  duration_ms")?;
         for i in 0..N_THRUSTERS {
-            writeln!(text, "{:>8}  {:>5}  {:>6}  {:>11}", i + 1, firing.on_ms[i], firing.off_ms[i], firing.duration_ms(i))?;
+            writeln!(
+                text,
+                "{:>8}  {:>5}  {:>6}  {:>11}",
+                i + 1,
+                firing.on_ms[i],
+                firing.off_ms[i],
+                firing.duration_ms(i)
+            )?;
         }
         writeln!(
             text,
@@ -159,7 +181,9 @@ pub fn emit(text: &str) -> anyhow::Result<()> {
     use std::io::Write;
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(anyhow!("cannot write to stdout: {e}")),
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(anyhow!("cannot write to stdout: {e}"))
+        }
         _ => Ok(()),
     }
 }
@@ -172,7 +196,9 @@ mod tests {
     fn triples_parse_or_explain() {
         assert_eq!(parse_triple("-0.1, 0,2e-3"), Ok([-0.1, 0.0, 2e-3]));
         assert!(parse_triple("1,2").unwrap_err().contains("three"));
-        assert!(parse_triple("1,x,2").unwrap_err().contains("\"x\" is not a number"));
+        assert!(parse_triple("1,x,2")
+            .unwrap_err()
+            .contains("\"x\" is not a number"));
         assert!(parse_triple("1,inf,2").unwrap_err().contains("not finite"));
     }
 }

@@ -18,8 +18,9 @@ pub fn check_output(out: &std::path::Path, inputs: &[&std::path::Path]) -> anyho
     }
     if let Some(parent) = out.parent() {
         if !parent.as_os_str().is_empty() {
-            std::fs::create_dir_all(parent)
-                .map_err(|e| anyhow::anyhow!("{}: cannot create directory: {e}", parent.display()))?;
+            std::fs::create_dir_all(parent).map_err(|e| {
+                anyhow::anyhow!("{}: cannot create directory: {e}", parent.display())
+            })?;
         }
     }
     Ok(())

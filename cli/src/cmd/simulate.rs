@@ -35,8 +35,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let maneuver = Maneuver::parse(&args.maneuver)
-        .ok_or_else(|| anyhow!("unknown maneuver {:?} (one of: {})", args.maneuver, Maneuver::NAMES.join(", ")))?;
+    let maneuver = Maneuver::parse(&args.maneuver).ok_or_else(|| {
+        anyhow!(
+            "unknown maneuver {:?} (one of: {})",
+            args.maneuver,
+            Maneuver::NAMES.join(", ")
+        )
+    })?;
     let mut spec = match &args.model {
         Some(path) => {
             let m = ModelFile::read(path)?;
@@ -47,7 +52,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         None => {
             let sat = Satellite::builtin(&args.satellite).ok_or_else(|| {
-                anyhow!("unknown satellite {:?} (built-in: {})", args.satellite, Satellite::BUILTIN_NAMES.join(", "))
+                anyhow!(
+                    "unknown satellite {:?} (built-in: {})",
+                    args.satellite,
+                    Satellite::BUILTIN_NAMES.join(", ")
+                )
             })?;
             SimSpec::new(sat, Vec::new(), maneuver)
         }
@@ -68,14 +77,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     super::check_output(&args.out, &inputs)?;
     super::check_output(&truth_path, &inputs)?;
     if truth_path == args.out {
-        bail!("{}: the output must not be named like a truth file", args.out.display());
+        bail!(
+            "{}: the output must not be named like a truth file",
+            args.out.display()
+        );
     }
 
     let out = simulate(&spec)?;
     let mut rec = out.recording;
     rec.source = args.out.display().to_string();
     rec.write(&args.out).map_err(|e| anyhow!("{e}"))?;
-    out.truth.write(&truth_path).with_context(|| format!("{}: cannot write", truth_path.display()))?;
+    out.truth
+        .write(&truth_path)
+        .with_context(|| format!("{}: cannot write", truth_path.display()))?;
     eprintln!(
         "wrote {} ({} samples, {} Hz, {} s, maneuver {}, {} effects) and {}",
         args.out.display(),

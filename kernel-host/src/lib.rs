@@ -237,9 +237,11 @@ mod tests {
         for j in 0..6 {
             assert!(close(k.inertia_kgm2[j], r.inertia_kgm2[j]), "inertia {j}");
         }
+        let bias = Satellite::builtin("sph2").expect("sph2").gyro_bias_counts;
         for a in 0..3 {
             assert!(close(k.com_offset_mm[a], r.com_offset_mm[a]), "com {a}");
             assert!(close(k.gyro_counts_per_rad_s[a], r.gyro_counts_per_rad_s[a]), "gyro scale {a}");
+            assert!(close(massid_kernel::model::SPH2_GYRO_BIAS_COUNTS[a], bias[a] as f32), "gyro bias {a}");
         }
     }
 }

@@ -101,6 +101,11 @@ impl<S: Scalar> Excitation<S> {
         }
     }
 
+    /// Forgets the counts (after a detected change of the mass properties).
+    pub fn restart(&mut self) {
+        self.counts = [0; N_TERMS];
+    }
+
     /// Terms not (yet) observable: CoM x y z and inverse inertia xx yy zz xy xz yz.
     pub fn unobservable(&self) -> ([bool; 3], [bool; 6]) {
         let u = self.counts.map(|c| c < self.min_updates);

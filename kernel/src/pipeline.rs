@@ -463,7 +463,7 @@ impl<S: Scalar> Pipeline<S> {
                     next = Some(Pending::Fold);
                 }
             }
-            Pending::Fold => match self.fold.step(&mut self.mass) {
+            Pending::Fold => match self.step_fold() {
                 FoldStep::Pending => next = Some(Pending::Fold),
                 FoldStep::Done(Some(solved_fold)) => {
                     self.status = self.accept(solved_fold.status, &solved_fold.before);
@@ -474,6 +474,22 @@ impl<S: Scalar> Pipeline<S> {
         }
         self.deferred = next;
         solved
+    }
+
+    /// One stage of the fold. A detected change (a covariance reset) also restarts the
+    /// observability count: what the flight excited before the change says nothing about the
+    /// new mass properties, so every term is held at the model, with the prior's uncertainty,
+    /// until the flight has excited it again (instead of keeping a pre-change value under a
+    /// standard error that only data about the new configuration could justify).
+    fn step_fold(&mut self) -> FoldStep<S> {
+        let resets = self.mass.resets;
+        let step = self.fold.step(&mut self.mass);
+        if self.mass.resets != resets {
+            self.excitation.restart();
+            let (c, i) = self.excitation.unobservable();
+            self.mass.hold_unexcited(c, i);
+        }
+        step
     }
 
     /// The status after a solve with result `s`; a solved estimate that is not physical

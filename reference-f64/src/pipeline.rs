@@ -378,6 +378,9 @@ impl MassIdAccumulator {
                 rc.reset_covariance(shrink);
                 ri.reset_covariance(shrink);
             }
+            // What was excited before the change says nothing about the new configuration:
+            // every term is unobservable again until re-excited (the kernel does the same).
+            self.excitation = Excitation::new(&self.sat);
             self.detections_s.push(last.t_s);
         }
     }

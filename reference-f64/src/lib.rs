@@ -11,5 +11,6 @@ pub mod omega_dot;
 pub mod mass_id;
 pub mod pipeline;
 pub mod mixer;
+pub mod mixer_check;
 pub mod characterize;
 pub mod slosh;

@@ -81,6 +81,10 @@ fn load_satellite(args: &Args) -> anyhow::Result<Satellite> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let sat = load_satellite(&args)?;
     let com = args.com_mm.map(|c| nalgebra::Vector3::from(c) * 1e-3);
+    if let Some(c) = &com {
+        // Lever arms about a point outside the craft are no mixing matrix anyone can fly.
+        reference_f64::mixer_check::com_inside(&sat, c).map_err(|e| anyhow!("--com-mm: {e}"))?;
+    }
     let mixer =
         Mixer::from_satellite(&sat, com, args.period_ms).context("cannot build the mixer")?;
     let force = nalgebra::Vector3::from(args.force);
@@ -97,6 +101,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ("corrected_ms", trace.corrected_ms),
     ];
     let (jf, jt) = firing.impulse(mixer.geometry());
+    let delivery = reference_f64::mixer_check::check(&mixer, &trace, force, torque);
+    let warnings: Vec<String> = delivery.warnings.iter().map(|w| w.to_string()).collect();
     let mut text = String::new();
     if args.json {
         let thrusters: Vec<_> = (0..N_THRUSTERS)
@@ -121,6 +127,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "thrusters": thrusters,
             "force_impulse_n_s": jf.as_slice(),
             "torque_impulse_n_m_s": jt.as_slice(),
+            "delivered_force_n": delivery.delivered_force_n.as_slice(),
+            "delivered_torque_nm": delivery.delivered_torque_nm.as_slice(),
+            "warnings": warnings,
         });
         if args.trace {
             let mut t = serde_json::Map::new();
@@ -141,12 +150,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             firing.min_pulse_ms,
             mixer.config().pressure_drop_n_per_extra
         )?;
-        if firing.scale < 1.0 {
-            writeln!(
-                text,
-                "command beyond the thrusters' reach: scaled by {:.6} (direction kept)",
-                firing.scale
-            )?;
+        writeln!(
+            text,
+            "{:<8} {:>36} {:>36}",
+            "", "commanded", "delivered (period average)"
+        )?;
+        let row =
+            |v: &nalgebra::Vector3<f64>| format!("[{:+.4e}, {:+.4e}, {:+.4e}]", v.x, v.y, v.z);
+        writeln!(
+            text,
+            "{:<8} {:>36} {:>36}",
+            "force N",
+            row(&delivery.commanded_force_n),
+            row(&delivery.delivered_force_n)
+        )?;
+        writeln!(
+            text,
+            "{:<8} {:>36} {:>36}",
+            "torque Nm",
+            row(&delivery.commanded_torque_nm),
+            row(&delivery.delivered_torque_nm)
+        )?;
+        for w in &warnings {
+            writeln!(text, "warning: {w}")?;
         }
         if args.trace {
             for (name, v) in &stages {

@@ -260,6 +260,15 @@ impl Recording {
     }
 }
 
+/// A field as quoted in an error: at most 40 characters, then how long it really was.
+fn clip(f: &str) -> String {
+    const SHOWN: usize = 40;
+    match f.char_indices().nth(SHOWN) {
+        None => f.to_string(),
+        Some((cut, _)) => format!("{}... ({} bytes)", &f[..cut], f.len()),
+    }
+}
+
 fn format_rate(r: f64) -> String {
     if r.fract() == 0.0 && r.abs() < 1e15 {
         format!("{}", r as i64)
@@ -375,7 +384,7 @@ impl<R: BufRead> RecordingReader<R> {
                                 rd.nominal_period_ms = Some(1000.0 / r);
                                 rd.rate_line = Some(rd.line_no);
                             }
-                            _ => return Err(rd.error(format!("sample_rate_hz '{v}' is not a positive number"))),
+                            _ => return Err(rd.error(format!("sample_rate_hz '{}' is not a positive number", clip(&v)))),
                         }
                     }
                     rd.metadata.push((k, v));
@@ -389,9 +398,9 @@ impl<R: BufRead> RecordingReader<R> {
             None => return Err(rd.error_at(header_line, "missing 'format' metadata key (expected '# format = massid-recording/1')")),
             Some((_, v)) if v == FORMAT_V1 => {}
             Some((l, v)) if v.starts_with("massid-recording/") => {
-                return Err(rd.error_at(l, format!("unknown format version '{v}' (this reader knows {FORMAT_V1})")))
+                return Err(rd.error_at(l, format!("unknown format version '{}' (this reader knows {FORMAT_V1})", clip(&v))))
             }
-            Some((l, v)) => return Err(rd.error_at(l, format!("unknown format '{v}' (expected {FORMAT_V1})"))),
+            Some((l, v)) => return Err(rd.error_at(l, format!("unknown format '{}' (expected {FORMAT_V1})", clip(&v)))),
         }
         rd.column_slot = rd.parse_header(&header)?;
         Ok(rd)
@@ -408,7 +417,7 @@ impl<R: BufRead> RecordingReader<R> {
                     seen[i] = true;
                     slots.push(i);
                 }
-                None => return Err(self.error(format!("unknown header column '{n}'"))),
+                None => return Err(self.error(format!("unknown header column '{}'", clip(n)))),
             }
         }
         let missing: Vec<&str> = COLUMNS.iter().zip(seen).filter(|(_, s)| !s).map(|(c, _)| *c).collect();
@@ -460,7 +469,9 @@ impl<R: BufRead> RecordingReader<R> {
         if self.buf.last() == Some(&b'\r') {
             self.buf.pop();
         }
-        match std::str::from_utf8(&self.buf) {
+        // A UTF-8 byte-order mark (spreadsheet exports write one) is not part of the text.
+        let text = if self.line_no == 1 { self.buf.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&self.buf) } else { &self.buf[..] };
+        match std::str::from_utf8(text) {
             Ok(s) => Ok(Some(s.to_string())),
             Err(_) => Err(self.error("line is not valid UTF-8")),
         }
@@ -479,14 +490,17 @@ impl<R: BufRead> RecordingReader<R> {
         for (field, &slot) in fields.iter().zip(&self.column_slot) {
             let f = field.trim();
             let name = COLUMNS[slot];
+            // A field quoted in an error is cut to a readable length (a 2 MB field is data
+            // corruption; echoing it whole buries the message).
+            let shown = clip(f);
             let v: u64 = if f.is_empty() {
                 return Err(self.error(format!("{name} is empty")));
             } else if f.bytes().all(|b| b.is_ascii_digit()) {
-                f.parse().map_err(|_| self.error(format!("{name} '{f}' is out of range")))?
+                f.parse().map_err(|_| self.error(format!("{name} '{shown}' is out of range")))?
             } else if f.starts_with('-') && f.len() > 1 && f[1..].bytes().all(|b| b.is_ascii_digit()) {
-                return Err(self.error(format!("{name} '{f}' is out of range (negative)")));
+                return Err(self.error(format!("{name} '{shown}' is out of range (negative)")));
             } else {
-                return Err(self.error(format!("{name} '{f}' is not an integer")));
+                return Err(self.error(format!("{name} '{shown}' is not an integer")));
             };
             if slot > 0 && v > MAX_COUNT as u64 {
                 return Err(self.error(format!("{name} {v} is out of range 0..{MAX_COUNT}")));
@@ -559,6 +573,27 @@ mod tests {
 
     fn read(s: &str) -> Result<Recording, RecordingError> {
         Recording::from_reader(s.as_bytes(), "t.csv")
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_not_text() {
+        // Spreadsheet exports start with a UTF-8 BOM; it was read as part of '# format' and the
+        // file rejected as missing its format key.
+        let with_bom = format!("\u{feff}{GOOD}");
+        let r = read(&with_bom).expect("a BOM is accepted");
+        assert_eq!(r.samples.len(), 2);
+        // ... only at the start of the file: inside a row it is still bad data.
+        let inside = GOOD.replace("0,2077,2070", "0,\u{feff}2077,2070");
+        assert!(read(&inside).is_err());
+    }
+
+    #[test]
+    fn a_huge_field_is_not_echoed_whole() {
+        let big = "9".repeat(2_000_000) + "x";
+        let bad = GOOD.replace("1,2077,2071", &format!("1,{big},2071"));
+        let e = read(&bad).expect_err("not an integer").to_string();
+        assert!(e.len() < 200 && e.contains("gyro_x") && e.contains("2000001 bytes"), "{}", &e[..e.len().min(300)]);
+        assert!(e.starts_with("t.csv:7:"), "{e}");
     }
 
     #[test]

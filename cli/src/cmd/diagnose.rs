@@ -42,19 +42,58 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Satellite::builtin(&name)
             .with_context(|| format!("unknown satellite `{name}` (built-in: sph1..sph5)"))?
     };
+    // Every output is checked before anything is computed or written: a refused output must
+    // not leave another one half-written.
+    if let Some(out) = &args.json {
+        super::check_output(out, &[&args.recording])?;
+    }
+    if let Some(dir) = &args.report {
+        super::check_output(&dir.join("report.html"), &[&args.recording])?;
+    }
     let analysis = diagnose_recording(&rec, &sat, &Settings::default())?;
     print!("{}", report::summary(&analysis));
     if let Some(out) = &args.json {
-        super::check_output(out, &[&args.recording])?;
         let text = serde_json::to_string_pretty(&analysis.output)?;
         std::fs::write(out, text + "\n")
             .with_context(|| format!("{}: cannot write", out.display()))?;
     }
     if let Some(dir) = &args.report {
-        super::check_output(&dir.join("report.html"), &[&args.recording])?;
         report::write_html(dir, &analysis)
             .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         println!("report: {}", dir.join("report.html").display());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_output_leaves_nothing_written() {
+        // The report would overwrite the input (the recording is DIR/report.html): refused
+        // before the JSON is written (it used to write the JSON first, then refuse).
+        let dir = std::env::temp_dir().join(format!("massid-diag-out-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rec = dir.join("report.html");
+        let good = "# format = massid-recording/1\n# satellite = sph2\n# sample_rate_hz = 1000\ntime_ms,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z,thrusters\n0,2077,2070,2058,2048,2048,2048,0\n1,2077,2070,2058,2048,2048,2048,0\n";
+        std::fs::write(&rec, good).unwrap();
+        let json = dir.join("out.json");
+        let args = Args {
+            recording: rec.clone(),
+            satellite: None,
+            model: None,
+            json: Some(json.clone()),
+            report: Some(dir.clone()),
+        };
+        let e = run(args).expect_err("overwriting the input is refused");
+        assert!(e.to_string().contains("refusing to overwrite"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(&rec).unwrap(),
+            good,
+            "the input is untouched"
+        );
+        assert!(!json.exists(), "nothing else was written");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

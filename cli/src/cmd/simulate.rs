@@ -34,6 +34,20 @@ pub struct Args {
     out: PathBuf,
 }
 
+/// The recording must not be named like a truth file: its truth would be written beside it
+/// as `NAME.truth.truth.json`, and tools that pair `X.csv` with `X.truth.json` would take the
+/// recording for a truth.
+fn refuse_truth_name(out: &std::path::Path) -> anyhow::Result<()> {
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    if name.ends_with(".truth.json") || name.ends_with(".json") {
+        bail!("{}: the recording is CSV (e.g. flight.csv); its truth goes beside it as flight.truth.json", out.display());
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     let maneuver = Maneuver::parse(&args.maneuver).ok_or_else(|| {
         anyhow!(
@@ -69,6 +83,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     spec.max_step_ms = args.step_ms;
 
+    refuse_truth_name(&args.out)?;
     let truth_path = Truth::path_for(&args.out);
     let mut inputs: Vec<&std::path::Path> = Vec::new();
     if let Some(m) = &args.model {
@@ -84,6 +99,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     let out = simulate(&spec)?;
+    let span_s = match (out.recording.samples.first(), out.recording.samples.last()) {
+        (Some(a), Some(b)) => (b.time_ms - a.time_ms) as f64 / 1000.0,
+        _ => 0.0,
+    };
+    if let Some(asked) = args.seconds {
+        if (span_s - asked).abs() > 0.5 {
+            eprintln!(
+                "note: --seconds {asked} is the maneuver's firing time; the recording spans {span_s:.3} s (the {} script ends its last command and coast there)",
+                maneuver.name()
+            );
+        }
+    }
     let mut rec = out.recording;
     rec.source = args.out.display().to_string();
     rec.write(&args.out).map_err(|e| anyhow!("{e}"))?;
@@ -101,4 +128,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         truth_path.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::refuse_truth_name;
+    use std::path::Path;
+
+    #[test]
+    fn a_recording_is_not_named_like_a_truth_file() {
+        // `--out x.truth.json` used to write the recording there and its truth to
+        // x.truth.truth.json.
+        assert!(refuse_truth_name(Path::new("out/x.truth.json")).is_err());
+        assert!(refuse_truth_name(Path::new("x.JSON")).is_err());
+        assert!(refuse_truth_name(Path::new("out/flight.csv")).is_ok());
+    }
 }

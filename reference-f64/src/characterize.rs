@@ -213,6 +213,11 @@ pub fn damping_inertia_error_percent(zeta: f64) -> Result<f64> {
 pub fn chord_error(radius_m: f64, theta_rad: f64) -> Result<(f64, f64, f64)> {
     let r = positive("radius", radius_m)?;
     let t = positive("angle", theta_rad)?;
+    if t >= std::f64::consts::PI {
+        // A swing of half a turn or more has no chord that measures it (at 360 deg the chord
+        // is 0, beyond it negative).
+        return Err(CharacterizeError::Invalid(format!("angle must be below 180 deg, got {:.1} deg", t.to_degrees())));
+    }
     let arc = r * t;
     let chord = 2.0 * r * (t / 2.0).sin();
     Ok((arc, chord, arc - chord))

@@ -225,10 +225,20 @@ fn parse_pair(s: &str) -> Result<[f64; 2], String> {
 }
 
 /// Named results printed as `name = value unit` lines or one JSON object.
-struct Out(Vec<(&'static str, serde_json::Value, &'static str)>);
+struct Out(
+    Vec<(&'static str, serde_json::Value, &'static str)>,
+    Option<String>,
+);
 
 impl Out {
+    /// A computed number; one that is not finite (an input far outside what the formula
+    /// supports, e.g. `--omega 1e-300`) makes `print` an error instead of a `null`.
     fn num(mut self, name: &'static str, v: f64, unit: &'static str) -> Self {
+        if !v.is_finite() && self.1.is_none() {
+            self.1 = Some(format!(
+                "{name} = {v} {unit}: the inputs are outside the range this formula supports"
+            ));
+        }
         self.0.push((name, serde_json::json!(v), unit));
         self
     }
@@ -237,6 +247,9 @@ impl Out {
         self
     }
     fn print(self, json: bool) -> anyhow::Result<()> {
+        if let Some(e) = self.1 {
+            bail!("{e}");
+        }
         let mut text = String::new();
         if json {
             let map: serde_json::Map<String, serde_json::Value> = self
@@ -298,7 +311,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 )?,
                 _ => bail!("give exactly one of --omega, --period, --stopwatch"),
             };
-            Out(vec![])
+            Out(vec![], None)
                 .num("omega", w, "rad/s")
                 .num("total_inertia", p.total_inertia(w)?, "kg m^2")
                 .num("base_inertia", p.base_inertia_kgm2, "kg m^2")
@@ -309,15 +322,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             inertia,
             omega,
         } => match (inertia, omega) {
-            (Some(i), Some(w)) => Out(vec![])
+            (Some(i), Some(w)) => Out(vec![], None)
                 .num("kappa", ch::torsion_kappa(i, w)?, "N m/rad")
                 .val("equation", "2.8".into(), ""),
-            (None, None) => Out(vec![])
+            (None, None) => Out(vec![], None)
                 .num("kappa", setup.trifilar().kappa()?, "N m/rad")
                 .val("equation", "2.9".into(), ""),
             (None, Some(w)) => {
                 let k = setup.trifilar().kappa()?;
-                Out(vec![])
+                Out(vec![], None)
                     .num("kappa", k, "N m/rad")
                     .num(
                         "inertia_from_kappa",
@@ -334,7 +347,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             oscillations,
         } => {
             let z = ch::damping_ratio(a0, an, oscillations)?;
-            Out(vec![]).num("zeta", z, "").num(
+            Out(vec![], None).num("zeta", z, "").num(
                 "inertia_error_percent",
                 ch::damping_inertia_error_percent(z)?,
                 "%",
@@ -357,7 +370,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 ms.push((a.to_radians(), i));
             }
             let fit = ch::products_of_inertia_from_rotations(&ms)?;
-            Out(vec![])
+            Out(vec![], None)
                 .num("iyy", fit.iyy, "kg m^2")
                 .num("izz", fit.izz, "kg m^2")
                 .num(
@@ -379,7 +392,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let rows: Vec<Vec<f64>> = (0..3)
                 .map(|r| (0..3).map(|c| t[(r, c)]).collect())
                 .collect();
-            Out(vec![]).val("inertia_tensor", serde_json::json!(rows), "kg m^2")
+            Out(vec![], None).val("inertia_tensor", serde_json::json!(rows), "kg m^2")
         }
         Tool::Com {
             mass,
@@ -412,7 +425,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     upright[1] - upright_bias[1],
                     0.0,
                 );
-                Out(vec![])
+                Out(vec![], None)
                     .num("com_x_mm", m.y / w * 1e3, "mm")
                     .num("com_y_mm", -m.x / w * 1e3, "mm")
                     .val(
@@ -422,7 +435,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     )
             } else {
                 let c = ch::com_from_load_cell(&tests, mass, g)?;
-                Out(vec![])
+                Out(vec![], None)
                     .num("com_x_mm", c.x * 1e3, "mm")
                     .num("com_y_mm", c.y * 1e3, "mm")
                     .num("com_z_mm", c.z * 1e3, "mm")
@@ -431,7 +444,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Tool::Thrust { samples, bias } => {
             let s = read_force_samples(&samples)?;
             let t = ch::thrust_from_load_cell(&s, Vector3::from(bias))?;
-            Out(vec![])
+            Out(vec![], None)
                 .num("samples", s.len() as f64, "")
                 .num("magnitude_n", t.magnitude_n, "N")
                 .val("direction", serde_json::json!(t.direction), "")
@@ -441,7 +454,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             offset,
             inertia,
         } => {
-            let mut o = Out(vec![]).num(
+            let mut o = Out(vec![], None).num(
                 "inertia_error",
                 ch::parallel_axis_error(mass, offset)?,
                 "kg m^2",
@@ -457,7 +470,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         Tool::Chord { radius, angle_deg } => {
             let (arc, chord, err) = ch::chord_error(radius, angle_deg.to_radians())?;
-            Out(vec![])
+            Out(vec![], None)
                 .num("arc_m", arc, "m")
                 .num("chord_m", chord, "m")
                 .num("error_m", err, "m")
@@ -471,7 +484,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let p = setup.trifilar();
             let ea = p.rotational_energy(rotation_deg.to_radians())?;
             let eb = p.translational_energy(swing)?;
-            Out(vec![])
+            Out(vec![], None)
                 .num("rotational_energy_j", ea, "J")
                 .num("translational_energy_j", eb, "J")
                 .num(
@@ -483,7 +496,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Tool::Slosh { dt } => {
             let d = SloshModel::SEED.discretize_zoh(dt)?;
             let (num, den) = d.transfer_function();
-            Out(vec![])
+            Out(vec![], None)
                 .num("dt_s", dt, "s")
                 .val(
                     "ad",
@@ -500,4 +513,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     out.print(json)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Out;
+
+    #[test]
+    fn a_result_outside_the_formula_is_an_error_not_null() {
+        // `--omega 1e-300` made the pendulum inertia infinite and printed `null`.
+        let e = Out(vec![], None)
+            .num("omega", 1e-300, "rad/s")
+            .num("total_inertia", f64::INFINITY, "kg m^2")
+            .print(true);
+        assert!(e
+            .expect_err("not finite")
+            .to_string()
+            .contains("total_inertia = inf"));
+        assert!(Out(vec![], None).num("chord_m", 0.0174, "m").1.is_none());
+    }
+
+    #[test]
+    fn a_chord_is_only_defined_below_half_a_turn() {
+        use reference_f64::characterize::chord_error;
+        assert!(chord_error(0.1, 360f64.to_radians()).is_err());
+        assert!(chord_error(0.1, 180f64.to_radians()).is_err());
+        let (arc, chord, err) = chord_error(0.1, 10f64.to_radians()).expect("10 deg");
+        assert!(chord > 0.0 && chord < arc && err > 0.0);
+    }
 }

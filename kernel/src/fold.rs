@@ -4,7 +4,7 @@
 //! carries more than one stage (`Pipeline::tick` runs one per tick; `Pipeline::finish` and a
 //! firing that ends early run the rest at once).
 //!
-//! The order is the types': each [`Stage`] variant holds what the previous stage produced and
+//! The order is the types': each `Stage` variant holds what the previous stage produced and
 //! only its own step can make the next one, and the [`MassId`] half-steps it calls are
 //! private to the crate. This is the only way measurements enter [`MassId`]: the pipeline,
 //! the proofs and the tests all fold through it, so every check exercises what flies.

@@ -1,7 +1,7 @@
 //! One harness body, two engines.
 //!
 //! Every proof harness in this crate is a plain `fn()` written only against [`any_in`],
-//! [`any_f64_in`], [`any_bool`], [`assume`] and [`cover!`]. Under `cargo kani` (cfg `kani`)
+//! [`any_f64_in`], [`any_bool`], [`assume`] and [`cover!`](crate::cover). Under `cargo kani` (cfg `kani`)
 //! those map onto `kani::any`, `kani::assume` and `kani::cover!`, and the harness is a
 //! symbolic proof over every input. Here (no Kani: its bundle cannot be downloaded) the same
 //! body is run by [`check`], which executes it many times drawing inputs from
@@ -95,6 +95,8 @@ macro_rules! cover {
 struct Rejected;
 
 #[cfg(not(kani))]
+// One `Source` per harness run, never in a collection: boxing the generator buys nothing.
+#[allow(clippy::large_enum_variant)]
 enum Source {
     Random(rand_chacha::ChaCha8Rng),
     /// Odometer: (value, max) per choice position, reused across runs.
@@ -241,7 +243,7 @@ fn float_grid(lo: f64, hi: f64) -> Vec<f64> {
 }
 
 /// An arbitrary finite f64 in `lo..=hi` (shim: uniform with the ends and zero often;
-/// exhaustive: the [`float_grid`] points).
+/// exhaustive: the `float_grid` points).
 #[cfg(not(kani))]
 pub fn any_f64_in(lo: f64, hi: f64) -> f64 {
     assert!(lo <= hi, "any_f64_in: empty range");

@@ -5,9 +5,10 @@
 //!   condition number), i.e. no drift however long it runs;
 //! * the information matrices stay symmetric positive definite (Cholesky of the mantissas)
 //!   and never saturate, also in the whole pipeline over 10^6 ticks of simulated gyro counts;
-//! and, separately, what the kernel does when they would not: with the gyros saturated or
-//! a single-axis maneuver, a status (Overflow / KfOverflow / PartlyUnobservable with the
-//! mask), never silently drifting numbers.
+//!
+//! And, separately, what the kernel does when they would not: with the gyros saturated or
+//! a single-axis maneuver, a status (Railed / Overflow / KfOverflow / PartlyUnobservable with
+//! the mask), never silently drifting numbers.
 
 use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
 use massid_kernel::fold::FiringFold;

@@ -2,7 +2,7 @@
 //! (`shared/contracts/diagnosis-output.md`) as a pluggable part.
 //!
 //! - [`effects`]: the vocabulary ([`effects::Effect`], [`effects::Truth`]), one file per effect.
-//! - [`predict`]: fast noise-free prediction of gyro rates for given commands and effects.
+//! - [`predict`](mod@predict): fast noise-free prediction of gyro rates for given commands and effects.
 //! - [`dynamics`], [`propagate`], [`valves`]: rigid body + slosh, RK4 stepping split at valve edges.
 
 pub mod dynamics;

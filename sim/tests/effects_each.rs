@@ -48,7 +48,7 @@ fn blowdown_scales_all_thrust_by_the_exponential_after_start() {
     let sat = sph2();
     let b = Effect::Blowdown(Blowdown { start_s: 2.0, tau_s: 30.0 });
     let nominal = alpha(&[], WORD, 10);
-    assert!(close(alpha(&[b.clone()], WORD, 1000), nominal));
+    assert!(close(alpha(std::slice::from_ref(&b), WORD, 1000), nominal));
     let a = alpha(&[b], WORD, 12_000);
     assert!(close(a, nominal * (-(12.0 - 2.0) / 30.0f64).exp()), "{a:?}");
     let _ = sat;
@@ -62,7 +62,7 @@ fn thrust_scale_multiplies_each_thruster_and_zero_is_dead() {
     scale[0] = 0.0;
     let e = Effect::ThrustScale(ThrustScale { scale });
     let want = expected(&sat, sat.inertia_matrix(), sat.com_m(), WORD, |i| sat.thrust_n[i] * scale[i]);
-    assert!(close(alpha(&[e.clone()], WORD, 10), want));
+    assert!(close(alpha(std::slice::from_ref(&e), WORD, 10), want));
     assert_eq!(alpha(&[e], 1, 10).norm(), 0.0, "thruster 1 is dead");
 }
 
@@ -90,7 +90,7 @@ fn mass_property_change_applies_from_at_s() {
     let sat = sph2();
     let m = [0.03, 0.03, 0.025, 0.0, 0.0, 0.0];
     let e = Effect::MassPropertyChange(MassPropertyChange { at_s: 5.0, offset_mm: [0.0, 0.0, 5.0], inertia_kgm2: m });
-    assert!(close(alpha(&[e.clone()], WORD, 4000), alpha(&[], WORD, 4000)));
+    assert!(close(alpha(std::slice::from_ref(&e), WORD, 4000), alpha(&[], WORD, 4000)));
     let com = sat.com_m() + Vector3::new(0.0, 0.0, 5e-3);
     let want = expected(&sat, inertia(m), com, WORD, |i| sat.thrust_n[i]);
     assert!(close(alpha(&[e], WORD, 6000), want));

@@ -163,7 +163,7 @@ fn pressure_drop_lowers_angular_acceleration_by_the_seeds_linear_law() {
         let t: Vec<u64> = (0..20).collect();
         let w: Vec<u16> = t.iter().map(|&k| if k >= 10 { word } else { 0 }).collect();
         let nominal = predict(&sat, &[], &t, &w, [0.0; 3], PredictOptions::default());
-        let dropped = predict(&sat, &[drop.clone()], &t, &w, [0.0; 3], PredictOptions::default());
+        let dropped = predict(&sat, std::slice::from_ref(&drop), &t, &w, [0.0; 3], PredictOptions::default());
         let n = thrusters.len() as f64;
         // Each open thruster loses 0.0106 N per other open thruster: the torque loses
         // 0.0106 (n - 1) sum_i (L_i x D_i).

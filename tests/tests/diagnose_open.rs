@@ -169,6 +169,6 @@ fn diagnosis_refuses_an_empty_recording_without_panicking() {
     let rec = Recording::new("empty.csv", Some("sph2"), Some(1000.0), vec![]);
     let sat = Satellite::builtin("sph2").unwrap();
     let r = diagnose_recording(&rec, &sat, &Settings::default());
-    let e = r.err().expect("an empty recording is an error");
+    let e = r.expect_err("an empty recording is an error");
     assert!(e.to_string().contains("empty.csv"), "{e}");
 }

@@ -195,7 +195,7 @@ proptest! {
     ) {
         use massid_kernel::gyro_filter::{GyroLowPass, LowPassCoefs};
         let coefs = LowPassCoefs::design(50.0, f64::from(dt_ms) * 1e-3);
-        let xs: Vec<[u16; 3]> = runs.iter().flat_map(|&(a, b, n)| std::iter::repeat([a, b, a ^ b]).take(n)).collect();
+        let xs: Vec<[u16; 3]> = runs.iter().flat_map(|&(a, b, n)| std::iter::repeat_n([a, b, a ^ b], n)).collect();
         let want = low_pass_wide(coefs, &xs);
         let mut f = GyroLowPass::new(coefs);
         let got: Vec<[i32; 3]> = xs.iter().map(|c| f.step(*c)).collect();

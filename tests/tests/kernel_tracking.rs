@@ -40,8 +40,8 @@ fn maneuver(on_ms: usize, off_ms: usize) -> Vec<u16> {
     let firings: [u16; 12] = [0x810, 0x420, 0x081, 0x042, 0x204, 0x108, 0x003, 0x0c0, 0x00c, 0x300, 0x030, 0xc00];
     let mut words = Vec::new();
     for w in firings {
-        words.extend(std::iter::repeat(w).take(on_ms));
-        words.extend(std::iter::repeat(0).take(off_ms));
+        words.extend(std::iter::repeat_n(w, on_ms));
+        words.extend(std::iter::repeat_n(0, off_ms));
     }
     words
 }

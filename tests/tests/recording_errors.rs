@@ -59,7 +59,7 @@ fn artefacts_are_survived_and_counted() {
     // the streaming reader counts the same without holding the samples
     let f = std::io::BufReader::new(std::fs::File::open(open_data_dir().join("o09_nominal_artefacts_combo.csv")).unwrap());
     let mut rd = RecordingReader::new(f, "o09").unwrap();
-    let n = rd.by_ref().map(|s| s.unwrap()).count();
+    let n = rd.by_ref().inspect(|s| assert!(s.is_ok(), "{s:?}")).count();
     assert_eq!(n, rec.samples.len());
     assert_eq!(rd.issues(), rec.issues);
 }

@@ -59,7 +59,7 @@ fn all_outputs<S: Exact>(ft: &massid_kernel::model::FiringTerms<S>) -> impl Iter
 }
 
 /// The firing terms in f64 straight from the parameters (force, torque in cN m, I^-1 a,
-/// I^-1 [c]x), in the order of [`all_outputs`].
+/// I^-1 \[c\]x), in the order of `all_outputs`.
 pub fn exact_firing_terms(p: &massid_kernel::model::SatelliteParams, word: u16) -> Vec<f64> {
     let inv = p.inertia_inverse().expect("envelope inertia is invertible");
     let open = (word & 0x0fff).count_ones() as f64;

@@ -23,7 +23,7 @@ pub fn cholesky_ok<const N: usize>(m: &[[f64; N]; N]) -> bool {
     let mut l = [[0.0f64; N]; N];
     for j in 0..N {
         let d = m[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return false;
         }
         l[j][j] = d.sqrt();

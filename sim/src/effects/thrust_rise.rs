@@ -136,7 +136,7 @@ mod tests {
         assert!(bytes(&nominal) != bytes(&on));
         // The fast prediction too, with latency.
         let lat = Effect::ThrusterLatency(ThrusterLatency { open_ms: 6.4, close_ms: 3.7 });
-        let a = pulse(&[lat.clone()], 1.0);
+        let a = pulse(std::slice::from_ref(&lat), 1.0);
         let b = pulse(&[lat, rise(0.0)], 1.0);
         assert_eq!(a, b);
     }
@@ -165,7 +165,7 @@ mod tests {
     #[test]
     fn composes_with_latency_off_the_grid() {
         let lat = Effect::ThrusterLatency(ThrusterLatency { open_ms: 6.4, close_ms: 3.7 });
-        let nominal = pulse(&[lat.clone()], 1.0);
+        let nominal = pulse(std::slice::from_ref(&lat), 1.0);
         let rising = pulse(&[lat, rise(20.0)], 1.0);
         rise_check(&nominal, &rising, 20.0, OPEN_MS as f64 + 6.4).unwrap();
         // The valve edges themselves are those of the latency alone.

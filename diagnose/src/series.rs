@@ -184,7 +184,7 @@ impl Series {
             .collect();
         let n_gaps = gaps.len() as u64;
         let missing_samples = gaps.iter().map(|g| ((g.0 as f64 / period).round() as u64).saturating_sub(1)).sum();
-        gaps.sort_by(|a, b| b.0.cmp(&a.0));
+        gaps.sort_by_key(|g| std::cmp::Reverse(g.0));
         gaps.truncate(MAX_GAP_RESETS);
         let mut gap_resets: Vec<usize> = gaps.into_iter().map(|g| g.1).collect();
         gap_resets.sort_unstable();
@@ -340,10 +340,10 @@ mod tests {
     fn declared_rate_is_checked_against_time_steps() {
         let t: Vec<i64> = (0..100).collect();
         let c = noisy_counts(100, 1);
-        let s = Series::from_counts(&t, &c, &vec![0; 100], [2048.0; 3], [800.0; 3], Some(100.0)).unwrap();
+        let s = Series::from_counts(&t, &c, &[0; 100], [2048.0; 3], [800.0; 3], Some(100.0)).unwrap();
         assert_eq!(s.sample_rate_hz, 1000.0);
         assert_eq!(s.warnings.len(), 1);
-        let ok = Series::from_counts(&t, &c, &vec![0; 100], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
+        let ok = Series::from_counts(&t, &c, &[0; 100], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
         assert!(ok.warnings.is_empty());
     }
 }

@@ -53,7 +53,11 @@ impl NaiveSeedPipeline {
         // Tustin two-pole Butterworth at 50 Hz.
         let wc = 2.0 / dt * (std::f64::consts::PI * 50.0 * dt).tan();
         let k = 2.0 / dt;
-        let (a0, a1, a2) = (k * k + std::f64::consts::SQRT_2 * wc * k + wc * wc, 2.0 * (wc * wc - k * k), k * k - std::f64::consts::SQRT_2 * wc * k + wc * wc);
+        let (a0, a1, a2) = (
+            k * k + std::f64::consts::SQRT_2 * wc * k + wc * wc,
+            2.0 * (wc * wc - k * k),
+            k * k - std::f64::consts::SQRT_2 * wc * k + wc * wc,
+        );
         let g = wc * wc / a0;
         let inertia = sat.inertia_matrix();
         let inv = inertia.try_inverse().unwrap_or_else(Matrix3::identity);
@@ -77,7 +81,14 @@ impl NaiveSeedPipeline {
             info_i: M6::zeros(),
             rhs_i: V6::zeros(),
             com: Vector3::zeros(),
-            inv_inertia: V6::new(inv[(0, 0)], inv[(1, 1)], inv[(2, 2)], inv[(0, 1)], inv[(0, 2)], inv[(1, 2)]),
+            inv_inertia: V6::new(
+                inv[(0, 0)],
+                inv[(1, 1)],
+                inv[(2, 2)],
+                inv[(0, 1)],
+                inv[(0, 2)],
+                inv[(1, 2)],
+            ),
         }
     }
 
@@ -105,7 +116,8 @@ impl NaiveSeedPipeline {
     pub fn tick(&mut self, s: &Sample) {
         let mut omega = Vector3::zeros();
         for a in 0..3 {
-            let raw = (s.gyro[a] as f64 - self.sat.gyro_bias_counts[a]) / self.sat.gyro_counts_per_rad_s[a];
+            let raw = (s.gyro[a] as f64 - self.sat.gyro_bias_counts[a])
+                / self.sat.gyro_counts_per_rad_s[a];
             omega[a] = self.filter(a, raw);
         }
         let word = s.thrusters & 0x0fff;
@@ -115,7 +127,8 @@ impl NaiveSeedPipeline {
             if word != 0 {
                 self.firings += 1;
                 let (tau, _) = self.torque_and_force(word);
-                self.x = self.inertia.try_inverse().unwrap_or_else(Matrix3::identity) * (tau - omega.cross(&(self.inertia * omega)));
+                self.x = self.inertia.try_inverse().unwrap_or_else(Matrix3::identity)
+                    * (tau - omega.cross(&(self.inertia * omega)));
                 self.p = Vector3::repeat(P0);
                 self.omega0 = omega;
             }

@@ -23,11 +23,19 @@ const COM: &str = r#"{"effect":"com_offset","params":{"offset_mm":[1.5,-2.0,3.0]
 /// CPU time of this process so far (user + system), s, from /proc (Linux; NaN elsewhere):
 /// on a shared machine the wall time also counts time spent waiting for a core.
 fn cpu_s() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return f64::NAN };
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
     // fields after the parenthesised command name; utime and stime are fields 14 and 15
-    let Some(rest) = stat.rsplit(')').next() else { return f64::NAN };
+    let Some(rest) = stat.rsplit(')').next() else {
+        return f64::NAN;
+    };
     let f: Vec<&str> = rest.split_whitespace().collect();
-    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    let tick = |i: usize| {
+        f.get(i)
+            .and_then(|x| x.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
     // USER_HZ is 100 on Linux
     (tick(11) + tick(12)) / 100.0
 }
@@ -58,7 +66,8 @@ fn run(seconds: u32, effects: &[&str]) -> Row {
     model::PREDICTIONS.store(0, std::sync::atomic::Ordering::Relaxed);
     let t = Instant::now();
     let c = cpu_s();
-    let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default()).expect("diagnosis");
+    let a =
+        diagnose_recording(&s.recording, &s.satellite, &Settings::default()).expect("diagnosis");
     let diag = t.elapsed().as_secs_f64();
     let cpu = cpu_s() - c;
     let n_pred = model::PREDICTIONS.load(std::sync::atomic::Ordering::Relaxed);
@@ -70,18 +79,31 @@ fn run(seconds: u32, effects: &[&str]) -> Row {
         diag_s: diag,
         cpu_s: cpu,
         n_pred,
-        found: if found.is_empty() { "-".into() } else { found.join(", ") },
+        found: if found.is_empty() {
+            "-".into()
+        } else {
+            found.join(", ")
+        },
     }
 }
 
 fn main() {
     // `cargo bench` passes `--bench`; any number among the arguments selects lengths
-    let only: Vec<u32> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
-    let lengths: Vec<u32> = [15, 30, 60, 120].into_iter().filter(|l| only.is_empty() || only.contains(l)).collect();
+    let only: Vec<u32> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let lengths: Vec<u32> = [15, 30, 60, 120]
+        .into_iter()
+        .filter(|l| only.is_empty() || only.contains(l))
+        .collect();
     let cases: [(&str, Vec<&str>); 3] = [
         ("nominal", vec![]),
         ("latency 5 ms", vec![LATENCY]),
-        ("latency + pressure drop + CoM offset", vec![LATENCY, PRESSURE, COM]),
+        (
+            "latency + pressure drop + CoM offset",
+            vec![LATENCY, PRESSURE, COM],
+        ),
     ];
     println!(
         "| recording (sph2, 1 kHz, random PWM) | s | samples | one prediction (ms) | diagnosis wall (s) | CPU (s) | CPU per s of recording (ms) | vs 60 s | predictions run | diagnosis / prediction | found | 60 s under 10 s CPU |"
@@ -99,7 +121,8 @@ fn main() {
                 r.diag_s,
                 r.cpu_s,
                 1e3 * r.cpu_s / r.seconds as f64,
-                at60.map(|d| format!("{:.2}", r.cpu_s / d)).unwrap_or_else(|| "-".into()),
+                at60.map(|d| format!("{:.2}", r.cpu_s / d))
+                    .unwrap_or_else(|| "-".into()),
                 r.n_pred,
                 r.diag_s / (r.pred_ms * 1e-3),
                 r.found,

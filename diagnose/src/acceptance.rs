@@ -54,7 +54,13 @@ pub const WHITE_BELOW: f64 = 45.31;
 
 /// Physical bounds per effect: why a value is not physics. `theta` is in the family's
 /// own layout (see `select::spec`).
-pub fn implausible(kind: Kind, theta: &[f64], plant: &Plant, lo: &[f64], hi: &[f64]) -> Option<String> {
+pub fn implausible(
+    kind: Kind,
+    theta: &[f64],
+    plant: &Plant,
+    lo: &[f64],
+    hi: &[f64],
+) -> Option<String> {
     // a parameter on the edge of its search box: the fit ran away
     let at_bound = |i: usize| {
         let w = (hi[i] - lo[i]).abs().max(1e-300);
@@ -79,31 +85,53 @@ pub fn implausible(kind: Kind, theta: &[f64], plant: &Plant, lo: &[f64], hi: &[f
             Some("latency at the 50 ms search bound".into())
         }
         // a tank cannot lose more than half a thruster's force per other open valve
-        Kind::PressureDrop if theta[0] >= 0.5 * (0..NT).map(|i| plant.thrust_n(i)).fold(f64::MAX, f64::min) => {
+        Kind::PressureDrop
+            if theta[0] >= 0.5 * (0..NT).map(|i| plant.thrust_n(i)).fold(f64::MAX, f64::min) =>
+        {
             Some("pressure drop above half a thruster's force".into())
         }
         // blowdown: a time constant between 1 s and 10^4 s
-        Kind::Blowdown if theta[1] > 1.0 || theta[1] < 1e-4 => Some("blowdown time constant outside 1 s .. 10^4 s".into()),
+        Kind::Blowdown if theta[1] > 1.0 || theta[1] < 1e-4 => {
+            Some("blowdown time constant outside 1 s .. 10^4 s".into())
+        }
         // thrust scale within 0 .. 1.5 of nominal, not at the search bound 2
-        Kind::ThrustScale if theta.iter().any(|&s| !(0.0..=1.5).contains(&s)) => Some("thrust scale outside 0 .. 1.5".into()),
+        Kind::ThrustScale if theta.iter().any(|&s| !(0.0..=1.5).contains(&s)) => {
+            Some("thrust scale outside 0 .. 1.5".into())
+        }
         // a CoM more than 50 mm from the model's is outside a 0.2 m craft's tolerance
-        Kind::ComOffset if theta.iter().any(|&x| x.abs() > 45.0) => Some("CoM offset beyond 45 mm".into()),
+        Kind::ComOffset if theta.iter().any(|&x| x.abs() > 45.0) => {
+            Some("CoM offset beyond 45 mm".into())
+        }
         Kind::Inertia => inertia_ok(theta).or_else(|| {
             (0..3)
                 .any(|i| theta[i] < 0.5 * nominal[i] || theta[i] > 2.0 * nominal[i])
                 .then(|| "principal inertia outside 0.5 .. 2 x the model's".into())
         }),
-        Kind::MassPropertyChange => inertia_ok(&theta[4..10])
-            .or_else(|| theta[1..4].iter().any(|x| x.abs() > 45.0).then(|| "CoM offset beyond 45 mm".into())),
+        Kind::MassPropertyChange => inertia_ok(&theta[4..10]).or_else(|| {
+            theta[1..4]
+                .iter()
+                .any(|x| x.abs() > 45.0)
+                .then(|| "CoM offset beyond 45 mm".into())
+        }),
         // slosh: a mode between 0.02 and 20 Hz, damping below 0.4, some liquid on some axis,
         // fractions below a third of the craft's inertia
-        Kind::FuelSlosh if theta[1] > 0.4 || at_bound(0) => Some("slosh frequency or damping at its search bound".into()),
-        Kind::FuelSlosh if theta[2..5].iter().any(|&f| f > 0.34) => Some("fluid inertia fraction above 1/3".into()),
+        Kind::FuelSlosh if theta[1] > 0.4 || at_bound(0) => {
+            Some("slosh frequency or damping at its search bound".into())
+        }
+        Kind::FuelSlosh if theta[2..5].iter().any(|&f| f > 0.34) => {
+            Some("fluid inertia fraction above 1/3".into())
+        }
         // gyro: a bias within 200 counts, a scale within 20 %
-        Kind::GyroBias if theta.iter().any(|x| x.abs() > 200.0) => Some("gyro bias beyond 200 counts".into()),
-        Kind::GyroScale if theta.iter().any(|x| (x - 1.0).abs() > 0.2) => Some("gyro scale beyond 20 %".into()),
+        Kind::GyroBias if theta.iter().any(|x| x.abs() > 200.0) => {
+            Some("gyro bias beyond 200 counts".into())
+        }
+        Kind::GyroScale if theta.iter().any(|x| (x - 1.0).abs() > 0.2) => {
+            Some("gyro scale beyond 20 %".into())
+        }
         // an external torque above 1e-3 N m would be a thruster, not a disturbance
-        Kind::DisturbanceTorque if theta.iter().any(|x| x.abs() > 1e-3) => Some("disturbance above 1e-3 N m".into()),
+        Kind::DisturbanceTorque if theta.iter().any(|x| x.abs() > 1e-3) => {
+            Some("disturbance above 1e-3 N m".into())
+        }
         _ => None,
     }
 }
@@ -111,9 +139,13 @@ pub fn implausible(kind: Kind, theta: &[f64], plant: &Plant, lo: &[f64], hi: &[f
 /// Gyro ringing's bounds: a tuning-fork tone decays within 1..100 ms (seed App. A ~30 ms).
 pub fn implausible_ringing(decay_ms: f64, freq_hz: f64) -> Option<String> {
     if !(1.0..=100.0).contains(&decay_ms) {
-        Some(format!("ringing decay {decay_ms:.0} ms outside 1 .. 100 ms"))
+        Some(format!(
+            "ringing decay {decay_ms:.0} ms outside 1 .. 100 ms"
+        ))
     } else if !(5.0..=crate::ringing::F_MAX_HZ).contains(&freq_hz) {
-        Some(format!("ringing frequency {freq_hz:.1} Hz outside 5 .. 600 Hz"))
+        Some(format!(
+            "ringing frequency {freq_hz:.1} Hz outside 5 .. 600 Hz"
+        ))
     } else {
         None
     }
@@ -123,7 +155,11 @@ pub fn implausible_ringing(decay_ms: f64, freq_hz: f64) -> Option<String> {
 /// noise standard deviation `sigma`.
 pub fn materiality(d: &[[f64; 3]], valid: &[[bool; 3]], sigma: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|a| {
-        let peak = d.iter().zip(valid).filter(|(_, v)| v[a]).fold(0.0f64, |m, (x, _)| m.max(x[a].abs()));
+        let peak = d
+            .iter()
+            .zip(valid)
+            .filter(|(_, v)| v[a])
+            .fold(0.0f64, |m, (x, _)| m.max(x[a].abs()));
         if peak <= 0.0 || sigma[a] <= 0.0 {
             return 0.0;
         }
@@ -139,17 +175,31 @@ pub fn materiality(d: &[[f64; 3]], valid: &[[bool; 3]], sigma: [f64; 3]) -> [f64
 }
 
 /// Which axis got worse from `before` to `after` (RMS or whiteness), if any.
-pub fn axis_worse(rms_before: [f64; 3], rms_after: [f64; 3], before: &ResidualTests, after: &ResidualTests) -> Option<String> {
+pub fn axis_worse(
+    rms_before: [f64; 3],
+    rms_after: [f64; 3],
+    before: &ResidualTests,
+    after: &ResidualTests,
+) -> Option<String> {
     let names = ["x", "y", "z"];
     for a in 0..3 {
         if rms_after[a] > rms_before[a] * (1.0 + RMS_WORSE_REL) + 1e-15 {
-            return Some(format!("residual RMS on {} rises from {:.5} to {:.5} rad/s", names[a], rms_before[a], rms_after[a]));
+            return Some(format!(
+                "residual RMS on {} rises from {:.5} to {:.5} rad/s",
+                names[a], rms_before[a], rms_after[a]
+            ));
         }
         let (qb, qa) = (before.ljung_box_q[a], after.ljung_box_q[a]);
         // less white only counts where the effect did not also take error away: the
         // Ljung-Box statistic of a residual far from white measures its shape, not noise
-        if qa > WHITE_BELOW && qa > qb * LB_WORSE_REL && rms_after[a] > rms_before[a] * (1.0 - RMS_GAIN_FOR_SHAPE) {
-            return Some(format!("residual on {} gets less white (Ljung-Box {qb:.0} -> {qa:.0})", names[a]));
+        if qa > WHITE_BELOW
+            && qa > qb * LB_WORSE_REL
+            && rms_after[a] > rms_before[a] * (1.0 - RMS_GAIN_FOR_SHAPE)
+        {
+            return Some(format!(
+                "residual on {} gets less white (Ljung-Box {qb:.0} -> {qa:.0})",
+                names[a]
+            ));
         }
     }
     None
@@ -174,7 +224,9 @@ impl Holdout {
     pub fn failure(&self) -> Option<String> {
         let total: f64 = self.delta.iter().sum();
         if total > -HOLDOUT_MIN {
-            return Some(format!("out of sample it predicts no better (held-out chi-square change {total:.1})"));
+            return Some(format!(
+                "out of sample it predicts no better (held-out chi-square change {total:.1})"
+            ));
         }
         for (b, (d, c)) in self.delta.iter().zip(&self.base).enumerate() {
             if *d > BLOCK_WORSE + BLOCK_WORSE_REL * c {
@@ -197,12 +249,24 @@ pub fn holdout(
     max_iter: usize,
 ) -> Option<Holdout> {
     let block = blocks(prob.series.len());
-    let mut out = Holdout { base: vec![0.0; HOLDOUT_BLOCKS], delta: vec![0.0; HOLDOUT_BLOCKS] };
+    let mut out = Holdout {
+        base: vec![0.0; HOLDOUT_BLOCKS],
+        delta: vec![0.0; HOLDOUT_BLOCKS],
+    };
     for fold in 0..2 {
         let train = Rc::new(block.iter().map(|b| b % 2 != fold).collect::<Vec<bool>>());
         let p = prob.restricted(train);
         let (base, _) = select::fit_joint(&p, fired, current, None, nuis, slosh_hint, max_iter)?;
-        let (with, _) = select::fit_from(&p, fired, current, candidate.0, candidate.1, nuis, slosh_hint, max_iter)?;
+        let (with, _) = select::fit_from(
+            &p,
+            fired,
+            current,
+            candidate.0,
+            candidate.1,
+            nuis,
+            slosh_hint,
+            max_iter,
+        )?;
         let c0 = prob.chi2_by_block(&base.params, &block, HOLDOUT_BLOCKS)?;
         let c1 = prob.chi2_by_block(&with.params, &block, HOLDOUT_BLOCKS)?;
         for b in (0..HOLDOUT_BLOCKS).filter(|b| b % 2 == fold) {

@@ -6,7 +6,11 @@
 /// Where a tone of true frequency `f_hz` shows when sampled at `fs_hz`.
 pub fn apparent(f_hz: f64, fs_hz: f64) -> f64 {
     let r = f_hz.rem_euclid(fs_hz);
-    if r > fs_hz / 2.0 { fs_hz - r } else { r }
+    if r > fs_hz / 2.0 {
+        fs_hz - r
+    } else {
+        r
+    }
 }
 
 /// Every true frequency up to `f_max_hz` that shows at `f_app_hz` when sampled at `fs_hz`,

@@ -82,8 +82,16 @@ fn fit_nuisance(prob: &Problem, nuis: &[f64]) -> Option<fit::FitResult> {
 /// Mean of the first usable samples per axis as the starting initial rate.
 fn initial_rate(series: &Series) -> [f64; 3] {
     std::array::from_fn(|a| {
-        let first: Vec<f64> = (0..series.len()).filter(|&i| series.valid[i][a]).take(5).map(|i| series.rate[i][a]).collect();
-        if first.is_empty() { 0.0 } else { first.iter().sum::<f64>() / first.len() as f64 }
+        let first: Vec<f64> = (0..series.len())
+            .filter(|&i| series.valid[i][a])
+            .take(5)
+            .map(|i| series.rate[i][a])
+            .collect();
+        if first.is_empty() {
+            0.0
+        } else {
+            first.iter().sum::<f64>() / first.len() as f64
+        }
     })
 }
 
@@ -113,7 +121,9 @@ fn slosh_hints(series: &Series, r: &[[f64; 3]]) -> Vec<f64> {
             *x += v;
         }
     }
-    let mut idx: Vec<usize> = (1..freqs.len() - 1).filter(|&i| tot[i] >= tot[i - 1] && tot[i] >= tot[i + 1]).collect();
+    let mut idx: Vec<usize> = (1..freqs.len() - 1)
+        .filter(|&i| tot[i] >= tot[i - 1] && tot[i] >= tot[i + 1])
+        .collect();
     idx.sort_by(|&a, &b| tot[b].total_cmp(&tot[a]));
     let mut out: Vec<f64> = idx.iter().take(2).map(|&i| freqs[i]).collect();
     if out.is_empty() {
@@ -129,15 +139,20 @@ fn detrend(t: &[f64], y: &[f64]) -> Vec<f64> {
     let sxy: f64 = t.iter().zip(y).map(|(a, b)| (a - mt) * (b - my)).sum();
     let sxx: f64 = t.iter().map(|a| (a - mt).powi(2)).sum();
     let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    t.iter().zip(y).map(|(a, v)| v - my - b * (a - mt)).collect()
+    t.iter()
+        .zip(y)
+        .map(|(a, v)| v - my - b * (a - mt))
+        .collect()
 }
 
 /// A change in time must have firings on both sides of it to be seen: a mass-property
 /// change before the first or after the last firing is a constant inertia / CoM error (or
 /// nothing), and a blowdown starting after the last firing cannot be observed.
 fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
-    let first = series.real_ms(series.word_ms.iter().position(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
-    let last = series.real_ms(series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
+    let first =
+        series.real_ms(series.word_ms.iter().position(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
+    let last =
+        series.real_ms(series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
     match kind {
         Kind::MassPropertyChange => theta[0] > first + 0.5 && theta[0] < last - 0.5,
         Kind::Blowdown => theta[0] < last - 0.5,
@@ -149,9 +164,11 @@ fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
 fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
     let nominal_i = prob.plant.nominal_inertia();
     let null: Vec<(usize, f64)> = match kind {
-        Kind::ThrusterLatency | Kind::PressureDrop | Kind::ComOffset | Kind::GyroBias | Kind::DisturbanceTorque => {
-            (0..theta.len()).map(|i| (i, 0.0)).collect()
-        }
+        Kind::ThrusterLatency
+        | Kind::PressureDrop
+        | Kind::ComOffset
+        | Kind::GyroBias
+        | Kind::DisturbanceTorque => (0..theta.len()).map(|i| (i, 0.0)).collect(),
         Kind::ThrustScale | Kind::GyroScale => (0..theta.len()).map(|i| (i, 1.0)).collect(),
         Kind::Blowdown => vec![(1, 0.0)],
         Kind::Inertia => (0..6).map(|i| (i, nominal_i[i])).collect(),
@@ -166,14 +183,22 @@ fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
     null.iter()
         .map(|&(i, v)| {
             let e = se.get(i).copied().unwrap_or(f64::INFINITY);
-            if e > 0.0 && e.is_finite() { ((theta[i] - v) / e).powi(2) } else { 0.0 }
+            if e > 0.0 && e.is_finite() {
+                ((theta[i] - v) / e).powi(2)
+            } else {
+                0.0
+            }
         })
         .sum()
 }
 
 /// The valve latency (open, close ms) among `pairs`, zero when none.
 fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
-    pairs.iter().find(|a| a.0 == Kind::ThrusterLatency).map(|a| (a.1[0], a.1[1])).unwrap_or((0.0, 0.0))
+    pairs
+        .iter()
+        .find(|a| a.0 == Kind::ThrusterLatency)
+        .map(|a| (a.1[0], a.1[1]))
+        .unwrap_or((0.0, 0.0))
 }
 
 /// Runs the diagnosis of `series` against the satellite `plant`.
@@ -191,15 +216,21 @@ pub fn diagnose(
     let prob0 = Problem::new(plant, series, &provisional);
     let mut start = initial_rate(series).to_vec();
     start.extend(std::iter::repeat_n(0.0, 3 * series.gap_resets.len()));
-    let w0 = fit_nuisance(&prob0, &start).map(|f| f.theta).unwrap_or(start);
-    let r0 = prob0.residual(&select::nuisance_params(&w0)).unwrap_or_default();
+    let w0 = fit_nuisance(&prob0, &start)
+        .map(|f| f.theta)
+        .unwrap_or(start);
+    let r0 = prob0
+        .residual(&select::nuisance_params(&w0))
+        .unwrap_or_default();
     let noise = noise::estimate(series, &r0);
     let mut prob = Problem::new(plant, series, &noise);
     prob.stride = (series.sample_rate_hz / 200.0).round().max(1.0) as usize;
     let nominal = fit_nuisance(&prob, &w0);
     let mut omega0: Vec<f64> = nominal.as_ref().map(|f| f.theta.clone()).unwrap_or(w0);
     let nominal_params = select::nuisance_params(&omega0);
-    let residual_before = prob.residual(&nominal_params).unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
+    let residual_before = prob
+        .residual(&nominal_params)
+        .unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
     let chi2_nominal = prob.chi2(&nominal_params).unwrap_or(f64::INFINITY);
     let n_obs = prob.n_obs() as f64;
     let ln_n = n_obs.max(2.0).ln();
@@ -227,16 +258,29 @@ pub fn diagnose(
     for round in 0..settings.max_effects {
         let ring_gain = ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let chi2_cur = chi2_rigid - ring_gain;
-        let acc_pairs: Vec<(Kind, Vec<f64>)> = accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
+        let acc_pairs: Vec<(Kind, Vec<f64>)> =
+            accepted.iter().map(|a| (a.kind, a.theta.clone())).collect();
         let mut ranked: Vec<(f64, Kind, Vec<f64>, String, Option<RingingFit>)> = vec![];
-        let mut screened: Vec<(f64, Kind, Vec<f64>, f64, String, Option<RingingFit>, Vec<f64>)> = vec![];
+        let mut screened: Vec<(
+            f64,
+            Kind,
+            Vec<f64>,
+            f64,
+            String,
+            Option<RingingFit>,
+            Vec<f64>,
+        )> = vec![];
         for &kind in Kind::ALL.iter() {
             if accepted.iter().any(|a| a.kind == kind) {
                 continue;
             }
             // mechanisms that share parameters cannot be combined
-            if matches!(kind, Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset)
-                && accepted.iter().any(|a| matches!(a.kind, Kind::MassPropertyChange))
+            if matches!(
+                kind,
+                Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset
+            ) && accepted
+                .iter()
+                .any(|a| matches!(a.kind, Kind::MassPropertyChange))
             {
                 continue;
             }
@@ -249,7 +293,13 @@ pub fn diagnose(
             let _timing = Timing(kind.name(), t_cand);
             if kind == Kind::GyroRinging {
                 if ringing_cache.is_none() {
-                    let rf = ringing::fit(series, &rigid_residual, &whitening, settings.ringing_prior_hz, latency);
+                    let rf = ringing::fit(
+                        series,
+                        &rigid_residual,
+                        &whitening,
+                        settings.ringing_prior_hz,
+                        latency,
+                    );
                     if spectrum_before.is_empty() {
                         if let Some(r) = &rf {
                             spectrum_before = r.scan.clone();
@@ -257,13 +307,29 @@ pub fn diagnose(
                     }
                     ringing_cache = Some(rf);
                 }
-                let Some(rf) = ringing_cache.clone().flatten() else { continue };
+                let Some(rf) = ringing_cache.clone().flatten() else {
+                    continue;
+                };
                 let dbic = -rf.gain + k_new as f64 * ln_n;
-                screened.push((dbic, kind, vec![], chi2_cur - rf.gain, rf.evidence.clone(), Some(rf), vec![]));
+                screened.push((
+                    dbic,
+                    kind,
+                    vec![],
+                    chi2_cur - rf.gain,
+                    rf.evidence.clone(),
+                    Some(rf),
+                    vec![],
+                ));
             } else {
-                let Some((fr, sz)) =
-                    select::fit_joint(&prob, &fired, &acc_pairs, Some(kind), &omega0, &slosh_hint, screen_iter)
-                else {
+                let Some((fr, sz)) = select::fit_joint(
+                    &prob,
+                    &fired,
+                    &acc_pairs,
+                    Some(kind),
+                    &omega0,
+                    &slosh_hint,
+                    screen_iter,
+                ) else {
                     continue;
                 };
                 let off: usize = sz[..sz.len() - 1].iter().sum();
@@ -284,7 +350,16 @@ pub fn diagnose(
         for (i, (dbic, kind, theta, chi2, note, rf, se)) in screened.into_iter().enumerate() {
             let k_new = effects::n_params(kind, &fired);
             let (dbic, theta, se) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
-                match select::fit_from(&prob, &fired, &acc_pairs, kind, &theta, &omega0, &slosh_hint, settings.max_iter) {
+                match select::fit_from(
+                    &prob,
+                    &fired,
+                    &acc_pairs,
+                    kind,
+                    &theta,
+                    &omega0,
+                    &slosh_hint,
+                    settings.max_iter,
+                ) {
                     Some((fr, sz)) if fr.chi2 - ring_gain < chi2 => {
                         let off: usize = sz[..sz.len() - 1].iter().sum();
                         (
@@ -298,20 +373,38 @@ pub fn diagnose(
             } else {
                 (dbic, theta, se)
             };
-            scores.push(Score { round, effect: kind.name(), delta_bic: dbic });
+            scores.push(Score {
+                round,
+                effect: kind.name(),
+                delta_bic: dbic,
+            });
             // backing test: the effect's own parameters must differ from "no effect" by
             // more than the BIC penalty in their own (colour-corrected) uncertainty, so a
             // candidate that only helps the others converge is not taken for physics
-            let w = if kind == Kind::GyroRinging { f64::INFINITY } else { wald(kind, &theta, &se, &prob) };
+            let w = if kind == Kind::GyroRinging {
+                f64::INFINITY
+            } else {
+                wald(kind, &theta, &se, &prob)
+            };
             if w < k_new as f64 * ln_n {
                 if dbic <= -settings.accept_margin {
                     let reason = format!("its own parameters are within their noise of no effect (Wald {w:.1} < {:.1})", k_new as f64 * ln_n);
-                    rejections.push(Rejection { round, effect: kind.name(), delta_bic: dbic, reason });
+                    rejections.push(Rejection {
+                        round,
+                        effect: kind.name(),
+                        delta_bic: dbic,
+                        reason,
+                    });
                 }
             } else if !observable(kind, &theta, series) {
                 if dbic <= -settings.accept_margin {
                     let reason = "its change time has no firing on one side, so it cannot be told from a constant error".into();
-                    rejections.push(Rejection { round, effect: kind.name(), delta_bic: dbic, reason });
+                    rejections.push(Rejection {
+                        round,
+                        effect: kind.name(),
+                        delta_bic: dbic,
+                        reason,
+                    });
                 }
             } else {
                 ranked.push((dbic, kind, theta, note, rf));
@@ -320,14 +413,25 @@ pub fn diagnose(
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
         // a mass-property change can mimic a constant inertia error plus a CoM offset by
         // switching half-way; it is named only if it beats that static pair
-        if ranked.first().map(|r| r.1 == Kind::MassPropertyChange).unwrap_or(false)
-            && !accepted.iter().any(|a| matches!(a.kind, Kind::Inertia | Kind::ComOffset))
+        if ranked
+            .first()
+            .map(|r| r.1 == Kind::MassPropertyChange)
+            .unwrap_or(false)
+            && !accepted
+                .iter()
+                .any(|a| matches!(a.kind, Kind::Inertia | Kind::ComOffset))
         {
             let mut pairs = acc_pairs.clone();
             pairs.push((Kind::Inertia, prob.plant.nominal_inertia().to_vec()));
-            if let Some((fr, _)) =
-                select::fit_joint(&prob, &fired, &pairs, Some(Kind::ComOffset), &omega0, &slosh_hint, settings.max_iter)
-            {
+            if let Some((fr, _)) = select::fit_joint(
+                &prob,
+                &fired,
+                &pairs,
+                Some(Kind::ComOffset),
+                &omega0,
+                &slosh_hint,
+                settings.max_iter,
+            ) {
                 let static_bic = fr.chi2 - ring_gain - chi2_cur + 9.0 * ln_n;
                 if static_bic < ranked[0].0 {
                     let r = ranked.remove(0);
@@ -348,14 +452,28 @@ pub fn diagnose(
         let sigma = noise.var.map(f64::sqrt);
         let rms_prev = locate::rms(&residual_cur, &series.valid);
         let tests_prev = stats::residual_tests(series, &residual_cur);
-        let rigid_acc: Vec<(Kind, Vec<f64>)> = acc_pairs.iter().filter(|p| p.0 != Kind::GyroRinging).cloned().collect();
+        let rigid_acc: Vec<(Kind, Vec<f64>)> = acc_pairs
+            .iter()
+            .filter(|p| p.0 != Kind::GyroRinging)
+            .cloned()
+            .collect();
         let mut taken = None;
         for (dbic, kind, theta, note, rf) in ranked.into_iter().take(MAX_TRIES) {
             if dbic > -settings.accept_margin {
                 break;
             }
             let tried = try_candidate(
-                &prob, &fired, &rigid_acc, kind, &theta, rf, &omega0, &slosh_hint, settings, &rigid_residual, &whitening,
+                &prob,
+                &fired,
+                &rigid_acc,
+                kind,
+                &theta,
+                rf,
+                &omega0,
+                &slosh_hint,
+                settings,
+                &rigid_residual,
+                &whitening,
                 ringing_fit.is_some(),
             );
             let verdict = tried.and_then(|t| {
@@ -392,14 +510,28 @@ pub fn diagnose(
                     taken = Some((dbic, kind, note, t));
                     break;
                 }
-                Err(reason) => rejections.push(Rejection { round, effect: kind.name(), delta_bic: dbic, reason }),
+                Err(reason) => rejections.push(Rejection {
+                    round,
+                    effect: kind.name(),
+                    delta_bic: dbic,
+                    reason,
+                }),
             }
         }
-        let Some((dbic, kind, note, t)) = taken else { break };
+        let Some((dbic, kind, note, t)) = taken else {
+            break;
+        };
         let residual_prev = residual_cur.clone();
         if kind == Kind::GyroRinging {
             if let Some(rf) = &t.ringing {
-                alias_marks = (rf.apparent_hz, crate::alias::candidates(rf.apparent_hz, series.sample_rate_hz, ringing::F_MAX_HZ));
+                alias_marks = (
+                    rf.apparent_hz,
+                    crate::alias::candidates(
+                        rf.apparent_hz,
+                        series.sample_rate_hz,
+                        ringing::F_MAX_HZ,
+                    ),
+                );
             }
         } else {
             omega0 = t.nuis.clone();
@@ -417,7 +549,12 @@ pub fn diagnose(
         }
         ringing_fit = t.ringing.clone();
         residual_cur = t.residual.clone();
-        let theta = t.pairs.iter().find(|p| p.0 == kind).map(|p| p.1.clone()).unwrap_or_default();
+        let theta = t
+            .pairs
+            .iter()
+            .find(|p| p.0 == kind)
+            .map(|p| p.1.clone())
+            .unwrap_or_default();
         k_cur += effects::n_params(kind, &fired);
         let chi2_total = chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let delta_bic_total = chi2_total - chi2_nominal + k_cur as f64 * ln_n;
@@ -431,7 +568,17 @@ pub fn diagnose(
             .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
             .collect();
         // thrust scale names its most-off thruster below, from the final fit
-        let evidence = describe(kind, series, &residual_prev, &residual_cur, dbic, &note, &scores, &rejections, round);
+        let evidence = describe(
+            kind,
+            series,
+            &residual_prev,
+            &residual_cur,
+            dbic,
+            &note,
+            &scores,
+            &rejections,
+            round,
+        );
         accepted.push(Accepted {
             kind,
             theta,
@@ -444,15 +591,26 @@ pub fn diagnose(
     }
     // standard errors of the rigid effects come from the last joint fit
     let mut off = 0;
-    let rigid_idx: Vec<usize> = (0..accepted.len()).filter(|&i| accepted[i].kind != Kind::GyroRinging).collect();
+    let rigid_idx: Vec<usize> = (0..accepted.len())
+        .filter(|&i| accepted[i].kind != Kind::GyroRinging)
+        .collect();
     for (j, &i) in rigid_idx.iter().enumerate() {
         let n = sizes.get(j).copied().unwrap_or(0);
-        accepted[i].stderr = joint_stderr.get(off..off + n).map(|s| s.to_vec()).unwrap_or_default();
+        accepted[i].stderr = joint_stderr
+            .get(off..off + n)
+            .map(|s| s.to_vec())
+            .unwrap_or_default();
         off += n;
     }
     for a in accepted.iter_mut().filter(|a| a.kind == Kind::GyroRinging) {
         if let Some(rf) = &ringing_fit {
-            a.theta = vec![rf.freq_hz, rf.decay_ms, rf.amplitude[0], rf.amplitude[1], rf.amplitude[2]];
+            a.theta = vec![
+                rf.freq_hz,
+                rf.decay_ms,
+                rf.amplitude[0],
+                rf.amplitude[1],
+                rf.amplitude[2],
+            ];
             a.stderr = vec![rf.freq_stderr, rf.decay_stderr];
         }
     }
@@ -460,7 +618,12 @@ pub fn diagnose(
     for a in accepted.iter_mut().filter(|a| a.kind == Kind::ThrustScale) {
         // name the thruster that is most off nominal, as finally fitted, with its uncertainty
         let fired_idx: Vec<usize> = (0..NT).filter(|&i| fired[i]).collect();
-        if let Some((j, v)) = a.theta.iter().enumerate().max_by(|x, y| (x.1 - 1.0).abs().total_cmp(&(y.1 - 1.0).abs())) {
+        if let Some((j, v)) = a
+            .theta
+            .iter()
+            .enumerate()
+            .max_by(|x, y| (x.1 - 1.0).abs().total_cmp(&(y.1 - 1.0).abs()))
+        {
             let se = a.stderr.get(j).copied().unwrap_or(f64::INFINITY);
             a.evidence = format!(
                 "thruster {} delivers {} % of its nominal force; {}",
@@ -470,7 +633,10 @@ pub fn diagnose(
             );
         }
     }
-    let effects_out: Vec<EffectReport> = accepted.iter().map(|a| report_effect(a, &fired, series)).collect();
+    let effects_out: Vec<EffectReport> = accepted
+        .iter()
+        .map(|a| report_effect(a, &fired, series))
+        .collect();
     // a named ringing accounts for its post-edge windows as a random tone
     let mut ringing_windows = vec![false; series.len()];
     if let Some(rf) = &ringing_fit {
@@ -565,7 +731,11 @@ fn try_candidate(
         let rf = rf.ok_or("no ringing fit")?;
         let latency = latency_of(rigid_acc);
         let residual = ringing::remove(series, rigid_residual, whitening, &rf, latency);
-        let contribution = rigid_residual.iter().zip(&residual).map(|(a, b)| std::array::from_fn(|i| a[i] - b[i])).collect();
+        let contribution = rigid_residual
+            .iter()
+            .zip(&residual)
+            .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
+            .collect();
         return Ok(Tried {
             pairs: rigid_acc.to_vec(),
             nuis: nuis.to_vec(),
@@ -582,23 +752,58 @@ fn try_candidate(
     }
     let mut pairs = rigid_acc.to_vec();
     pairs.push((kind, theta.to_vec()));
-    let (pairs, chi2_rigid, w, stderr, sizes) = refit_all(prob, fired, &pairs, nuis, hint, settings);
+    let (pairs, chi2_rigid, w, stderr, sizes) =
+        refit_all(prob, fired, &pairs, nuis, hint, settings);
     let with = select::build(fired, &pairs, &w);
     let without: Vec<(Kind, Vec<f64>)> = pairs.iter().filter(|p| p.0 != kind).cloned().collect();
-    let y1 = prob.predict(&with).ok_or("the model with it cannot be predicted")?;
-    let y0 = prob.predict(&select::build(fired, &without, &w)).ok_or("the model without it cannot be predicted")?;
-    let contribution = y1.iter().zip(&y0).map(|(a, b)| std::array::from_fn(|i| a[i] - b[i])).collect();
+    let y1 = prob
+        .predict(&with)
+        .ok_or("the model with it cannot be predicted")?;
+    let y0 = prob
+        .predict(&select::build(fired, &without, &w))
+        .ok_or("the model without it cannot be predicted")?;
+    let contribution = y1
+        .iter()
+        .zip(&y0)
+        .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
+        .collect();
     let rigid_residual = prob.residual(&with).ok_or("no residual")?;
     let latency = latency_of(&pairs);
-    let ringing = if ringing_on { ringing::fit(series, &rigid_residual, whitening, settings.ringing_prior_hz, latency) } else { None };
+    let ringing = if ringing_on {
+        ringing::fit(
+            series,
+            &rigid_residual,
+            whitening,
+            settings.ringing_prior_hz,
+            latency,
+        )
+    } else {
+        None
+    };
     let residual = match &ringing {
         Some(r) => ringing::remove(series, &rigid_residual, whitening, r, latency),
         None => rigid_residual.clone(),
     };
-    let th = pairs.iter().find(|p| p.0 == kind).map(|p| p.1.clone()).unwrap_or_default();
+    let th = pairs
+        .iter()
+        .find(|p| p.0 == kind)
+        .map(|p| p.1.clone())
+        .unwrap_or_default();
     let sp = select::spec(kind, prob, fired, hint);
     let implausible = acceptance::implausible(kind, &th, prob.plant, &sp.lo, &sp.hi);
-    Ok(Tried { pairs, nuis: w, chi2_rigid, stderr, sizes, rigid_residual, latency, ringing, residual, contribution, implausible })
+    Ok(Tried {
+        pairs,
+        nuis: w,
+        chi2_rigid,
+        stderr,
+        sizes,
+        rigid_residual,
+        latency,
+        ringing,
+        residual,
+        contribution,
+        implausible,
+    })
 }
 
 type Refit = (Vec<(Kind, Vec<f64>)>, f64, Vec<f64>, Vec<f64>, Vec<usize>);
@@ -615,7 +820,13 @@ fn refit_all(
     let res = select::fit_joint(prob, fired, pairs, None, nuis, hint, settings.max_iter * 2);
     let Some((fr, sizes)) = res else {
         let p = select::build(fired, pairs, nuis);
-        return (pairs.to_vec(), prob.chi2(&p).unwrap_or(f64::INFINITY), nuis.to_vec(), vec![], vec![]);
+        return (
+            pairs.to_vec(),
+            prob.chi2(&p).unwrap_or(f64::INFINITY),
+            nuis.to_vec(),
+            vec![],
+            vec![],
+        );
     };
     let mut out = vec![];
     let mut off = 0;
@@ -676,14 +887,24 @@ fn describe(
     }
     let alt = alternatives(kind.name(), dbic, scores, rejections, round);
     let what = match kind {
-        Kind::ThrusterLatency => "residual concentrates at valve edges: torque arrives later than commanded",
+        Kind::ThrusterLatency => {
+            "residual concentrates at valve edges: torque arrives later than commanded"
+        }
         Kind::PressureDrop => "torque deficit grows with the number of valves open together",
-        Kind::Blowdown => "torque deficit grows with time in the run after a start time, for every thruster",
+        Kind::Blowdown => {
+            "torque deficit grows with time in the run after a start time, for every thruster"
+        }
         Kind::ThrustScale => "torque error tied to the firings of particular thrusters",
-        Kind::ComOffset => "torque error on translation firings (opposed pairs) consistent with a moved CoM",
-        Kind::Inertia => "rate response to all torques scaled consistently with a different inertia",
+        Kind::ComOffset => {
+            "torque error on translation firings (opposed pairs) consistent with a moved CoM"
+        }
+        Kind::Inertia => {
+            "rate response to all torques scaled consistently with a different inertia"
+        }
         Kind::MassPropertyChange => "torque response changes at one time in the run",
-        Kind::FuelSlosh => "lightly damped low-frequency oscillation excited by firings, continuing while coasting",
+        Kind::FuelSlosh => {
+            "lightly damped low-frequency oscillation excited by firings, continuing while coasting"
+        }
         Kind::GyroBias => "constant offset of the measured rate",
         Kind::GyroScale => "rate error proportional to the rate itself",
         Kind::GyroRinging => "decaying tone after valve edges",
@@ -706,24 +927,48 @@ fn describe(
 /// candidate that scored better is never called the next best; one that scored better
 /// without a recorded reason (none is expected: every such path records one) is said to
 /// be "not named" rather than passed over.
-fn alternatives(effect: &str, dbic: f64, scores: &[Score], rejections: &[Rejection], round: usize) -> String {
-    let rejected: Vec<&Rejection> = rejections.iter().filter(|r| r.round == round && r.effect != effect).collect();
+fn alternatives(
+    effect: &str,
+    dbic: f64,
+    scores: &[Score],
+    rejections: &[Rejection],
+    round: usize,
+) -> String {
+    let rejected: Vec<&Rejection> = rejections
+        .iter()
+        .filter(|r| r.round == round && r.effect != effect)
+        .collect();
     let mut alt = String::new();
-    let mut better: Vec<&Rejection> = rejected.iter().copied().filter(|r| r.delta_bic < dbic).collect();
+    let mut better: Vec<&Rejection> = rejected
+        .iter()
+        .copied()
+        .filter(|r| r.delta_bic < dbic)
+        .collect();
     better.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     for r in better {
-        alt.push_str(&format!("; {} scored better (delta BIC {:.0}) but was not named: {}", r.effect, r.delta_bic, r.reason));
+        alt.push_str(&format!(
+            "; {} scored better (delta BIC {:.0}) but was not named: {}",
+            r.effect, r.delta_bic, r.reason
+        ));
     }
     let mut others: Vec<&Score> = scores
         .iter()
-        .filter(|s| s.round == round && s.effect != effect && !rejected.iter().any(|r| r.effect == s.effect))
+        .filter(|s| {
+            s.round == round && s.effect != effect && !rejected.iter().any(|r| r.effect == s.effect)
+        })
         .collect();
     others.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     for s in others.iter().filter(|s| s.delta_bic < dbic) {
-        alt.push_str(&format!("; {} scored better (delta BIC {:.0}) but was not named", s.effect, s.delta_bic));
+        alt.push_str(&format!(
+            "; {} scored better (delta BIC {:.0}) but was not named",
+            s.effect, s.delta_bic
+        ));
     }
     if let Some(s) = others.iter().find(|s| s.delta_bic >= dbic) {
-        alt.push_str(&format!("; next best mechanism {} at delta BIC {:.0}", s.effect, s.delta_bic));
+        alt.push_str(&format!(
+            "; next best mechanism {} at delta BIC {:.0}",
+            s.effect, s.delta_bic
+        ));
     }
     alt
 }
@@ -773,15 +1018,24 @@ fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectRep
         }
         Kind::Inertia => {
             p.insert("inertia_kgm2".into(), nums(&th[..6]));
-            s.insert("inertia_kgm2".into(), nums(&(0..6).map(se).collect::<Vec<_>>()));
+            s.insert(
+                "inertia_kgm2".into(),
+                nums(&(0..6).map(se).collect::<Vec<_>>()),
+            );
         }
         Kind::MassPropertyChange => {
             p.insert("at_s".into(), num(th[0]));
             p.insert("offset_mm".into(), nums(&th[1..4]));
             p.insert("inertia_kgm2".into(), nums(&th[4..10]));
             s.insert("at_s".into(), num(se(0)));
-            s.insert("offset_mm".into(), nums(&(1..4).map(se).collect::<Vec<_>>()));
-            s.insert("inertia_kgm2".into(), nums(&(4..10).map(se).collect::<Vec<_>>()));
+            s.insert(
+                "offset_mm".into(),
+                nums(&(1..4).map(se).collect::<Vec<_>>()),
+            );
+            s.insert(
+                "inertia_kgm2".into(),
+                nums(&(4..10).map(se).collect::<Vec<_>>()),
+            );
         }
         Kind::FuelSlosh => {
             p.insert("freq_hz".into(), num(th[0]));
@@ -789,7 +1043,10 @@ fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectRep
             p.insert("fluid_inertia_fraction".into(), nums(&th[2..5]));
             s.insert("freq_hz".into(), num(se(0)));
             s.insert("damping_ratio".into(), num(se(1)));
-            s.insert("fluid_inertia_fraction".into(), nums(&[se(2), se(3), se(4)]));
+            s.insert(
+                "fluid_inertia_fraction".into(),
+                nums(&[se(2), se(3), se(4)]),
+            );
         }
         Kind::GyroBias => {
             p.insert("counts".into(), nums(&th[..3]));
@@ -806,7 +1063,10 @@ fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectRep
         Kind::GyroRinging => {
             p.insert("freq_hz".into(), num(th[0]));
             p.insert("decay_ms".into(), num(th[1]));
-            p.insert("apparent_hz".into(), num(crate::alias::apparent(th[0], series.sample_rate_hz)));
+            p.insert(
+                "apparent_hz".into(),
+                num(crate::alias::apparent(th[0], series.sample_rate_hz)),
+            );
             p.insert("amplitude_rad_s".into(), nums(&th[2..5]));
             s.insert("freq_hz".into(), num(se(0)));
             s.insert("decay_ms".into(), num(se(1)));
@@ -829,7 +1089,11 @@ mod tests {
     use super::*;
 
     fn score(effect: &'static str, delta_bic: f64) -> Score {
-        Score { round: 0, effect, delta_bic }
+        Score {
+            round: 0,
+            effect,
+            delta_bic,
+        }
     }
 
     /// p04's first round: a candidate that scored better than the named one and was set
@@ -842,17 +1106,33 @@ mod tests {
             score("com_offset", -13_414_902.0),
             score("thruster_latency", -90_678.0),
         ];
-        let rej = [Rejection { round: 0, effect: "mass_property_change", delta_bic: -18_103_378.0, reason: "REASON".into() }];
+        let rej = [Rejection {
+            round: 0,
+            effect: "mass_property_change",
+            delta_bic: -18_103_378.0,
+            reason: "REASON".into(),
+        }];
         let t = alternatives("gyro_bias", -13_611_189.0, &scores, &rej, 0);
         assert!(t.contains("mass_property_change scored better (delta BIC -18103378) but was not named: REASON"), "{t}");
         assert!(t.contains("next best mechanism com_offset"), "{t}");
-        assert!(!t.contains("next best mechanism mass_property_change"), "{t}");
+        assert!(
+            !t.contains("next best mechanism mass_property_change"),
+            "{t}"
+        );
         // a better candidate without a recorded reason is still not the next best
         let t = alternatives("gyro_bias", -13_611_189.0, &scores, &[], 0);
-        assert!(!t.contains("next best mechanism mass_property_change"), "{t}");
+        assert!(
+            !t.contains("next best mechanism mass_property_change"),
+            "{t}"
+        );
         assert!(t.contains("mass_property_change scored better"), "{t}");
         // worse rejected candidates are not repeated in the sentence
-        let rej = [Rejection { round: 0, effect: "com_offset", delta_bic: -13_414_902.0, reason: "R2".into() }];
+        let rej = [Rejection {
+            round: 0,
+            effect: "com_offset",
+            delta_bic: -13_414_902.0,
+            reason: "R2".into(),
+        }];
         let t = alternatives("mass_property_change", -18_103_378.0, &scores, &rej, 0);
         assert_eq!(t, "; next best mechanism gyro_bias at delta BIC -13611189");
     }

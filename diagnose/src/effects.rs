@@ -106,7 +106,11 @@ pub fn apply(kind: Kind, th: &[f64], fired: &[bool; NT], p: &mut Params) {
         Kind::ComOffset => p.com_offset_mm = [th[0], th[1], th[2]],
         Kind::Inertia => p.inertia = Some(std::array::from_fn(|i| th[i])),
         Kind::MassPropertyChange => {
-            p.mass_change = Some((th[0], [th[1], th[2], th[3]], std::array::from_fn(|i| th[4 + i])))
+            p.mass_change = Some((
+                th[0],
+                [th[1], th[2], th[3]],
+                std::array::from_fn(|i| th[4 + i]),
+            ))
         }
         Kind::FuelSlosh => p.slosh = Some((th[0], th[1], [th[2], th[3], th[4]])),
         Kind::GyroBias => p.gyro_bias_counts = [th[0], th[1], th[2]],

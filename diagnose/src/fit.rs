@@ -25,7 +25,14 @@ pub struct Problem<'a> {
 impl<'a> Problem<'a> {
     pub fn new(plant: &'a Plant, series: &'a Series, noise: &NoiseModel) -> Problem<'a> {
         let weight = std::array::from_fn(|a| 1.0 / noise.long_run_var[a].sqrt());
-        Problem { plant, series, weight, stride: 1, train: None, duty_cache: Default::default() }
+        Problem {
+            plant,
+            series,
+            weight,
+            stride: 1,
+            train: None,
+            duty_cache: Default::default(),
+        }
     }
 
     fn duty(&self, open: f64, close: f64) -> std::rc::Rc<Vec<[f32; NT]>> {
@@ -64,7 +71,14 @@ impl<'a> Problem<'a> {
 
     /// The same problem fitted only on the samples where `train` is true.
     pub fn restricted(&self, train: std::rc::Rc<Vec<bool>>) -> Problem<'a> {
-        Problem { plant: self.plant, series: self.series, weight: self.weight, stride: self.stride, train: Some(train), duty_cache: Default::default() }
+        Problem {
+            plant: self.plant,
+            series: self.series,
+            weight: self.weight,
+            stride: self.stride,
+            train: Some(train),
+            duty_cache: Default::default(),
+        }
     }
 
     fn in_fit(&self, i: usize) -> bool {
@@ -123,7 +137,11 @@ impl<'a> Problem<'a> {
 
     /// Number of usable scalar residuals at full resolution.
     pub fn n_obs(&self) -> usize {
-        self.series.valid.iter().map(|v| v.iter().filter(|&&b| b).count()).sum()
+        self.series
+            .valid
+            .iter()
+            .map(|v| v.iter().filter(|&&b| b).count())
+            .sum()
     }
 }
 
@@ -171,7 +189,13 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         it += 1;
         if !have_jac {
             let first = it == 1;
-            let new = jacobian(prob, fam, &theta, &r, if first { usize::MAX } else { fam.frozen_from })?;
+            let new = jacobian(
+                prob,
+                fam,
+                &theta,
+                &r,
+                if first { usize::MAX } else { fam.frozen_from },
+            )?;
             if first {
                 jac = new;
             } else {
@@ -226,20 +250,37 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         }
     }
     let jtj = jac.transpose() * &jac;
-    let cov = jtj.clone().try_inverse().unwrap_or_else(|| DMatrix::from_diagonal_element(k, k, f64::INFINITY));
+    let cov = jtj
+        .clone()
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::from_diagonal_element(k, k, f64::INFINITY));
     // weights already use the long-run variance; the stride thins the data, so the
     // information is scaled back up by the stride; residual excess over 1 inflates.
     let dof = (r.len() as f64 - k as f64).max(1.0);
     let excess = (cost / dof).max(1.0);
     let scale = excess / prob.stride as f64;
-    let stderr = (0..k).map(|j| (cov[(j, j)] * scale).max(0.0).sqrt()).collect();
+    let stderr = (0..k)
+        .map(|j| (cov[(j, j)] * scale).max(0.0).sqrt())
+        .collect();
     let params = (fam.apply)(&theta)?;
     let chi2 = prob.chi2(&params)?;
-    Some(FitResult { theta, stderr, params, chi2, iterations: it })
+    Some(FitResult {
+        theta,
+        stderr,
+        params,
+        chi2,
+        iterations: it,
+    })
 }
 
 /// Forward-difference Jacobian of the columns before `upto` (others left zero).
-fn jacobian(prob: &Problem, fam: &Family, theta: &[f64], r0: &DVector<f64>, upto: usize) -> Option<DMatrix<f64>> {
+fn jacobian(
+    prob: &Problem,
+    fam: &Family,
+    theta: &[f64],
+    r0: &DVector<f64>,
+    upto: usize,
+) -> Option<DMatrix<f64>> {
     let k = theta.len();
     let mut jac = DMatrix::zeros(r0.len(), k);
     for j in 0..k.min(upto) {

@@ -4,22 +4,22 @@
 //! vocabulary, accept them one at a time by BIC backed by whiteness tests, and report.
 
 pub mod acceptance;
-pub mod model;
-pub mod series;
 pub mod alias;
 pub mod diagnosis;
 pub mod effects;
 pub mod fit;
 pub mod locate;
+pub mod model;
 pub mod noise;
+pub mod numfmt;
 pub mod output;
+pub mod report;
 pub mod ringing;
 pub mod select;
+pub mod series;
 pub mod spectrum;
 pub mod stats;
 pub mod unexplained;
-pub mod report;
-pub mod numfmt;
 
 pub use diagnosis::{diagnose, Analysis};
 pub use output::{DataIssues, DiagnosisOutput, EffectReport};
@@ -39,8 +39,13 @@ pub enum DiagnoseError {
 
 /// Diagnoses `rec` against the nominal model `sat`: the library entry point behind
 /// `massid diagnose`.
-pub fn diagnose_recording(rec: &Recording, sat: &Satellite, settings: &Settings) -> Result<Analysis, DiagnoseError> {
-    let series = series::Series::from_recording(rec, sat).ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
+pub fn diagnose_recording(
+    rec: &Recording,
+    sat: &Satellite,
+    settings: &Settings,
+) -> Result<Analysis, DiagnoseError> {
+    let series = series::Series::from_recording(rec, sat)
+        .ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
     if series.usable() == 0 {
         return Err(DiagnoseError::NoUsableSamples(rec.source.clone()));
     }
@@ -57,7 +62,9 @@ pub fn diagnose_recording(rec: &Recording, sat: &Satellite, settings: &Settings)
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())
         .unwrap_or_else(|| rec.source.clone());
-    Ok(diagnose(&series, &plant, &name, &sat.name, issues, settings))
+    Ok(diagnose(
+        &series, &plant, &name, &sat.name, issues, settings,
+    ))
 }
-pub mod synth;
 pub mod score;
+pub mod synth;

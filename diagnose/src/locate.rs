@@ -57,7 +57,8 @@ pub fn conditions(series: &Series) -> Vec<Condition> {
 /// Mean-square residual per axis by condition: (condition, samples, ms per axis).
 pub fn by_condition(series: &Series, r: &[[f64; 3]]) -> Vec<(Condition, usize, [f64; 3])> {
     let c = conditions(series);
-    let mut acc: std::collections::BTreeMap<Condition, (usize, [f64; 3], [usize; 3])> = Default::default();
+    let mut acc: std::collections::BTreeMap<Condition, (usize, [f64; 3], [usize; 3])> =
+        Default::default();
     for (i, ci) in c.iter().enumerate() {
         let e = acc.entry(*ci).or_insert((0, [0.0; 3], [0; 3]));
         e.0 += 1;
@@ -68,7 +69,9 @@ pub fn by_condition(series: &Series, r: &[[f64; 3]]) -> Vec<(Condition, usize, [
             }
         }
     }
-    acc.into_iter().map(|(k, (n, s, na))| (k, n, std::array::from_fn(|a| s[a] / na[a].max(1) as f64))).collect()
+    acc.into_iter()
+        .map(|(k, (n, s, na))| (k, n, std::array::from_fn(|a| s[a] / na[a].max(1) as f64)))
+        .collect()
 }
 
 /// Mean-square residual per axis in consecutive windows of `width_ms`: (start, end, ms).
@@ -101,16 +104,33 @@ pub fn by_window(series: &Series, r: &[[f64; 3]], width_ms: i64) -> Vec<(i64, i6
 
 /// The `count` windows where going from residual `before` to `after` removed the most
 /// squared residual (summed over axes), in time order.
-pub fn top_windows(series: &Series, before: &[[f64; 3]], after: &[[f64; 3]], width_ms: i64, count: usize) -> Vec<[i64; 2]> {
+pub fn top_windows(
+    series: &Series,
+    before: &[[f64; 3]],
+    after: &[[f64; 3]],
+    width_ms: i64,
+    count: usize,
+) -> Vec<[i64; 2]> {
     let wb = by_window(series, before, width_ms);
     let wa = by_window(series, after, width_ms);
     let mut gain: Vec<(f64, i64, i64)> = wb
         .iter()
         .zip(wa.iter())
-        .map(|(b, a)| ((b.2[0] + b.2[1] + b.2[2]) - (a.2[0] + a.2[1] + a.2[2]), b.0, b.1))
+        .map(|(b, a)| {
+            (
+                (b.2[0] + b.2[1] + b.2[2]) - (a.2[0] + a.2[1] + a.2[2]),
+                b.0,
+                b.1,
+            )
+        })
         .collect();
     gain.sort_by(|x, y| y.0.total_cmp(&x.0));
-    let mut w: Vec<[i64; 2]> = gain.iter().take(count).filter(|g| g.0 > 0.0).map(|g| [g.1, g.2]).collect();
+    let mut w: Vec<[i64; 2]> = gain
+        .iter()
+        .take(count)
+        .filter(|g| g.0 > 0.0)
+        .map(|g| [g.1, g.2])
+        .collect();
     w.sort();
     w
 }

@@ -172,7 +172,12 @@ impl MassProps {
     /// the reduced inertia J (I_aa - J) / I_aa, so that the two-body mode seen in the body
     /// rate has `freq_hz` and `damping_ratio`; the gyroscopic term carries the liquid's
     /// momentum too.
-    fn new(plant: &Plant, p: &Params, inertia6: &[f64; 6], dcom_mm: &[f64; 3]) -> Option<MassProps> {
+    fn new(
+        plant: &Plant,
+        p: &Params,
+        inertia6: &[f64; 6],
+        dcom_mm: &[f64; 3],
+    ) -> Option<MassProps> {
         let inertia = inertia_matrix(inertia6);
         let com = plant.com + Vector3::from(*dcom_mm) * 1e-3;
         let torque = std::array::from_fn(|i| plant.torque(i, &com));
@@ -192,14 +197,26 @@ impl MassProps {
         }
         let rigid = inertia - Matrix3::from_diagonal(&slosh_j);
         let inv_rigid = rigid.try_inverse()?;
-        Some(MassProps { inertia, inv_rigid, torque, slosh_j, slosh_k, slosh_c })
+        Some(MassProps {
+            inertia,
+            inv_rigid,
+            torque,
+            slosh_j,
+            slosh_k,
+            slosh_c,
+        })
     }
 }
 
 /// Predicted gyro output (rad/s, nominal conversion) at every sample of `series`.
 /// `duty` must come from [`duty_grid`] with the same latencies as `p`.
 /// Returns None for parameters that make no physical sense (singular inertia, NaN).
-pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -> Option<Vec<[f64; 3]>> {
+pub fn predict(
+    plant: &Plant,
+    series: &Series,
+    duty: &[[f32; NT]],
+    p: &Params,
+) -> Option<Vec<[f64; 3]>> {
     PREDICTIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let inertia0 = p.inertia.unwrap_or(plant.inertia);
     let props_a = MassProps::new(plant, p, &inertia0, &p.com_offset_mm)?;
@@ -208,7 +225,10 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
         None => None,
     };
     // the change time and the blowdown's clock are the recording's; steps run on the model's
-    let change_ms = p.mass_change.map(|m| series.model_ms(m.0 * 1e3)).unwrap_or(f64::INFINITY);
+    let change_ms = p
+        .mass_change
+        .map(|m| series.model_ms(m.0 * 1e3))
+        .unwrap_or(f64::INFINITY);
     let slosh_on = p.slosh.is_some();
     let dist = Vector3::from(p.disturbance_nm);
     let pd = plant.base_pressure_drop + p.pressure_drop;
@@ -248,7 +268,11 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
                     scale_t = (-(t - start) / tau).exp();
                 }
             }
-            let same = k > 0 && k < n_ms && k - 1 < n_ms && duty[k - 1] == duty[k] && p.blowdown.is_none()
+            let same = k > 0
+                && k < n_ms
+                && k - 1 < n_ms
+                && duty[k - 1] == duty[k]
+                && p.blowdown.is_none()
                 && !((k as f64) - 0.5 < change_ms && (k as f64) + 0.5 >= change_ms);
             let mut tau_c = dist;
             if same {
@@ -282,8 +306,16 @@ pub fn predict(plant: &Plant, series: &Series, duty: &[[f32; NT]], p: &Params) -
                 }
             };
             let (k1w, k1q, k1d) = deriv(&w, &q, &qd);
-            let (k2w, k2q, k2d) = deriv(&(w + k1w * (h / 2.0)), &(q + k1q * (h / 2.0)), &(qd + k1d * (h / 2.0)));
-            let (k3w, k3q, k3d) = deriv(&(w + k2w * (h / 2.0)), &(q + k2q * (h / 2.0)), &(qd + k2d * (h / 2.0)));
+            let (k2w, k2q, k2d) = deriv(
+                &(w + k1w * (h / 2.0)),
+                &(q + k1q * (h / 2.0)),
+                &(qd + k1d * (h / 2.0)),
+            );
+            let (k3w, k3q, k3d) = deriv(
+                &(w + k2w * (h / 2.0)),
+                &(q + k2q * (h / 2.0)),
+                &(qd + k2d * (h / 2.0)),
+            );
             let (k4w, k4q, k4d) = deriv(&(w + k3w * h), &(q + k3q * h), &(qd + k3d * h));
             w += (k1w + k2w * 2.0 + k3w * 2.0 + k4w) * (h / 6.0);
             if slosh_on {
@@ -320,9 +352,20 @@ mod tests {
         let t: Vec<i64> = (0..n).collect();
         let counts = vec![[2048, 2048, 2048]; n as usize];
         let words = vec![0u16; n as usize];
-        let series = Series::from_counts(&t, &counts, &words, sat.gyro_bias_counts, sat.gyro_counts_per_rad_s, Some(1000.0)).unwrap();
+        let series = Series::from_counts(
+            &t,
+            &counts,
+            &words,
+            sat.gyro_bias_counts,
+            sat.gyro_counts_per_rad_s,
+            Some(1000.0),
+        )
+        .unwrap();
         let duty = duty_grid(&series, 0.0, 0.0);
-        let p = Params { omega0: [0.6, -0.3, 0.9], ..Params::default() };
+        let p = Params {
+            omega0: [0.6, -0.3, 0.9],
+            ..Params::default()
+        };
         let y = predict(&plant, &series, &duty, &p).unwrap();
         let i = inertia_matrix(&sat.inertia_kgm2);
         let h = |w: &[f64; 3]| (i * Vector3::from(*w)).norm();
@@ -346,7 +389,15 @@ mod tests {
         let mut words = vec![0u16; 10];
         words[3] = 1;
         words[4] = 1;
-        let series = Series::from_counts(&t, &counts, &words, sat.gyro_bias_counts, sat.gyro_counts_per_rad_s, None).unwrap();
+        let series = Series::from_counts(
+            &t,
+            &counts,
+            &words,
+            sat.gyro_bias_counts,
+            sat.gyro_counts_per_rad_s,
+            None,
+        )
+        .unwrap();
         let d = duty_grid(&series, 0.25, 0.5);
         let on: Vec<f32> = d.iter().map(|x| x[0]).collect();
         assert_eq!(on, vec![0.0, 0.0, 0.0, 0.75, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0]);

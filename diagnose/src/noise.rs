@@ -27,7 +27,13 @@ pub struct NoiseModel {
 impl NoiseModel {
     /// White noise of per-sample variance `var` (no correlation).
     pub fn white(var: [f64; 3]) -> NoiseModel {
-        NoiseModel { var, long_run_var: var, rho1: [0.0; 3], pairs: 0, acov: var.map(|v| vec![v]) }
+        NoiseModel {
+            var,
+            long_run_var: var,
+            rho1: [0.0; 3],
+            pairs: 0,
+            acov: var.map(|v| vec![v]),
+        }
     }
 
     /// Prewhitening filter per axis: AR coefficients (order <= `order`, by Levinson-Durbin
@@ -46,7 +52,12 @@ fn levinson(g: &[f64], order: usize) -> (Vec<f64>, f64) {
         if err <= 0.0 {
             break;
         }
-        let acc: f64 = g[k] - phi.iter().enumerate().map(|(j, c)| c * g[k - 1 - j]).sum::<f64>();
+        let acc: f64 = g[k]
+            - phi
+                .iter()
+                .enumerate()
+                .map(|(j, c)| c * g[k - 1 - j])
+                .sum::<f64>();
         let refl = (acc / err).clamp(-0.95, 0.95);
         let mut next = phi.clone();
         next.push(refl);
@@ -99,8 +110,11 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
             let mut v: Vec<f64> = Vec::new();
             for i in 0..series.len().saturating_sub(lag) {
                 let j = i + lag;
-                if mask[i] && mask[j] && series.t_ms[j] - series.t_ms[i] == lag as i64 * dt
-                    && series.valid[i][a] && series.valid[j][a]
+                if mask[i]
+                    && mask[j]
+                    && series.t_ms[j] - series.t_ms[i] == lag as i64 * dt
+                    && series.valid[i][a]
+                    && series.valid[j][a]
                 {
                     v.push((r[j][a] - r[i][a]).powi(2));
                 }
@@ -124,11 +138,25 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
             s += 2.0 * gk;
         }
         var[a] = g0.max(1e-30);
-        acov[a] = (0..max_lag).map(|lag| if lag == 0 { var[a] } else { g0 - dl[lag][a] / 2.0 }).collect();
+        acov[a] = (0..max_lag)
+            .map(|lag| {
+                if lag == 0 {
+                    var[a]
+                } else {
+                    g0 - dl[lag][a] / 2.0
+                }
+            })
+            .collect();
         lr[a] = s.max(0.2 * g0).max(1e-30);
         rho1[a] = 1.0 - dl[1][a] / (2.0 * var[a]);
     }
-    NoiseModel { var, long_run_var: lr, rho1, pairs, acov }
+    NoiseModel {
+        var,
+        long_run_var: lr,
+        rho1,
+        pairs,
+        acov,
+    }
 }
 
 /// Mean square with the largest 2 % trimmed and the trimmed tail compensated for a
@@ -143,5 +171,9 @@ fn robust_mean_sq(v: &mut [f64]) -> f64 {
     let mean: f64 = v.iter().sum::<f64>() / v.len() as f64;
     let from_median = med / 0.4549;
     // take the smaller unless the data are clearly not chi-square shaped (quantized)
-    if from_median > 0.0 { mean.min(from_median * 1.2).max(from_median * 0.8) } else { mean }
+    if from_median > 0.0 {
+        mean.min(from_median * 1.2).max(from_median * 0.8)
+    } else {
+        mean
+    }
 }

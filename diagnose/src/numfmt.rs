@@ -126,7 +126,10 @@ pub fn unit(key: &str) -> &'static str {
 /// Labels of an array parameter's entries: thrusters 1..12, axes, inertia terms.
 fn element_labels(key: &str, n: usize) -> Vec<String> {
     match (key, n) {
-        ("inertia_kgm2", 6) => ["xx", "yy", "zz", "xy", "xz", "yz"].iter().map(|s| s.to_string()).collect(),
+        ("inertia_kgm2", 6) => ["xx", "yy", "zz", "xy", "xz", "yz"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
         (_, 3) => ["x", "y", "z"].iter().map(|s| s.to_string()).collect(),
         (_, 12) => (1..=12).map(|i| format!("thruster {i}")).collect(),
         _ => (1..=n).map(|i| format!("{i}")).collect(),
@@ -146,11 +149,23 @@ impl ParamText {
     /// "open_ms = 6.07 ± 0.03 ms", "offset_mm (mm): x 1.52 ± 0.03, y ..."
     pub fn line(&self) -> String {
         if self.entries.len() == 1 && self.entries[0].0.is_empty() {
-            let u = if self.unit.is_empty() { String::new() } else { format!(" {}", self.unit) };
+            let u = if self.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" {}", self.unit)
+            };
             return format!("{} = {}{u}", self.name, self.entries[0].1);
         }
-        let u = if self.unit.is_empty() { String::new() } else { format!(" ({})", self.unit) };
-        let list: Vec<String> = self.entries.iter().map(|(l, v)| format!("{l} {v}")).collect();
+        let u = if self.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", self.unit)
+        };
+        let list: Vec<String> = self
+            .entries
+            .iter()
+            .map(|(l, v)| format!("{l} {v}"))
+            .collect();
         format!("{}{u}: {}", self.name, list.join(", "))
     }
 }
@@ -167,7 +182,9 @@ pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
             let one = |v: Option<f64>, s: Option<f64>| -> String {
                 let v = v.unwrap_or(f64::NAN);
                 match s {
-                    Some(s) if thrust_scale && k == "scale" && unidentifiable(s) => "not fired".into(),
+                    Some(s) if thrust_scale && k == "scale" && unidentifiable(s) => {
+                        "not fired".into()
+                    }
                     Some(s) => value_pm(v, s),
                     None => value(v),
                 }
@@ -175,7 +192,9 @@ pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
             let entries = match v {
                 Value::Array(xs) => {
                     let ses: Vec<Option<f64>> = match se {
-                        Some(Value::Array(s)) => (0..xs.len()).map(|i| s.get(i).and_then(Value::as_f64)).collect(),
+                        Some(Value::Array(s)) => (0..xs.len())
+                            .map(|i| s.get(i).and_then(Value::as_f64))
+                            .collect(),
                         _ => vec![None; xs.len()],
                     };
                     element_labels(k, xs.len())
@@ -186,7 +205,11 @@ pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
                 }
                 _ => vec![(String::new(), one(v.as_f64(), se.and_then(Value::as_f64)))],
             };
-            ParamText { name: k.clone(), unit: unit(k), entries }
+            ParamText {
+                name: k.clone(),
+                unit: unit(k),
+                entries,
+            }
         })
         .collect()
 }
@@ -215,7 +238,13 @@ pub fn sig(x: f64, n: i32) -> String {
 /// A time window in ms of the recording as seconds: "12.300-12.320 s".
 pub fn window(w: [i64; 2]) -> String {
     let d = if w[1] - w[0] < 1000 { 3 } else { 1 };
-    format!("{:.*}-{:.*} s", d, w[0] as f64 * 1e-3, d, w[1] as f64 * 1e-3)
+    format!(
+        "{:.*}-{:.*} s",
+        d,
+        w[0] as f64 * 1e-3,
+        d,
+        w[1] as f64 * 1e-3
+    )
 }
 
 #[cfg(test)]
@@ -229,7 +258,10 @@ mod tests {
         assert_eq!(value_pm(6.0712345, 0.0134), "6.071 ± 0.013");
         assert_eq!(value_pm(6.0712345, 0.25), "6.07 ± 0.25");
         assert_eq!(value_pm(6.0712345, 0.67), "6.1 ± 0.7");
-        assert_eq!(value_pm(14.613512815660512, 0.009313285586738655), "14.614 ± 0.009");
+        assert_eq!(
+            value_pm(14.613512815660512, 0.009313285586738655),
+            "14.614 ± 0.009"
+        );
         // carry into the next decade keeps two digits
         assert_eq!(value_pm(2.0, 0.0096), "2.000 ± 0.010");
         assert_eq!(value_pm(1234.5, 340.0), "1200 ± 300");
@@ -240,14 +272,25 @@ mod tests {
     #[test]
     fn small_and_large_magnitudes() {
         // inertia: fixed notation stays readable
-        assert_eq!(value_pm(0.025986416435103736, 2.433326786925074e-6), "0.0259864 ± 0.0000024");
+        assert_eq!(
+            value_pm(0.025986416435103736, 2.433326786925074e-6),
+            "0.0259864 ± 0.0000024"
+        );
         // products of inertia and torques: one shared exponent
-        assert_eq!(value_pm(-0.00021788815996758, 5.972458260170613e-7), "(-2.179 ± 0.006)e-4");
+        assert_eq!(
+            value_pm(-0.00021788815996758, 5.972458260170613e-7),
+            "(-2.179 ± 0.006)e-4"
+        );
         assert_eq!(value_pm(1.2e-5, 3.1e-7), "(1.20 ± 0.03)e-5");
         assert_eq!(value_pm(0.0, 0.0), "0 ± 0");
         assert_eq!(value(1e-9), "1.000e-9");
         // no panic at the ends of the f64 range
-        for (v, se) in [(0.0, 5e-324), (1e300, 1e-300), (-1e-300, 1e5), (0.0, 1e-320)] {
+        for (v, se) in [
+            (0.0, 5e-324),
+            (1e300, 1e-300),
+            (-1e-300, 1e5),
+            (0.0, 1e-320),
+        ] {
             assert!(!value_pm(v, se).is_empty());
         }
         // p08's dead thruster
@@ -260,8 +303,14 @@ mod tests {
         assert_eq!(value_pm(1.0, f64::INFINITY), "1.000 (unidentifiable)");
         let e = EffectReport {
             effect: "thrust_scale".into(),
-            params: json!({"scale": [0.98, 1.0]}).as_object().cloned().unwrap_or_default(),
-            stderr: json!({"scale": [0.0123, 1e9]}).as_object().cloned().unwrap_or_default(),
+            params: json!({"scale": [0.98, 1.0]})
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
+            stderr: json!({"scale": [0.0123, 1e9]})
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
             evidence: String::new(),
             windows_ms: vec![],
             rms_after: [0.0; 3],
@@ -302,21 +351,36 @@ mod tests {
         assert_eq!(unit("scale"), "");
         let e = EffectReport {
             effect: "thruster_latency".into(),
-            params: json!({"open_ms": 6.0712, "close_ms": 5.8}).as_object().cloned().unwrap_or_default(),
-            stderr: json!({"open_ms": 0.0312, "close_ms": 0.4}).as_object().cloned().unwrap_or_default(),
+            params: json!({"open_ms": 6.0712, "close_ms": 5.8})
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
+            stderr: json!({"open_ms": 0.0312, "close_ms": 0.4})
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
             evidence: String::new(),
             windows_ms: vec![],
             rms_after: [0.0; 3],
             delta_bic: 0.0,
         };
         let lines: Vec<String> = effect_params(&e).iter().map(ParamText::line).collect();
-        assert!(lines.contains(&"open_ms = 6.07 ± 0.03 ms".to_string()), "{lines:?}");
-        assert!(lines.contains(&"close_ms = 5.8 ± 0.4 ms".to_string()), "{lines:?}");
+        assert!(
+            lines.contains(&"open_ms = 6.07 ± 0.03 ms".to_string()),
+            "{lines:?}"
+        );
+        assert!(
+            lines.contains(&"close_ms = 5.8 ± 0.4 ms".to_string()),
+            "{lines:?}"
+        );
     }
 
     #[test]
     fn rates_and_windows() {
-        assert_eq!(rates([0.00287123, 0.0017, 0.0156789]), "0.00287 0.00170 0.0157");
+        assert_eq!(
+            rates([0.00287123, 0.0017, 0.0156789]),
+            "0.00287 0.00170 0.0157"
+        );
         assert_eq!(window([12300, 12320]), "12.300-12.320 s");
         assert_eq!(window([40000, 41000]), "40.0-41.0 s");
     }

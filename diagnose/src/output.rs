@@ -50,7 +50,9 @@ pub struct DiagnosisOutput {
 /// A number JSON can carry: non-finite uncertainties become 1e9 ("unbounded").
 pub fn num(x: f64) -> Value {
     let x = if x.is_finite() { x } else { 1e9 };
-    serde_json::Number::from_f64(x).map(Value::Number).unwrap_or(Value::Null)
+    serde_json::Number::from_f64(x)
+        .map(Value::Number)
+        .unwrap_or(Value::Null)
 }
 
 /// A JSON array of numbers.

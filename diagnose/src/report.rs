@@ -22,7 +22,11 @@ fn param_lines(p: &ParamText) -> Vec<String> {
     if p.entries.len() <= 6 {
         return vec![p.line()];
     }
-    let u = if p.unit.is_empty() { String::new() } else { format!(" ({})", p.unit) };
+    let u = if p.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", p.unit)
+    };
     let mut out = vec![format!("{}{u}:", p.name)];
     for chunk in p.entries.chunks(ENTRIES_PER_LINE) {
         let list: Vec<String> = chunk.iter().map(|(l, v)| format!("{l} {v}")).collect();
@@ -33,14 +37,21 @@ fn param_lines(p: &ParamText) -> Vec<String> {
 
 /// A sample rate: "100", "1000", "333.3".
 fn hz(x: f64) -> String {
-    if (x - x.round()).abs() < 1e-6 { format!("{:.0}", x) } else { numfmt::sig(x, 4) }
+    if (x - x.round()).abs() < 1e-6 {
+        format!("{:.0}", x)
+    } else {
+        numfmt::sig(x, 4)
+    }
 }
 
 fn windows_text(w: &[[i64; 2]]) -> String {
     if w.is_empty() {
         return "none".into();
     }
-    w.iter().map(|&w| numfmt::window(w)).collect::<Vec<_>>().join(", ")
+    w.iter()
+        .map(|&w| numfmt::window(w))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Terminal summary.
@@ -59,7 +70,10 @@ pub fn summary(a: &Analysis) -> String {
     let _ = writeln!(
         s,
         "data issues: {} gaps, {} missing samples, {} duplicates, {} saturated",
-        o.data_issues.gaps, o.data_issues.missing_samples, o.data_issues.duplicates, o.data_issues.saturated
+        o.data_issues.gaps,
+        o.data_issues.missing_samples,
+        o.data_issues.duplicates,
+        o.data_issues.saturated
     );
     let r = o.data_issues.railed;
     if r.iter().any(|&x| x > 0) {
@@ -68,8 +82,16 @@ pub fn summary(a: &Analysis) -> String {
     for w in &a.series.warnings {
         let _ = writeln!(s, "warning: {w}");
     }
-    let _ = writeln!(s, "noise (per sample, rad/s, x y z): {}", f(a.noise.var.map(f64::sqrt)));
-    let _ = writeln!(s, "residual RMS before (rad/s, x y z): {}", f(o.residual_rms_before));
+    let _ = writeln!(
+        s,
+        "noise (per sample, rad/s, x y z): {}",
+        f(a.noise.var.map(f64::sqrt))
+    );
+    let _ = writeln!(
+        s,
+        "residual RMS before (rad/s, x y z): {}",
+        f(o.residual_rms_before)
+    );
     if o.effects.is_empty() {
         let _ = writeln!(s, "no effect named: no mechanism of the vocabulary improves the nominal model's prediction in a way that generalises");
     }
@@ -85,9 +107,20 @@ pub fn summary(a: &Analysis) -> String {
         let _ = writeln!(s, "     residual RMS after (rad/s): {}", f(e.rms_after));
     }
     for r in &a.rejections {
-        let _ = writeln!(s, "not named (round {}): {} (delta BIC {:.0}): {}", r.round + 1, r.effect, r.delta_bic, r.reason);
+        let _ = writeln!(
+            s,
+            "not named (round {}): {} (delta BIC {:.0}): {}",
+            r.round + 1,
+            r.effect,
+            r.delta_bic,
+            r.reason
+        );
     }
-    let _ = writeln!(s, "residual RMS after (rad/s, x y z): {}", f(o.residual_rms_after));
+    let _ = writeln!(
+        s,
+        "residual RMS after (rad/s, x y z): {}",
+        f(o.residual_rms_after)
+    );
     match &o.unexplained {
         Some(u) => {
             let _ = writeln!(s, "UNEXPLAINED: {}", u.note);
@@ -135,12 +168,26 @@ type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 /// A title on the left and a legend (coloured line, label) on the right of a strip.
 fn title_strip(area: &Area, title: &str, items: &[(&str, RGBColor, u32)]) -> Result<(), String> {
     let e = |x: DrawingAreaErrorKind<_>| x.to_string();
-    area.draw(&Text::new(title.to_string(), (10, 6), ("sans-serif", 16).into_font())).map_err(e)?;
+    area.draw(&Text::new(
+        title.to_string(),
+        (10, 6),
+        ("sans-serif", 16).into_font(),
+    ))
+    .map_err(e)?;
     let (w, _) = area.dim_in_pixel();
     let mut x = w as i32 - 10 - items.iter().map(|i| 40 + 8 * i.0.len() as i32).sum::<i32>();
     for (label, color, width) in items {
-        area.draw(&PathElement::new(vec![(x, 14), (x + 26, 14)], color.stroke_width(*width))).map_err(e)?;
-        area.draw(&Text::new(label.to_string(), (x + 30, 6), ("sans-serif", 14).into_font())).map_err(e)?;
+        area.draw(&PathElement::new(
+            vec![(x, 14), (x + 26, 14)],
+            color.stroke_width(*width),
+        ))
+        .map_err(e)?;
+        area.draw(&Text::new(
+            label.to_string(),
+            (x + 30, 6),
+            ("sans-serif", 14).into_font(),
+        ))
+        .map_err(e)?;
         x += 40 + 8 * label.len() as i32;
     }
     Ok(())
@@ -148,7 +195,11 @@ fn title_strip(area: &Area, title: &str, items: &[(&str, RGBColor, u32)]) -> Res
 
 /// Real time (s) of every sample.
 fn times_s(series: &Series) -> Vec<f64> {
-    series.t_ms.iter().map(|&t| series.real_ms(t as f64) * 1e-3).collect()
+    series
+        .t_ms
+        .iter()
+        .map(|&t| series.real_ms(t as f64) * 1e-3)
+        .collect()
 }
 
 /// Largest |residual| over the usable samples of both residuals: one y scale for the
@@ -169,7 +220,13 @@ fn residual_limit(series: &Series, rs: &[&[[f64; 3]]]) -> f64 {
 
 /// The residual of the nominal model and after the named effects, one row per axis, all on
 /// one y scale (`lim`), in the colours of the window panels' models.
-fn residual_svg(series: &Series, t: &[f64], before: &[[f64; 3]], after: &[[f64; 3]], lim: f64) -> Result<String, String> {
+fn residual_svg(
+    series: &Series,
+    t: &[f64],
+    before: &[[f64; 3]],
+    after: &[[f64; 3]],
+    lim: f64,
+) -> Result<String, String> {
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, (900, 520)).into_drawing_area();
@@ -178,7 +235,10 @@ fn residual_svg(series: &Series, t: &[f64], before: &[[f64; 3]], after: &[[f64; 
         title_strip(
             &top,
             "residual (measured minus model), one scale",
-            &[("nominal model", NOMINAL, 2), ("after the named effects", FITTED, 2)],
+            &[
+                ("nominal model", NOMINAL, 2),
+                ("after the named effects", FITTED, 2),
+            ],
         )?;
         let t0 = t.first().copied().unwrap_or(0.0);
         let t1 = t.last().copied().unwrap_or(0.0).max(t0 + 1e-3);
@@ -196,15 +256,23 @@ fn residual_svg(series: &Series, t: &[f64], before: &[[f64; 3]], after: &[[f64; 
             let fmt_y = |y: &f64| tick(y, 2.0 * lim);
             let ydesc = format!("{} (rad/s)", AXES[ax]);
             let mut mesh = chart.configure_mesh();
-            mesh.disable_mesh().y_label_formatter(&fmt_y).y_desc(ydesc.as_str()).y_labels(5);
+            mesh.disable_mesh()
+                .y_label_formatter(&fmt_y)
+                .y_desc(ydesc.as_str())
+                .y_labels(5);
             if last {
                 mesh.x_desc("time (s)");
             }
             mesh.draw().map_err(|e| e.to_string())?;
             for (r, color) in [(before, NOMINAL), (after, FITTED)] {
-                let pts: Vec<(f64, f64)> =
-                    (0..r.len()).step_by(step).filter(|&i| series.valid[i][ax]).map(|i| (t[i], r[i][ax])).collect();
-                chart.draw_series(LineSeries::new(pts, color.stroke_width(1))).map_err(|e| e.to_string())?;
+                let pts: Vec<(f64, f64)> = (0..r.len())
+                    .step_by(step)
+                    .filter(|&i| series.valid[i][ax])
+                    .map(|i| (t[i], r[i][ax]))
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(pts, color.stroke_width(1)))
+                    .map_err(|e| e.to_string())?;
             }
         }
         root.present().map_err(|e| e.to_string())?;
@@ -228,7 +296,11 @@ fn merge_windows(w: &[[i64; 2]]) -> Vec<[i64; 2]> {
 
 /// A y tick label: two significant digits, and 0 for the rounding dust of a zero tick.
 fn tick(y: &f64, span: f64) -> String {
-    if y.abs() < 1e-9 * span.max(1e-300) { "0".into() } else { numfmt::sig(*y, 2) }
+    if y.abs() < 1e-9 * span.max(1e-300) {
+        "0".into()
+    } else {
+        numfmt::sig(*y, 2)
+    }
 }
 
 /// What a window panel marks: the located window (shaded) or a fitted time (a line, s).
@@ -240,13 +312,24 @@ enum Mark {
 
 /// Measured, nominal-model and fitted-model rates per axis around `window` (ms of the
 /// recording), the window itself shaded or a time marked.
-fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark) -> Result<String, String> {
+fn window_svg(
+    a: &Analysis,
+    t: &[f64],
+    window: [i64; 2],
+    title: &str,
+    mark: Mark,
+) -> Result<String, String> {
     let series = &a.series;
     let (w0, w1) = (window[0] as f64 * 1e-3, window[1] as f64 * 1e-3);
     // context on both sides: half the window, at least 30 ms and 10 samples
-    let pad = (0.5 * (w1 - w0)).max(0.03).max(10.0 / series.sample_rate_hz.max(1e-3));
+    let pad = (0.5 * (w1 - w0))
+        .max(0.03)
+        .max(10.0 / series.sample_rate_hz.max(1e-3));
     // the view stays inside the recording (a located window may reach past its end)
-    let (first, last) = (t.first().copied().unwrap_or(0.0), t.last().copied().unwrap_or(0.0));
+    let (first, last) = (
+        t.first().copied().unwrap_or(0.0),
+        t.last().copied().unwrap_or(0.0),
+    );
     let (v0, v1) = ((w0 - pad).max(first), (w1 + pad).min(last));
     if v1 <= v0 {
         return Err("the window is outside the recording".into());
@@ -264,7 +347,11 @@ fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark
         let root = SVGBackend::with_string(&mut out, (900, 520)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let (top, body) = root.split_vertically(28);
-        let mut legend = vec![("measured", MEASURED, 1), ("nominal model", NOMINAL, 2), ("fitted model", FITTED, 2)];
+        let mut legend = vec![
+            ("measured", MEASURED, 1),
+            ("nominal model", NOMINAL, 2),
+            ("fitted model", FITTED, 2),
+        ];
         if let Mark::At(_) = mark {
             legend.push(("fitted time", BLACK, 1));
         }
@@ -272,11 +359,26 @@ fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark
         let rows = body.split_evenly((3, 1));
         let decimals = if v1 - v0 < 2.0 { 3 } else { 1 };
         for (ax, area) in rows.iter().enumerate() {
-            let usable: Vec<usize> = idx.iter().copied().filter(|&i| series.valid[i][ax]).collect();
-            let meas: Vec<(f64, f64)> = usable.iter().map(|&i| (t[i], series.rate[i][ax])).collect();
-            let nom: Vec<(f64, f64)> = usable.iter().map(|&i| (t[i], series.rate[i][ax] - a.residual_before[i][ax])).collect();
-            let fit: Vec<(f64, f64)> = usable.iter().map(|&i| (t[i], series.rate[i][ax] - a.residual_after[i][ax])).collect();
-            let (mut lo, mut hi) = meas.iter().chain(&nom).chain(&fit).fold((f64::MAX, f64::MIN), |m, p| (m.0.min(p.1), m.1.max(p.1)));
+            let usable: Vec<usize> = idx
+                .iter()
+                .copied()
+                .filter(|&i| series.valid[i][ax])
+                .collect();
+            let meas: Vec<(f64, f64)> =
+                usable.iter().map(|&i| (t[i], series.rate[i][ax])).collect();
+            let nom: Vec<(f64, f64)> = usable
+                .iter()
+                .map(|&i| (t[i], series.rate[i][ax] - a.residual_before[i][ax]))
+                .collect();
+            let fit: Vec<(f64, f64)> = usable
+                .iter()
+                .map(|&i| (t[i], series.rate[i][ax] - a.residual_after[i][ax]))
+                .collect();
+            let (mut lo, mut hi) = meas
+                .iter()
+                .chain(&nom)
+                .chain(&fit)
+                .fold((f64::MAX, f64::MIN), |m, p| (m.0.min(p.1), m.1.max(p.1)));
             if lo > hi {
                 (lo, hi) = (-1e-3, 1e-3);
             }
@@ -295,7 +397,11 @@ fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark
             let fmt_y = |y: &f64| tick(y, hi - lo);
             let ydesc = format!("{} rate (rad/s)", AXES[ax]);
             let mut mesh = chart.configure_mesh();
-            mesh.disable_mesh().x_label_formatter(&fmt_x).y_label_formatter(&fmt_y).y_desc(ydesc.as_str()).y_labels(5);
+            mesh.disable_mesh()
+                .x_label_formatter(&fmt_x)
+                .y_label_formatter(&fmt_y)
+                .y_desc(ydesc.as_str())
+                .y_labels(5);
             if last {
                 mesh.x_desc("time (s)");
             }
@@ -303,19 +409,36 @@ fn window_svg(a: &Analysis, t: &[f64], window: [i64; 2], title: &str, mark: Mark
             match mark {
                 Mark::Shade => {
                     chart
-                        .draw_series(std::iter::once(Rectangle::new([(w0.max(v0), lo), (w1.min(v1), hi)], WINDOW_FILL.filled())))
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(w0.max(v0), lo), (w1.min(v1), hi)],
+                            WINDOW_FILL.filled(),
+                        )))
                         .map_err(|e| e.to_string())?;
                 }
                 Mark::At(at) => {
                     chart
-                        .draw_series(DashedLineSeries::new(vec![(at, lo), (at, hi)], 6, 4, BLACK.stroke_width(1)))
+                        .draw_series(DashedLineSeries::new(
+                            vec![(at, lo), (at, hi)],
+                            6,
+                            4,
+                            BLACK.stroke_width(1),
+                        ))
                         .map_err(|e| e.to_string())?;
                 }
             }
             // the models first, the measurement on top of them (thin, so both stay visible)
-            chart.draw_series(LineSeries::new(nom, NOMINAL.stroke_width(2))).map_err(|e| e.to_string())?;
-            chart.draw_series(LineSeries::new(fit, FITTED.stroke_width(2))).map_err(|e| e.to_string())?;
-            chart.draw_series(LineSeries::new(meas.iter().copied(), MEASURED.stroke_width(1))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(LineSeries::new(nom, NOMINAL.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
+            chart
+                .draw_series(LineSeries::new(fit, FITTED.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
+            chart
+                .draw_series(LineSeries::new(
+                    meas.iter().copied(),
+                    MEASURED.stroke_width(1),
+                ))
+                .map_err(|e| e.to_string())?;
             if meas.len() <= 300 {
                 chart
                     .draw_series(meas.iter().map(|&p| Circle::new(p, 2, MEASURED.filled())))
@@ -342,7 +465,11 @@ fn spectrum_svg(a: &Analysis) -> Result<String, String> {
         if *fa > 0.0 {
             legend.push(("named ringing (apparent)", RED, 2));
         }
-        title_strip(&top, "post-edge tone statistic (2 ln LR) vs apparent frequency", &legend)?;
+        title_strip(
+            &top,
+            "post-edge tone statistic (2 ln LR) vs apparent frequency",
+            &legend,
+        )?;
         let fmax = sp.last().map(|p| p.0).unwrap_or(1.0);
         let pmax = sp.iter().fold(1e-9f64, |m, p| m.max(p.1));
         let mut chart = ChartBuilder::on(&body)
@@ -351,11 +478,22 @@ fn spectrum_svg(a: &Analysis) -> Result<String, String> {
             .y_label_area_size(64)
             .build_cartesian_2d(0.0..fmax, 0.0..pmax * 1.05)
             .map_err(|e| e.to_string())?;
-        chart.configure_mesh().disable_mesh().x_desc("apparent frequency (Hz)").y_desc("2 ln LR").draw().map_err(|e| e.to_string())?;
-        chart.draw_series(LineSeries::new(sp.iter().cloned(), BLACK.stroke_width(1))).map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("apparent frequency (Hz)")
+            .y_desc("2 ln LR")
+            .draw()
+            .map_err(|e| e.to_string())?;
+        chart
+            .draw_series(LineSeries::new(sp.iter().cloned(), BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?;
         if *fa > 0.0 {
             chart
-                .draw_series(LineSeries::new(vec![(*fa, 0.0), (*fa, pmax * 1.05)], RED.stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    vec![(*fa, 0.0), (*fa, pmax * 1.05)],
+                    RED.stroke_width(2),
+                ))
                 .map_err(|e| e.to_string())?;
         }
         root.present().map_err(|e| e.to_string())?;
@@ -364,7 +502,9 @@ fn spectrum_svg(a: &Analysis) -> Result<String, String> {
 }
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// The located windows of one list as panels (adjacent windows merged into one panel).
@@ -382,7 +522,8 @@ fn window_panels(h: &mut String, a: &Analysis, t: &[f64], windows: &[[i64; 2]], 
     }
 }
 
-const CSS: &str = "body{font-family:sans-serif;max-width:980px;margin:auto;padding:0 12px;line-height:1.4}\
+const CSS: &str =
+    "body{font-family:sans-serif;max-width:980px;margin:auto;padding:0 12px;line-height:1.4}\
 pre{white-space:pre-wrap;overflow-wrap:anywhere;font-size:13px}\
 table{border-collapse:collapse;margin:6px 0}\
 td,th{padding:2px 8px;text-align:left;vertical-align:top;border-bottom:1px solid #ddd}\
@@ -400,7 +541,9 @@ pub fn html(a: &Analysis) -> String {
     let series = &a.series;
     let t = times_s(series);
     let mut h = String::new();
-    h.push_str("<!doctype html><html><head><meta charset=\"utf-8\"><title>massid diagnosis</title><style>");
+    h.push_str(
+        "<!doctype html><html><head><meta charset=\"utf-8\"><title>massid diagnosis</title><style>",
+    );
     h.push_str(CSS);
     h.push_str("</style></head><body>");
     let _ = write!(
@@ -421,7 +564,10 @@ pub fn html(a: &Analysis) -> String {
         (true, false) => "nothing: the nominal model explains the recording".to_string(),
         (true, true) => "nothing: no mechanism of the vocabulary improves the prediction in a way that generalises".to_string(),
     };
-    let _ = write!(h, "<div class=\"verdict{warn}\"><p><b>Named:</b> {named_text}</p>");
+    let _ = write!(
+        h,
+        "<div class=\"verdict{warn}\"><p><b>Named:</b> {named_text}</p>"
+    );
     match &o.unexplained {
         Some(u) => {
             let _ = write!(h, "<p><b>Unexplained:</b> {}</p>", esc(&u.note));
@@ -453,11 +599,26 @@ pub fn html(a: &Analysis) -> String {
         h.push_str("<p>None.</p>");
     }
     for (i, e) in o.effects.iter().enumerate() {
-        let _ = write!(h, "<h3>{}. {} <small>(delta BIC {:.0})</small></h3>", i + 1, esc(&e.effect), e.delta_bic);
-        h.push_str("<table><tr><th>parameter</th><th></th><th>value ± uncertainty</th><th>unit</th></tr>");
+        let _ = write!(
+            h,
+            "<h3>{}. {} <small>(delta BIC {:.0})</small></h3>",
+            i + 1,
+            esc(&e.effect),
+            e.delta_bic
+        );
+        h.push_str(
+            "<table><tr><th>parameter</th><th></th><th>value ± uncertainty</th><th>unit</th></tr>",
+        );
         for p in numfmt::effect_params(e) {
             for (l, v) in &p.entries {
-                let _ = write!(h, "<tr><td>{}</td><td>{}</td><td class=\"n\">{}</td><td>{}</td></tr>", esc(&p.name), esc(l), esc(v), esc(p.unit));
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td>{}</td><td class=\"n\">{}</td><td>{}</td></tr>",
+                    esc(&p.name),
+                    esc(l),
+                    esc(v),
+                    esc(p.unit)
+                );
             }
         }
         h.push_str("</table>");
@@ -473,7 +634,11 @@ pub fn html(a: &Analysis) -> String {
         for key in ["at_s", "start_s"] {
             if let Some(at) = e.params.get(key).and_then(|v| v.as_f64()) {
                 let ms = (at * 1e3).round() as i64;
-                let title = format!("{} at its fitted {key} = {} s", e.effect, numfmt::sig(at, 4));
+                let title = format!(
+                    "{} at its fitted {key} = {} s",
+                    e.effect,
+                    numfmt::sig(at, 4)
+                );
                 match window_svg(a, &t, [ms - 1000, ms + 1000], &title, Mark::At(at)) {
                     Ok(svg) => {
                         let _ = write!(h, "<div class=\"panel\">{svg}</div>");
@@ -491,7 +656,9 @@ pub fn html(a: &Analysis) -> String {
     if a.rejections.is_empty() {
         h.push_str("<p>None: no candidate was set aside by the acceptance checks.</p>");
     } else {
-        h.push_str("<table><tr><th>round</th><th>mechanism</th><th>delta BIC</th><th>why not</th></tr>");
+        h.push_str(
+            "<table><tr><th>round</th><th>mechanism</th><th>delta BIC</th><th>why not</th></tr>",
+        );
         for r in &a.rejections {
             let _ = write!(
                 h,
@@ -552,7 +719,11 @@ pub fn html(a: &Analysis) -> String {
     }
 
     h.push_str("<h2>Where the mismatch concentrates</h2><table><tr><th>condition</th><th>samples</th><th>RMS before x y z (rad/s)</th><th>RMS after x y z (rad/s)</th></tr>");
-    for (b, af) in a.by_condition_before.iter().zip(a.by_condition_after.iter()) {
+    for (b, af) in a
+        .by_condition_before
+        .iter()
+        .zip(a.by_condition_after.iter())
+    {
         let _ = write!(
             h,
             "<tr><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>",
@@ -569,7 +740,9 @@ pub fn html(a: &Analysis) -> String {
         Ok(svg) if !svg.is_empty() => {
             let _ = write!(h, "<div class=\"panel\">{svg}</div>");
         }
-        _ => h.push_str("<p>No post-edge spectrum (no ringing scan was possible on this recording).</p>"),
+        _ => h.push_str(
+            "<p>No post-edge spectrum (no ringing scan was possible on this recording).</p>",
+        ),
     }
     let (fa, cands) = &a.alias_marks;
     if *fa > 0.0 {
@@ -588,10 +761,18 @@ pub fn html(a: &Analysis) -> String {
     let margin = crate::select::Settings::default().accept_margin;
     for s in &a.scores {
         let named_here = o.effects.get(s.round).map(|e| e.effect.as_str());
-        let named_score = a.scores.iter().find(|x| x.round == s.round && Some(x.effect) == named_here).map(|x| x.delta_bic);
+        let named_score = a
+            .scores
+            .iter()
+            .find(|x| x.round == s.round && Some(x.effect) == named_here)
+            .map(|x| x.delta_bic);
         let outcome = if named_here == Some(s.effect) {
             "named"
-        } else if a.rejections.iter().any(|r| r.round == s.round && r.effect == s.effect) {
+        } else if a
+            .rejections
+            .iter()
+            .any(|r| r.round == s.round && r.effect == s.effect)
+        {
             "not named (reason above)"
         } else if s.delta_bic >= 0.0 {
             "no gain"
@@ -612,7 +793,11 @@ pub fn html(a: &Analysis) -> String {
         );
     }
     h.push_str("</table>");
-    let _ = write!(h, "<h2>Terminal summary</h2><pre>{}</pre>", esc(&summary(a)));
+    let _ = write!(
+        h,
+        "<h2>Terminal summary</h2><pre>{}</pre>",
+        esc(&summary(a))
+    );
     h.push_str("</body></html>\n");
     h
 }
@@ -636,10 +821,20 @@ mod tests {
     /// and never a raw placeholder.
     #[test]
     fn html_has_window_panels_with_a_legend_for_a_named_effect() {
-        let eff = synth::effect(r#"{"effect":"thruster_latency","params":{"open_ms":6.0,"close_ms":6.0}}"#);
+        let eff = synth::effect(
+            r#"{"effect":"thruster_latency","params":{"open_ms":6.0,"close_ms":6.0}}"#,
+        );
         let s = synth::make("sph4", Maneuver::Combo { seconds: 20 }, 100, vec![eff], 104);
-        let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default()).expect("diagnosis");
-        assert!(a.output.effects.iter().any(|e| e.effect == "thruster_latency"), "{}", summary(&a));
+        let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default())
+            .expect("diagnosis");
+        assert!(
+            a.output
+                .effects
+                .iter()
+                .any(|e| e.effect == "thruster_latency"),
+            "{}",
+            summary(&a)
+        );
         let e = &a.output.effects[0];
         assert!(!e.windows_ms.is_empty());
         let h = html(&a);
@@ -647,24 +842,58 @@ mod tests {
         let panels: Vec<&str> = h.split("<div class=\"panel\">").skip(1).collect();
         for w in merge_windows(&e.windows_ms) {
             let title = format!("thruster_latency: {}", numfmt::window(w));
-            let p = panels.iter().find(|p| p.contains(&title)).unwrap_or_else(|| panic!("no panel {title}"));
-            for label in ["measured", "nominal model", "fitted model", "x rate (rad/s)", "y rate (rad/s)", "z rate (rad/s)"] {
+            let p = panels
+                .iter()
+                .find(|p| p.contains(&title))
+                .unwrap_or_else(|| panic!("no panel {title}"));
+            for label in [
+                "measured",
+                "nominal model",
+                "fitted model",
+                "x rate (rad/s)",
+                "y rate (rad/s)",
+                "z rate (rad/s)",
+            ] {
                 assert!(p.contains(label), "{title}: no {label}");
             }
         }
-        let n_windows = a.output.effects.iter().map(|e| merge_windows(&e.windows_ms).len()).sum::<usize>()
-            + a.output.unexplained.as_ref().map(|u| merge_windows(&u.windows_ms).len()).unwrap_or(0);
-        assert!(panels.len() > n_windows, "{} panels for {n_windows} windows + the residual plot", panels.len());
-        assert!(h.contains(&numfmt::window(e.windows_ms[0])), "located windows listed");
+        let n_windows = a
+            .output
+            .effects
+            .iter()
+            .map(|e| merge_windows(&e.windows_ms).len())
+            .sum::<usize>()
+            + a.output
+                .unexplained
+                .as_ref()
+                .map(|u| merge_windows(&u.windows_ms).len())
+                .unwrap_or(0);
+        assert!(
+            panels.len() > n_windows,
+            "{} panels for {n_windows} windows + the residual plot",
+            panels.len()
+        );
+        assert!(
+            h.contains(&numfmt::window(e.windows_ms[0])),
+            "located windows listed"
+        );
         // parameters rounded, in their units
         let open = e.params["open_ms"].as_f64().unwrap();
         let se = e.stderr["open_ms"].as_f64().unwrap();
         let text = numfmt::value_pm(open, se);
         assert!(h.contains(&format!("{text}</td><td>ms")), "{text}");
         assert!(summary(&a).contains(&format!("open_ms = {text} ms")));
-        assert!(!h.contains(&format!("{open}")), "full-precision {open} printed");
+        assert!(
+            !h.contains(&format!("{open}")),
+            "full-precision {open} printed"
+        );
         // sections people read
-        for section in ["Strong candidates not named", "<h2>Unexplained</h2>", "after the named effects", "white-space:pre-wrap"] {
+        for section in [
+            "Strong candidates not named",
+            "<h2>Unexplained</h2>",
+            "after the named effects",
+            "white-space:pre-wrap",
+        ] {
             assert!(h.contains(section), "{section}");
         }
         assert!(!h.contains("1000000000"));
@@ -672,7 +901,10 @@ mod tests {
 
     #[test]
     fn adjacent_windows_merge_into_one_panel() {
-        assert_eq!(merge_windows(&[[41000, 42000], [40000, 41000], [45000, 46000]]), vec![[40000, 42000], [45000, 46000]]);
+        assert_eq!(
+            merge_windows(&[[41000, 42000], [40000, 41000], [45000, 46000]]),
+            vec![[40000, 42000], [45000, 46000]]
+        );
         assert_eq!(merge_windows(&[]), Vec::<[i64; 2]>::new());
     }
 }

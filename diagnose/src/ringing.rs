@@ -53,12 +53,23 @@ pub fn edge_windows(series: &Series, latency: (f64, f64)) -> Vec<(f64, Vec<usize
     let edges: Vec<f64> = series
         .edges()
         .iter()
-        .map(|&(t, old, new)| t as f64 + if new & !old != 0 { latency.0 } else { latency.1 })
+        .map(|&(t, old, new)| {
+            t as f64
+                + if new & !old != 0 {
+                    latency.0
+                } else {
+                    latency.1
+                }
+        })
         .collect();
     let mut out = vec![];
     let mut i0 = 0usize;
     for (k, &e) in edges.iter().enumerate() {
-        let end = edges.get(k + 1).copied().unwrap_or(f64::MAX).min(e + WINDOW_MS as f64);
+        let end = edges
+            .get(k + 1)
+            .copied()
+            .unwrap_or(f64::MAX)
+            .min(e + WINDOW_MS as f64);
         while i0 < series.len() && (series.t_ms[i0] as f64) < e {
             i0 += 1;
         }
@@ -133,7 +144,11 @@ fn projections(
                 let stt: f64 = rows.iter().map(|x| (x[0] - mt).powi(2)).sum();
                 for col in 1..4 {
                     let m = rows.iter().map(|x| x[col]).sum::<f64>() / nt;
-                    let b = if stt > 0.0 { rows.iter().map(|x| (x[0] - mt) * (x[col] - m)).sum::<f64>() / stt } else { 0.0 };
+                    let b = if stt > 0.0 {
+                        rows.iter().map(|x| (x[0] - mt) * (x[col] - m)).sum::<f64>() / stt
+                    } else {
+                        0.0
+                    };
                     for x in rows.iter_mut() {
                         x[col] -= m + b * (x[0] - mt);
                     }
@@ -167,10 +182,13 @@ fn lr_axis(proj: &[[(Matrix2<f64>, Vector2<f64>); 3]], axis: usize, sigma2: f64)
         .filter(|(l, _)| *l > 1e-12)
         .collect();
     let ll = |s: f64| -> f64 {
-        comps.iter().map(|&(l, g)| {
-            let v = sigma2 * l + s * l * l;
-            -0.5 * (g * g / v + v.ln())
-        }).sum()
+        comps
+            .iter()
+            .map(|&(l, g)| {
+                let v = sigma2 * l + s * l * l;
+                -0.5 * (g * g / v + v.ln())
+            })
+            .sum()
     };
     let l0 = ll(0.0);
     // golden-section search over log s
@@ -187,10 +205,21 @@ fn lr_axis(proj: &[[(Matrix2<f64>, Vector2<f64>); 3]], axis: usize, sigma2: f64)
     }
     let s = (0.5 * (a + b)).exp();
     let stat = 2.0 * (ll(s) - l0);
-    if stat > 0.0 { (stat, s) } else { (0.0, 0.0) }
+    if stat > 0.0 {
+        (stat, s)
+    } else {
+        (0.0, 0.0)
+    }
 }
 
-fn statistic(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &Whitening, f: f64, tau: f64) -> (f64, [f64; 3]) {
+fn statistic(
+    series: &Series,
+    r: &[[f64; 3]],
+    win: &[(f64, Vec<usize>)],
+    wh: &Whitening,
+    f: f64,
+    tau: f64,
+) -> (f64, [f64; 3]) {
     let proj = projections(series, r, win, f, tau, Some(wh));
     let mut tot = 0.0;
     let mut s = [0.0; 3];
@@ -202,8 +231,19 @@ fn statistic(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &Wh
     (tot, s)
 }
 
-fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
-    let grid: &[f64] = if coarse { &[20.0] } else { &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0] };
+fn best_decay(
+    series: &Series,
+    r: &[[f64; 3]],
+    win: &[(f64, Vec<usize>)],
+    wh: &Whitening,
+    f: f64,
+    coarse: bool,
+) -> (f64, f64) {
+    let grid: &[f64] = if coarse {
+        &[20.0]
+    } else {
+        &[3.0, 6.0, 12.0, 24.0, 48.0, 96.0]
+    };
     let mut best = (f64::MIN, 8.0);
     for &tau in grid {
         let d = statistic(series, r, win, wh, f, tau).0;
@@ -219,7 +259,9 @@ fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &W
     for _ in 0..12 {
         let x1 = b - g * (b - a);
         let x2 = a + g * (b - a);
-        if statistic(series, r, win, wh, f, x1.exp()).0 > statistic(series, r, win, wh, f, x2.exp()).0 {
+        if statistic(series, r, win, wh, f, x1.exp()).0
+            > statistic(series, r, win, wh, f, x2.exp()).0
+        {
             b = x2;
         } else {
             a = x1;
@@ -227,11 +269,21 @@ fn best_decay(series: &Series, r: &[[f64; 3]], win: &[(f64, Vec<usize>)], wh: &W
     }
     let tau = (0.5 * (a + b)).exp();
     let d = statistic(series, r, win, wh, f, tau).0;
-    if d > best.0 { (d, tau) } else { best }
+    if d > best.0 {
+        (d, tau)
+    } else {
+        best
+    }
 }
 
 /// Finds, folds and fits the ringing in residual `r` with the noise's prewhitening `wh`. None when there are no usable valve edges.
-pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64, latency: (f64, f64)) -> Option<RingingFit> {
+pub fn fit(
+    series: &Series,
+    r: &[[f64; 3]],
+    wh: &Whitening,
+    prior_hz: f64,
+    latency: (f64, f64),
+) -> Option<RingingFit> {
     let win = edge_windows(series, latency);
     if win.len() < 3 {
         return None;
@@ -246,7 +298,10 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64, laten
         scan.push((f, best_decay(series, r, &win, wh, f, true).0));
         f += step;
     }
-    let (f_app0, _) = scan.iter().cloned().fold((0.0, f64::MIN), |acc, x| if x.1 > acc.1 { x } else { acc });
+    let (f_app0, _) = scan
+        .iter()
+        .cloned()
+        .fold((0.0, f64::MIN), |acc, x| if x.1 > acc.1 { x } else { acc });
     // refine the apparent frequency
     let mut f_app = f_app0;
     let mut best = best_decay(series, r, &win, wh, f_app, true).0;
@@ -280,19 +335,44 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64, laten
     if !top.is_finite() {
         return None;
     }
-    let close: Vec<(f64, f64, f64)> = scored.iter().cloned().filter(|s| s.1 > top - 10.0).collect();
-    let chosen = close.iter().cloned().min_by(|a, b| (a.0 - prior_hz).abs().total_cmp(&(b.0 - prior_hz).abs()))?;
-    let mut ambiguous: Vec<f64> = close.iter().map(|s| s.0).filter(|&f| (f - chosen.0).abs() > 1e-6).collect();
+    let close: Vec<(f64, f64, f64)> = scored
+        .iter()
+        .cloned()
+        .filter(|s| s.1 > top - 10.0)
+        .collect();
+    let chosen = close
+        .iter()
+        .cloned()
+        .min_by(|a, b| (a.0 - prior_hz).abs().total_cmp(&(b.0 - prior_hz).abs()))?;
+    let mut ambiguous: Vec<f64> = close
+        .iter()
+        .map(|s| s.0)
+        .filter(|&f| (f - chosen.0).abs() > 1e-6)
+        .collect();
     ambiguous.sort_by(|a, b| a.total_cmp(b));
     let (f, gain, tau) = chosen;
     let (_, s) = statistic(series, r, &win, wh, f, tau);
     // standard errors from the curvature of the statistic (a chi-square): var = 2 / d2
     let hf = 0.2;
-    let d2f = (2.0 * gain - statistic(series, r, &win, wh, f + hf, tau).0 - statistic(series, r, &win, wh, f - hf, tau).0) / (hf * hf);
+    let d2f = (2.0 * gain
+        - statistic(series, r, &win, wh, f + hf, tau).0
+        - statistic(series, r, &win, wh, f - hf, tau).0)
+        / (hf * hf);
     let ht = 0.05 * tau;
-    let d2t = (2.0 * gain - statistic(series, r, &win, wh, f, tau + ht).0 - statistic(series, r, &win, wh, f, tau - ht).0) / (ht * ht);
-    let freq_stderr = if d2f > 0.0 { (2.0 / d2f).sqrt() } else { f64::INFINITY };
-    let decay_stderr = if d2t > 0.0 { (2.0 / d2t).sqrt() } else { f64::INFINITY };
+    let d2t = (2.0 * gain
+        - statistic(series, r, &win, wh, f, tau + ht).0
+        - statistic(series, r, &win, wh, f, tau - ht).0)
+        / (ht * ht);
+    let freq_stderr = if d2f > 0.0 {
+        (2.0 / d2f).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    let decay_stderr = if d2t > 0.0 {
+        (2.0 / d2t).sqrt()
+    } else {
+        f64::INFINITY
+    };
     let apparent_hz = alias::apparent(f, fs);
     let evidence = if ambiguous.is_empty() {
         format!("decaying {f:.1} Hz tone after {} valve edges with a random phase per edge; at {fs} Hz sampling it shows at {apparent_hz:.1} Hz and no other alias fits as well", win.len())
@@ -323,7 +403,13 @@ pub fn fit(series: &Series, r: &[[f64; 3]], wh: &Whitening, prior_hz: f64, laten
 
 /// Removes the fitted ringing from a residual: per edge, the best linear predictor of the
 /// tone's coefficients given the window (shrunk towards zero by the noise).
-pub fn remove(series: &Series, r: &[[f64; 3]], wh: &Whitening, rf: &RingingFit, latency: (f64, f64)) -> Vec<[f64; 3]> {
+pub fn remove(
+    series: &Series,
+    r: &[[f64; 3]],
+    wh: &Whitening,
+    rf: &RingingFit,
+    latency: (f64, f64),
+) -> Vec<[f64; 3]> {
     let win = edge_windows(series, latency);
     let proj = projections(series, r, &win, rf.freq_hz, rf.decay_ms, None);
     let mut out = r.to_vec();

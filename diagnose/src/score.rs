@@ -47,7 +47,10 @@ fn scored_key(k: &str) -> bool {
 
 /// Scores `out` against `truth` effects in contract JSON form (`[{"effect", "params"}]`).
 pub fn score(out: &DiagnosisOutput, truth: &[Value]) -> Score {
-    let want: Vec<String> = truth.iter().filter_map(|e| e["effect"].as_str().map(String::from)).collect();
+    let want: Vec<String> = truth
+        .iter()
+        .filter_map(|e| e["effect"].as_str().map(String::from))
+        .collect();
     let got: Vec<String> = out.effects.iter().map(|e| e.effect.clone()).collect();
     let missing: Vec<String> = want.iter().filter(|w| !got.contains(w)).cloned().collect();
     let extra: Vec<String> = got.iter().filter(|g| !want.contains(g)).cloned().collect();
@@ -61,9 +64,19 @@ pub fn score(out: &DiagnosisOutput, truth: &[Value]) -> Score {
         worst_param: String::new(),
     };
     for te in truth {
-        let Some(e) = out.effects.iter().find(|e| Some(e.effect.as_str()) == te["effect"].as_str()) else { continue };
-        let est: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.params.clone())).into_iter().collect();
-        let se: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.stderr.clone())).into_iter().collect();
+        let Some(e) = out
+            .effects
+            .iter()
+            .find(|e| Some(e.effect.as_str()) == te["effect"].as_str())
+        else {
+            continue;
+        };
+        let est: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.params.clone()))
+            .into_iter()
+            .collect();
+        let se: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.stderr.clone()))
+            .into_iter()
+            .collect();
         for (k, t) in flatten(&te["params"]) {
             if !scored_key(&k) {
                 continue;

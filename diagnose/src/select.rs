@@ -35,7 +35,12 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { accept_margin: 25.0, max_effects: 3, max_iter: 12, ringing_prior_hz: 338.0 }
+        Settings {
+            accept_margin: 25.0,
+            max_effects: 3,
+            max_iter: 12,
+            ringing_prior_hz: 338.0,
+        }
     }
 }
 
@@ -88,16 +93,29 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
             step: vec![0.05, 0.05],
             starts: vec![vec![2.0, 2.0]],
         },
-        Kind::PressureDrop => Spec { lo: vec![0.0], hi: vec![0.05], step: vec![1e-5], starts: vec![vec![0.002]] },
+        Kind::PressureDrop => Spec {
+            lo: vec![0.0],
+            hi: vec![0.05],
+            step: vec![1e-5],
+            starts: vec![vec![0.002]],
+        },
         Kind::Blowdown => Spec {
             lo: vec![0.0, 0.0],
             hi: vec![dur, 20.0 / dur.max(1.0)],
             step: vec![0.01 * dur, 0.02 / dur.max(1.0)],
-            starts: [0.2, 0.45, 0.7].iter().map(|f| vec![f * dur, 1.0 / dur.max(1.0)]).collect(),
+            starts: [0.2, 0.45, 0.7]
+                .iter()
+                .map(|f| vec![f * dur, 1.0 / dur.max(1.0)])
+                .collect(),
         },
         Kind::ThrustScale => {
             let n = effects::n_params(kind, fired);
-            Spec { lo: vec![0.0; n], hi: vec![2.0; n], step: vec![1e-3; n], starts: vec![vec![1.0; n]] }
+            Spec {
+                lo: vec![0.0; n],
+                hi: vec![2.0; n],
+                step: vec![1e-3; n],
+                starts: vec![vec![1.0; n]],
+            }
         }
         Kind::ComOffset => Spec {
             lo: vec![-50.0; 3],
@@ -114,7 +132,12 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
                 lo[3 + i] = -0.02;
                 hi[3 + i] = 0.02;
             }
-            Spec { lo, hi, step: vec![2e-5; 6], starts: vec![nominal_i.to_vec()] }
+            Spec {
+                lo,
+                hi,
+                step: vec![2e-5; 6],
+                starts: vec![nominal_i.to_vec()],
+            }
         }
         Kind::MassPropertyChange => {
             let mut lo = vec![0.0; 10];
@@ -146,15 +169,22 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
                     s
                 })
                 .collect();
-            Spec { lo, hi, step, starts }
+            Spec {
+                lo,
+                hi,
+                step,
+                starts,
+            }
         }
         Kind::FuelSlosh => {
             // a frequency grid plus the residual's own low-frequency peaks; small liquid
             // fraction so every start is close to the current model
             // (freq, damping, fluid fraction x, y, z): a fraction per axis, since a liquid
             // can move about some axes only
-            let mut starts: Vec<Vec<f64>> =
-                [0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0].iter().map(|&f| vec![f, 0.01, 0.01, 0.01, 0.01]).collect();
+            let mut starts: Vec<Vec<f64>> = [0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0]
+                .iter()
+                .map(|&f| vec![f, 0.01, 0.01, 0.01, 0.01])
+                .collect();
             for &f in slosh_hint_hz {
                 starts.push(vec![f, 0.01, 0.01, 0.01, 0.01]);
                 starts.push(vec![f, 0.005, 0.03, 0.03, 0.03]);
@@ -166,15 +196,30 @@ pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64
                 starts,
             }
         }
-        Kind::GyroBias => Spec { lo: vec![-300.0; 3], hi: vec![300.0; 3], step: vec![0.05; 3], starts: vec![vec![0.0; 3]] },
-        Kind::GyroScale => Spec { lo: vec![0.5; 3], hi: vec![1.5; 3], step: vec![1e-4; 3], starts: vec![vec![1.0; 3]] },
+        Kind::GyroBias => Spec {
+            lo: vec![-300.0; 3],
+            hi: vec![300.0; 3],
+            step: vec![0.05; 3],
+            starts: vec![vec![0.0; 3]],
+        },
+        Kind::GyroScale => Spec {
+            lo: vec![0.5; 3],
+            hi: vec![1.5; 3],
+            step: vec![1e-4; 3],
+            starts: vec![vec![1.0; 3]],
+        },
         Kind::DisturbanceTorque => Spec {
             lo: vec![-0.01; 3],
             hi: vec![0.01; 3],
             step: vec![1e-7; 3],
             starts: vec![vec![0.0; 3]],
         },
-        Kind::GyroRinging => Spec { lo: vec![], hi: vec![], step: vec![], starts: vec![] },
+        Kind::GyroRinging => Spec {
+            lo: vec![],
+            hi: vec![],
+            step: vec![],
+            starts: vec![],
+        },
     }
 }
 
@@ -204,7 +249,16 @@ pub fn fit_from(
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
-    fit_with_starts(prob, fired, accepted, Some(new), Some(vec![theta_new.to_vec()]), nuis, slosh_hint, max_iter)
+    fit_with_starts(
+        prob,
+        fired,
+        accepted,
+        Some(new),
+        Some(vec![theta_new.to_vec()]),
+        nuis,
+        slosh_hint,
+        max_iter,
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -277,9 +331,16 @@ fn fit_with_starts(
         };
         let mut scored: Vec<(f64, Vec<f64>)> = new_starts
             .iter()
-            .filter_map(|st| Some(((fam.apply)(&start_of(st)).and_then(|p| prob.chi2(&p))?, st.clone())))
+            .filter_map(|st| {
+                Some((
+                    (fam.apply)(&start_of(st)).and_then(|p| prob.chi2(&p))?,
+                    st.clone(),
+                ))
+            })
             .collect();
-        let (lo_c, hi_c) = scored.iter().fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s.0), b.max(s.0)));
+        let (lo_c, hi_c) = scored
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s.0), b.max(s.0)));
         if hi_c - lo_c <= 1e-9 * lo_c.abs() {
             let off = base.len();
             let k_new = new_starts[0].len();
@@ -314,7 +375,8 @@ fn fit_with_starts(
         let mut top = (b.chi2, b.theta.clone());
         for k in 0..=CHANGE_SCAN_POINTS {
             let mut th = b.theta.clone();
-            th[i] = (b.theta[i] - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64).clamp(0.0, dur);
+            th[i] = (b.theta[i] - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64)
+                .clamp(0.0, dur);
             if let Some(c) = (fam.apply)(&th).and_then(|p| prob.chi2(&p)) {
                 if c < top.0 {
                     top = (c, th);

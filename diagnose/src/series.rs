@@ -70,7 +70,9 @@ fn stuck_mask(gyro_counts: &[[i32; 3]]) -> Vec<[bool; 3]> {
         return stuck;
     }
     for a in 0..3 {
-        let pairs = gyro_counts.windows(2).filter(|w| !at_rail(w[0][a]) && !at_rail(w[1][a]));
+        let pairs = gyro_counts
+            .windows(2)
+            .filter(|w| !at_rail(w[0][a]) && !at_rail(w[1][a]));
         let (mut eq, mut tot) = (0usize, 0usize);
         for w in pairs {
             tot += 1;
@@ -183,7 +185,10 @@ impl Series {
             .map(|i| (t_ms[i] - t_ms[i - 1], i))
             .collect();
         let n_gaps = gaps.len() as u64;
-        let missing_samples = gaps.iter().map(|g| ((g.0 as f64 / period).round() as u64).saturating_sub(1)).sum();
+        let missing_samples = gaps
+            .iter()
+            .map(|g| ((g.0 as f64 / period).round() as u64).saturating_sub(1))
+            .sum();
         gaps.sort_by_key(|g| std::cmp::Reverse(g.0));
         gaps.truncate(MAX_GAP_RESETS);
         let mut gap_resets: Vec<usize> = gaps.into_iter().map(|g| g.1).collect();
@@ -220,8 +225,15 @@ impl Series {
 
     /// The recording's time (ms) of a time on the model's clock.
     pub fn real_ms(&self, model_ms: f64) -> f64 {
-        let i = self.clock_shifts.partition_point(|&(from, _)| (from as f64) <= model_ms);
-        model_ms + if i == 0 { 0.0 } else { self.clock_shifts[i - 1].1 as f64 }
+        let i = self
+            .clock_shifts
+            .partition_point(|&(from, _)| (from as f64) <= model_ms);
+        model_ms
+            + if i == 0 {
+                0.0
+            } else {
+                self.clock_shifts[i - 1].1 as f64
+            }
     }
 
     /// The model's clock (ms) at a time of the recording: inside a shortened gap, the
@@ -255,7 +267,10 @@ impl Series {
 
     /// Number of usable scalar samples (sample, axis).
     pub fn usable(&self) -> usize {
-        self.valid.iter().map(|v| v.iter().filter(|&&b| b).count()).sum()
+        self.valid
+            .iter()
+            .map(|v| v.iter().filter(|&&b| b).count())
+            .sum()
     }
 }
 
@@ -271,12 +286,32 @@ fn infer_rate(t_ms: &[i64]) -> f64 {
 
 impl Series {
     /// The recording's samples with `sat`'s gyro calibration. None for an empty recording.
-    pub fn from_recording(rec: &reference_f64::recording::Recording, sat: &reference_f64::satellite::Satellite) -> Option<Series> {
-        let t: Vec<i64> = rec.samples.iter().map(|s| s.time_ms.min(i64::MAX as u64 / 2) as i64).collect();
-        let g: Vec<[i32; 3]> = rec.samples.iter().map(|s| s.gyro.map(|c| c as i32)).collect();
+    pub fn from_recording(
+        rec: &reference_f64::recording::Recording,
+        sat: &reference_f64::satellite::Satellite,
+    ) -> Option<Series> {
+        let t: Vec<i64> = rec
+            .samples
+            .iter()
+            .map(|s| s.time_ms.min(i64::MAX as u64 / 2) as i64)
+            .collect();
+        let g: Vec<[i32; 3]> = rec
+            .samples
+            .iter()
+            .map(|s| s.gyro.map(|c| c as i32))
+            .collect();
         let w: Vec<u16> = rec.samples.iter().map(|s| s.thrusters).collect();
-        let declared = rec.meta("sample_rate_hz").and_then(|v| v.trim().parse::<f64>().ok());
-        Series::from_counts(&t, &g, &w, sat.gyro_bias_counts, sat.gyro_counts_per_rad_s, declared)
+        let declared = rec
+            .meta("sample_rate_hz")
+            .and_then(|v| v.trim().parse::<f64>().ok());
+        Series::from_counts(
+            &t,
+            &g,
+            &w,
+            sat.gyro_bias_counts,
+            sat.gyro_counts_per_rad_s,
+            declared,
+        )
     }
 }
 
@@ -290,7 +325,9 @@ mod tests {
         (0..n)
             .map(|_| {
                 std::array::from_fn(|_| {
-                    x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    x = x
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
                     2048 + ((x >> 33) % 7) as i32 - 3
                 })
             })
@@ -304,7 +341,8 @@ mod tests {
         let n = 5000;
         let t: Vec<i64> = (0..n as i64).collect();
         let mut c = noisy_counts(n, 7);
-        let clean = Series::from_counts(&t, &c, &vec![0; n], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
+        let clean = Series::from_counts(&t, &c, &vec![0; n], [2048.0; 3], [800.0; 3], Some(1000.0))
+            .unwrap();
         assert_eq!(clean.railed, [0, 0, 0]);
         for s in c.iter_mut().skip(1000).take(300) {
             s[1] = 2051; // stuck at a plausible value
@@ -312,7 +350,8 @@ mod tests {
         for s in c.iter_mut().skip(3000).take(50) {
             s[2] = 4095; // railed
         }
-        let s = Series::from_counts(&t, &c, &vec![0; n], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
+        let s = Series::from_counts(&t, &c, &vec![0; n], [2048.0; 3], [800.0; 3], Some(1000.0))
+            .unwrap();
         assert_eq!(s.railed[0], 0);
         assert!((300..=302).contains(&s.railed[1]), "{:?}", s.railed);
         assert_eq!(s.railed[2], 50);
@@ -325,7 +364,8 @@ mod tests {
         let mut t: Vec<i64> = (0..100).collect();
         t.extend((0..100).map(|i| 100_000_000_000 + i));
         let c = noisy_counts(200, 3);
-        let s = Series::from_counts(&t, &c, &vec![1; 200], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
+        let s = Series::from_counts(&t, &c, &vec![1; 200], [2048.0; 3], [800.0; 3], Some(1000.0))
+            .unwrap();
         assert!(s.word_ms.len() < 3000, "{}", s.word_ms.len());
         assert_eq!(s.real_ms(s.t_ms[150] as f64), t[150] as f64);
         assert_eq!(s.model_ms(t[150] as f64), s.t_ms[150] as f64);
@@ -340,10 +380,12 @@ mod tests {
     fn declared_rate_is_checked_against_time_steps() {
         let t: Vec<i64> = (0..100).collect();
         let c = noisy_counts(100, 1);
-        let s = Series::from_counts(&t, &c, &[0; 100], [2048.0; 3], [800.0; 3], Some(100.0)).unwrap();
+        let s =
+            Series::from_counts(&t, &c, &[0; 100], [2048.0; 3], [800.0; 3], Some(100.0)).unwrap();
         assert_eq!(s.sample_rate_hz, 1000.0);
         assert_eq!(s.warnings.len(), 1);
-        let ok = Series::from_counts(&t, &c, &[0; 100], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
+        let ok =
+            Series::from_counts(&t, &c, &[0; 100], [2048.0; 3], [800.0; 3], Some(1000.0)).unwrap();
         assert!(ok.warnings.is_empty());
     }
 }

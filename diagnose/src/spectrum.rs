@@ -33,7 +33,8 @@ pub fn lomb_scargle(t_s: &[f64], y: &[f64], freqs_hz: &[f64]) -> Vec<f64> {
                 cc += c * c;
                 ss += s * s;
             }
-            let p = if cc > 0.0 { yc * yc / cc } else { 0.0 } + if ss > 0.0 { ys * ys / ss } else { 0.0 };
+            let p = if cc > 0.0 { yc * yc / cc } else { 0.0 }
+                + if ss > 0.0 { ys * ys / ss } else { 0.0 };
             0.5 * p / var
         })
         .collect()
@@ -44,5 +45,7 @@ pub fn grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     if n < 2 {
         return vec![lo];
     }
-    (0..n).map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64).collect()
+    (0..n)
+        .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+        .collect()
 }

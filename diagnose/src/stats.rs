@@ -17,7 +17,10 @@ fn blocks(series: &Series, r: &[[f64; 3]], axis: usize, block_ms: i64) -> (Vec<f
                 out.push(s / n as f64);
                 let a = start as usize;
                 let b = (t as usize).min(series.word_ms.len());
-                let open: f64 = series.word_ms[a..b].iter().map(|w| w.count_ones() as f64).sum();
+                let open: f64 = series.word_ms[a..b]
+                    .iter()
+                    .map(|w| w.count_ones() as f64)
+                    .sum();
                 inp.push(open / (b - a).max(1) as f64);
             }
             start = t;
@@ -39,7 +42,10 @@ fn autocorr(x: &[f64], lag: usize) -> f64 {
     if v <= 0.0 || lag >= n {
         return 0.0;
     }
-    (0..n - lag).map(|i| (x[i] - m) * (x[i + lag] - m)).sum::<f64>() / v
+    (0..n - lag)
+        .map(|i| (x[i] - m) * (x[i + lag] - m))
+        .sum::<f64>()
+        / v
 }
 
 fn crosscorr(x: &[f64], u: &[f64], lag: usize) -> f64 {
@@ -54,7 +60,10 @@ fn crosscorr(x: &[f64], u: &[f64], lag: usize) -> f64 {
     if vx <= 0.0 || vu <= 0.0 {
         return 0.0;
     }
-    (0..n - lag).map(|i| (x[i + lag] - mx) * (u[i] - mu)).sum::<f64>() / (vx * vu).sqrt()
+    (0..n - lag)
+        .map(|i| (x[i + lag] - mx) * (u[i] - mu))
+        .sum::<f64>()
+        / (vx * vu).sqrt()
 }
 
 /// Whiteness and input-correlation figures of one residual.
@@ -81,8 +90,18 @@ pub fn residual_tests(series: &Series, r: &[[f64; 3]]) -> ResidualTests {
         if x.len() < 3 * LJUNG_BOX_LAGS {
             continue;
         }
-        q[a] = n * (n + 2.0) * (1..=LJUNG_BOX_LAGS).map(|k| autocorr(&x, k).powi(2) / (n - k as f64)).sum::<f64>();
-        z[a] = (0..=LJUNG_BOX_LAGS).map(|k| crosscorr(&x, &u, k).abs()).fold(0.0, f64::max) * n.sqrt();
+        q[a] = n
+            * (n + 2.0)
+            * (1..=LJUNG_BOX_LAGS)
+                .map(|k| autocorr(&x, k).powi(2) / (n - k as f64))
+                .sum::<f64>();
+        z[a] = (0..=LJUNG_BOX_LAGS)
+            .map(|k| crosscorr(&x, &u, k).abs())
+            .fold(0.0, f64::max)
+            * n.sqrt();
     }
-    ResidualTests { ljung_box_q: q, input_xcorr_z: z }
+    ResidualTests {
+        ljung_box_q: q,
+        input_xcorr_z: z,
+    }
 }

@@ -73,7 +73,8 @@ pub fn commands(sat: &Satellite, m: Maneuver, period_ms: u64, rng: &mut ChaCha8R
                 for _ in 0..count {
                     let th = rng.gen_range(0..12);
                     // pulse lengths on the sample grid so every rate shows them
-                    let len = (rng.gen_range(10..=180) / period_ms as usize).max(1) * period_ms as usize;
+                    let len =
+                        (rng.gen_range(10..=180) / period_ms as usize).max(1) * period_ms as usize;
                     for x in w.iter_mut().skip(t).take(len) {
                         *x |= 1 << th;
                     }
@@ -98,32 +99,60 @@ pub fn effect(json: &str) -> Effect {
 }
 
 /// Simulates `sat` flying `maneuver` with `effects`, sampled at `rate_hz`, noise from `seed`.
-pub fn make(sat_name: &str, maneuver: Maneuver, rate_hz: u32, effects: Vec<Effect>, seed: u64) -> Synthetic {
+pub fn make(
+    sat_name: &str,
+    maneuver: Maneuver,
+    rate_hz: u32,
+    effects: Vec<Effect>,
+    seed: u64,
+) -> Synthetic {
     let sat = Satellite::builtin(sat_name).expect("built-in satellite");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let period = (1000 / rate_hz).max(1) as u64;
     let words = commands(&sat, maneuver, period, &mut rng);
     let times: Vec<u64> = (0..words.len() as u64).collect();
-    let rigid: Vec<Effect> = effects.iter().filter(|e| !matches!(e, Effect::GyroRinging(_))).cloned().collect();
-    let pred = Predictor::new(&sat, &rigid).run(&times, &words, [0.0; 3], PredictOptions::default());
+    let rigid: Vec<Effect> = effects
+        .iter()
+        .filter(|e| !matches!(e, Effect::GyroRinging(_)))
+        .cloned()
+        .collect();
+    let pred =
+        Predictor::new(&sat, &rigid).run(&times, &words, [0.0; 3], PredictOptions::default());
     // ringing with a random phase per shock and axis, on the actual valve edges
     let cfg = PlantConfig::new(&sat, &effects);
     let shocks = shock_times_ms(&pred.edges);
     let mut phase_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
-    let phases: Vec<[f64; 3]> =
-        (0..shocks.len()).map(|_| std::array::from_fn(|_| phase_rng.gen_range(0.0..std::f64::consts::TAU))).collect();
+    let phases: Vec<[f64; 3]> = (0..shocks.len())
+        .map(|_| std::array::from_fn(|_| phase_rng.gen_range(0.0..std::f64::consts::TAU)))
+        .collect();
     let ring = ringing_at(&cfg, &shocks, &times, |_, s, a| phases[s][a]);
-    let noise: [Normal<f64>; 3] = std::array::from_fn(|a| Normal::new(0.0, GYRO_NOISE_RAD_S[a]).unwrap());
+    let noise: [Normal<f64>; 3] =
+        std::array::from_fn(|a| Normal::new(0.0, GYRO_NOISE_RAD_S[a]).unwrap());
     let mut samples = vec![];
     for k in (0..times.len()).step_by(period as usize) {
         let mut gyro = [0u16; 3];
         for a in 0..3 {
-            let rate = pred.gyro_rad_s[k][a] + cfg.gyro_scale[a] * ring[k][a] + noise[a].sample(&mut rng);
+            let rate =
+                pred.gyro_rad_s[k][a] + cfg.gyro_scale[a] * ring[k][a] + noise[a].sample(&mut rng);
             let c = sat.rad_s_to_gyro_counts(a, rate).round().clamp(0.0, 4095.0);
             gyro[a] = c as u16;
         }
-        samples.push(Sample { time_ms: times[k], gyro, accel: [2048; 3], thrusters: words[k] });
+        samples.push(Sample {
+            time_ms: times[k],
+            gyro,
+            accel: [2048; 3],
+            thrusters: words[k],
+        });
     }
-    let rec = Recording::new("synthetic.csv", Some(sat_name), Some(rate_hz as f64), samples);
-    Synthetic { recording: rec, satellite: sat, effects }
+    let rec = Recording::new(
+        "synthetic.csv",
+        Some(sat_name),
+        Some(rate_hz as f64),
+        samples,
+    );
+    Synthetic {
+        recording: rec,
+        satellite: sat,
+        effects,
+    }
 }

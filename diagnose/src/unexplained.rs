@@ -35,7 +35,12 @@ pub struct Unexplained {
 /// The verdict on `residual` (after every named effect). `explained` marks samples whose
 /// residual a named random effect accounts for (gyro ringing's post-edge windows): they
 /// are left out, since a random tone can be named but never subtracted exactly.
-pub fn verdict(series: &Series, residual: &[[f64; 3]], noise: &NoiseModel, explained: &[bool]) -> Option<Unexplained> {
+pub fn verdict(
+    series: &Series,
+    residual: &[[f64; 3]],
+    noise: &NoiseModel,
+    explained: &[bool],
+) -> Option<Unexplained> {
     let mut masked = series.clone();
     for (v, &e) in masked.valid.iter_mut().zip(explained) {
         if e {
@@ -48,12 +53,20 @@ pub fn verdict(series: &Series, residual: &[[f64; 3]], noise: &NoiseModel, expla
     let tests = stats::residual_tests(s, residual);
     let q = tests.ljung_box_q;
     let names = ["x", "y", "z"];
-    let flagged: Vec<usize> = (0..3).filter(|&a| rms[a] > EXCESS_RMS * noise_rms[a] || q[a] > WHITE_BELOW).collect();
+    let flagged: Vec<usize> = (0..3)
+        .filter(|&a| rms[a] > EXCESS_RMS * noise_rms[a] || q[a] > WHITE_BELOW)
+        .collect();
     if flagged.is_empty() {
         return None;
     }
     let var = noise.var;
-    let excess = |ms: &[f64; 3]| flagged.iter().map(|&a| ms[a] / var[a].max(1e-30)).sum::<f64>() / flagged.len() as f64;
+    let excess = |ms: &[f64; 3]| {
+        flagged
+            .iter()
+            .map(|&a| ms[a] / var[a].max(1e-30))
+            .sum::<f64>()
+            / flagged.len() as f64
+    };
     let min_samples = s.len() / 100;
     let condition = locate::by_condition(s, residual)
         .into_iter()
@@ -61,34 +74,58 @@ pub fn verdict(series: &Series, residual: &[[f64; 3]], noise: &NoiseModel, expla
         .max_by(|a, b| excess(&a.2).total_cmp(&excess(&b.2)))
         .map(|c| c.0.label())
         .unwrap_or_else(|| "spread over the run".into());
-    let mut windows: Vec<(f64, i64, i64)> =
-        locate::by_window(s, residual, 500).into_iter().map(|(a, b, ms)| (excess(&ms), a, b)).collect();
+    let mut windows: Vec<(f64, i64, i64)> = locate::by_window(s, residual, 500)
+        .into_iter()
+        .map(|(a, b, ms)| (excess(&ms), a, b))
+        .collect();
     windows.sort_by(|x, y| y.0.total_cmp(&x.0));
     let mut windows_ms: Vec<[i64; 2]> = windows
         .iter()
         .take(3)
-        .map(|w| [s.real_ms(w.1 as f64).round() as i64, s.real_ms(w.2 as f64).round() as i64])
+        .map(|w| {
+            [
+                s.real_ms(w.1 as f64).round() as i64,
+                s.real_ms(w.2 as f64).round() as i64,
+            ]
+        })
         .collect();
     windows_ms.sort();
     let apparent_hz = tone(s, residual, &flagged);
     let axes: Vec<String> = flagged.iter().map(|&a| names[a].to_string()).collect();
-    let ratio = flagged.iter().map(|&a| rms[a] / noise_rms[a]).fold(0.0, f64::max);
+    let ratio = flagged
+        .iter()
+        .map(|&a| rms[a] / noise_rms[a])
+        .fold(0.0, f64::max);
     let qmax = flagged.iter().map(|&a| q[a]).fold(0.0, f64::max);
     let mut what = vec![];
     if ratio > EXCESS_RMS {
         what.push(format!("{ratio:.2}x the gyro noise"));
     }
     if qmax > WHITE_BELOW {
-        what.push(format!("not white (Ljung-Box {qmax:.0} > {WHITE_BELOW:.0})"));
+        what.push(format!(
+            "not white (Ljung-Box {qmax:.0} > {WHITE_BELOW:.0})"
+        ));
     }
-    let tone_txt = apparent_hz.map(|f| format!(", with a tone at {f:.2} Hz")).unwrap_or_default();
+    let tone_txt = apparent_hz
+        .map(|f| format!(", with a tone at {f:.2} Hz"))
+        .unwrap_or_default();
     let note = format!(
         "residual on {} stays {} after the named effects, most {}{tone_txt}: no effect of the vocabulary explains it",
         axes.join(", "),
         what.join(" and "),
         condition
     );
-    Some(Unexplained { rms, noise_rms, ljung_box: q, white_below: WHITE_BELOW, axes, condition, apparent_hz, windows_ms, note })
+    Some(Unexplained {
+        rms,
+        noise_rms,
+        ljung_box: q,
+        white_below: WHITE_BELOW,
+        axes,
+        condition,
+        apparent_hz,
+        windows_ms,
+        note,
+    })
 }
 
 /// The strongest tone of the residual on the flagged axes (Lomb-Scargle over usable
@@ -99,14 +136,22 @@ fn tone(s: &Series, r: &[[f64; 3]], axes: &[usize]) -> Option<f64> {
     if nyq <= lo * 2.0 {
         return None;
     }
-    let freqs: Vec<f64> = (0..300).map(|i| lo * (nyq * 0.98 / lo).powf(i as f64 / 299.0)).collect();
+    let freqs: Vec<f64> = (0..300)
+        .map(|i| lo * (nyq * 0.98 / lo).powf(i as f64 / 299.0))
+        .collect();
     let step = (s.len() / 8000).max(1);
     let mut best = (0.0, 0.0);
     for &a in axes {
-        let idx: Vec<usize> = (0..s.len()).step_by(step).filter(|&i| s.valid[i][a]).collect();
+        let idx: Vec<usize> = (0..s.len())
+            .step_by(step)
+            .filter(|&i| s.valid[i][a])
+            .collect();
         let t: Vec<f64> = idx.iter().map(|&i| s.t_ms[i] as f64 * 1e-3).collect();
         let y: Vec<f64> = idx.iter().map(|&i| r[i][a]).collect();
-        for (f, p) in freqs.iter().zip(crate::spectrum::lomb_scargle(&t, &y, &freqs)) {
+        for (f, p) in freqs
+            .iter()
+            .zip(crate::spectrum::lomb_scargle(&t, &y, &freqs))
+        {
             if p > best.1 {
                 best = (*f, p);
             }

@@ -50,8 +50,14 @@ pub fn config<S: Scalar>(period_ms: u64, sat: &Satellite) -> PipelineConfig<S> {
 }
 
 /// A pipeline for `sat` with `cfg`.
-pub fn pipeline<S: Scalar>(sat: &Satellite, cfg: PipelineConfig<S>) -> Result<Pipeline<S>, HostError> {
-    Pipeline::new(&params(sat), cfg).map_err(|e| HostError::Model { name: sat.name.clone(), why: format!("{e:?}") })
+pub fn pipeline<S: Scalar>(
+    sat: &Satellite,
+    cfg: PipelineConfig<S>,
+) -> Result<Pipeline<S>, HostError> {
+    Pipeline::new(&params(sat), cfg).map_err(|e| HostError::Model {
+        name: sat.name.clone(),
+        why: format!("{e:?}"),
+    })
 }
 
 /// Feeds every sample of `rec` to `p` as flight code sees it: one tick per sample period,
@@ -111,11 +117,15 @@ pub fn status_name<S: Scalar>(p: &Pipeline<S>, any_unobservable: bool) -> &'stat
     match e.status {
         PipelineStatus::Idle => "no_firings",
         PipelineStatus::Batch | PipelineStatus::Ok if !any_unobservable => "ok",
-        PipelineStatus::Batch | PipelineStatus::Ok | PipelineStatus::PartlyUnobservable => "unobservable_terms",
+        PipelineStatus::Batch | PipelineStatus::Ok | PipelineStatus::PartlyUnobservable => {
+            "unobservable_terms"
+        }
         PipelineStatus::Singular => "singular_information",
         PipelineStatus::Overflow => "overflow",
         PipelineStatus::Implausible => match e.invalid {
-            Some(Invalid::NotPositiveDefinite) | None => "implausible_inertia_not_positive_definite",
+            Some(Invalid::NotPositiveDefinite) | None => {
+                "implausible_inertia_not_positive_definite"
+            }
             Some(Invalid::TriangleInequality) => "implausible_inertia_triangle_inequality",
             Some(Invalid::ComOutsideEnvelope) => "implausible_com_outside_envelope",
         },
@@ -143,34 +153,58 @@ pub fn to_estimate<S: Scalar>(p: &Pipeline<S>, sat: &Satellite) -> Estimate {
     }
     let idle = e.status == PipelineStatus::Idle || e.updates == 0;
     if idle {
-        unobservable = COM_TERMS.iter().chain(INERTIA_TERMS.iter()).map(|s| s.to_string()).collect();
+        unobservable = COM_TERMS
+            .iter()
+            .chain(INERTIA_TERMS.iter())
+            .map(|s| s.to_string())
+            .collect();
     }
     let mut status = status_name(p, !unobservable.is_empty());
-    let inertia = if idle { sat.inertia_kgm2 } else { e.inertia_kgm2().unwrap_or(sat.inertia_kgm2) };
+    let inertia = if idle {
+        sat.inertia_kgm2
+    } else {
+        e.inertia_kgm2().unwrap_or(sat.inertia_kgm2)
+    };
     // The weak priors the kernel starts from (`RlsConfig::default`): CoM 20 mm; inverse
     // inertia 100 % of the mean nominal diagonal.
     let cfg = massid_kernel::rls::RlsConfig::<S>::default();
     let prior_com_mm = f64::from(cfg.prior_com_std_m) * 1e3;
     let j_nom = e.inertia_inverse();
-    let prior_j = f64::from(cfg.prior_inertia_rel_std) * (j_nom[0][0] + j_nom[1][1] + j_nom[2][2]) / 3.0;
+    let prior_j =
+        f64::from(cfg.prior_inertia_rel_std) * (j_nom[0][0] + j_nom[1][1] + j_nom[2][2]) / 3.0;
     let com_held = if idle { [true; 3] } else { e.unobservable_com };
-    let inertia_held = if idle { [true; 6] } else { e.unobservable_inertia };
+    let inertia_held = if idle {
+        [true; 6]
+    } else {
+        e.unobservable_inertia
+    };
     let com_stderr: [f64; 3] = core::array::from_fn(|j| {
         if com_held[j] {
             prior_com_mm
         } else {
-            var_c[j].map(|v| v.to_f64()).filter(|v| v.is_finite() && *v > 0.0).map_or(f64::NAN, |v| v.sqrt() * 1e3)
+            var_c[j]
+                .map(|v| v.to_f64())
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .map_or(f64::NAN, |v| v.sqrt() * 1e3)
         }
     });
     let var_j: [f64; 6] = core::array::from_fn(|j| {
         if inertia_held[j] {
             prior_j * prior_j
         } else {
-            var_i[j].map(|v| v.to_f64() * 1e4).filter(|v| v.is_finite() && *v > 0.0).unwrap_or(f64::NAN)
+            var_i[j]
+                .map(|v| v.to_f64() * 1e4)
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .unwrap_or(f64::NAN)
         }
     });
     let inertia_stderr = propagate_inverse_variances(&inertia, &var_j);
-    if status == "ok" && com_stderr.iter().chain(inertia_stderr.iter()).any(|v| !v.is_finite()) {
+    if status == "ok"
+        && com_stderr
+            .iter()
+            .chain(inertia_stderr.iter())
+            .any(|v| !v.is_finite())
+    {
         status = "uncertainty_undefined";
     }
     let vf = p.mass_id().variance_factors().map(|v| v.to_f64());
@@ -193,7 +227,11 @@ pub fn to_estimate<S: Scalar>(p: &Pipeline<S>, sat: &Satellite) -> Estimate {
 /// Standard errors of the inertia `I` (xx yy zz xy xz yz) from independent variances of
 /// the inverse-inertia terms `var_j` (1/(kg m^2))^2, by `dI = -I dJ I`.
 fn propagate_inverse_variances(inertia: &[f64; 6], var_j: &[f64; 6]) -> [f64; 6] {
-    let im = [[inertia[0], inertia[3], inertia[4]], [inertia[3], inertia[1], inertia[5]], [inertia[4], inertia[5], inertia[2]]];
+    let im = [
+        [inertia[0], inertia[3], inertia[4]],
+        [inertia[3], inertia[1], inertia[5]],
+        [inertia[4], inertia[5], inertia[2]],
+    ];
     let idx = |a: usize, b: usize| -> usize {
         match (a.min(b), a.max(b)) {
             (0, 0) => 0,
@@ -229,8 +267,14 @@ mod tests {
         let close = |a: f32, b: f32| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0);
         for i in 0..massid_kernel::model::N_THRUSTERS {
             for a in 0..3 {
-                assert!(close(k.thruster_pos_m[i][a], r.thruster_pos_m[i][a]), "thruster {i} pos");
-                assert!(close(k.thrust_dir[i][a], r.thrust_dir[i][a]), "thruster {i} dir");
+                assert!(
+                    close(k.thruster_pos_m[i][a], r.thruster_pos_m[i][a]),
+                    "thruster {i} pos"
+                );
+                assert!(
+                    close(k.thrust_dir[i][a], r.thrust_dir[i][a]),
+                    "thruster {i} dir"
+                );
             }
             assert!(close(k.thrust_n[i], r.thrust_n[i]), "thruster {i} force");
         }
@@ -240,8 +284,17 @@ mod tests {
         let bias = Satellite::builtin("sph2").expect("sph2").gyro_bias_counts;
         for a in 0..3 {
             assert!(close(k.com_offset_mm[a], r.com_offset_mm[a]), "com {a}");
-            assert!(close(k.gyro_counts_per_rad_s[a], r.gyro_counts_per_rad_s[a]), "gyro scale {a}");
-            assert!(close(massid_kernel::model::SPH2_GYRO_BIAS_COUNTS[a], bias[a] as f32), "gyro bias {a}");
+            assert!(
+                close(k.gyro_counts_per_rad_s[a], r.gyro_counts_per_rad_s[a]),
+                "gyro scale {a}"
+            );
+            assert!(
+                close(
+                    massid_kernel::model::SPH2_GYRO_BIAS_COUNTS[a],
+                    bias[a] as f32
+                ),
+                "gyro bias {a}"
+            );
         }
     }
 }

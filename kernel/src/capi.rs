@@ -136,7 +136,10 @@ impl From<TickReport> for MassidTickReport {
             TickEvent::FiringTooLong => 5,
             TickEvent::Railed => 6,
         };
-        MassidTickReport { event, status: r.status as u8 }
+        MassidTickReport {
+            event,
+            status: r.status as u8,
+        }
     }
 }
 
@@ -183,7 +186,10 @@ pub struct MassidFiring {
 
 impl From<Firing> for MassidFiring {
     fn from(f: Firing) -> Self {
-        MassidFiring { on_ms: f.on_ms, off_ms: f.off_ms }
+        MassidFiring {
+            on_ms: f.on_ms,
+            off_ms: f.off_ms,
+        }
     }
 }
 
@@ -232,7 +238,8 @@ struct Slot<T> {
 // header's constants together if this fails).
 const _: () = assert!(size_of::<Slot<Pipeline<Q8_24>>>() <= PIPELINE_BYTES);
 const _: () = assert!(size_of::<Slot<Pipeline<f32>>>() <= PIPELINE_BYTES);
-const _: () = assert!(align_of::<Slot<Pipeline<Q8_24>>>() <= 8 && align_of::<Slot<Pipeline<f32>>>() <= 8);
+const _: () =
+    assert!(align_of::<Slot<Pipeline<Q8_24>>>() <= 8 && align_of::<Slot<Pipeline<f32>>>() <= 8);
 const _: () = assert!(size_of::<Slot<Mixer<Q8_24>>>() <= MIXER_BYTES);
 const _: () = assert!(size_of::<Slot<Mixer<f32>>>() <= MIXER_BYTES);
 const _: () = assert!(align_of::<Slot<Mixer<Q8_24>>>() <= 8 && align_of::<Slot<Mixer<f32>>>() <= 8);
@@ -333,7 +340,11 @@ pub unsafe extern "C" fn massid_params_sph2(out: *mut MassidSatelliteParams) -> 
 /// Size of the Rust state inside a pipeline block, bytes (for reports and checks).
 #[no_mangle]
 pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
-    let n = if fixed_point != 0 { size_of::<Pipeline<Q8_24>>() } else { size_of::<Pipeline<f32>>() };
+    let n = if fixed_point != 0 {
+        size_of::<Pipeline<Q8_24>>()
+    } else {
+        size_of::<Pipeline<f32>>()
+    };
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
@@ -359,20 +370,31 @@ pub extern "C" fn massid_type_size(which: u32) -> u32 {
 /// Size of the Rust state inside a mixer block, bytes.
 #[no_mangle]
 pub extern "C" fn massid_mixer_state_bytes(fixed_point: u8) -> u32 {
-    let n = if fixed_point != 0 { size_of::<Mixer<Q8_24>>() } else { size_of::<Mixer<f32>>() };
+    let n = if fixed_point != 0 {
+        size_of::<Mixer<Q8_24>>()
+    } else {
+        size_of::<Mixer<f32>>()
+    };
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
 /// The pipeline configuration for options `o` (`None`: the seed's); `None` if an option is
 /// out of range.
-fn config_for<S: CScalar>(sample_period_ms: u32, o: Option<&MassidOptions>) -> Option<PipelineConfig<S>> {
+fn config_for<S: CScalar>(
+    sample_period_ms: u32,
+    o: Option<&MassidOptions>,
+) -> Option<PipelineConfig<S>> {
     let mut cfg = PipelineConfig::<S>::seed(sample_period_ms);
     let Some(o) = o else { return Some(cfg) };
     if o.change_detector != 0 {
         cfg.rls.detector = Some(DetectorConfig::standard());
     }
     if o.gyroscopic != 0 {
-        if !o.gyro_bias_counts.iter().all(|b| b.is_finite() && (0.0..=4095.0).contains(b)) {
+        if !o
+            .gyro_bias_counts
+            .iter()
+            .all(|b| b.is_finite() && (0.0..=4095.0).contains(b))
+        {
             return None;
         }
         cfg.gyro_bias_counts = Some(o.gyro_bias_counts);
@@ -456,21 +478,34 @@ fn pipeline_tick<S: CScalar>(
     })
 }
 
-fn pipeline_tick_gap<S: CScalar>(block: *mut MassidPipeline, magic: u32, report: *mut MassidTickReport) -> MassidStatus {
+fn pipeline_tick_gap<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    report: *mut MassidTickReport,
+) -> MassidStatus {
     with_pipeline::<S>(block, magic, |p| {
         write_out(report, MassidTickReport::from(p.tick_gap()));
         MassidStatus::Ok
     })
 }
 
-fn pipeline_tick_gaps<S: CScalar>(block: *mut MassidPipeline, magic: u32, periods: u64, report: *mut MassidTickReport) -> MassidStatus {
+fn pipeline_tick_gaps<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    periods: u64,
+    report: *mut MassidTickReport,
+) -> MassidStatus {
     with_pipeline::<S>(block, magic, |p| {
         write_out(report, MassidTickReport::from(p.tick_gaps(periods)));
         MassidStatus::Ok
     })
 }
 
-fn pipeline_finish<S: CScalar>(block: *mut MassidPipeline, magic: u32, status: *mut u8) -> MassidStatus {
+fn pipeline_finish<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    status: *mut u8,
+) -> MassidStatus {
     with_pipeline::<S>(block, magic, |p| {
         let s: PipelineStatus = p.finish();
         write_out(status, s as u8);
@@ -478,7 +513,11 @@ fn pipeline_finish<S: CScalar>(block: *mut MassidPipeline, magic: u32, status: *
     })
 }
 
-fn pipeline_estimates<S: CScalar>(block: *mut MassidPipeline, magic: u32, out: *mut MassidEstimates<S::C>) -> MassidStatus {
+fn pipeline_estimates<S: CScalar>(
+    block: *mut MassidPipeline,
+    magic: u32,
+    out: *mut MassidEstimates<S::C>,
+) -> MassidStatus {
     if out.is_null() {
         return MassidStatus::NullPointer;
     }
@@ -501,7 +540,11 @@ fn mixer_store<S: CScalar>(
     }
     // SAFETY: checked non-NULL; the caller passes a valid parameter struct.
     let p = SatelliteParams::from(unsafe { &*params });
-    let cfg = MixerConfig { period_ms, min_pulse_ms, pressure_drop_n: S::from_f32(p.pressure_drop_n_per_extra) };
+    let cfg = MixerConfig {
+        period_ms,
+        min_pulse_ms,
+        pressure_drop_n: S::from_f32(p.pressure_drop_n_per_extra),
+    };
     match Mixer::<S>::new(&p, com_delta_m, cfg) {
         Ok(m) => {
             // SAFETY: `block` is a non-NULL MassidMixer (size/alignment asserted above).
@@ -561,7 +604,10 @@ fn mixer_mix<S: CScalar>(
     }
     // SAFETY: non-NULL; the caller passes three values each.
     let (f, t) = unsafe {
-        (force_n.cast::<[S::C; 3]>().read_unaligned(), torque_nm.cast::<[S::C; 3]>().read_unaligned())
+        (
+            force_n.cast::<[S::C; 3]>().read_unaligned(),
+            torque_nm.cast::<[S::C; 3]>().read_unaligned(),
+        )
     };
     // SAFETY: non-NULL MassidMixer; only a block written by `mixer_store` has the magic.
     match unsafe { load::<Mixer<S>>(block.cast::<u8>(), magic) } {
@@ -633,7 +679,10 @@ macro_rules! flavour {
         /// `block` is NULL or points to a `massid_pipeline`; `report` is NULL or points to a
         /// writable `massid_tick_report`.
         #[no_mangle]
-        pub unsafe extern "C" fn $gap(block: *mut MassidPipeline, report: *mut MassidTickReport) -> MassidStatus {
+        pub unsafe extern "C" fn $gap(
+            block: *mut MassidPipeline,
+            report: *mut MassidTickReport,
+        ) -> MassidStatus {
             pipeline_tick_gap::<$S>(block, $pm, report)
         }
 
@@ -642,7 +691,11 @@ macro_rules! flavour {
         /// # Safety
         /// As `*_tick_gap`.
         #[no_mangle]
-        pub unsafe extern "C" fn $gaps(block: *mut MassidPipeline, periods: u64, report: *mut MassidTickReport) -> MassidStatus {
+        pub unsafe extern "C" fn $gaps(
+            block: *mut MassidPipeline,
+            periods: u64,
+            report: *mut MassidTickReport,
+        ) -> MassidStatus {
             pipeline_tick_gaps::<$S>(block, $pm, periods, report)
         }
 
@@ -653,7 +706,10 @@ macro_rules! flavour {
         /// `block` is NULL or points to a `massid_pipeline`; `status` is NULL or points to a
         /// writable `uint8_t`.
         #[no_mangle]
-        pub unsafe extern "C" fn $finish(block: *mut MassidPipeline, status: *mut u8) -> MassidStatus {
+        pub unsafe extern "C" fn $finish(
+            block: *mut MassidPipeline,
+            status: *mut u8,
+        ) -> MassidStatus {
             pipeline_finish::<$S>(block, $pm, status)
         }
 
@@ -663,7 +719,10 @@ macro_rules! flavour {
         /// `block` is NULL or points to a `massid_pipeline`; `out` is NULL or points to a
         /// writable estimates struct of this flavour.
         #[no_mangle]
-        pub unsafe extern "C" fn $est(block: *mut MassidPipeline, out: *mut MassidEstimates<$C>) -> MassidStatus {
+        pub unsafe extern "C" fn $est(
+            block: *mut MassidPipeline,
+            out: *mut MassidEstimates<$C>,
+        ) -> MassidStatus {
             pipeline_estimates::<$S>(block, $pm, out)
         }
 
@@ -721,14 +780,34 @@ macro_rules! flavour {
 }
 
 flavour!(
-    Q8_24, i32, MAGIC_FIXED_PIPELINE, MAGIC_FIXED_MIXER,
-    massid_fixed_init, massid_fixed_init_with, massid_fixed_tick, massid_fixed_tick_gap, massid_fixed_tick_gaps,
-    massid_fixed_finish, massid_fixed_estimates,
-    massid_fixed_mixer_init, massid_fixed_mixer_from_pipeline, massid_fixed_mix
+    Q8_24,
+    i32,
+    MAGIC_FIXED_PIPELINE,
+    MAGIC_FIXED_MIXER,
+    massid_fixed_init,
+    massid_fixed_init_with,
+    massid_fixed_tick,
+    massid_fixed_tick_gap,
+    massid_fixed_tick_gaps,
+    massid_fixed_finish,
+    massid_fixed_estimates,
+    massid_fixed_mixer_init,
+    massid_fixed_mixer_from_pipeline,
+    massid_fixed_mix
 );
 flavour!(
-    f32, f32, MAGIC_F32_PIPELINE, MAGIC_F32_MIXER,
-    massid_f32_init, massid_f32_init_with, massid_f32_tick, massid_f32_tick_gap, massid_f32_tick_gaps,
-    massid_f32_finish, massid_f32_estimates,
-    massid_f32_mixer_init, massid_f32_mixer_from_pipeline, massid_f32_mix
+    f32,
+    f32,
+    MAGIC_F32_PIPELINE,
+    MAGIC_F32_MIXER,
+    massid_f32_init,
+    massid_f32_init_with,
+    massid_f32_tick,
+    massid_f32_tick_gap,
+    massid_f32_tick_gaps,
+    massid_f32_finish,
+    massid_f32_estimates,
+    massid_f32_mixer_init,
+    massid_f32_mixer_from_pipeline,
+    massid_f32_mix
 );

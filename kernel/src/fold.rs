@@ -45,8 +45,15 @@ enum Stage<S> {
     MergeInertia,
     MergeCom,
     SolveCom,
-    FactorInertia { com: RlsStatus, before: EstimateState<S> },
-    SolveInertia { com: RlsStatus, before: EstimateState<S>, factored: Result<Factored<S, 6>, LuError> },
+    FactorInertia {
+        com: RlsStatus,
+        before: EstimateState<S>,
+    },
+    SolveInertia {
+        com: RlsStatus,
+        before: EstimateState<S>,
+        factored: Result<Factored<S, 6>, LuError>,
+    },
     Done,
 }
 
@@ -69,7 +76,13 @@ impl<S: Scalar> FiringFold<S> {
     /// A fold of the aggregate measurement `agg` of `updates` samples. `batch`: one of the
     /// batch firings; `batch_complete`: the last of them.
     pub fn new(agg: Measurement<S>, updates: u32, batch: bool, batch_complete: bool) -> Self {
-        FiringFold { agg, updates, batch, batch_complete, stage: Stage::FoldCom }
+        FiringFold {
+            agg,
+            updates,
+            batch,
+            batch_complete,
+            stage: Stage::FoldCom,
+        }
     }
 
     /// The stage the next [`FiringFold::step`] runs (telemetry), `None` when done.
@@ -97,7 +110,10 @@ impl<S: Scalar> FiringFold<S> {
                 mass.add_com_part(agg, self.batch);
                 (Stage::PlanInertia, None)
             }
-            Stage::PlanInertia => (Stage::FoldInertia(mass.plan_inertia_part(agg, self.batch)), None),
+            Stage::PlanInertia => (
+                Stage::FoldInertia(mass.plan_inertia_part(agg, self.batch)),
+                None,
+            ),
             Stage::FoldInertia(plan) => {
                 mass.apply_inertia_part(agg, &plan, self.batch, self.updates);
                 if !self.batch {
@@ -111,7 +127,10 @@ impl<S: Scalar> FiringFold<S> {
             // The innovation of the aggregate against the latest solve, with the weights the
             // LS uses (its mean over the firings is the a-posteriori variance factor), in two
             // parts: rows 0-1, then row 2 ...
-            Stage::Detect => (Stage::DetectFinish(mass.innovation_part(agg, (0, 2), Scaled::zero())), None),
+            Stage::Detect => (
+                Stage::DetectFinish(mass.innovation_part(agg, (0, 2), Scaled::zero())),
+                None,
+            ),
             Stage::DetectFinish(part) => {
                 // ... then the variance factor and, against a solve with every term
                 // estimated, the change test.
@@ -130,18 +149,45 @@ impl<S: Scalar> FiringFold<S> {
             Stage::MergeCom => {
                 mass.merge_com();
                 let before = mass.estimate();
-                (Stage::FactorInertia { com: mass.solve_com(), before }, None)
+                (
+                    Stage::FactorInertia {
+                        com: mass.solve_com(),
+                        before,
+                    },
+                    None,
+                )
             }
             Stage::SolveCom => {
                 let before = mass.estimate();
-                (Stage::FactorInertia { com: mass.solve_com(), before }, None)
+                (
+                    Stage::FactorInertia {
+                        com: mass.solve_com(),
+                        before,
+                    },
+                    None,
+                )
             }
-            Stage::FactorInertia { com, before } => {
-                (Stage::SolveInertia { com, before, factored: mass.factor_inertia() }, None)
-            }
-            Stage::SolveInertia { com, before, factored } => {
+            Stage::FactorInertia { com, before } => (
+                Stage::SolveInertia {
+                    com,
+                    before,
+                    factored: mass.factor_inertia(),
+                },
+                None,
+            ),
+            Stage::SolveInertia {
+                com,
+                before,
+                factored,
+            } => {
                 let inertia = mass.finish_inertia(factored);
-                (Stage::Done, Some(Some(Solved { status: mass.combine(com, inertia), before })))
+                (
+                    Stage::Done,
+                    Some(Some(Solved {
+                        status: mass.combine(com, inertia),
+                        before,
+                    })),
+                )
             }
             Stage::Done => (Stage::Done, Some(None)),
         };

@@ -31,7 +31,10 @@ impl LowPassCoefs {
         let g = wc / (k + wc);
         let p = (k - wc) / (k + wc);
         let q = f64::from(1u32 << COEF_FRAC_BITS);
-        LowPassCoefs { p_q30: (p * q + 0.5) as i64, g_q30: (g * q + 0.5) as i64 }
+        LowPassCoefs {
+            p_q30: (p * q + 0.5) as i64,
+            g_q30: (g * q + 0.5) as i64,
+        }
     }
 
     /// The DC group delay of the two-pole filter in samples, `2 p / (1 - p)` summed over the
@@ -71,7 +74,14 @@ impl GyroLowPass {
         // A stable pole and its gain are in [-1, 1]: |Q30| <= 2^30.
         let one = 1i64 << COEF_FRAC_BITS;
         let q30 = |v: i64| i32::try_from(v.clamp(one.wrapping_neg(), one)).unwrap_or(0);
-        GyroLowPass { p_q30: q30(coefs.p_q30), g_q30: q30(coefs.g_q30), x_prev: [0; 3], u: [0; 3], y: [0; 3], started: false }
+        GyroLowPass {
+            p_q30: q30(coefs.p_q30),
+            g_q30: q30(coefs.g_q30),
+            x_prev: [0; 3],
+            u: [0; 3],
+            y: [0; 3],
+            started: false,
+        }
     }
 
     /// Filters one sample of raw counts; returns the filtered counts in Q12.

@@ -61,13 +61,19 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
             };
             let pivot = pivot_row.get(col).copied().unwrap_or(S::ZERO);
             for row in lu.iter_mut().skip(col.saturating_add(1)) {
-                let Some(entry) = row.get_mut(col) else { continue };
+                let Some(entry) = row.get_mut(col) else {
+                    continue;
+                };
                 let factor = entry.checked_div(pivot).ok_or(LuError::Overflow)?;
                 if !factor.is_valid() {
                     return Err(LuError::Overflow);
                 }
                 *entry = factor;
-                for (dst, src) in row.iter_mut().zip(pivot_row.iter()).skip(col.saturating_add(1)) {
+                for (dst, src) in row
+                    .iter_mut()
+                    .zip(pivot_row.iter())
+                    .skip(col.saturating_add(1))
+                {
                     *dst = minus_product(*dst, factor, *src)?;
                 }
             }
@@ -79,7 +85,11 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
     pub fn solve(&self, b: &[S; N]) -> Result<[S; N], LuError> {
         // Forward substitution with the permutation: L y = P b.
         let mut x: [S; N] = core::array::from_fn(|i| {
-            self.perm.get(i).and_then(|&p| b.get(p)).copied().unwrap_or(S::ZERO)
+            self.perm
+                .get(i)
+                .and_then(|&p| b.get(p))
+                .copied()
+                .unwrap_or(S::ZERO)
         });
         for i in 0..N {
             let Some(row) = self.lu.get(i) else { continue };
@@ -112,7 +122,11 @@ impl<S: Scalar, const N: usize> Lu<S, N> {
 }
 
 /// Factor and solve in one call.
-pub fn solve<S: Scalar, const N: usize>(a: &[[S; N]; N], b: &[S; N], rel_tol: S) -> Result<[S; N], LuError> {
+pub fn solve<S: Scalar, const N: usize>(
+    a: &[[S; N]; N],
+    b: &[S; N],
+    rel_tol: S,
+) -> Result<[S; N], LuError> {
     Lu::factor(a, rel_tol)?.solve(b)
 }
 

@@ -88,7 +88,11 @@ const PINV_SHIFT: i32 = 4;
 impl<S: Scalar> Mixer<S> {
     /// Builds the mixer for `params` with lever arms about the model CoM plus
     /// `com_delta_m` (the identified CoM offset, m; zeros for the model CoM).
-    pub fn new(params: &SatelliteParams, com_delta_m: [S; 3], cfg: MixerConfig<S>) -> Result<Self, MixerError> {
+    pub fn new(
+        params: &SatelliteParams,
+        com_delta_m: [S; 3],
+        cfg: MixerConfig<S>,
+    ) -> Result<Self, MixerError> {
         if cfg.min_pulse_ms == 0 || cfg.period_ms < cfg.min_pulse_ms.saturating_mul(2) {
             return Err(MixerError::BadPeriod);
         }
@@ -97,15 +101,24 @@ impl<S: Scalar> Mixer<S> {
         }
         let milli = S::from_f32(1e-3);
         let com: [S; 3] = core::array::from_fn(|k| {
-            let nominal = params.com_offset_mm.get(k).copied().map(S::from_f32).unwrap_or(S::ZERO);
-            nominal.times(milli).plus(com_delta_m.get(k).copied().unwrap_or(S::ZERO))
+            let nominal = params
+                .com_offset_mm
+                .get(k)
+                .copied()
+                .map(S::from_f32)
+                .unwrap_or(S::ZERO);
+            nominal
+                .times(milli)
+                .plus(com_delta_m.get(k).copied().unwrap_or(S::ZERO))
         });
         let mut m = [[S::ZERO; N_THRUSTERS]; 6];
         let mut thrust_n = [S::ZERO; N_THRUSTERS];
         for i in 0..N_THRUSTERS {
-            let (Some(pos), Some(dir), Some(&t)) =
-                (params.thruster_pos_m.get(i), params.thrust_dir.get(i), params.thrust_n.get(i))
-            else {
+            let (Some(pos), Some(dir), Some(&t)) = (
+                params.thruster_pos_m.get(i),
+                params.thrust_dir.get(i),
+                params.thrust_n.get(i),
+            ) else {
                 return Err(MixerError::BadThruster);
             };
             if !(t.is_finite() && t > 0.0 && pos.iter().chain(dir.iter()).all(|v| v.is_finite())) {
@@ -117,7 +130,8 @@ impl<S: Scalar> Mixer<S> {
             let f: [S; 3] = dir.map(|d| S::from_f32(d * t).mul_pow2(FORCE_UNIT_LOG2));
             let l: [S; 3] = core::array::from_fn(|k| {
                 let p = pos.get(k).copied().map(S::from_f32).unwrap_or(S::ZERO);
-                p.minus(com.get(k).copied().unwrap_or(S::ZERO)).mul_pow2(TORQUE_UNIT_LOG2.saturating_sub(FORCE_UNIT_LOG2))
+                p.minus(com.get(k).copied().unwrap_or(S::ZERO))
+                    .mul_pow2(TORQUE_UNIT_LOG2.saturating_sub(FORCE_UNIT_LOG2))
             });
             let torque = cross(&l, &f);
             for (k, row) in m.iter_mut().enumerate() {
@@ -140,19 +154,40 @@ impl<S: Scalar> Mixer<S> {
         let mut mmt = [[S::ZERO; 6]; 6];
         for (r, out_row) in mmt.iter_mut().enumerate() {
             for (c, out) in out_row.iter_mut().enumerate() {
-                let (Some(a), Some(b)) = (small.get(r), small.get(c)) else { continue };
-                *out = a.iter().zip(b.iter()).fold(S::ZERO, |acc, (x, y)| acc.mul_add(*x, *y));
+                let (Some(a), Some(b)) = (small.get(r), small.get(c)) else {
+                    continue;
+                };
+                *out = a
+                    .iter()
+                    .zip(b.iter())
+                    .fold(S::ZERO, |acc, (x, y)| acc.mul_add(*x, *y));
             }
         }
-        let lu = Lu::factor(&mmt, S::from_int_pow2(1, -20)).map_err(|_| MixerError::SingularMixingMatrix)?;
+        let lu = Lu::factor(&mmt, S::from_int_pow2(1, -20))
+            .map_err(|_| MixerError::SingularMixingMatrix)?;
         let mut pinv = [[S::ZERO; 6]; N_THRUSTERS];
         for (i, prow) in pinv.iter_mut().enumerate() {
-            let col: [S; 6] =
-                core::array::from_fn(|r| small.get(r).and_then(|row| row.get(i)).copied().unwrap_or(S::ZERO));
-            *prow = lu.solve(&col).map_err(|_| MixerError::SingularMixingMatrix)?;
+            let col: [S; 6] = core::array::from_fn(|r| {
+                small
+                    .get(r)
+                    .and_then(|row| row.get(i))
+                    .copied()
+                    .unwrap_or(S::ZERO)
+            });
+            *prow = lu
+                .solve(&col)
+                .map_err(|_| MixerError::SingularMixingMatrix)?;
         }
-        let cfg = MixerConfig { pressure_drop_n: cfg.pressure_drop_n.mul_pow2(THRUST_UNIT_LOG2), ..cfg };
-        Ok(Mixer { cfg, m, pinv, thrust_n })
+        let cfg = MixerConfig {
+            pressure_drop_n: cfg.pressure_drop_n.mul_pow2(THRUST_UNIT_LOG2),
+            ..cfg
+        };
+        Ok(Mixer {
+            cfg,
+            m,
+            pinv,
+            thrust_n,
+        })
     }
 
     /// Mixes a command: `force_n` (N) and `torque_nm` (N m about the CoM), the averages wanted
@@ -163,15 +198,27 @@ impl<S: Scalar> Mixer<S> {
     }
 
     /// Stages 2-9: the real pulse lengths as fractions of the period (before the integer rules).
-    pub fn pulse_fractions(&self, force_n: [S; 3], torque_nm: [S; 3]) -> Result<[S; N_THRUSTERS], MixerError> {
+    pub fn pulse_fractions(
+        &self,
+        force_n: [S; 3],
+        torque_nm: [S; 3],
+    ) -> Result<[S; N_THRUSTERS], MixerError> {
         if !force_n.iter().chain(torque_nm.iter()).all(|v| v.is_valid()) {
             return Err(MixerError::BadCommand);
         }
         let cmd: [S; 6] = core::array::from_fn(|k| {
             if k < 3 {
-                force_n.get(k).copied().unwrap_or(S::ZERO).mul_pow2(FORCE_UNIT_LOG2)
+                force_n
+                    .get(k)
+                    .copied()
+                    .unwrap_or(S::ZERO)
+                    .mul_pow2(FORCE_UNIT_LOG2)
             } else {
-                torque_nm.get(k.saturating_sub(3)).copied().unwrap_or(S::ZERO).mul_pow2(TORQUE_UNIT_LOG2)
+                torque_nm
+                    .get(k.saturating_sub(3))
+                    .copied()
+                    .unwrap_or(S::ZERO)
+                    .mul_pow2(TORQUE_UNIT_LOG2)
             }
         });
         if !cmd.iter().all(|v| v.is_valid()) {
@@ -179,8 +226,11 @@ impl<S: Scalar> Mixer<S> {
         }
         // Stage 2.
         let cmd_small = cmd.map(|v| v.mul_pow2(-PINV_SHIFT));
-        let duty: [S; N_THRUSTERS] =
-            self.pinv.map(|row| row.iter().zip(cmd_small.iter()).fold(S::ZERO, |acc, (a, c)| acc.mul_add(*a, *c)));
+        let duty: [S; N_THRUSTERS] = self.pinv.map(|row| {
+            row.iter()
+                .zip(cmd_small.iter())
+                .fold(S::ZERO, |acc, (a, c)| acc.mul_add(*a, *c))
+        });
         // Stages 3-4.
         let resolved = self.resolve_negative(&self.resolve_opposing(&duty)?)?;
         // Stage 5.
@@ -195,9 +245,13 @@ impl<S: Scalar> Mixer<S> {
     /// Stage 10: integer ON/OFF times from the pulse fractions.
     pub fn quantise(&self, corrected: &[S; N_THRUSTERS]) -> Result<Firing, MixerError> {
         // Stage 10.
-        let mut firing = Firing { on_ms: [0; N_THRUSTERS], off_ms: [0; N_THRUSTERS] };
+        let mut firing = Firing {
+            on_ms: [0; N_THRUSTERS],
+            off_ms: [0; N_THRUSTERS],
+        };
         for (i, d) in corrected.iter().enumerate() {
-            let dur = quantise_duration(*d, self.cfg.period_ms, self.cfg.min_pulse_ms).ok_or(MixerError::Overflow)?;
+            let dur = quantise_duration(*d, self.cfg.period_ms, self.cfg.min_pulse_ms)
+                .ok_or(MixerError::Overflow)?;
             if dur > 0 {
                 let on = self.cfg.period_ms.saturating_sub(dur) / 2;
                 if let (Some(o), Some(f)) = (firing.on_ms.get_mut(i), firing.off_ms.get_mut(i)) {
@@ -229,7 +283,11 @@ impl<S: Scalar> Mixer<S> {
                 let common = if fb.lt(fa) { fb } else { fa };
                 let na = ua.minus(common.checked_div(ta).ok_or(MixerError::Overflow)?);
                 let nb = ub.minus(common.checked_div(tb).ok_or(MixerError::Overflow)?);
-                let (na, nb) = if !nb.times(tb).lt(na.times(ta)) { (S::ZERO, nb) } else { (na, S::ZERO) };
+                let (na, nb) = if !nb.times(tb).lt(na.times(ta)) {
+                    (S::ZERO, nb)
+                } else {
+                    (na, S::ZERO)
+                };
                 set(&mut out, a, na);
                 set(&mut out, b, nb);
             }
@@ -244,11 +302,19 @@ impl<S: Scalar> Mixer<S> {
             let (ta, tb) = (self.thrust(a), self.thrust(b));
             let net = get(&out, a).times(ta).minus(get(&out, b).times(tb));
             if !net.lt(S::ZERO) {
-                set(&mut out, a, net.checked_div(ta).ok_or(MixerError::Overflow)?);
+                set(
+                    &mut out,
+                    a,
+                    net.checked_div(ta).ok_or(MixerError::Overflow)?,
+                );
                 set(&mut out, b, S::ZERO);
             } else {
                 set(&mut out, a, S::ZERO);
-                set(&mut out, b, net.negate().checked_div(tb).ok_or(MixerError::Overflow)?);
+                set(
+                    &mut out,
+                    b,
+                    net.negate().checked_div(tb).ok_or(MixerError::Overflow)?,
+                );
             }
         }
         Ok(out)
@@ -269,10 +335,18 @@ impl<S: Scalar> Mixer<S> {
             for (r, row) in s.iter_mut().enumerate() {
                 for (k, e) in row.iter_mut().enumerate() {
                     let i = side.get(k).copied().unwrap_or(0);
-                    *e = self.m.get(r).and_then(|mr| mr.get(i)).copied().unwrap_or(S::ZERO);
+                    *e = self
+                        .m
+                        .get(r)
+                        .and_then(|mr| mr.get(i))
+                        .copied()
+                        .unwrap_or(S::ZERO);
                 }
             }
-            let Some(v) = Lu::factor(&s, S::from_int_pow2(1, -20)).ok().and_then(|lu| solve_in_range(&lu, cmd)) else {
+            let Some(v) = Lu::factor(&s, S::from_int_pow2(1, -20))
+                .ok()
+                .and_then(|lu| solve_in_range(&lu, cmd))
+            else {
                 return *resolved;
             };
             if v.iter().all(|x| !x.lt(S::ZERO)) {
@@ -333,7 +407,11 @@ impl<S: Scalar> Mixer<S> {
                 }
                 let d = get(frac, i);
                 let loss = p.times(shorter.mul_add(longer_s, d));
-                set(&mut out, i, d.plus(loss.checked_div(during).ok_or(MixerError::Overflow)?));
+                set(
+                    &mut out,
+                    i,
+                    d.plus(loss.checked_div(during).ok_or(MixerError::Overflow)?),
+                );
                 shorter = shorter.plus(d);
             }
         }
@@ -358,7 +436,9 @@ fn solve_in_range<S: Scalar>(lu: &Lu<S, 6>, cmd: &[S; 6]) -> Option<[S; 6]> {
         return Some(v);
     }
     for (shift, down) in [(4, -4), (8, -8)] {
-        let Ok(v) = lu.solve(&cmd.map(|c| c.mul_pow2(down))) else { continue };
+        let Ok(v) = lu.solve(&cmd.map(|c| c.mul_pow2(down))) else {
+            continue;
+        };
         let up = v.map(|x| x.mul_pow2(shift));
         if up.iter().all(|x| x.is_valid()) {
             return Some(up);
@@ -378,7 +458,9 @@ fn solve_in_range<S: Scalar>(lu: &Lu<S, 6>, cmd: &[S; 6]) -> Option<[S; 6]> {
 
 /// Stage 6: if any duty exceeds 1, all are divided by the largest.
 fn scale_by_maximum<S: Scalar>(duty: &[S; N_THRUSTERS]) -> Result<[S; N_THRUSTERS], MixerError> {
-    let max = duty.iter().fold(S::ZERO, |m, v| if m.lt(*v) { *v } else { m });
+    let max = duty
+        .iter()
+        .fold(S::ZERO, |m, v| if m.lt(*v) { *v } else { m });
     if S::ONE.lt(max) {
         let mut out = [S::ZERO; N_THRUSTERS];
         for (o, d) in out.iter_mut().zip(duty.iter()) {
@@ -393,7 +475,13 @@ fn scale_by_maximum<S: Scalar>(duty: &[S; N_THRUSTERS]) -> Result<[S; N_THRUSTER
 /// Stage 10 for one pulse given as a fraction of the period: `D = floor(f P + 1/2)` computed
 /// exactly as `(floor(2 f P) + 1) div 2`, then the deadband and the round-up near the period.
 pub fn quantise_duration<S: Scalar>(frac: S, period_ms: u32, min_pulse_ms: u32) -> Option<u32> {
-    let f = if frac.lt(S::ZERO) { S::ZERO } else if S::ONE.lt(frac) { S::ONE } else { frac };
+    let f = if frac.lt(S::ZERO) {
+        S::ZERO
+    } else if S::ONE.lt(frac) {
+        S::ONE
+    } else {
+        frac
+    };
     let twice = f.floor_times(period_ms.checked_mul(2)?)?;
     let d = twice.checked_add(1)?.div_euclid(2);
     let mut d = u32::try_from(d).ok()?.min(period_ms);
@@ -419,5 +507,9 @@ fn set<S: Scalar>(v: &mut [S; N_THRUSTERS], i: usize, x: S) {
 fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
     let [a0, a1, a2] = *a;
     let [b0, b1, b2] = *b;
-    [a1.times(b2).minus(a2.times(b1)), a2.times(b0).minus(a0.times(b2)), a0.times(b1).minus(a1.times(b0))]
+    [
+        a1.times(b2).minus(a2.times(b1)),
+        a2.times(b0).minus(a0.times(b2)),
+        a0.times(b1).minus(a1.times(b0)),
+    ]
 }

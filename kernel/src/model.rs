@@ -54,11 +54,23 @@ pub const SPH2_GYRO_BIAS_COUNTS: [f32; 3] = [2077.0, 2070.0, 2058.0];
 pub const SPH2: SatelliteParams = SatelliteParams {
     thruster_pos_m: POS,
     thrust_dir: transpose_dirs(
-        [0.9988, 0.9995, 0.0126, -0.0209, -0.0011, -0.0076, -0.9996, -0.9989, 0.0391, -0.0292, 0.0085, -0.0046],
-        [-0.0061, -0.0086, 0.9994, 0.9995, 0.0244, -0.0278, 0.0162, 0.0374, -0.9989, -0.9992, 0.0598, 0.0075],
-        [0.0356, -0.0018, 0.0104, -0.0149, 0.9994, 0.9995, 0.0137, -0.0166, 0.0219, 0.0239, -0.9981, -0.9999],
+        [
+            0.9988, 0.9995, 0.0126, -0.0209, -0.0011, -0.0076, -0.9996, -0.9989, 0.0391, -0.0292,
+            0.0085, -0.0046,
+        ],
+        [
+            -0.0061, -0.0086, 0.9994, 0.9995, 0.0244, -0.0278, 0.0162, 0.0374, -0.9989, -0.9992,
+            0.0598, 0.0075,
+        ],
+        [
+            0.0356, -0.0018, 0.0104, -0.0149, 0.9994, 0.9995, 0.0137, -0.0166, 0.0219, 0.0239,
+            -0.9981, -0.9999,
+        ],
     ),
-    thrust_n: [0.1085, 0.1117, 0.1131, 0.1120, 0.1120, 0.1116, 0.1117, 0.1151, 0.1170, 0.1137, 0.1058, 0.1113],
+    thrust_n: [
+        0.1085, 0.1117, 0.1131, 0.1120, 0.1120, 0.1116, 0.1117, 0.1151, 0.1170, 0.1137, 0.1058,
+        0.1113,
+    ],
     inertia_kgm2: [0.0242, 0.0214, 0.0194, 0.000108, 0.000157, 0.0000123],
     com_offset_mm: [0.8115, -1.2044, -0.0985],
     gyro_counts_per_rad_s: [1412.79, 1412.79, 1412.79],
@@ -168,8 +180,10 @@ impl SatelliteParams {
             *l_out = cross.map(|v| S::from_f32(v as f32));
         }
         let inertia_inv = inv.map(|row| row.map(|v| S::from_f32(v as f32)));
-        let theta = [inv[0][0], inv[1][1], inv[2][2], inv[0][1], inv[0][2], inv[1][2]]
-            .map(|v| S::from_f32((v * 0.01) as f32));
+        let theta = [
+            inv[0][0], inv[1][1], inv[2][2], inv[0][1], inv[0][2], inv[1][2],
+        ]
+        .map(|v| S::from_f32((v * 0.01) as f32));
         let theta_inertia_matrix = inv.map(|row| row.map(|v| S::from_f32((v * 0.01) as f32)));
         Ok(ModelTerms {
             dir,
@@ -221,7 +235,11 @@ impl<S: Scalar> ModelTerms<S> {
             // (a thruster cannot pull; proofs finding 4).
             let f = f.minus(drop);
             let f = if f.lt(S::ZERO) { S::ZERO } else { f };
-            for ((cv, av), (dv, lv)) in c.iter_mut().zip(a_nm.iter_mut()).zip(d.iter().zip(lxd.iter())) {
+            for ((cv, av), (dv, lv)) in c
+                .iter_mut()
+                .zip(a_nm.iter_mut())
+                .zip(d.iter().zip(lxd.iter()))
+            {
                 *cv = cv.mul_add(*dv, f);
                 *av = av.mul_add(*lv, f);
             }
@@ -247,7 +265,12 @@ impl<S: Scalar> ModelTerms<S> {
                 *out = acc;
             }
         }
-        FiringTerms { force_n: c, torque_cnm, omega_dot_nominal, a_com }
+        FiringTerms {
+            force_n: c,
+            torque_cnm,
+            omega_dot_nominal,
+            a_com,
+        }
     }
 }
 
@@ -265,5 +288,9 @@ pub fn mat_vec<S: Scalar>(m: &[[S; 3]; 3], v: &[S; 3]) -> [S; 3] {
 pub fn inertia_rows<S: Scalar>(a: &[S; 3]) -> [[S; 6]; 3] {
     let z = S::ZERO;
     let [a1, a2, a3] = *a;
-    [[a1, z, z, a2, a3, z], [z, a2, z, a1, z, a3], [z, z, a3, z, a1, a2]]
+    [
+        [a1, z, z, a2, a3, z],
+        [z, a2, z, a1, z, a3],
+        [z, z, a3, z, a1, a2],
+    ]
 }

@@ -44,16 +44,22 @@ impl<S: Scalar> Excitation<S> {
         let mut f_min = f32::INFINITY;
         let mut t_min = f32::INFINITY;
         for i in 0..N_THRUSTERS {
-            let (Some(p), Some(d), Some(&f)) =
-                (params.thruster_pos_m.get(i), params.thrust_dir.get(i), params.thrust_n.get(i))
-            else {
+            let (Some(p), Some(d), Some(&f)) = (
+                params.thruster_pos_m.get(i),
+                params.thrust_dir.get(i),
+                params.thrust_n.get(i),
+            ) else {
                 continue;
             };
             if f.is_nan() || f <= 0.0 {
                 continue;
             }
             let r = [p[0] - com[0], p[1] - com[1], p[2] - com[2]];
-            let t = [r[1] * d[2] - r[2] * d[1], r[2] * d[0] - r[0] * d[2], r[0] * d[1] - r[1] * d[0]];
+            let t = [
+                r[1] * d[2] - r[2] * d[1],
+                r[2] * d[0] - r[0] * d[2],
+                r[0] * d[1] - r[1] * d[0],
+            ];
             let t_sq = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]) * f * f;
             let f_sq = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * f * f;
             f_min = f_min.min(f_sq);
@@ -62,7 +68,13 @@ impl<S: Scalar> Excitation<S> {
         // (0.5 f)^2; torque in cN m: (0.5 * 100 t)^2 = 2500 t^2. No working thruster: a level
         // nothing reaches.
         let working = f_min.is_finite() && t_min.is_finite();
-        let level = |v: f32, k: f32| if v.is_finite() { S::from_f32(k * v) } else { S::headroom() };
+        let level = |v: f32, k: f32| {
+            if v.is_finite() {
+                S::from_f32(k * v)
+            } else {
+                S::headroom()
+            }
+        };
         Excitation {
             working,
             force_ref_sq: level(f_min, 0.25),

@@ -71,7 +71,14 @@ impl KfConfig {
             r_rad2_s2: [9.5661e-7, 2.7365e-7, 2.3044e-7],
             p0: 0.5,
             counts_per_rad_s: [1412.79; 3],
-            transient_ticks: if dt_ms < 5 { 10u32.saturating_add(dt_ms / 2).checked_div(dt_ms).unwrap_or(0) } else { 0 },
+            transient_ticks: if dt_ms < 5 {
+                10u32
+                    .saturating_add(dt_ms / 2)
+                    .checked_div(dt_ms)
+                    .unwrap_or(0)
+            } else {
+                0
+            },
             delay_ticks: LowPassCoefs::delay_samples(GYRO_FILTER_HZ, dt_s),
         }
     }
@@ -212,7 +219,11 @@ impl<S: Scalar> OmegaDotKf<S> {
                 r_over_dt2: Scaled::from_f64(r / (dt * dt)),
             }
         });
-        let delay = if cfg.delay_ticks.is_finite() { cfg.delay_ticks.clamp(0.0, 60.0) } else { 0.0 };
+        let delay = if cfg.delay_ticks.is_finite() {
+            cfg.delay_ticks.clamp(0.0, 60.0)
+        } else {
+            0.0
+        };
         OmegaDotKf {
             axes,
             p0: Scaled::from_f64(p0),
@@ -286,7 +297,12 @@ impl<S: Scalar> OmegaDotKf<S> {
         s.n = s.n.saturating_add(1);
         s.sk = s.sk.saturating_add(u64::from(k));
         s.sk2 = s.sk2.saturating_add(self.k_sq);
-        for (((sz, skz), ci), ai) in s.sz.iter_mut().zip(s.skz.iter_mut()).zip(c.iter()).zip(self.anchor.iter()) {
+        for (((sz, skz), ci), ai) in
+            s.sz.iter_mut()
+                .zip(s.skz.iter_mut())
+                .zip(c.iter())
+                .zip(self.anchor.iter())
+        {
             let z = i64::from(*ci).saturating_sub(i64::from(*ai)); // |z| < 2^25
             *sz = sz.saturating_add(z);
             *skz = skz.saturating_add(z.saturating_mul(i64::from(k))); // |k z| < 2^43
@@ -296,7 +312,13 @@ impl<S: Scalar> OmegaDotKf<S> {
         t.tn = t.tn.saturating_add(u64::from(s.n));
         t.tsk.add(i128::from(s.sk));
         t.tsk2.add(i128::from(s.sk2));
-        for (((tsz, tskz), sz), skz) in t.tsz.iter_mut().zip(t.tskz.iter_mut()).zip(s.sz.iter()).zip(s.skz.iter()) {
+        for (((tsz, tskz), sz), skz) in t
+            .tsz
+            .iter_mut()
+            .zip(t.tskz.iter_mut())
+            .zip(s.sz.iter())
+            .zip(s.skz.iter())
+        {
             tsz.add(i128::from(*sz));
             tskz.add(i128::from(*skz));
         }
@@ -310,7 +332,9 @@ impl<S: Scalar> OmegaDotKf<S> {
         if periods == 0 {
             return;
         }
-        let last = self.ticks.saturating_add(u32::try_from(periods.saturating_sub(1)).unwrap_or(u32::MAX));
+        let last = self
+            .ticks
+            .saturating_add(u32::try_from(periods.saturating_sub(1)).unwrap_or(u32::MAX));
         self.ticks = last.saturating_add(1);
         if self.anchored {
             let k = u64::from(last.saturating_sub(self.anchor_tick).min(MAX_FIRING_TICKS));
@@ -342,7 +366,11 @@ impl<S: Scalar> OmegaDotKf<S> {
 
     /// The firing's state for a later [`OmegaDotKf::estimate_of`] / [`OmegaDotKf::aggregate_of`].
     pub fn snapshot(&self) -> KfSnapshot<S> {
-        KfSnapshot { prior: self.prior, sums: self.sums, second: self.second }
+        KfSnapshot {
+            prior: self.prior,
+            sums: self.sums,
+            second: self.second,
+        }
     }
 
     /// [`OmegaDotKf::aggregate`] of a snapshot (same filter constants).
@@ -358,16 +386,22 @@ impl<S: Scalar> OmegaDotKf<S> {
         let tsk = Scaled::from_i128(t.tsk.get());
         let tsk2 = Scaled::from_i128(t.tsk2.get());
         // sum_k S2_k = sum_k (sum k^2 - 2 kappa sum k + kappa^2 n)_k
-        let s2_sum = tsk2.minus(tsk.scale(kappa.plus(kappa))).plus(tn.scale(kappa.times(kappa)));
+        let s2_sum = tsk2
+            .minus(tsk.scale(kappa.plus(kappa)))
+            .plus(tn.scale(kappa.times(kappa)));
         let mut weight = [Scaled::zero(); 3];
         let mut mean = [S::ZERO; 3];
         for i in 0..3 {
-            let (Some(ax), Some(tsz), Some(tskz), Some(x0)) =
-                (self.axes.get(i), t.tsz.get(i), t.tskz.get(i), snap.prior.get(i))
-            else {
+            let (Some(ax), Some(tsz), Some(tskz), Some(x0)) = (
+                self.axes.get(i),
+                t.tsz.get(i),
+                t.tskz.get(i),
+                snap.prior.get(i),
+            ) else {
                 return None;
             };
-            let szk_sum = Scaled::from_i128(tskz.get()).minus(Scaled::from_i128(tsz.get()).scale(kappa));
+            let szk_sum =
+                Scaled::from_i128(tskz.get()).minus(Scaled::from_i128(tsz.get()).scale(kappa));
             let n_alpha = ax.alpha.times(n);
             let den = n_alpha.plus(s2_sum);
             let num = n_alpha.scale(*x0).plus(szk_sum.times(ax.gamma));
@@ -391,11 +425,17 @@ impl<S: Scalar> OmegaDotKf<S> {
         let n = Scaled::from_i64(i64::from(s.n));
         let sk = Scaled::from_i64(i64::try_from(s.sk).unwrap_or(i64::MAX));
         let sk2 = Scaled::from_i64(i64::try_from(s.sk2).unwrap_or(i64::MAX));
-        let s2 = sk2.minus(sk.scale(kappa.plus(kappa))).plus(n.scale(kappa.times(kappa)));
+        let s2 = sk2
+            .minus(sk.scale(kappa.plus(kappa)))
+            .plus(n.scale(kappa.times(kappa)));
         let mut out = [S::ZERO; 3];
         for (i, o) in out.iter_mut().enumerate() {
-            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (self.axes.get(i), s.sz.get(i), s.skz.get(i), self.prior.get(i))
-            else {
+            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (
+                self.axes.get(i),
+                s.sz.get(i),
+                s.skz.get(i),
+                self.prior.get(i),
+            ) else {
                 return None;
             };
             let szk = Scaled::from_i64(*skz).minus(Scaled::from_i64(*sz).scale(kappa));
@@ -415,21 +455,35 @@ impl<S: Scalar> OmegaDotKf<S> {
         let s = &snap.sums;
         if s.n == 0 {
             let p0 = self.p0;
-            let info = Scaled { m: S::ONE.checked_div(p0.m)?, e: p0.e.saturating_neg() };
-            return Some(OmegaDotEstimate { omega_dot: snap.prior, variance: [p0; 3], information: [info; 3], updates: 0 });
+            let info = Scaled {
+                m: S::ONE.checked_div(p0.m)?,
+                e: p0.e.saturating_neg(),
+            };
+            return Some(OmegaDotEstimate {
+                omega_dot: snap.prior,
+                variance: [p0; 3],
+                information: [info; 3],
+                updates: 0,
+            });
         }
         let kappa = self.kappa;
         let n = Scaled::from_i64(i64::from(s.n));
         let sk = Scaled::from_i64(i64::try_from(s.sk).unwrap_or(i64::MAX));
         let sk2 = Scaled::from_i64(i64::try_from(s.sk2).unwrap_or(i64::MAX));
         // S2 = sum k^2 - 2 kappa sum k + kappa^2 n  (> 0 since every k > kappa)
-        let s2 = sk2.minus(sk.scale(kappa.plus(kappa))).plus(n.scale(kappa.times(kappa)));
+        let s2 = sk2
+            .minus(sk.scale(kappa.plus(kappa)))
+            .plus(n.scale(kappa.times(kappa)));
         let mut omega_dot = [S::ZERO; 3];
         let mut variance = [Scaled::zero(); 3];
         let mut information = [Scaled::zero(); 3];
         for i in 0..3 {
-            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (self.axes.get(i), s.sz.get(i), s.skz.get(i), snap.prior.get(i))
-            else {
+            let (Some(ax), Some(sz), Some(skz), Some(x0)) = (
+                self.axes.get(i),
+                s.sz.get(i),
+                s.skz.get(i),
+                snap.prior.get(i),
+            ) else {
                 return None;
             };
             let szk = Scaled::from_i64(*skz).minus(Scaled::from_i64(*sz).scale(kappa));
@@ -442,12 +496,21 @@ impl<S: Scalar> OmegaDotKf<S> {
             }
             let var = ax.r_over_dt2.over(den)?;
             let info = den.over(ax.r_over_dt2)?;
-            if let (Some(o), Some(v), Some(j)) = (omega_dot.get_mut(i), variance.get_mut(i), information.get_mut(i)) {
+            if let (Some(o), Some(v), Some(j)) = (
+                omega_dot.get_mut(i),
+                variance.get_mut(i),
+                information.get_mut(i),
+            ) {
                 *o = x;
                 *v = var;
                 *j = info;
             }
         }
-        Some(OmegaDotEstimate { omega_dot, variance, information, updates: s.n })
+        Some(OmegaDotEstimate {
+            omega_dot,
+            variance,
+            information,
+            updates: s.n,
+        })
     }
 }

@@ -14,11 +14,16 @@
 
 use crate::gyro_filter::{GyroLowPass, LowPassCoefs, COUNT_FRAC_BITS};
 
-const _: () = assert!(COUNT_FRAC_BITS == 12, "Gyroscopic::omega assumes Q12 counts");
-use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
-use crate::omega_dot::{KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ};
-use crate::observability::{min_updates_for, Excitation, N_TERMS};
+const _: () = assert!(
+    COUNT_FRAC_BITS == 12,
+    "Gyroscopic::omega assumes Q12 counts"
+);
 use crate::fold::{FiringFold, FoldStep};
+use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
+use crate::observability::{min_updates_for, Excitation, N_TERMS};
+use crate::omega_dot::{
+    KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ,
+};
 use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use crate::scalar::{Scalar, Scaled};
 use crate::validity::{Invalid, Validity};
@@ -58,7 +63,10 @@ impl<S: Scalar> PipelineConfig<S> {
     /// [`PipelineConfig::seed`] plus the gyroscopic terms (gyro bias `bias_counts`), the
     /// form the f64 reference's online pipeline runs.
     pub fn with_gyroscopic(dt_ms: u32, bias_counts: [f32; 3]) -> Self {
-        PipelineConfig { gyro_bias_counts: Some(bias_counts), ..Self::seed(dt_ms) }
+        PipelineConfig {
+            gyro_bias_counts: Some(bias_counts),
+            ..Self::seed(dt_ms)
+        }
     }
 }
 
@@ -239,17 +247,29 @@ impl<S: Scalar> Pipeline<S> {
     /// `Solved` if a pending solve completed.
     pub fn tick_gaps(&mut self, periods: u64) -> TickReport {
         if periods == 0 {
-            return TickReport { event: TickEvent::Coasting, status: self.status };
+            return TickReport {
+                event: TickEvent::Coasting,
+                status: self.status,
+            };
         }
         let solved = self.catch_up();
         self.ticks = self.ticks.saturating_add(periods);
         self.counters.gap_ticks = self.counters.gap_ticks.saturating_add(periods);
         if self.word != 0 {
-            self.gyro_step_ticks = self.gyro_step_ticks.saturating_add(u32::try_from(periods).unwrap_or(u32::MAX));
+            self.gyro_step_ticks = self
+                .gyro_step_ticks
+                .saturating_add(u32::try_from(periods).unwrap_or(u32::MAX));
             self.kf.skip(periods);
         }
-        let event = if solved { TickEvent::Solved } else { TickEvent::Coasting };
-        TickReport { event, status: self.status }
+        let event = if solved {
+            TickEvent::Solved
+        } else {
+            TickEvent::Coasting
+        };
+        TickReport {
+            event,
+            status: self.status,
+        }
     }
 
     /// Counters of the data the pipeline did not use (rails, unresponsive firings, gaps).
@@ -286,7 +306,10 @@ impl<S: Scalar> Pipeline<S> {
                 let offset: [i32; 3] = core::array::from_fn(|a| {
                     let acc = self.accel_before.get(a).copied().unwrap_or(S::ZERO);
                     let lag = self.lag_counts.get(a).copied().unwrap_or(S::ZERO);
-                    let q = acc.times(lag).floor_times(1 << COUNT_FRAC_BITS).unwrap_or(0);
+                    let q = acc
+                        .times(lag)
+                        .floor_times(1 << COUNT_FRAC_BITS)
+                        .unwrap_or(0);
                     i32::try_from(q).unwrap_or(0)
                 });
                 self.kf.reset_with_offset(prior, offset);
@@ -322,7 +345,10 @@ impl<S: Scalar> Pipeline<S> {
             }
         };
         let event = if solved { TickEvent::Solved } else { event };
-        TickReport { event, status: self.status }
+        TickReport {
+            event,
+            status: self.status,
+        }
     }
 
     /// The Kalman state is the thrust-induced acceleration `I^-1 tau`, constant during a
@@ -333,7 +359,10 @@ impl<S: Scalar> Pipeline<S> {
     fn remove_gyroscopic(&mut self, filtered: [i32; 3], first: bool) -> [i32; 3] {
         let Some(g) = &self.gyro else { return filtered };
         let gt = g.torque_cnm(&filtered);
-        let accel = mat_vec(&self.terms.theta_inertia_matrix, &[gt[0].negate(), gt[1].negate(), gt[2].negate()]);
+        let accel = mat_vec(
+            &self.terms.theta_inertia_matrix,
+            &[gt[0].negate(), gt[1].negate(), gt[2].negate()],
+        );
         if !first {
             let steps = self.gyro_step_ticks.max(1);
             for a in 0..3 {
@@ -346,7 +375,11 @@ impl<S: Scalar> Pipeline<S> {
                     continue;
                 };
                 // (prev + now)/2 dt g counts, rounded to the nearest Q12 step.
-                let twice = prev.plus(now).times(c).floor_times(steps.saturating_mul(2 << COUNT_FRAC_BITS)).unwrap_or(0);
+                let twice = prev
+                    .plus(now)
+                    .times(c)
+                    .floor_times(steps.saturating_mul(2 << COUNT_FRAC_BITS))
+                    .unwrap_or(0);
                 let inc = twice.saturating_add(1).div_euclid(2);
                 *acc = acc.saturating_add(i32::try_from(inc).unwrap_or(0));
             }
@@ -354,7 +387,11 @@ impl<S: Scalar> Pipeline<S> {
         self.gyro_prev = accel;
         self.gyro_step_ticks = 0;
         core::array::from_fn(|a| {
-            filtered.get(a).copied().unwrap_or(0).saturating_sub(self.gyro_integral_q12.get(a).copied().unwrap_or(0))
+            filtered
+                .get(a)
+                .copied()
+                .unwrap_or(0)
+                .saturating_sub(self.gyro_integral_q12.get(a).copied().unwrap_or(0))
         })
     }
 
@@ -365,7 +402,10 @@ impl<S: Scalar> Pipeline<S> {
     }
 
     fn nominal_omega_dot(&self) -> [S; 3] {
-        mat_vec(&self.terms.theta_inertia_matrix, &self.effective_torque_cnm())
+        mat_vec(
+            &self.terms.theta_inertia_matrix,
+            &self.effective_torque_cnm(),
+        )
     }
 
     fn after_kf_update(&mut self) -> TickEvent {
@@ -427,7 +467,8 @@ impl<S: Scalar> Pipeline<S> {
                         // The gyros did not move although the model predicts a clear
                         // acceleration (a dead gyro, a disconnected valve): fitting this
                         // firing would drive the inertia towards infinity. Not fitted; counted.
-                        self.counters.unresponsive_firings = self.counters.unresponsive_firings.saturating_add(1);
+                        self.counters.unresponsive_firings =
+                            self.counters.unresponsive_firings.saturating_add(1);
                         self.firings_with_data = self.firings_with_data.saturating_sub(1);
                     } else {
                         if self.mass.in_control() {
@@ -448,7 +489,11 @@ impl<S: Scalar> Pipeline<S> {
                     let one = Scaled::from_i64(1);
                     let variance = weight.map(|w| one.over(w).unwrap_or(one));
                     let agg = Measurement {
-                        b_com: [mean[0].minus(pred[0]), mean[1].minus(pred[1]), mean[2].minus(pred[2])],
+                        b_com: [
+                            mean[0].minus(pred[0]),
+                            mean[1].minus(pred[1]),
+                            mean[2].minus(pred[2]),
+                        ],
                         b_inertia: mean,
                         weight,
                         variance,
@@ -496,7 +541,10 @@ impl<S: Scalar> Pipeline<S> {
     /// ([`crate::validity`]) is replaced by `before` (the estimate the solve started from).
     fn accept(&mut self, s: RlsStatus, before: &crate::rls::EstimateState<S>) -> PipelineStatus {
         if matches!(s, RlsStatus::Ok | RlsStatus::PartlyUnobservable) {
-            if let Err(why) = self.validity.check(&self.mass.theta_inertia, &self.mass.delta_com_m) {
+            if let Err(why) = self
+                .validity
+                .check(&self.mass.theta_inertia, &self.mass.delta_com_m)
+            {
                 self.mass.restore(before);
                 self.invalid = Some(why);
                 return PipelineStatus::Implausible;
@@ -535,7 +583,8 @@ impl<S: Scalar> Pipeline<S> {
         let mut solved = self.catch_up();
         solved |= self.end_firing();
         solved |= self.catch_up();
-        if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings {
+        if !solved && self.firings_with_data > 0 && self.firings_with_data < self.cfg.batch_firings
+        {
             // Fewer firings than the batch needs: the batch so far is the estimate.
             let before = self.mass.estimate();
             let s = self.mass.solve();
@@ -610,7 +659,11 @@ fn unresponsive<S: Scalar>(nominal: &[S; 3], est: &OmegaDotEstimate<S>) -> bool 
     let mut significance = Scaled::zero();
     let mut along = S::ZERO;
     let mut size = S::ZERO;
-    for ((p, x), info) in nominal.iter().zip(est.omega_dot.iter()).zip(est.information.iter()) {
+    for ((p, x), info) in nominal
+        .iter()
+        .zip(est.omega_dot.iter())
+        .zip(est.information.iter())
+    {
         let ps = Scaled { m: *p, e: 0 }.normalized();
         significance = significance.plus(ps.times(ps).times(*info));
         along = along.mul_add(*p, *x);
@@ -635,14 +688,20 @@ fn coupled<S: Scalar>(ft: &FiringTerms<S>, theta: &[S; 6]) -> ([[S; 3]; 3], [[S;
     let [fx, fy, fz] = ft.force_n;
     let hundred = S::from_int_pow2(100, 0);
     // J is per cN m: J [F]x per m is 100 J [F]x.
-    let cx = [[S::ZERO, fz.negate(), fy], [fz, S::ZERO, fx.negate()], [fy.negate(), fx, S::ZERO]];
+    let cx = [
+        [S::ZERO, fz.negate(), fy],
+        [fz, S::ZERO, fx.negate()],
+        [fy.negate(), fx, S::ZERO],
+    ];
     let mut a_com = [[S::ZERO; 3]; 3];
     for (out_row, j_row) in a_com.iter_mut().zip(j.iter()) {
         for (col, out) in out_row.iter_mut().enumerate() {
             let acc = j_row
                 .iter()
                 .zip(cx.iter())
-                .fold(S::ZERO, |acc, (jv, cx_row)| acc.mul_add(*jv, cx_row.get(col).copied().unwrap_or(S::ZERO)));
+                .fold(S::ZERO, |acc, (jv, cx_row)| {
+                    acc.mul_add(*jv, cx_row.get(col).copied().unwrap_or(S::ZERO))
+                });
             *out = acc.times(hundred);
         }
     }
@@ -651,7 +710,12 @@ fn coupled<S: Scalar>(ft: &FiringTerms<S>, theta: &[S; 6]) -> ([[S; 3]; 3], [[S;
 
 /// The measurement of one angular-acceleration estimate for a firing's regressors
 /// (seed eqs 3.5-3.8; rows at zero rate, see `Pipeline::remove_gyroscopic`).
-fn measurement_for<S: Scalar>(theta: &[[S; 3]; 3], ft: &FiringTerms<S>, a_com: &[[S; 3]; 3], est: &OmegaDotEstimate<S>) -> Measurement<S> {
+fn measurement_for<S: Scalar>(
+    theta: &[[S; 3]; 3],
+    ft: &FiringTerms<S>,
+    a_com: &[[S; 3]; 3],
+    est: &OmegaDotEstimate<S>,
+) -> Measurement<S> {
     let pred = mat_vec(theta, &ft.torque_cnm);
     let mut b_com = [S::ZERO; 3];
     for ((b, w), n) in b_com.iter_mut().zip(est.omega_dot.iter()).zip(pred.iter()) {
@@ -733,7 +797,11 @@ impl<S: Scalar> EndedFiring<S> {
     fn empty(terms: FiringTerms<S>) -> Self {
         let m = Measurement::zero();
         EndedFiring {
-            kf: KfSnapshot { prior: [S::ZERO; 3], sums: Default::default(), second: Default::default() },
+            kf: KfSnapshot {
+                prior: [S::ZERO; 3],
+                sums: Default::default(),
+                second: Default::default(),
+            },
             terms,
             excites: [false; N_TERMS],
             theta: [[S::ZERO; 3]; 3],
@@ -757,14 +825,20 @@ struct Gyroscopic<S> {
 
 impl<S: Scalar> Gyroscopic<S> {
     fn new(params: &SatelliteParams, bias: [f32; 3]) -> Result<Self, ModelError> {
-        if !bias.iter().chain(params.gyro_counts_per_rad_s.iter()).all(|v| v.is_finite()) {
+        if !bias
+            .iter()
+            .chain(params.gyro_counts_per_rad_s.iter())
+            .all(|v| v.is_finite())
+        {
             return Err(ModelError::NotFinite);
         }
         let q = (1u32 << COUNT_FRAC_BITS) as f32;
         let [xx, yy, zz, xy, xz, yz] = params.inertia_kgm2.map(|v| S::from_f32(v * 100.0));
         Ok(Gyroscopic {
             bias_q12: bias.map(|b| (b * q) as i32),
-            rad_s_per_2k_counts: params.gyro_counts_per_rad_s.map(|g| S::from_f32(if g != 0.0 { 2048.0 / g } else { 0.0 })),
+            rad_s_per_2k_counts: params
+                .gyro_counts_per_rad_s
+                .map(|g| S::from_f32(if g != 0.0 { 2048.0 / g } else { 0.0 })),
             inertia_c: [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
         })
     }

@@ -40,7 +40,13 @@ impl<S: Scalar, const N: usize> Default for InfoLs<S, N> {
 impl<S: Scalar, const N: usize> InfoLs<S, N> {
     /// No information.
     pub fn new() -> Self {
-        InfoLs { lam: [[S::ZERO; N]; N], eta: [S::ZERO; N], exp: 0, empty: true, saturated: false }
+        InfoLs {
+            lam: [[S::ZERO; N]; N],
+            eta: [S::ZERO; N],
+            exp: 0,
+            empty: true,
+            saturated: false,
+        }
     }
 
     /// The shared exponent: true information = stored mantissa * 2^exponent.
@@ -63,7 +69,12 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         let mut m = self.lam;
         for i in 0..N {
             for j in 0..i {
-                let v = self.lam.get(j).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO);
+                let v = self
+                    .lam
+                    .get(j)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or(S::ZERO);
                 if let Some(d) = m.get_mut(i).and_then(|r| r.get_mut(j)) {
                     *d = v;
                 }
@@ -125,7 +136,13 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     }
 
     fn check_valid(&mut self) {
-        if !self.lam.iter().flatten().chain(self.eta.iter()).all(|v| v.is_valid()) {
+        if !self
+            .lam
+            .iter()
+            .flatten()
+            .chain(self.eta.iter())
+            .all(|v| v.is_valid())
+        {
             self.saturated = true;
         }
     }
@@ -190,7 +207,9 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     /// vector's products and partial sums (the matrix's partial sums are positive
     /// semidefinite, so bounded by their diagonals).
     fn predict(&self, rows: &[[S; N]; 3], b: &[S; 3], wm: &[S; 3], e: i32) -> (S, S) {
-        let mut peak = wm.iter().fold(self.at_exponent(self.magnitude(), e), |m, v| max_abs(m, *v));
+        let mut peak = wm
+            .iter()
+            .fold(self.at_exponent(self.magnitude(), e), |m, v| max_abs(m, *v));
         let mut mag = S::ZERO;
         for (j, (lam_row, eta_j)) in self.lam.iter().zip(self.eta.iter()).enumerate() {
             let mut d = self.at_exponent(lam_row.get(j).copied().unwrap_or(S::ZERO), e);
@@ -220,7 +239,10 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
         let r = rows.map(|row| row.iter().fold(S::ZERO, |acc, v| acc.plus(v.abs())));
         let one = S::ONE;
         let budget = S::from_int_pow2(1, DIAG_LIMIT_LOG2.saturating_add(1));
-        let rb = b.iter().zip(r.iter()).fold(S::ZERO, |m, (bi, ri)| max_abs(m, max_abs(*bi, *ri)));
+        let rb = b
+            .iter()
+            .zip(r.iter())
+            .fold(S::ZERO, |m, (bi, ri)| max_abs(m, max_abs(*bi, *ri)));
         for _ in 0..8 {
             let t = [0usize, 1, 2].map(|i| {
                 let wi = wm.get(i).copied().unwrap_or(S::ZERO);
@@ -342,7 +364,12 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     pub fn unobservable(&self, rel: S) -> [bool; N] {
         let thr = rel.times(self.max_diag());
         core::array::from_fn(|i| {
-            let d = self.lam.get(i).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO);
+            let d = self
+                .lam
+                .get(i)
+                .and_then(|r| r.get(i))
+                .copied()
+                .unwrap_or(S::ZERO);
             !thr.lt(d)
         })
     }
@@ -350,13 +377,25 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
     /// Solves for the estimate; unobservable terms (see [`InfoLs::unobservable`]) are held
     /// at `prior` and the rest solved with them fixed. Returns the estimate, the mask and the
     /// factorisation of the reduced system (for covariances).
-    pub fn solve(&self, prior: &[S; N], held: &[bool; N], unobs_rel: S, pivot_rel: S) -> Result<Solution<S, N>, LuError> {
+    pub fn solve(
+        &self,
+        prior: &[S; N],
+        held: &[bool; N],
+        unobs_rel: S,
+        pivot_rel: S,
+    ) -> Result<Solution<S, N>, LuError> {
         self.factor(prior, held, unobs_rel, pivot_rel)?.solve()
     }
 
     /// The first half of [`InfoLs::solve`]: the reduced system and its LU factorisation.
     /// Terms in `held` (not excited) and numerically unobservable ones are held at `prior`.
-    pub fn factor(&self, prior: &[S; N], held: &[bool; N], unobs_rel: S, pivot_rel: S) -> Result<Factored<S, N>, LuError> {
+    pub fn factor(
+        &self,
+        prior: &[S; N],
+        held: &[bool; N],
+        unobs_rel: S,
+        pivot_rel: S,
+    ) -> Result<Factored<S, N>, LuError> {
         if self.empty {
             return Err(LuError::ZeroMatrix);
         }
@@ -394,7 +433,12 @@ impl<S: Scalar, const N: usize> InfoLs<S, N> {
             }
         }
         let lu = Lu::factor(&m, pivot_rel)?;
-        Ok(Factored { lu, rhs, unobservable: unobs, exp: self.exp })
+        Ok(Factored {
+            lu,
+            rhs,
+            unobservable: unobs,
+            exp: self.exp,
+        })
     }
 }
 
@@ -411,7 +455,12 @@ impl<S: Scalar, const N: usize> Factored<S, N> {
     /// The second half of [`InfoLs::solve`].
     pub fn solve(&self) -> Result<Solution<S, N>, LuError> {
         let x = self.lu.solve(&self.rhs)?;
-        Ok(Solution { x, unobservable: self.unobservable, lu: self.lu, exp: self.exp })
+        Ok(Solution {
+            x,
+            unobservable: self.unobservable,
+            lu: self.lu,
+            exp: self.exp,
+        })
     }
 }
 
@@ -427,7 +476,10 @@ pub struct AddPlan<S> {
 impl<S: Scalar> AddPlan<S> {
     /// A plan that adds nothing (zero weights), e.g. to initialise storage.
     pub fn none() -> Self {
-        AddPlan { w: [Scaled::zero(); 3], exp: 0 }
+        AddPlan {
+            w: [Scaled::zero(); 3],
+            exp: 0,
+        }
     }
 }
 
@@ -450,8 +502,14 @@ impl<S: Scalar, const N: usize> Solution<S, N> {
     /// for a measurement with regressor `row`. `None` if it does not fit.
     pub fn predicted_variance(&self, row: &[S; N]) -> Option<Scaled<S>> {
         let y = self.lu.solve(row).ok()?;
-        let q = row.iter().zip(y.iter()).fold(S::ZERO, |acc, (a, b)| acc.mul_add(*a, *b));
-        Some(Scaled { m: q, e: self.exp.saturating_neg() })
+        let q = row
+            .iter()
+            .zip(y.iter())
+            .fold(S::ZERO, |acc, (a, b)| acc.mul_add(*a, *b));
+        Some(Scaled {
+            m: q,
+            e: self.exp.saturating_neg(),
+        })
     }
 
     /// Variance of each estimated term (diagonal of `Lambda^-1`), `None` where it does not fit.
@@ -460,7 +518,10 @@ impl<S: Scalar, const N: usize> Solution<S, N> {
             let e: [S; N] = core::array::from_fn(|i| if i == j { S::ONE } else { S::ZERO });
             let y = self.lu.solve(&e).ok()?;
             let v = y.get(j).copied()?;
-            Some(Scaled { m: v, e: self.exp.saturating_neg() })
+            Some(Scaled {
+                m: v,
+                e: self.exp.saturating_neg(),
+            })
         })
     }
 }
@@ -497,7 +558,13 @@ impl<S: Scalar> Measurement<S> {
 
     /// The torque (cN m) the inverse-inertia rows were built from (their diagonal entries).
     pub fn a_inertia_torque(&self) -> [S; 3] {
-        [0usize, 1, 2].map(|i| self.a_inertia.get(i).and_then(|r| r.get(i)).copied().unwrap_or(S::ZERO))
+        [0usize, 1, 2].map(|i| {
+            self.a_inertia
+                .get(i)
+                .and_then(|r| r.get(i))
+                .copied()
+                .unwrap_or(S::ZERO)
+        })
     }
 }
 
@@ -728,24 +795,39 @@ impl<S: Scalar> MassId<S> {
         if batch {
             self.solved_com = None;
         }
-        let target = if batch { &mut self.com } else { &mut self.pending_com };
+        let target = if batch {
+            &mut self.com
+        } else {
+            &mut self.pending_com
+        };
         target.add(&m.a_com, &m.b_com, &m.weight);
     }
 
     /// Plans the add of a firing's inverse-inertia rows (the first half of its work; reads only).
     pub(crate) fn plan_inertia_part(&self, m: &Measurement<S>, batch: bool) -> AddPlan<S> {
-        let target = if batch { &self.inertia } else { &self.pending_inertia };
+        let target = if batch {
+            &self.inertia
+        } else {
+            &self.pending_inertia
+        };
         target.plan_add(&m.a_inertia, &m.b_inertia, &m.weight)
     }
 
     /// Adds a firing's inverse-inertia rows (counting the `updates`) as planned by [`MassId::plan_inertia_part`]
     /// (same measurement and `batch`; nothing else may change the problem in between).
-    pub(crate) fn apply_inertia_part(&mut self, m: &Measurement<S>, plan: &AddPlan<S>, batch: bool, updates: u32) {
+    pub(crate) fn apply_inertia_part(
+        &mut self,
+        m: &Measurement<S>,
+        plan: &AddPlan<S>,
+        batch: bool,
+        updates: u32,
+    ) {
         if batch {
             self.solved_inertia = None;
             self.inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
         } else {
-            self.pending_inertia.apply_add(&m.a_inertia, &m.b_inertia, plan);
+            self.pending_inertia
+                .apply_add(&m.a_inertia, &m.b_inertia, plan);
             self.pending_updates = self.pending_updates.saturating_add(updates);
         }
         self.updates = self.updates.saturating_add(updates);
@@ -757,7 +839,11 @@ impl<S: Scalar> MassId<S> {
     /// its level (directions not excited since a reset have lost their information and the
     /// estimate can wander there: on `kernel_tracking` it cost a second reset and 26 % of Ixx).
     pub fn in_control(&self) -> bool {
-        self.cfg.forgetting.is_none() || self.cfg.detector.is_none_or(|d| self.level_firings >= d.warmup_firings)
+        self.cfg.forgetting.is_none()
+            || self
+                .cfg
+                .detector
+                .is_none_or(|d| self.level_firings >= d.warmup_firings)
     }
 
     /// The change test with its statistic computed (no-op without a detector configured).
@@ -796,14 +882,19 @@ impl<S: Scalar> MassId<S> {
             // Learning: the level is the running mean of the statistic.
             let n = self.level_firings.saturating_add(1);
             let w = Scaled::from_i64(i64::from(n));
-            let sum = self.level.times(Scaled::from_i64(i64::from(self.level_firings))).plus(nis);
+            let sum = self
+                .level
+                .times(Scaled::from_i64(i64::from(self.level_firings)))
+                .plus(nis);
             if let Some(mean) = sum.over(w) {
                 self.level = mean;
             }
             self.level_firings = n;
             return;
         }
-        let Some(ratio) = nis.over(self.level) else { return };
+        let Some(ratio) = nis.over(self.level) else {
+            return;
+        };
         let ratio = ratio.value(); // saturates for a huge excess: still an alarm
         self.last_ratio = ratio;
         let s = self.cusum.plus(ratio).minus(S::ONE).minus(det.drift);
@@ -821,7 +912,10 @@ impl<S: Scalar> MassId<S> {
             self.level_firings = 0;
         } else if ratio.lt(S::ONE.plus(det.drift)) {
             // Track slow changes of the level with the in-control firings (weight 1/8).
-            self.level = self.level.times(Scaled::from_f64(0.875)).plus(nis.times(Scaled::from_f64(0.125)));
+            self.level = self
+                .level
+                .times(Scaled::from_f64(0.875))
+                .plus(nis.times(Scaled::from_f64(0.125)));
         }
     }
 
@@ -831,11 +925,30 @@ impl<S: Scalar> MassId<S> {
     /// else (a translation) the CoM equations. A translation's inertia rows are near zero,
     /// so after a CoM change the seed's inertia equations (nominal lever arms) cannot explain
     /// its rate change: testing them there would raise alarms on every translation.
-    pub(crate) fn innovation_part(&self, m: &Measurement<S>, rows: (usize, usize), acc: Scaled<S>) -> Option<Scaled<S>> {
+    pub(crate) fn innovation_part(
+        &self,
+        m: &Measurement<S>,
+        rows: (usize, usize),
+        acc: Scaled<S>,
+    ) -> Option<Scaled<S>> {
         if self.tests_inertia(m) {
-            nis_of(self.solved_inertia.as_ref()?, &m.a_inertia, &m.b_inertia, &m.variance, rows, acc)
+            nis_of(
+                self.solved_inertia.as_ref()?,
+                &m.a_inertia,
+                &m.b_inertia,
+                &m.variance,
+                rows,
+                acc,
+            )
         } else {
-            nis_of(self.solved_com.as_ref()?, &m.a_com, &m.b_com, &m.variance, rows, acc)
+            nis_of(
+                self.solved_com.as_ref()?,
+                &m.a_com,
+                &m.b_com,
+                &m.variance,
+                rows,
+                acc,
+            )
         }
     }
 
@@ -859,16 +972,24 @@ impl<S: Scalar> MassId<S> {
     /// counts the innovation).
     pub(crate) fn holds_terms_for(&self, m: &Measurement<S>) -> bool {
         if self.tests_inertia(m) {
-            self.solved_inertia.as_ref().is_none_or(|s| s.unobservable.iter().any(|u| *u))
+            self.solved_inertia
+                .as_ref()
+                .is_none_or(|s| s.unobservable.iter().any(|u| *u))
         } else {
-            self.solved_com.as_ref().is_none_or(|s| s.unobservable.iter().any(|u| *u))
+            self.solved_com
+                .as_ref()
+                .is_none_or(|s| s.unobservable.iter().any(|u| *u))
         }
     }
 
     /// Counts one ended firing's normalised innovation squared `nis` over its three rows
     /// into the variance factor of the problem it was taken on ([`MassId::variance_factors`]).
     pub(crate) fn record_innovation(&mut self, nis: Scaled<S>, inertia: bool) {
-        let (sum, n) = if inertia { &mut self.innovations[1] } else { &mut self.innovations[0] };
+        let (sum, n) = if inertia {
+            &mut self.innovations[1]
+        } else {
+            &mut self.innovations[0]
+        };
         *sum = sum.plus(nis);
         *n = n.saturating_add(3);
     }
@@ -899,7 +1020,12 @@ impl<S: Scalar> MassId<S> {
     /// Solves the CoM problem alone (its status; the estimate is kept on failure).
     pub(crate) fn solve_com(&mut self) -> RlsStatus {
         let zero3 = [S::ZERO; 3];
-        match self.com.solve(&zero3, &self.held_com, self.cfg.unobservable_rel, self.cfg.pivot_rel) {
+        match self.com.solve(
+            &zero3,
+            &self.held_com,
+            self.cfg.unobservable_rel,
+            self.cfg.pivot_rel,
+        ) {
             Ok(sol) => {
                 self.delta_com_m = sol.x;
                 self.unobservable_com = sol.unobservable;
@@ -921,12 +1047,20 @@ impl<S: Scalar> MassId<S> {
 
     /// The first half of [`MassId::solve_inertia`] (reads only): the factorisation.
     pub(crate) fn factor_inertia(&self) -> Result<Factored<S, 6>, LuError> {
-        self.inertia.factor(&self.prior_inertia, &self.held_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+        self.inertia.factor(
+            &self.prior_inertia,
+            &self.held_inertia,
+            self.cfg.unobservable_rel,
+            self.cfg.pivot_rel,
+        )
     }
 
     /// The second half of [`MassId::solve_inertia`], from [`MassId::factor_inertia`] (nothing
     /// may change the inverse-inertia problem in between).
-    pub(crate) fn finish_inertia(&mut self, factored: Result<Factored<S, 6>, LuError>) -> RlsStatus {
+    pub(crate) fn finish_inertia(
+        &mut self,
+        factored: Result<Factored<S, 6>, LuError>,
+    ) -> RlsStatus {
         match factored.and_then(|f| f.solve()) {
             Ok(sol) => {
                 self.theta_inertia = sol.x;
@@ -945,7 +1079,8 @@ impl<S: Scalar> MassId<S> {
     pub(crate) fn combine(&mut self, com: RlsStatus, inertia: RlsStatus) -> RlsStatus {
         let mut status = worst(com, inertia);
         if status == RlsStatus::Ok
-            && (self.unobservable_com.iter().any(|u| *u) || self.unobservable_inertia.iter().any(|u| *u))
+            && (self.unobservable_com.iter().any(|u| *u)
+                || self.unobservable_inertia.iter().any(|u| *u))
         {
             status = RlsStatus::PartlyUnobservable;
         }
@@ -959,13 +1094,27 @@ impl<S: Scalar> MassId<S> {
     pub fn variances(&self) -> (MaybeVariances<S, 3>, MaybeVariances<S, 6>) {
         let (c, i) = self.ls_variances();
         let [fc, fi] = self.variance_factors();
-        let held = |v: Option<Scaled<S>>, h: bool, f: Scaled<S>| if h { None } else { v.map(|v| v.times(f)) };
+        let held = |v: Option<Scaled<S>>, h: bool, f: Scaled<S>| {
+            if h {
+                None
+            } else {
+                v.map(|v| v.times(f))
+            }
+        };
         let mut c2 = [None; 3];
-        for ((o, v), h) in c2.iter_mut().zip(c.iter()).zip(self.unobservable_com.iter()) {
+        for ((o, v), h) in c2
+            .iter_mut()
+            .zip(c.iter())
+            .zip(self.unobservable_com.iter())
+        {
             *o = held(*v, *h, fc);
         }
         let mut i2 = [None; 6];
-        for ((o, v), h) in i2.iter_mut().zip(i.iter()).zip(self.unobservable_inertia.iter()) {
+        for ((o, v), h) in i2
+            .iter_mut()
+            .zip(i.iter())
+            .zip(self.unobservable_inertia.iter())
+        {
             *o = held(*v, *h, fi);
         }
         (c2, i2)
@@ -976,12 +1125,22 @@ impl<S: Scalar> MassId<S> {
         let zero3 = [S::ZERO; 3];
         let c = self
             .com
-            .solve(&zero3, &self.held_com, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+            .solve(
+                &zero3,
+                &self.held_com,
+                self.cfg.unobservable_rel,
+                self.cfg.pivot_rel,
+            )
             .map(|s| s.variances())
             .unwrap_or([None; 3]);
         let i = self
             .inertia
-            .solve(&self.prior_inertia, &self.held_inertia, self.cfg.unobservable_rel, self.cfg.pivot_rel)
+            .solve(
+                &self.prior_inertia,
+                &self.held_inertia,
+                self.cfg.unobservable_rel,
+                self.cfg.pivot_rel,
+            )
             .map(|s| s.variances())
             .unwrap_or([None; 6]);
         (c, i)
@@ -1005,8 +1164,17 @@ fn nis_of<S: Scalar, const N: usize>(
     acc: Scaled<S>,
 ) -> Option<Scaled<S>> {
     let mut total = acc;
-    for ((row, b), var) in rows.iter().zip(b.iter()).zip(variance.iter()).take(to).skip(from) {
-        let pred = row.iter().zip(sol.x.iter()).fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
+    for ((row, b), var) in rows
+        .iter()
+        .zip(b.iter())
+        .zip(variance.iter())
+        .take(to)
+        .skip(from)
+    {
+        let pred = row
+            .iter()
+            .zip(sol.x.iter())
+            .fold(S::ZERO, |acc, (a, x)| acc.mul_add(*a, *x));
         let nu = b.minus(pred);
         let s = sol.predicted_variance(row)?.plus(*var);
         let nu_s = Scaled { m: nu, e: 0 }.normalized();

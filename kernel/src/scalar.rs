@@ -219,7 +219,11 @@ impl Scalar for f32 {
             return None;
         }
         let t = x as i64; // truncation toward zero, exact here
-        Some(if (t as f64) > x { t.saturating_sub(1) } else { t })
+        Some(if (t as f64) > x {
+            t.saturating_sub(1)
+        } else {
+            t
+        })
     }
     #[inline]
     fn split_pow2(self) -> (Self, i32) {
@@ -283,10 +287,18 @@ impl<Frac: LeEqU32> Mul for Fx<Frac> {
     fn mul(self, rhs: Self) -> Self {
         let p = widening_mul(self.0.to_bits(), rhs.0.to_bits());
         let frac = Frac::U32.min(62);
-        let half = if frac == 0 { 0 } else { 1i64 << frac.saturating_sub(1) };
+        let half = if frac == 0 {
+            0
+        } else {
+            1i64 << frac.saturating_sub(1)
+        };
         // |p| <= 2^62: adding half cannot wrap
         let r = p.wrapping_add(half) >> frac;
-        Fx(FixedI32::from_bits(i32::try_from(r).unwrap_or(if r > 0 { i32::MAX } else { i32::MIN })))
+        Fx(FixedI32::from_bits(i32::try_from(r).unwrap_or(if r > 0 {
+            i32::MAX
+        } else {
+            i32::MIN
+        })))
     }
 }
 
@@ -413,13 +425,19 @@ fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
     let s = v.leading_zeros(); // v != 0 (callers), so s < 32
     let v = v.wrapping_shl(s); // top bit set
     let (vn1, vn0) = (v >> 16, v & 0xffff); // vn1 >= 2^15
-    let un32 = if s == 0 { u1 } else { u1.wrapping_shl(s) | u0.wrapping_shr(32u32.wrapping_sub(s)) };
+    let un32 = if s == 0 {
+        u1
+    } else {
+        u1.wrapping_shl(s) | u0.wrapping_shr(32u32.wrapping_sub(s))
+    };
     let un10 = u0.wrapping_shl(s);
     let (un1, un0) = (un10 >> 16, un10 & 0xffff);
     // First digit: estimate from the top two digits, correct at most twice.
     let mut q1 = un32.checked_div(vn1).unwrap_or(0);
     let mut rhat = un32.wrapping_sub(q1.wrapping_mul(vn1));
-    while q1 >= B || u64::from(q1).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un1)) {
+    while q1 >= B
+        || u64::from(q1).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un1))
+    {
         q1 = q1.wrapping_sub(1);
         rhat = rhat.wrapping_add(vn1);
         if rhat >= B {
@@ -427,10 +445,15 @@ fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
         }
     }
     // The partial remainder (fits 32 bits after a correct first digit).
-    let un21 = un32.wrapping_shl(16).wrapping_add(un1).wrapping_sub(q1.wrapping_mul(v));
+    let un21 = un32
+        .wrapping_shl(16)
+        .wrapping_add(un1)
+        .wrapping_sub(q1.wrapping_mul(v));
     let mut q0 = un21.checked_div(vn1).unwrap_or(0);
     let mut rhat = un21.wrapping_sub(q0.wrapping_mul(vn1));
-    while q0 >= B || u64::from(q0).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un0)) {
+    while q0 >= B
+        || u64::from(q0).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un0))
+    {
         q0 = q0.wrapping_sub(1);
         rhat = rhat.wrapping_add(vn1);
         if rhat >= B {
@@ -487,7 +510,11 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
             return Fx(FixedI32::ZERO);
         }
         let x = f64::from(v) * f64::from(1u32 << Frac::U32.min(31));
-        let r = if x >= 0.0 { (x + 0.5) as i64 } else { (x - 0.5) as i64 };
+        let r = if x >= 0.0 {
+            (x + 0.5) as i64
+        } else {
+            (x - 0.5) as i64
+        };
         let bits = r.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
         Fx(FixedI32::from_bits(bits))
     }
@@ -560,7 +587,10 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
         } else if len <= frac {
             // Up: exact doublings until |b| >= 2^frac (|b| < 2^frac, so no overflow).
             let k = frac.saturating_add(1).saturating_sub(len);
-            (Fx(FixedI32::from_bits(b.wrapping_shl(k))), (k as i32).saturating_neg())
+            (
+                Fx(FixedI32::from_bits(b.wrapping_shl(k))),
+                (k as i32).saturating_neg(),
+            )
         } else {
             (self, 0)
         }
@@ -578,7 +608,11 @@ fn shift_sat_i32(v: i32, sh: i32) -> i32 {
     } else {
         let s = sh.unsigned_abs();
         // v fits after the shift iff it has more than s redundant sign bits
-        let redundant = if v < 0 { v.leading_ones() } else { v.leading_zeros() };
+        let redundant = if v < 0 {
+            v.leading_ones()
+        } else {
+            v.leading_zeros()
+        };
         if s < redundant {
             v.wrapping_shl(s)
         } else if v > 0 {
@@ -689,7 +723,10 @@ impl<S: Scalar> Scaled<S> {
             e = e.saturating_sub(1);
             guard = guard.saturating_add(1);
         }
-        Scaled { m: S::from_f32(m as f32), e }
+        Scaled {
+            m: S::from_f32(m as f32),
+            e,
+        }
     }
 
     /// Brings the mantissa into [1, 2) in magnitude (at most 64 steps each way; zero stays
@@ -697,7 +734,10 @@ impl<S: Scalar> Scaled<S> {
     #[inline]
     pub fn normalized(self) -> Self {
         let (m, k) = self.m.split_pow2();
-        Scaled { m, e: self.e.saturating_add(k) }
+        Scaled {
+            m,
+            e: self.e.saturating_add(k),
+        }
     }
 }
 
@@ -711,13 +751,23 @@ impl<S: Scalar> Scaled<S> {
     pub fn times(self, rhs: Self) -> Self {
         let a = self.normalized();
         let b = rhs.normalized();
-        Scaled { m: a.m.times(b.m), e: a.e.saturating_add(b.e) }.normalized()
+        Scaled {
+            m: a.m.times(b.m),
+            e: a.e.saturating_add(b.e),
+        }
+        .normalized()
     }
     /// Quotient, `None` for a zero divisor.
     pub fn over(self, rhs: Self) -> Option<Self> {
         let a = self.normalized();
         let b = rhs.normalized();
-        Some(Scaled { m: a.m.checked_div(b.m)?, e: a.e.saturating_sub(b.e) }.normalized())
+        Some(
+            Scaled {
+                m: a.m.checked_div(b.m)?,
+                e: a.e.saturating_sub(b.e),
+            }
+            .normalized(),
+        )
     }
     /// Sum (aligned to the larger exponent).
     pub fn plus(self, rhs: Self) -> Self {
@@ -732,7 +782,11 @@ impl<S: Scalar> Scaled<S> {
         let a = self.normalized();
         let b = rhs.normalized();
         let e = a.e.max(b.e).saturating_add(1);
-        Scaled { m: a.mantissa_at(e).plus(b.mantissa_at(e)), e }.normalized()
+        Scaled {
+            m: a.mantissa_at(e).plus(b.mantissa_at(e)),
+            e,
+        }
+        .normalized()
     }
     /// The value at exponent 0 (saturating), e.g. to compare with a plain threshold.
     pub fn value(self) -> S {
@@ -748,7 +802,10 @@ impl<S: Scalar> Scaled<S> {
         let sh = len.saturating_sub(30).min(63);
         let m = (v >> sh) as i32; // |v >> sh| < 2^30
         let len = len as i32;
-        Scaled { m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)), e: len }
+        Scaled {
+            m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)),
+            e: len,
+        }
     }
     /// [`Scaled::from_i64`] for a 128-bit accumulator.
     pub fn from_i128(v: i128) -> Self {
@@ -756,7 +813,10 @@ impl<S: Scalar> Scaled<S> {
         let sh = len.saturating_sub(30).min(127);
         let m = (v >> sh) as i32; // |v >> sh| < 2^30
         let len = len as i32;
-        Scaled { m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)), e: len }
+        Scaled {
+            m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)),
+            e: len,
+        }
     }
     /// Product with a plain scalar.
     pub fn scale(self, k: S) -> Self {
@@ -766,6 +826,9 @@ impl<S: Scalar> Scaled<S> {
     }
     /// Difference.
     pub fn minus(self, rhs: Self) -> Self {
-        self.plus(Scaled { m: rhs.m.negate(), e: rhs.e })
+        self.plus(Scaled {
+            m: rhs.m.negate(),
+            e: rhs.e,
+        })
     }
 }

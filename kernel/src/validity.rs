@@ -53,16 +53,41 @@ impl<S: Scalar> Validity<S> {
         let com = params.com_offset_mm.map(|v| v * 1e-3);
         let big = S::headroom();
         let com_lo = core::array::from_fn(|a| {
-            let (l, c) = (lo.get(a).copied().unwrap_or(f32::NEG_INFINITY), com.get(a).copied().unwrap_or(0.0));
-            if (l - c).is_finite() { S::from_f32(l - c) } else { big.negate() }
+            let (l, c) = (
+                lo.get(a).copied().unwrap_or(f32::NEG_INFINITY),
+                com.get(a).copied().unwrap_or(0.0),
+            );
+            if (l - c).is_finite() {
+                S::from_f32(l - c)
+            } else {
+                big.negate()
+            }
         });
         let com_hi = core::array::from_fn(|a| {
-            let (h, c) = (hi.get(a).copied().unwrap_or(f32::INFINITY), com.get(a).copied().unwrap_or(0.0));
-            if (h - c).is_finite() { S::from_f32(h - c) } else { big }
+            let (h, c) = (
+                hi.get(a).copied().unwrap_or(f32::INFINITY),
+                com.get(a).copied().unwrap_or(0.0),
+            );
+            if (h - c).is_finite() {
+                S::from_f32(h - c)
+            } else {
+                big
+            }
         });
-        let largest = theta_nominal.iter().take(3).fold(S::ZERO, |m, v| crate::scalar::max_abs(m, *v));
-        let theta_shift = if S::ZERO.lt(largest) { largest.split_pow2().1.saturating_neg() } else { 0 };
-        Validity { com_lo, com_hi, theta_shift }
+        let largest = theta_nominal
+            .iter()
+            .take(3)
+            .fold(S::ZERO, |m, v| crate::scalar::max_abs(m, *v));
+        let theta_shift = if S::ZERO.lt(largest) {
+            largest.split_pow2().1.saturating_neg()
+        } else {
+            0
+        };
+        Validity {
+            com_lo,
+            com_hi,
+            theta_shift,
+        }
     }
 
     /// Checks an estimate: inverse-inertia parameters `theta` (xx yy zz xy xz yz, kernel
@@ -82,13 +107,14 @@ impl<S: Scalar> Validity<S> {
         // Diagonal of adj(J), proportional to Ixx Iyy Izz.
         let c11 = xx.times(zz).minus(xz.times(xz));
         let c22 = m2;
-        if c00.plus(c11).lt(c22)
-            || c00.plus(c22).lt(c11)
-            || c11.plus(c22).lt(c00)
-        {
+        if c00.plus(c11).lt(c22) || c00.plus(c22).lt(c11) || c11.plus(c22).lt(c00) {
             return Err(Invalid::TriangleInequality);
         }
-        for ((d, lo), hi) in delta_com_m.iter().zip(self.com_lo.iter()).zip(self.com_hi.iter()) {
+        for ((d, lo), hi) in delta_com_m
+            .iter()
+            .zip(self.com_lo.iter())
+            .zip(self.com_hi.iter())
+        {
             if !d.is_valid() || d.lt(*lo) || hi.lt(*d) {
                 return Err(Invalid::ComOutsideEnvelope);
             }
@@ -123,12 +149,21 @@ mod tests {
         assert_eq!(check(i, [0.002, -0.002, 0.002]), Ok(()));
         assert_eq!(check(i, [0.3, 0.0, 0.0]), Err(Invalid::ComOutsideEnvelope));
         // negative moment (the saturated-data estimate of issue 12)
-        assert_eq!(check([-21.3, i[1], i[2], i[3], i[4], i[5]], [0.0; 3]), Err(Invalid::NotPositiveDefinite));
+        assert_eq!(
+            check([-21.3, i[1], i[2], i[3], i[4], i[5]], [0.0; 3]),
+            Err(Invalid::NotPositiveDefinite)
+        );
         // Ixx far above Iyy + Izz (the dead-gyro estimate)
-        assert_eq!(check([1.04e6, i[1], i[2], i[3], i[4], i[5]], [0.0; 3]), Err(Invalid::TriangleInequality));
+        assert_eq!(
+            check([1.04e6, i[1], i[2], i[3], i[4], i[5]], [0.0; 3]),
+            Err(Invalid::TriangleInequality)
+        );
         // a thin plate at the limit is still physical; just beyond it is not
         assert_eq!(check([0.02, 0.02, 0.0399, 0.0, 0.0, 0.0], [0.0; 3]), Ok(()));
-        assert_eq!(check([0.02, 0.02, 0.0401, 0.0, 0.0, 0.0], [0.0; 3]), Err(Invalid::TriangleInequality));
+        assert_eq!(
+            check([0.02, 0.02, 0.0401, 0.0, 0.0, 0.0], [0.0; 3]),
+            Err(Invalid::TriangleInequality)
+        );
     }
 
     #[test]
@@ -140,11 +175,19 @@ mod tests {
         let q = |t: [f32; 6]| t.map(Q8_24::from_f32);
         let z = [Q8_24::ZERO; 3];
         assert_eq!(v.check(&q(theta_of(i)), &z), Ok(()));
-        assert_eq!(v.check(&q(theta_of([-21.3, i[1], i[2], i[3], i[4], i[5]])), &z), Err(Invalid::NotPositiveDefinite));
-        // 1/Ixx is below Q8.24's resolution here: the fixed check sees a singular J.
-        assert!(v.check(&q(theta_of([1.04e6, i[1], i[2], i[3], i[4], i[5]])), &z).is_err());
         assert_eq!(
-            v.check(&q(theta_of(i)), &[Q8_24::from_f32(0.3), Q8_24::ZERO, Q8_24::ZERO]),
+            v.check(&q(theta_of([-21.3, i[1], i[2], i[3], i[4], i[5]])), &z),
+            Err(Invalid::NotPositiveDefinite)
+        );
+        // 1/Ixx is below Q8.24's resolution here: the fixed check sees a singular J.
+        assert!(v
+            .check(&q(theta_of([1.04e6, i[1], i[2], i[3], i[4], i[5]])), &z)
+            .is_err());
+        assert_eq!(
+            v.check(
+                &q(theta_of(i)),
+                &[Q8_24::from_f32(0.3), Q8_24::ZERO, Q8_24::ZERO]
+            ),
             Err(Invalid::ComOutsideEnvelope)
         );
     }

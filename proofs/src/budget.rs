@@ -77,7 +77,11 @@ pub fn budget(output: &str, fmt: Fmt) -> &'static Budget {
 /// The allowance for one value (`ctx`: see [`Budget`]; 0 for outputs without one).
 pub fn allowance(output: &str, fmt: Fmt, reference: f64, ctx: f64) -> f64 {
     let b = budget(output, fmt);
-    let c = if b.per_ctx > 0.0 { b.per_ctx * (1.0 + reference.abs()) * ctx } else { 0.0 };
+    let c = if b.per_ctx > 0.0 {
+        b.per_ctx * (1.0 + reference.abs()) * ctx
+    } else {
+        0.0
+    };
     b.abs + b.rel * reference.abs() + c
 }
 
@@ -88,7 +92,9 @@ pub fn check(output: &str, fmt: Fmt, got: f64, reference: f64, ctx: f64) -> Resu
     if e <= a && got.is_finite() {
         Ok(())
     } else {
-        Err(format!("{output} ({fmt:?}): kernel {got} vs reference {reference}: error {e:e} > budget {a:e}"))
+        Err(format!(
+            "{output} ({fmt:?}): kernel {got} vs reference {reference}: error {e:e} > budget {a:e}"
+        ))
     }
 }
 
@@ -103,7 +109,10 @@ pub struct Worst {
 
 impl Worst {
     pub fn new(output: &str) -> Self {
-        Worst { output: output.into(), ..Default::default() }
+        Worst {
+            output: output.into(),
+            ..Default::default()
+        }
     }
     /// Records one comparison; `Err` if it is over budget.
     pub fn record(&mut self, fmt: Fmt, got: f64, reference: f64, ctx: f64) -> Result<(), String> {
@@ -118,7 +127,14 @@ impl Worst {
     /// As [`Worst::record`] for a norm-wise budget: the relative part applies to `scale`
     /// (e.g. `cond |x|_inf` of the whole solution vector) instead of the entry itself, and
     /// the context part is `per_ctx * ctx` (the row says what `ctx` is).
-    pub fn record_normwise(&mut self, fmt: Fmt, got: f64, reference: f64, scale: f64, ctx: f64) -> Result<(), String> {
+    pub fn record_normwise(
+        &mut self,
+        fmt: Fmt,
+        got: f64,
+        reference: f64,
+        scale: f64,
+        ctx: f64,
+    ) -> Result<(), String> {
         let b = budget(&self.output, fmt);
         let a = b.abs + b.rel * scale + b.per_ctx * ctx;
         let e = (got - reference).abs();
@@ -135,7 +151,11 @@ impl Worst {
 
 impl core::fmt::Display for Worst {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{}: {} comparisons, max error {:.3e}, max error/budget {:.3}", self.output, self.count, self.max_err, self.max_ratio)
+        write!(
+            f,
+            "{}: {} comparisons, max error {:.3e}, max error/budget {:.3}",
+            self.output, self.count, self.max_err, self.max_ratio
+        )
     }
 }
 

@@ -41,7 +41,11 @@ pub struct Report {
 
 impl core::fmt::Display for Report {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{}: {} draws, {} accepted", self.name, self.draws, self.accepted)?;
+        write!(
+            f,
+            "{}: {} draws, {} accepted",
+            self.name, self.draws, self.accepted
+        )?;
         for (c, n) in &self.covers {
             write!(f, ", cover `{c}` x{n}")?;
         }
@@ -100,7 +104,10 @@ struct Rejected;
 enum Source {
     Random(rand_chacha::ChaCha8Rng),
     /// Odometer: (value, max) per choice position, reused across runs.
-    Exhaustive { stack: Vec<(u64, u64)>, pos: usize },
+    Exhaustive {
+        stack: Vec<(u64, u64)>,
+        pos: usize,
+    },
 }
 
 #[cfg(not(kani))]
@@ -304,19 +311,38 @@ macro_rules! cover {
 /// Run `body` under `mode`; `Err` names what failed (a panic with its input index, vacuity,
 /// an unreached cover point among `covers`, or an exhaustive domain over its limit).
 #[cfg(not(kani))]
-pub fn check(name: &str, mode: Mode, covers: &[&'static str], body: fn()) -> Result<Report, String> {
+pub fn check(
+    name: &str,
+    mode: Mode,
+    covers: &[&'static str],
+    body: fn(),
+) -> Result<Report, String> {
     use rand::SeedableRng;
     let source = match mode {
         Mode::Random { seed, .. } => Source::Random(rand_chacha::ChaCha8Rng::seed_from_u64(seed)),
-        Mode::Exhaustive { .. } => Source::Exhaustive { stack: Vec::new(), pos: 0 },
+        Mode::Exhaustive { .. } => Source::Exhaustive {
+            stack: Vec::new(),
+            pos: 0,
+        },
     };
-    CTX.with(|c| *c.borrow_mut() = Some(Ctx { source, covers: BTreeMap::new() }));
-    let mut report = Report { name: name.to_string(), ..Default::default() };
+    CTX.with(|c| {
+        *c.borrow_mut() = Some(Ctx {
+            source,
+            covers: BTreeMap::new(),
+        })
+    });
+    let mut report = Report {
+        name: name.to_string(),
+        ..Default::default()
+    };
     let result = run_all(mode, body, &mut report);
     let ctx = CTX.with(|c| c.borrow_mut().take()).expect("engine context");
     result?;
     if report.accepted == 0 {
-        return Err(format!("{name}: vacuous: no draw of {} satisfied the assumptions", report.draws));
+        return Err(format!(
+            "{name}: vacuous: no draw of {} satisfied the assumptions",
+            report.draws
+        ));
     }
     for want in covers {
         if !ctx.covers.contains_key(want) {
@@ -325,7 +351,10 @@ pub fn check(name: &str, mode: Mode, covers: &[&'static str], body: fn()) -> Res
     }
     for (c, n) in &ctx.covers {
         if *n == 0 {
-            return Err(format!("{name}: cover point `{c}` never satisfied in {} accepted draws", report.accepted));
+            return Err(format!(
+                "{name}: cover point `{c}` never satisfied in {} accepted draws",
+                report.accepted
+            ));
         }
         report.covers.push((c.to_string(), *n));
     }
@@ -343,7 +372,9 @@ fn run_all(mode: Mode, body: fn(), report: &mut Report) -> Result<(), String> {
     loop {
         if report.draws == limit {
             if let Mode::Exhaustive { .. } = mode {
-                return Err(format!("{name}: exhaustive domain larger than the limit {limit}"));
+                return Err(format!(
+                    "{name}: exhaustive domain larger than the limit {limit}"
+                ));
             }
             return Ok(());
         }
@@ -360,7 +391,12 @@ fn run_all(mode: Mode, body: fn(), report: &mut Report) -> Result<(), String> {
                 return Err(format!("{name}: draw #{} failed: {msg}", report.draws));
             }
         }
-        let more = CTX.with(|c| c.borrow_mut().as_mut().map(|ctx| ctx.source.advance()).unwrap_or(false));
+        let more = CTX.with(|c| {
+            c.borrow_mut()
+                .as_mut()
+                .map(|ctx| ctx.source.advance())
+                .unwrap_or(false)
+        });
         if !more {
             return Ok(());
         }
@@ -383,7 +419,13 @@ mod tests {
     #[test]
     fn exhaustive_enumerates_every_pair_once() {
         COUNT.with(|c| c.set(0));
-        let r = check("pairs", Mode::Exhaustive { limit: 1000 }, &["corner"], pairs_of_small).unwrap();
+        let r = check(
+            "pairs",
+            Mode::Exhaustive { limit: 1000 },
+            &["corner"],
+            pairs_of_small,
+        )
+        .unwrap();
         // a in 0..=3 (4 values) x b in -2..=2 (5 values) = 20 sequences, the 5 with a == 1
         // rejected.
         assert_eq!(r.draws, 20);
@@ -412,7 +454,13 @@ mod tests {
 
     #[test]
     fn vacuous_assumptions_fail_the_check() {
-        let e = check("vacuous", Mode::Random { runs: 200, seed: 1 }, &[], always_rejects).unwrap_err();
+        let e = check(
+            "vacuous",
+            Mode::Random { runs: 200, seed: 1 },
+            &[],
+            always_rejects,
+        )
+        .unwrap_err();
         assert!(e.contains("vacuous"), "{e}");
     }
 
@@ -423,7 +471,13 @@ mod tests {
 
     #[test]
     fn unreached_cover_fails_the_check() {
-        let e = check("cover", Mode::Exhaustive { limit: 100 }, &["impossible"], never_covered).unwrap_err();
+        let e = check(
+            "cover",
+            Mode::Exhaustive { limit: 100 },
+            &["impossible"],
+            never_covered,
+        )
+        .unwrap_err();
         assert!(e.contains("impossible"), "{e}");
     }
 
@@ -434,8 +488,23 @@ mod tests {
 
     #[test]
     fn a_panic_on_an_accepted_input_fails_the_check() {
-        assert!(check("ovf", Mode::Exhaustive { limit: 5000 }, &[], overflows_at_the_top).is_err());
-        assert!(check("ovf", Mode::Random { runs: 2000, seed: 7 }, &[], overflows_at_the_top).is_err());
+        assert!(check(
+            "ovf",
+            Mode::Exhaustive { limit: 5000 },
+            &[],
+            overflows_at_the_top
+        )
+        .is_err());
+        assert!(check(
+            "ovf",
+            Mode::Random {
+                runs: 2000,
+                seed: 7
+            },
+            &[],
+            overflows_at_the_top
+        )
+        .is_err());
     }
 
     fn floats() {
@@ -447,9 +516,21 @@ mod tests {
 
     #[test]
     fn float_draws_stay_in_range_and_hit_the_grid() {
-        let r = check("f", Mode::Exhaustive { limit: 100 }, &["zero", "top"], floats).unwrap();
+        let r = check(
+            "f",
+            Mode::Exhaustive { limit: 100 },
+            &["zero", "top"],
+            floats,
+        )
+        .unwrap();
         assert_eq!(r.draws, 6);
-        check("f", Mode::Random { runs: 500, seed: 3 }, &["zero", "top"], floats).unwrap();
+        check(
+            "f",
+            Mode::Random { runs: 500, seed: 3 },
+            &["zero", "top"],
+            floats,
+        )
+        .unwrap();
     }
 
     fn big_domain() {

@@ -54,7 +54,10 @@ pub const INERTIA_PRODUCT: (f64, f64) = (-0.002, 0.002);
 /// inv(I) lies in [1/0.044, 1/0.011] ...
 pub const INV_INERTIA_DIAG: (f64, f64) = (1.0 / 0.044, 1.0 / 0.011);
 /// ... and each off-diagonal in +-(1/0.011 - 1/0.044)/2 (see `range::inertia_inverse_box`).
-pub const INV_INERTIA_OFFDIAG: (f64, f64) = (-(1.0 / 0.011 - 1.0 / 0.044) / 2.0, (1.0 / 0.011 - 1.0 / 0.044) / 2.0);
+pub const INV_INERTIA_OFFDIAG: (f64, f64) = (
+    -(1.0 / 0.011 - 1.0 / 0.044) / 2.0,
+    (1.0 / 0.011 - 1.0 / 0.044) / 2.0,
+);
 /// Centre-of-mass offset from the geometric centre, m, per axis (seed Table C.1: <= 1.7 mm;
 /// the demo's proof mass can move it further: margin to +-30 mm).
 pub const COM_OFFSET_M: (f64, f64) = (-0.03, 0.03);
@@ -89,9 +92,12 @@ mod tests {
 
     #[test]
     fn rate_bound_is_the_worst_count_over_the_worst_bias() {
-        let worst = [GYRO_COUNTS.0 as f64 - GYRO_BIAS_COUNTS.1, GYRO_COUNTS.1 as f64 - GYRO_BIAS_COUNTS.0]
-            .iter()
-            .fold(0.0f64, |m, c| m.max(c.abs()));
+        let worst = [
+            GYRO_COUNTS.0 as f64 - GYRO_BIAS_COUNTS.1,
+            GYRO_COUNTS.1 as f64 - GYRO_BIAS_COUNTS.0,
+        ]
+        .iter()
+        .fold(0.0f64, |m, c| m.max(c.abs()));
         assert_eq!(worst / GYRO_COUNTS_PER_RAD_S, MAX_RATE_RAD_S);
     }
 
@@ -108,6 +114,10 @@ mod tests {
         let lever = 0.0965 * 2f64.sqrt() + COM_OFFSET_M.1 * 3f64.sqrt();
         let torque = THRUSTERS as f64 * THRUST_N.1 * lever;
         let lambda_min = INERTIA_PRINCIPAL.0 - 2.0 * INERTIA_PRODUCT.1;
-        assert!(torque / lambda_min <= OMEGA_DOT_RAD_S2.1, "{}", torque / lambda_min);
+        assert!(
+            torque / lambda_min <= OMEGA_DOT_RAD_S2.1,
+            "{}",
+            torque / lambda_min
+        );
     }
 }

@@ -64,11 +64,21 @@ impl Format {
         Format {
             name,
             max: pow2(int - 1),
-            slack: Slack { abs: pow2(-frac), rel: 0.0 },
+            slack: Slack {
+                abs: pow2(-frac),
+                rel: 0.0,
+            },
         }
     }
     /// IEEE binary32 (round to nearest: relative error 2^-24; subnormals: 2^-149 absolute).
-    pub const F32: Format = Format { name: "f32", max: f32::MAX as f64, slack: Slack { abs: 1.4e-45, rel: 5.960464477539063e-8 } };
+    pub const F32: Format = Format {
+        name: "f32",
+        max: f32::MAX as f64,
+        slack: Slack {
+            abs: 1.4e-45,
+            rel: 5.960464477539063e-8,
+        },
+    };
     /// The kernel's fixed scalar `Q8_24` (I8F24).
     pub const Q8_24: Format = Format::fixed("Q8.24", 8, 24);
     /// `Q16_16` (I16F16).
@@ -78,7 +88,11 @@ impl Format {
     /// A deliberately too narrow 32-bit format (I4F28).
     pub const Q4_28: Format = Format::fixed("Q4.28", 4, 28);
     /// Exact real arithmetic (no format slack, no limit): for enclosing the f64 reference.
-    pub const REAL: Format = Format { name: "real", max: f64::MAX, slack: Slack { abs: 0.0, rel: 0.0 } };
+    pub const REAL: Format = Format {
+        name: "real",
+        max: f64::MAX,
+        slack: Slack { abs: 0.0, rel: 0.0 },
+    };
 }
 
 const fn pow2(e: i32) -> f64 {
@@ -165,7 +179,10 @@ impl Interval {
     }
     /// Smallest interval holding both (for joining states across iterations).
     pub fn hull(self, o: Self) -> Self {
-        Interval { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+        Interval {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
     }
     /// True when `self` lies inside `o`.
     pub fn within(self, o: Self) -> bool {
@@ -205,14 +222,23 @@ impl Interval {
         } else if self.hi <= 0.0 {
             -self
         } else {
-            Interval { lo: 0.0, hi: self.mag() }
+            Interval {
+                lo: 0.0,
+                hi: self.mag(),
+            }
         }
     }
     pub fn min(self, o: Self) -> Self {
-        Interval { lo: self.lo.min(o.lo), hi: self.hi.min(o.hi) }
+        Interval {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.min(o.hi),
+        }
     }
     pub fn max(self, o: Self) -> Self {
-        Interval { lo: self.lo.max(o.lo), hi: self.hi.max(o.hi) }
+        Interval {
+            lo: self.lo.max(o.lo),
+            hi: self.hi.max(o.hi),
+        }
     }
 
     /// Decide `self < o`; when the intervals overlap the answer is left to the engine (both
@@ -286,13 +312,21 @@ impl Sub for Interval {
 impl Neg for Interval {
     type Output = Interval;
     fn neg(self) -> Self {
-        Interval { lo: -self.hi, hi: -self.lo }
+        Interval {
+            lo: -self.hi,
+            hi: -self.lo,
+        }
     }
 }
 impl Mul for Interval {
     type Output = Interval;
     fn mul(self, o: Self) -> Self {
-        let p = [self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi];
+        let p = [
+            self.lo * o.lo,
+            self.lo * o.hi,
+            self.hi * o.lo,
+            self.hi * o.hi,
+        ];
         // 0 * inf is NaN: such a product is unbounded anyway, `finish` maps it to entire.
         let lo = p.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
@@ -309,7 +343,12 @@ impl Div for Interval {
             WATCH.with(|w| w.borrow_mut().div_by_zero += 1);
             return Interval::finish(f64::NAN, f64::NAN);
         }
-        let p = [self.lo / o.lo, self.lo / o.hi, self.hi / o.lo, self.hi / o.hi];
+        let p = [
+            self.lo / o.lo,
+            self.lo / o.hi,
+            self.hi / o.lo,
+            self.hi / o.hi,
+        ];
         let lo = p.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
         Interval::finish(lo, hi)
@@ -369,7 +408,11 @@ impl massid_kernel::Scalar for Interval {
         // is not a format value: it is formed here without the watch or the format slack.
         let k = k as f64;
         let (a, b) = (self.lo * k, self.hi * k);
-        Interval { lo: next_down(a.min(b)), hi: next_up(a.max(b)) }.floor_i64()
+        Interval {
+            lo: next_down(a.min(b)),
+            hi: next_up(a.max(b)),
+        }
+        .floor_i64()
     }
     fn headroom() -> Self {
         let f = format();
@@ -437,7 +480,10 @@ mod tests {
     #[test]
     fn slack_encloses_fixed_point_rounding() {
         use fixed::types::I16F16;
-        set_slack(Slack { abs: 1.0 / 65536.0, rel: 0.0 });
+        set_slack(Slack {
+            abs: 1.0 / 65536.0,
+            rel: 0.0,
+        });
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         for _ in 0..20_000 {
             let a = I16F16::from_bits(rng.gen_range(-(1 << 22)..(1 << 22)));
@@ -466,7 +512,10 @@ mod tests {
 
     #[test]
     fn decided_comparisons_do_not_consult_the_engine() {
-        let (a, b) = (Interval::new(0.0, 1.0).unwrap(), Interval::new(2.0, 3.0).unwrap());
+        let (a, b) = (
+            Interval::new(0.0, 1.0).unwrap(),
+            Interval::new(2.0, 3.0).unwrap(),
+        );
         assert!(a.lt(b));
         assert!(!b.lt(a));
         assert!(a.le(b));

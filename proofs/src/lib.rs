@@ -9,7 +9,7 @@
 
 pub mod budget;
 pub mod engine;
-pub mod harness;
 pub mod envelope;
+pub mod harness;
 pub mod interval;
 pub mod range;

@@ -38,7 +38,10 @@ pub struct RangeReport {
 impl RangeReport {
     /// Variables whose range reaches the format's limit.
     pub fn overflows(&self) -> Vec<&VarRange> {
-        self.vars.iter().filter(|v| v.range.mag() >= self.format.max).collect()
+        self.vars
+            .iter()
+            .filter(|v| v.range.mag() >= self.format.max)
+            .collect()
     }
     /// True when every variable and every intermediate fits. (A division by an interval
     /// containing zero is not a failure: the kernel's `checked_div` then takes its `None`
@@ -56,8 +59,18 @@ impl RangeReport {
             if self.fits() { "FITS" } else { "DOES NOT FIT" }
         );
         for v in &self.vars {
-            let ok = if v.range.mag() < self.format.max { "ok" } else { "OVERFLOW" };
-            s += &format!("  {:<24} [{:>12.6}, {:>12.6}]  {}\n", v.name, v.range.lo(), v.range.hi(), ok);
+            let ok = if v.range.mag() < self.format.max {
+                "ok"
+            } else {
+                "OVERFLOW"
+            };
+            s += &format!(
+                "  {:<24} [{:>12.6}, {:>12.6}]  {}\n",
+                v.name,
+                v.range.lo(),
+                v.range.hi(),
+                ok
+            );
         }
         s += &format!(
             "  intermediates: max |x| = {:.6} over {} ops; divisions by 0-containing intervals (status branch): {}; undecided comparisons (explored by the engine): {}\n",
@@ -77,18 +90,29 @@ pub fn envelope_terms() -> ModelTerms<Interval> {
     let z = Interval::ZERO;
     // A model constant reaches the kernel as an f32 (`SatelliteParams` / `from_f32(v as f32)`,
     // relative rounding 2^-24) and is then rounded into the format (one operation's slack).
-    let f32_ulp = Interval::new(1.0 - 1.0 / 16_777_216.0, 1.0 + 1.0 / 16_777_216.0).expect("ordered");
+    let f32_ulp =
+        Interval::new(1.0 - 1.0 / 16_777_216.0, 1.0 + 1.0 / 16_777_216.0).expect("ordered");
     let round = |x: Interval| x * f32_ulp + z;
     let com = [iv(env::COM_OFFSET_M); 3];
     let mut dir = [[z; 3]; N_THRUSTERS];
     let mut lxd = [[z; 3]; N_THRUSTERS];
     for i in 0..N_THRUSTERS {
         let nominal = SPH2.thrust_dir[i];
-        let main = (0..3).fold(0, |m, k| if nominal[k].abs() > nominal[m].abs() { k } else { m });
+        let main = (0..3).fold(0, |m, k| {
+            if nominal[k].abs() > nominal[m].abs() {
+                k
+            } else {
+                m
+            }
+        });
         for k in 0..3 {
             dir[i][k] = if k == main {
                 let m = iv(env::DIRECTION_MAIN);
-                if nominal[k] < 0.0 { -m } else { m }
+                if nominal[k] < 0.0 {
+                    -m
+                } else {
+                    m
+                }
             } else {
                 iv(env::DIRECTION_OFF_AXIS)
             };
@@ -96,7 +120,12 @@ pub fn envelope_terms() -> ModelTerms<Interval> {
         let pos = SPH2.thruster_pos_m[i].map(|v| Interval::point(v as f64));
         let l = [pos[0] - com[0], pos[1] - com[1], pos[2] - com[2]];
         let d = dir[i];
-        lxd[i] = [l[1] * d[2] - l[2] * d[1], l[2] * d[0] - l[0] * d[2], l[0] * d[1] - l[1] * d[0]].map(round);
+        lxd[i] = [
+            l[1] * d[2] - l[2] * d[1],
+            l[2] * d[0] - l[0] * d[2],
+            l[0] * d[1] - l[1] * d[0],
+        ]
+        .map(round);
         dir[i] = dir[i].map(round);
     }
     let inv = inertia_inverse_box();
@@ -107,7 +136,10 @@ pub fn envelope_terms() -> ModelTerms<Interval> {
         thrust_n: [round(iv(env::THRUST_N)); N_THRUSTERS],
         pressure_drop_n: round(iv(env::PRESSURE_DROP_N)),
         inertia_inv: inv.map(|r| r.map(round)),
-        theta_inertia_nominal: [inv[0][0], inv[1][1], inv[2][2], inv[0][1], inv[0][2], inv[1][2]].map(|v| round(v * hundredth)),
+        theta_inertia_nominal: [
+            inv[0][0], inv[1][1], inv[2][2], inv[0][1], inv[0][2], inv[1][2],
+        ]
+        .map(|v| round(v * hundredth)),
         theta_inertia_matrix: inv.map(|r| r.map(|v| round(v * hundredth))),
     }
 }
@@ -162,24 +194,44 @@ pub fn firing_terms(format: Format) -> RangeReport {
         }
     }
     let inv = inertia_inverse_box();
-    let mut vars: Vec<VarRange> = names.into_iter().zip(hull).map(|(name, range)| VarRange { name, range }).collect();
-    for (k, (i, j)) in [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)].iter().enumerate() {
-        vars.push(VarRange { name: format!("inertia_inv[{k}]"), range: inv[*i][*j] });
+    let mut vars: Vec<VarRange> = names
+        .into_iter()
+        .zip(hull)
+        .map(|(name, range)| VarRange { name, range })
+        .collect();
+    for (k, (i, j)) in [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)]
+        .iter()
+        .enumerate()
+    {
+        vars.push(VarRange {
+            name: format!("inertia_inv[{k}]"),
+            range: inv[*i][*j],
+        });
     }
     let watch = interval::reset_watch();
     interval::set_format(Format::REAL);
-    RangeReport { what: "firing_terms, every word 0..4095, whole envelope".into(), format, vars, watch }
+    RangeReport {
+        what: "firing_terms, every word 0..4095, whole envelope".into(),
+        format,
+        vars,
+        watch,
+    }
 }
 
 /// Runs the pipeline on one trajectory of `(gyro counts, thruster word)` with interval
 /// scalars in `format`; must be called inside [`crate::engine::check`] (undecided
 /// comparisons draw from it). Returns the report; the estimates' ranges are its variables.
-pub fn pipeline_trajectory(format: Format, params: &SatelliteParams, samples: &[([u16; 3], u16)]) -> RangeReport {
+pub fn pipeline_trajectory(
+    format: Format,
+    params: &SatelliteParams,
+    samples: &[([u16; 3], u16)],
+) -> RangeReport {
     use massid_kernel::{Pipeline, PipelineConfig};
     interval::set_format(format);
     interval::reset_watch();
     let mut vars: Vec<VarRange> = Vec::new();
-    let mut pl = Pipeline::<Interval>::new(params, PipelineConfig::seed(1)).expect("valid parameters");
+    let mut pl =
+        Pipeline::<Interval>::new(params, PipelineConfig::seed(1)).expect("valid parameters");
     let mut od_hull: Option<[Interval; 3]> = None;
     for (counts, word) in samples {
         pl.tick(*counts, *word);
@@ -193,17 +245,31 @@ pub fn pipeline_trajectory(format: Format, params: &SatelliteParams, samples: &[
     pl.finish();
     let est = pl.estimates();
     for (i, v) in est.delta_com_m.iter().enumerate() {
-        vars.push(VarRange { name: format!("delta_com_m[{i}]"), range: *v });
+        vars.push(VarRange {
+            name: format!("delta_com_m[{i}]"),
+            range: *v,
+        });
     }
     for (i, v) in est.theta_inertia.iter().enumerate() {
-        vars.push(VarRange { name: format!("theta_inertia[{i}]"), range: *v });
+        vars.push(VarRange {
+            name: format!("theta_inertia[{i}]"),
+            range: *v,
+        });
     }
     if let Some(h) = od_hull {
         for (i, v) in h.iter().enumerate() {
-            vars.push(VarRange { name: format!("omega_dot[{i}] (hull)"), range: *v });
+            vars.push(VarRange {
+                name: format!("omega_dot[{i}] (hull)"),
+                range: *v,
+            });
         }
     }
     let watch = interval::reset_watch();
     interval::set_format(Format::REAL);
-    RangeReport { what: format!("pipeline, one trajectory of {} ticks", samples.len()), format, vars, watch }
+    RangeReport {
+        what: format!("pipeline, one trajectory of {} ticks", samples.len()),
+        format,
+        vars,
+        watch,
+    }
 }

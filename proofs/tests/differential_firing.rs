@@ -38,7 +38,15 @@ fn pair(mut sat: Satellite) -> (Satellite, SatelliteParams) {
 struct Worsts([Worst; 4]);
 impl Worsts {
     fn new() -> Self {
-        Worsts(["firing.force_n", "firing.torque_cnm", "firing.omega_dot_nominal", "firing.a_com"].map(Worst::new))
+        Worsts(
+            [
+                "firing.force_n",
+                "firing.torque_cnm",
+                "firing.omega_dot_nominal",
+                "firing.a_com",
+            ]
+            .map(Worst::new),
+        )
     }
 }
 
@@ -47,10 +55,17 @@ impl Worsts {
 /// the comparison of these words is the separate, currently ignored, test below).
 fn drop_exceeds_thrust(sat: &Satellite, word: u16) -> bool {
     let open = (word & 0x0fff).count_ones() as f64;
-    (0..12).any(|i| word & (1 << i) != 0 && sat.thrust_n[i] - (open - 1.0) * sat.pressure_drop_n_per_extra < 0.0)
+    (0..12).any(|i| {
+        word & (1 << i) != 0 && sat.thrust_n[i] - (open - 1.0) * sat.pressure_drop_n_per_extra < 0.0
+    })
 }
 
-fn compare_word<S: Exact>(sat: &Satellite, p: &SatelliteParams, word: u16, w: &mut Worsts) -> Result<(), String> {
+fn compare_word<S: Exact>(
+    sat: &Satellite,
+    p: &SatelliteParams,
+    word: u16,
+    w: &mut Worsts,
+) -> Result<(), String> {
     let fmt = fmt_of::<S>();
     let terms = p.terms::<S>().map_err(|e| format!("{e:?}"))?;
     let ft = terms.firing_terms(word);
@@ -81,12 +96,16 @@ fn every_word<S: Exact>(include_negative_thrust: bool) -> usize {
                     skipped += 1;
                     continue;
                 }
-                compare_word::<S>(&sat, &p, word, &mut w).unwrap_or_else(|e| panic!("{name} word {word:#05x}: {e}"));
+                compare_word::<S>(&sat, &p, word, &mut w)
+                    .unwrap_or_else(|e| panic!("{name} word {word:#05x}: {e}"));
             }
         }
     }
     for x in &w.0 {
-        println!("{:?} every word x 5 satellites x 2 drops: {x}", fmt_of::<S>());
+        println!(
+            "{:?} every word x 5 satellites x 2 drops: {x}",
+            fmt_of::<S>()
+        );
     }
     println!("skipped {skipped} (satellite, word) pairs where the drop exceeds a thrust");
     skipped
@@ -118,7 +137,9 @@ fn envelope_satellite() -> impl Strategy<Value = Satellite> {
         prop::array::uniform3(env::INERTIA_PRODUCT.0..=env::INERTIA_PRODUCT.1),
         prop::array::uniform3(env::COM_OFFSET_M.0..=env::COM_OFFSET_M.1),
         env::PRESSURE_DROP_N.0..=env::PRESSURE_DROP_N.1,
-        prop::array::uniform12(prop::array::uniform3(env::DIRECTION_OFF_AXIS.0..=env::DIRECTION_OFF_AXIS.1)),
+        prop::array::uniform12(prop::array::uniform3(
+            env::DIRECTION_OFF_AXIS.0..=env::DIRECTION_OFF_AXIS.1,
+        )),
     )
         .prop_map(|(thrust, pr, prod, com, drop, tilt)| {
             let mut s = Satellite::builtin("sph2").expect("built-in");

@@ -30,17 +30,23 @@ fn system<const N: usize>(off: &[f64], diag: &[f64], x: &[f64]) -> ([[f64; N]; N
     (a.map(|r| r.map(|v| v / 8.0)), b)
 }
 
-fn compare_lu<S: Exact, const N: usize>(a: &[[f64; N]; N], b: &[f64; N], w: &mut Worst) -> Result<(), String> {
+fn compare_lu<S: Exact, const N: usize>(
+    a: &[[f64; N]; N],
+    b: &[f64; N],
+    w: &mut Worst,
+) -> Result<(), String> {
     let a_s = a.map(|r| r.map(|v| S::from_f32(v as f32)));
     let b_s = b.map(|v| S::from_f32(v as f32));
-    let x = lu::solve(&a_s, &b_s, S::from_int_pow2(1, -20)).map_err(|e| format!("kernel LU failed: {e:?}"))?;
+    let x = lu::solve(&a_s, &b_s, S::from_int_pow2(1, -20))
+        .map_err(|e| format!("kernel LU failed: {e:?}"))?;
     // The reference solves the system the kernel saw (inputs rounded into S).
     let am = SMatrix::<f64, N, N>::from_fn(|i, j| a_s[i][j].exact());
     let bv = SVector::<f64, N>::from_fn(|i, _| b_s[i].exact());
     let xr = lu_solve(&am, &bv).ok_or("reference singular")?;
     let scale = xr.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for i in 0..N {
-        w.record_normwise(fmt_of::<S>(), x[i].exact(), xr[i], scale, 0.0).map_err(|m| format!("x[{i}]: {m}"))?;
+        w.record_normwise(fmt_of::<S>(), x[i].exact(), xr[i], scale, 0.0)
+            .map_err(|m| format!("x[{i}]: {m}"))?;
     }
     Ok(())
 }
@@ -89,7 +95,11 @@ fn lu_figures_for_the_readme() {
 /// RLS: the kernel's information-form estimate after `updates` weighted measurements with
 /// the inverse-inertia regressor structure, against the reference's batch LS solution of
 /// the same weighted rows (no prior, information-weighted exactly as the kernel).
-fn rls_inertia<S: Exact>(torques: &[[f64; 3]], theta: &[f64; 6], weight_exp: &[i32]) -> Result<(f64, Option<[f64; 6]>), String> {
+fn rls_inertia<S: Exact>(
+    torques: &[[f64; 3]],
+    theta: &[f64; 6],
+    weight_exp: &[i32],
+) -> Result<(f64, Option<[f64; 6]>), String> {
     let mut ls = InfoLs::<S, 6>::new();
     let mut info = SMatrix::<f64, 6, 6>::zeros();
     let mut rhs = SVector::<f64, 6>::zeros();
@@ -99,7 +109,10 @@ fn rls_inertia<S: Exact>(torques: &[[f64; 3]], theta: &[f64; 6], weight_exp: &[i
             let v: f64 = (0..6).map(|j| rows[i][j].exact() * theta[j]).sum();
             S::from_f32(v as f32)
         });
-        let w = [Scaled { m: S::from_f32(1.5), e: *e }; 3];
+        let w = [Scaled {
+            m: S::from_f32(1.5),
+            e: *e,
+        }; 3];
         ls.add(&rows, &b, &w);
         for i in 0..3 {
             let a = SVector::<f64, 6>::from_fn(|j, _| rows[i][j].exact());
@@ -109,7 +122,12 @@ fn rls_inertia<S: Exact>(torques: &[[f64; 3]], theta: &[f64; 6], weight_exp: &[i
         }
     }
     let xr = lu_solve(&info, &rhs);
-    let sol = ls.solve(&[S::ZERO; 6], &[false; 6], S::from_int_pow2(1, -14), S::from_int_pow2(1, -20));
+    let sol = ls.solve(
+        &[S::ZERO; 6],
+        &[false; 6],
+        S::from_int_pow2(1, -14),
+        S::from_int_pow2(1, -20),
+    );
     let cond = {
         let e = info.symmetric_eigen().eigenvalues;
         e.max() / e.min().max(1e-300)
@@ -167,7 +185,10 @@ fn rls_inertia_matches_the_batch_reference_and_flags_single_axis_excitation() {
         if single_axis {
             // Excitation about one axis leaves 3 of the 6 terms unobservable: the kernel must
             // say so (status / mask), never return a full estimate.
-            assert!(dq.is_none() && df.is_none(), "single-axis case {case}: full estimate returned (cond {cond:e})");
+            assert!(
+                dq.is_none() && df.is_none(),
+                "single-axis case {case}: full estimate returned (cond {cond:e})"
+            );
             flagged += 1;
             continue;
         }

@@ -10,8 +10,8 @@
 //! a single-axis maneuver, a status (Railed / Overflow / KfOverflow / PartlyUnobservable with
 //! the mask), never silently drifting numbers.
 
-use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
 use massid_kernel::fold::FiringFold;
+use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
 use massid_kernel::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scaled, TickEvent, Q8_24};
 use massid_proofs::budget::{fmt_of, Exact, Worst};
@@ -47,7 +47,11 @@ impl Truth {
     /// by `scale` x 8 %.
     fn with_mass(scale: f32) -> Self {
         let mut p = SPH2;
-        p.com_offset_mm = [p.com_offset_mm[0] + 4.0 * scale, p.com_offset_mm[1] - 3.0 * scale, p.com_offset_mm[2] + 2.0 * scale];
+        p.com_offset_mm = [
+            p.com_offset_mm[0] + 4.0 * scale,
+            p.com_offset_mm[1] - 3.0 * scale,
+            p.com_offset_mm[2] + 2.0 * scale,
+        ];
         for k in 0..3 {
             p.inertia_kgm2[k] *= 1.0 + 0.08 * scale;
         }
@@ -60,7 +64,8 @@ impl Truth {
         let mut tau = Vector3::zeros();
         for i in 0..12 {
             if word & (1 << i) != 0 {
-                let f = Vector3::from(self.p.thrust_dir[i].map(|v| v as f64)) * self.p.thrust_n[i] as f64;
+                let f = Vector3::from(self.p.thrust_dir[i].map(|v| v as f64))
+                    * self.p.thrust_n[i] as f64;
                 let r = Vector3::from(self.p.thruster_pos_m[i].map(|v| v as f64)) - self.com_m;
                 tau += r.cross(&f);
             }
@@ -95,13 +100,20 @@ struct RunFigures {
 fn long_run<S: Exact>(updates: u64, seed: u64) -> RunFigures {
     let terms = SPH2.terms::<S>().expect("SPH2");
     let mut mass = MassId::<S>::new(RlsConfig::default(), terms.theta_inertia_nominal);
-    let theta_true: [f64; 6] = core::array::from_fn(|j| terms.theta_inertia_nominal[j].exact() * if j < 3 { 1.0 / 1.08 } else { 1.0 });
+    let theta_true: [f64; 6] = core::array::from_fn(|j| {
+        terms.theta_inertia_nominal[j].exact() * if j < 3 { 1.0 / 1.08 } else { 1.0 }
+    });
     let com_true = [0.004, -0.003, 0.002];
     let words = maneuver_words();
     let mut rng = Rng(seed);
     let mut ref_com = BatchLs::<3>::with_prior(SVector::zeros(), SVector::repeat(1e6));
     let mut ref_inertia = BatchLs::<6>::with_prior(SVector::zeros(), SVector::repeat(1e6));
-    let mut fig = RunFigures { updates: 0, solves: 0, worst: Worst::new("rls.estimate"), statuses: [0; 5] };
+    let mut fig = RunFigures {
+        updates: 0,
+        solves: 0,
+        worst: Worst::new("rls.estimate"),
+        statuses: [0; 5],
+    };
     let r0 = [9.5661e-7f64, 2.7365e-7, 2.3044e-7];
     let mut firing = 0usize;
     while fig.updates < updates {
@@ -120,8 +132,14 @@ fn long_run<S: Exact>(updates: u64, seed: u64) -> RunFigures {
             let var: [f64; 3] = core::array::from_fn(|i| (r0[i] / 1e-6) / (r0[i] / 0.5e-6 + s2));
             let noise: [f64; 3] = core::array::from_fn(|i| var[i].sqrt() * rng.normal());
             for i in 0..3 {
-                let b_in = (0..6).map(|j| rows[i][j].exact() * theta_true[j]).sum::<f64>() + noise[i];
-                let b_cm = (0..3).map(|j| ft.a_com[i][j].exact() * com_true[j]).sum::<f64>() + noise[i];
+                let b_in = (0..6)
+                    .map(|j| rows[i][j].exact() * theta_true[j])
+                    .sum::<f64>()
+                    + noise[i];
+                let b_cm = (0..3)
+                    .map(|j| ft.a_com[i][j].exact() * com_true[j])
+                    .sum::<f64>()
+                    + noise[i];
                 w_sum[i] += 1.0 / var[i];
                 wb_in[i] += b_in / var[i];
                 wb_cm[i] += b_cm / var[i];
@@ -138,7 +156,8 @@ fn long_run<S: Exact>(updates: u64, seed: u64) -> RunFigures {
             variance: w_sum.map(|w| Scaled::<S>::from_f64(1.0 / w)),
         };
         // The reference gets exactly what the kernel holds (inputs rounded into S).
-        let w: [f64; 3] = core::array::from_fn(|i| m.weight[i].m.exact() * (2.0f64).powi(m.weight[i].e));
+        let w: [f64; 3] =
+            core::array::from_fn(|i| m.weight[i].m.exact() * (2.0f64).powi(m.weight[i].e));
         let r = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| 1.0 / w[i]));
         ref_com.add(&Observation {
             a: SMatrix::<f64, 3, 3>::from_fn(|i, j| m.a_com[i][j].exact()),
@@ -152,19 +171,42 @@ fn long_run<S: Exact>(updates: u64, seed: u64) -> RunFigures {
         });
         // The deployed end-of-firing fold: batch over the first two firings, solved after
         // the second, then RLS.
-        let Some(solved) = FiringFold::new(m, len as u32, firing <= 2, firing == 2).run(&mut mass) else { continue };
+        let Some(solved) = FiringFold::new(m, len as u32, firing <= 2, firing == 2).run(&mut mass)
+        else {
+            continue;
+        };
         let status = solved.status;
         fig.solves += 1;
         fig.statuses[status as usize] += 1;
-        check_solve(&mass, status, &ref_com, &ref_inertia, &mut fig.worst, fig.updates);
+        check_solve(
+            &mass,
+            status,
+            &ref_com,
+            &ref_inertia,
+            &mut fig.worst,
+            fig.updates,
+        );
     }
     fig
 }
 
-fn check_solve<S: Exact>(mass: &MassId<S>, status: RlsStatus, ref_com: &BatchLs<3>, ref_inertia: &BatchLs<6>, worst: &mut Worst, updates: u64) {
-    assert!(matches!(status, RlsStatus::Ok | RlsStatus::PartlyUnobservable), "nominal run: status {status:?}");
+fn check_solve<S: Exact>(
+    mass: &MassId<S>,
+    status: RlsStatus,
+    ref_com: &BatchLs<3>,
+    ref_inertia: &BatchLs<6>,
+    worst: &mut Worst,
+    updates: u64,
+) {
+    assert!(
+        matches!(status, RlsStatus::Ok | RlsStatus::PartlyUnobservable),
+        "nominal run: status {status:?}"
+    );
     let (com, inertia) = mass.problems();
-    assert!(!com.is_saturated() && !inertia.is_saturated(), "information saturated");
+    assert!(
+        !com.is_saturated() && !inertia.is_saturated(),
+        "information saturated"
+    );
     let c = com.information().map(|r| r.map(|v| v.exact()));
     let i = inertia.information().map(|r| r.map(|v| v.exact()));
     for a in 0..6 {
@@ -175,9 +217,18 @@ fn check_solve<S: Exact>(mass: &MassId<S>, status: RlsStatus, ref_com: &BatchLs<
             }
         }
     }
-    let eig = |m: &[[f64; 6]; 6]| nalgebra::Matrix6::from_fn(|a, b| m[a][b]).symmetric_eigen().eigenvalues;
-    assert!(pd_on_observable(&c, &mass.unobservable_com), "CoM information not positive definite");
-    let exact_i: [[f64; 6]; 6] = core::array::from_fn(|a| core::array::from_fn(|b| ref_inertia.info[(a, b)] * (2.0f64).powi(-inertia.exponent())));
+    let eig = |m: &[[f64; 6]; 6]| {
+        nalgebra::Matrix6::from_fn(|a, b| m[a][b])
+            .symmetric_eigen()
+            .eigenvalues
+    };
+    assert!(
+        pd_on_observable(&c, &mass.unobservable_com),
+        "CoM information not positive definite"
+    );
+    let exact_i: [[f64; 6]; 6] = core::array::from_fn(|a| {
+        core::array::from_fn(|b| ref_inertia.info[(a, b)] * (2.0f64).powi(-inertia.exponent()))
+    });
     assert!(
         pd_on_observable(&i, &mass.unobservable_inertia),
         "status {status:?} mask {:?}: inertia information not positive definite: eigenvalues {:?}; the exact information's at the same scale {:?} (mantissa step 2^-24 = 6e-8), exponent {}",
@@ -188,8 +239,18 @@ fn check_solve<S: Exact>(mass: &MassId<S>, status: RlsStatus, ref_com: &BatchLs<
     );
     let fmt = fmt_of::<S>();
     let cases: [(Vec<f64>, Vec<bool>, Vec<f64>, Vec<f64>); 2] = [
-        (mass.delta_com_m.map(|v| v.exact()).to_vec(), mass.unobservable_com.to_vec(), dm(&ref_com.info), ref_com.rhs.iter().copied().collect()),
-        (mass.theta_inertia.map(|v| v.exact()).to_vec(), mass.unobservable_inertia.to_vec(), dm(&ref_inertia.info), ref_inertia.rhs.iter().copied().collect()),
+        (
+            mass.delta_com_m.map(|v| v.exact()).to_vec(),
+            mass.unobservable_com.to_vec(),
+            dm(&ref_com.info),
+            ref_com.rhs.iter().copied().collect(),
+        ),
+        (
+            mass.theta_inertia.map(|v| v.exact()).to_vec(),
+            mass.unobservable_inertia.to_vec(),
+            dm(&ref_inertia.info),
+            ref_inertia.rhs.iter().copied().collect(),
+        ),
     ];
     for (x, unobs, info, rhs) in cases {
         if unobs.iter().any(|u| *u) {
@@ -197,7 +258,11 @@ fn check_solve<S: Exact>(mass: &MassId<S>, status: RlsStatus, ref_com: &BatchLs<
         }
         let n = x.len();
         let info = nalgebra::DMatrix::from_row_slice(n, n, &info);
-        let xr = info.clone().lu().solve(&nalgebra::DVector::from_vec(rhs)).expect("reference solvable");
+        let xr = info
+            .clone()
+            .lu()
+            .solve(&nalgebra::DVector::from_vec(rhs))
+            .expect("reference solvable");
         let ev = info.symmetric_eigen().eigenvalues;
         let cond = ev.max() / ev.min();
         let scale = cond * xr.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -219,7 +284,9 @@ fn pd_on_observable<const N: usize>(m: &[[f64; N]; N], unobservable: &[bool; N])
 }
 
 fn dm<const N: usize>(m: &SMatrix<f64, N, N>) -> Vec<f64> {
-    (0..N).flat_map(|i| (0..N).map(move |j| m[(i, j)])).collect()
+    (0..N)
+        .flat_map(|i| (0..N).map(move |j| m[(i, j)]))
+        .collect()
 }
 
 fn report(name: &str, f: &RunFigures) {
@@ -252,7 +319,12 @@ fn pipeline_run<S: Exact>(ticks: u64, seed: u64) -> (u64, [u64; 6]) {
 
 /// As `pipeline_run`, with a configuration and optionally a second, heavier proof mass
 /// attached at tick `jump`; returns also the change detector's resets.
-fn pipeline_run_with<S: Exact>(ticks: u64, seed: u64, cfg: PipelineConfig<S>, jump: Option<u64>) -> ((u64, [u64; 6]), u32) {
+fn pipeline_run_with<S: Exact>(
+    ticks: u64,
+    seed: u64,
+    cfg: PipelineConfig<S>,
+    jump: Option<u64>,
+) -> ((u64, [u64; 6]), u32) {
     let mut truth = Truth::new();
     let mut pl = Pipeline::<S>::new(&SPH2, cfg).expect("SPH2");
     let mut tick = 0u64;
@@ -285,19 +357,50 @@ fn pipeline_run_with<S: Exact>(ticks: u64, seed: u64, cfg: PipelineConfig<S>, ju
         } else {
             coast -= 1;
         }
-        omega += if word != 0 { truth.omega_dot(word) * 1e-3 } else { -omega * 0.1 };
-        let counts = [0, 1, 2].map(|k| (bias[k] + omega[k] * g + sigma[k] * rng.normal()).round().clamp(0.0, 4095.0) as u16);
+        omega += if word != 0 {
+            truth.omega_dot(word) * 1e-3
+        } else {
+            -omega * 0.1
+        };
+        let counts = [0, 1, 2].map(|k| {
+            (bias[k] + omega[k] * g + sigma[k] * rng.normal())
+                .round()
+                .clamp(0.0, 4095.0) as u16
+        });
         let r = pl.tick(counts, word);
         if r.event == TickEvent::Solved {
             solves += 1;
             let e = pl.estimates();
             statuses[e.status as usize] += 1;
-            assert!(matches!(e.status, PipelineStatus::Ok | PipelineStatus::PartlyUnobservable), "status {:?}", e.status);
-            assert!(e.delta_com_m.iter().chain(e.theta_inertia.iter()).all(|v| v.is_valid()));
+            assert!(
+                matches!(
+                    e.status,
+                    PipelineStatus::Ok | PipelineStatus::PartlyUnobservable
+                ),
+                "status {:?}",
+                e.status
+            );
+            assert!(e
+                .delta_com_m
+                .iter()
+                .chain(e.theta_inertia.iter())
+                .all(|v| v.is_valid()));
             let (c, i) = pl.mass_id().problems();
             assert!(!c.is_saturated() && !i.is_saturated());
-            assert!(pd_on_observable(&c.information().map(|r| r.map(|v| v.exact())), &e.unobservable_com), "CoM information not PD");
-            assert!(pd_on_observable(&i.information().map(|r| r.map(|v| v.exact())), &e.unobservable_inertia), "inertia information not PD");
+            assert!(
+                pd_on_observable(
+                    &c.information().map(|r| r.map(|v| v.exact())),
+                    &e.unobservable_com
+                ),
+                "CoM information not PD"
+            );
+            assert!(
+                pd_on_observable(
+                    &i.information().map(|r| r.map(|v| v.exact())),
+                    &e.unobservable_inertia
+                ),
+                "inertia information not PD"
+            );
         }
     }
     ((solves, statuses), pl.estimates().resets)
@@ -363,8 +466,15 @@ fn saturated_run<S: Exact>(detector: bool) -> (u64, Vec<PipelineStatus>, u32) {
                 overflow_events += 1;
             }
             let e = pl.estimates();
-            if matches!(e.status, PipelineStatus::Ok | PipelineStatus::PartlyUnobservable) {
-                assert!(e.delta_com_m.iter().chain(e.theta_inertia.iter()).all(|v| v.is_valid()));
+            if matches!(
+                e.status,
+                PipelineStatus::Ok | PipelineStatus::PartlyUnobservable
+            ) {
+                assert!(e
+                    .delta_com_m
+                    .iter()
+                    .chain(e.theta_inertia.iter())
+                    .all(|v| v.is_valid()));
             }
         }
         for _ in 0..20 {
@@ -386,7 +496,10 @@ fn saturated_gyros_give_a_status_not_silent_drift() {
         // first railed sample (an event per tick), and no solve ever says Ok.
         for (ev, st, name) in [(ev_q, &st_q, "Q8.24"), (ev_f, &st_f, "f32")] {
             assert!(ev >= 30 * 200, "{name}: {ev} railed/overflow ticks of 6000");
-            assert!(!st.contains(&PipelineStatus::Ok), "{name} says Ok on railed data: {st:?}");
+            assert!(
+                !st.contains(&PipelineStatus::Ok),
+                "{name} says Ok on railed data: {st:?}"
+            );
         }
     }
 }

@@ -12,7 +12,9 @@ use massid_kernel::mixer::{quantise_duration, Mixer, MixerConfig};
 use massid_kernel::model::SPH2;
 use massid_kernel::{Scalar, Q8_24};
 use massid_proofs::harness::mixer::expected_duration;
-use massid_proofs::harness::primitives::{check_add_sub, check_div, check_mul, check_order, check_pow2};
+use massid_proofs::harness::primitives::{
+    check_add_sub, check_div, check_mul, check_order, check_pow2,
+};
 
 fn operand_set() -> Vec<i32> {
     let mut v = Vec::new();
@@ -59,7 +61,10 @@ fn q8_24_binary_operations_on_every_pair_of_the_operand_set() {
             n += 1;
         }
     }
-    println!("binary: {} operands, {n} pairs x (add, sub, mul, div, order)", set.len());
+    println!(
+        "binary: {} operands, {n} pairs x (add, sub, mul, div, order)",
+        set.len()
+    );
     assert!(n > 500_000);
 }
 
@@ -67,19 +72,44 @@ fn q8_24_binary_operations_on_every_pair_of_the_operand_set() {
 fn every_thruster_word_at_every_boundary_duration() {
     let mut n = 0u64;
     for (period, min) in [(20u32, 10u32), (40, 20), (200, 10), (200, 20), (1000, 10)] {
-        let cfg = MixerConfig { period_ms: period, min_pulse_ms: min, pressure_drop_n: Q8_24::ZERO };
+        let cfg = MixerConfig {
+            period_ms: period,
+            min_pulse_ms: min,
+            pressure_drop_n: Q8_24::ZERO,
+        };
         let mixer = Mixer::<Q8_24>::new(&SPH2, [Q8_24::ZERO; 3], cfg).expect("SPH2");
-        let half = [0, 2 * min - 2, 2 * min - 1, 2 * min, period, 2 * (period - min), 2 * (period - min) + 1, 2 * period];
+        let half = [
+            0,
+            2 * min - 2,
+            2 * min - 1,
+            2 * min,
+            period,
+            2 * (period - min),
+            2 * (period - min) + 1,
+            2 * period,
+        ];
         for h in half {
-            let frac = Q8_24::from_int_pow2(h as i32, 0).checked_div(Q8_24::from_int_pow2(2 * period as i32, 0)).expect("nonzero");
+            let frac = Q8_24::from_int_pow2(h as i32, 0)
+                .checked_div(Q8_24::from_int_pow2(2 * period as i32, 0))
+                .expect("nonzero");
             let fexact = frac.0.to_num::<f64>();
             let d = expected_duration(fexact, period, min);
             for word in 0u16..=0x0fff {
-                let fr: [Q8_24; 12] = core::array::from_fn(|i| if word & (1 << i) != 0 { frac } else { Q8_24::ZERO });
+                let fr: [Q8_24; 12] = core::array::from_fn(|i| {
+                    if word & (1 << i) != 0 {
+                        frac
+                    } else {
+                        Q8_24::ZERO
+                    }
+                });
                 let f = mixer.quantise(&fr).expect("fractions in [0, 1]");
                 for i in 0..12 {
                     let want = if word & (1 << i) != 0 { d } else { 0 };
-                    assert_eq!(f.off_ms[i] - f.on_ms[i], want, "P {period} m {min} word {word:#05x} thruster {i}");
+                    assert_eq!(
+                        f.off_ms[i] - f.on_ms[i],
+                        want,
+                        "P {period} m {min} word {word:#05x} thruster {i}"
+                    );
                     assert!(f.on_ms[i] <= f.off_ms[i] && f.off_ms[i] <= period);
                     if want > 0 {
                         assert_eq!(f.on_ms[i], (period - want) / 2);
@@ -105,7 +135,9 @@ fn quantise_duration_on_every_half_millisecond_of_every_period() {
             }
             for h in 0..=2 * period {
                 // The fraction the kernel holds for h/2 ms, and its neighbours one step away.
-                let base = Q8_24::from_int_pow2(h as i32, 0).checked_div(Q8_24::from_int_pow2(2 * period as i32, 0)).expect("nonzero");
+                let base = Q8_24::from_int_pow2(h as i32, 0)
+                    .checked_div(Q8_24::from_int_pow2(2 * period as i32, 0))
+                    .expect("nonzero");
                 for bits in [base.0.to_bits() - 1, base.0.to_bits(), base.0.to_bits() + 1] {
                     let f = massid_kernel::Fx(fixed::types::extra::U24::default_fixed(bits));
                     let got = quantise_duration(f, period, min).expect("fits");

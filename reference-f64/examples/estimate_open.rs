@@ -17,7 +17,11 @@ fn main() {
             std::process::exit(1);
         }
     };
-    let name = args.get(2).cloned().or_else(|| rec.satellite().map(str::to_string)).unwrap_or("sph2".into());
+    let name = args
+        .get(2)
+        .cloned()
+        .or_else(|| rec.satellite().map(str::to_string))
+        .unwrap_or("sph2".into());
     let sat = if let Some(model) = name.strip_suffix(".toml").map(|_| name.clone()) {
         match Satellite::from_toml_file(std::path::Path::new(&model)) {
             Ok(s) => s,
@@ -32,19 +36,39 @@ fn main() {
         eprintln!("unknown satellite {name}");
         std::process::exit(1);
     };
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     if std::env::var("UNFILTERED").is_ok() {
         unfiltered_experiment(&rec, &sat);
     }
-    for (label, est) in [("offline", estimate_offline(&rec, &sat, &cfg)), ("online", estimate_online(&rec, &sat, &cfg))] {
-        println!("== {label}: status {} updates {} unobservable {:?}", est.status, est.updates, est.unobservable);
-        println!("com_offset_mm   {:?} +- {:?}", est.com_offset_mm, est.com_offset_stderr_mm);
+    for (label, est) in [
+        ("offline", estimate_offline(&rec, &sat, &cfg)),
+        ("online", estimate_online(&rec, &sat, &cfg)),
+    ] {
+        println!(
+            "== {label}: status {} updates {} unobservable {:?}",
+            est.status, est.updates, est.unobservable
+        );
+        println!(
+            "com_offset_mm   {:?} +- {:?}",
+            est.com_offset_mm, est.com_offset_stderr_mm
+        );
         println!("batch_all com   {:?}", est.batch_all_com_offset_mm);
-        println!("inertia         {:?} +- {:?}", est.inertia_kgm2, est.inertia_stderr_kgm2);
+        println!(
+            "inertia         {:?} +- {:?}",
+            est.inertia_kgm2, est.inertia_stderr_kgm2
+        );
         println!("batch_all inert {:?}", est.batch_all_inertia_kgm2);
         println!("model inertia   {:?}", sat.inertia_kgm2);
-        let rel: Vec<f64> = (0..3).map(|j| est.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0).collect();
-        println!("principal rel err {:?}  variance factor {:?}", rel, est.variance_factor);
+        let rel: Vec<f64> = (0..3)
+            .map(|j| est.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0)
+            .collect();
+        println!(
+            "principal rel err {:?}  variance factor {:?}",
+            rel, est.variance_factor
+        );
         println!(
             "ROW | {} | {label} | {:+.2} {:+.2} {:+.2} | {:+.3} {:+.3} {:+.3} | {} |",
             rec.source.rsplit('/').next().unwrap_or(""),
@@ -61,9 +85,17 @@ fn main() {
 
 #[allow(dead_code)]
 fn unfiltered_experiment(rec: &Recording, sat: &Satellite) {
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     let rates = reference_f64::preprocess::uniform_rates(rec, sat);
     let est = reference_f64::pipeline::estimate_from_rates(&rates, sat, &cfg);
-    let rel: Vec<f64> = (0..3).map(|j| est.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0).collect();
-    println!("== unfiltered: com {:?} principal rel err {:?}", est.com_offset_mm, rel);
+    let rel: Vec<f64> = (0..3)
+        .map(|j| est.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0)
+        .collect();
+    println!(
+        "== unfiltered: com {:?} principal rel err {:?}",
+        est.com_offset_mm, rel
+    );
 }

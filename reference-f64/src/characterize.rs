@@ -75,8 +75,13 @@ pub struct Trifilar {
 impl Trifilar {
     /// The seed's setup printed under eq. 2.6: m = 7.172 kg, g = 9.8 m/s^2, r = 0.1461 m,
     /// l ~ 2.47 m, I_0 = 0.0448 kg m^2.
-    pub const SEED: Trifilar =
-        Trifilar { mass_kg: 7.172, g_m_s2: SEED_G, radius_m: 0.1461, length_m: 2.47, base_inertia_kgm2: 0.0448 };
+    pub const SEED: Trifilar = Trifilar {
+        mass_kg: 7.172,
+        g_m_s2: SEED_G,
+        radius_m: 0.1461,
+        length_m: 2.47,
+        base_inertia_kgm2: 0.0448,
+    };
 
     fn check(&self) -> Result<()> {
         positive("mass", self.mass_kg)?;
@@ -108,7 +113,10 @@ impl Trifilar {
         if i > 0.0 {
             Ok(i)
         } else {
-            Err(CharacterizeError::InertiaNotAboveBase { total, base: self.base_inertia_kgm2 })
+            Err(CharacterizeError::InertiaNotAboveBase {
+                total,
+                base: self.base_inertia_kgm2,
+            })
         }
     }
 
@@ -125,7 +133,12 @@ impl Trifilar {
 
     /// Sensitivity of the eq. 2.15 inertia (base included) to a stopwatch error `dT`:
     /// `|I(T + dT) - I(T)|` for `n` oscillations over `T` seconds (seed 2.3.6).
-    pub fn stopwatch_inertia_error(&self, elapsed_s: f64, oscillations: u32, error_s: f64) -> Result<f64> {
+    pub fn stopwatch_inertia_error(
+        &self,
+        elapsed_s: f64,
+        oscillations: u32,
+        error_s: f64,
+    ) -> Result<f64> {
         let e = finite("stopwatch error", error_s)?;
         let a = self.total_inertia(omega_from_stopwatch(elapsed_s, oscillations)?)?;
         let b = self.total_inertia(omega_from_stopwatch(elapsed_s + e, oscillations)?)?;
@@ -153,7 +166,10 @@ impl Trifilar {
     pub fn swing_inertia_error_fraction(&self, rotation_rad: f64, swing_m: f64) -> Result<f64> {
         let ea = self.rotational_energy(rotation_rad)?;
         if ea <= 0.0 {
-            return Err(CharacterizeError::NotPositive { name: "rotation amplitude", value: rotation_rad });
+            return Err(CharacterizeError::NotPositive {
+                name: "rotation amplitude",
+                value: rotation_rad,
+            });
         }
         Ok(self.translational_energy(swing_m)? / ea)
     }
@@ -167,7 +183,9 @@ pub fn omega_from_period(period_s: f64) -> Result<f64> {
 /// Eq. 2.14: `omega = 2 pi n / T` for `n` oscillations timed over `T` seconds.
 pub fn omega_from_stopwatch(elapsed_s: f64, oscillations: u32) -> Result<f64> {
     if oscillations == 0 {
-        return Err(CharacterizeError::Invalid("number of oscillations must be at least 1".into()));
+        return Err(CharacterizeError::Invalid(
+            "number of oscillations must be at least 1".into(),
+        ));
     }
     Ok(2.0 * std::f64::consts::PI * oscillations as f64 / positive("stopwatch time", elapsed_s)?)
 }
@@ -192,7 +210,9 @@ pub fn damping_ratio(a0: f64, an: f64, oscillations: u32) -> Result<f64> {
     let a0 = positive("initial amplitude", a0)?;
     let an = positive("final amplitude", an)?;
     if oscillations == 0 {
-        return Err(CharacterizeError::Invalid("number of oscillations must be at least 1".into()));
+        return Err(CharacterizeError::Invalid(
+            "number of oscillations must be at least 1".into(),
+        ));
     }
     if an > a0 {
         return Err(CharacterizeError::Invalid(format!(
@@ -216,7 +236,10 @@ pub fn chord_error(radius_m: f64, theta_rad: f64) -> Result<(f64, f64, f64)> {
     if t >= std::f64::consts::PI {
         // A swing of half a turn or more has no chord that measures it (at 360 deg the chord
         // is 0, beyond it negative).
-        return Err(CharacterizeError::Invalid(format!("angle must be below 180 deg, got {:.1} deg", t.to_degrees())));
+        return Err(CharacterizeError::Invalid(format!(
+            "angle must be below 180 deg, got {:.1} deg",
+            t.to_degrees()
+        )));
     }
     let arc = r * t;
     let chord = 2.0 * r * (t / 2.0).sin();
@@ -284,16 +307,37 @@ pub fn products_of_inertia_from_rotations(measurements: &[(f64, f64)]) -> Result
             "rotation angles do not determine Iyy, Izz and Pyz (need 3 angles distinct modulo 180 deg)".into(),
         ));
     }
-    let x = svd.solve(&b, 0.0).map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
+    let x = svd
+        .solve(&b, 0.0)
+        .map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
     let r = &a * &x - &b;
-    Ok(PlaneInertia { iyy: x[0], izz: x[1], pyz: x[2], rms_residual: (r.norm_squared() / n as f64).sqrt() })
+    Ok(PlaneInertia {
+        iyy: x[0],
+        izz: x[1],
+        pyz: x[2],
+        rms_residual: (r.norm_squared() / n as f64).sqrt(),
+    })
 }
 
 /// Seed 2.3.3: the six-measurement scheme (about X, Y, Z and the 45-degree axes between
 /// X-Y, Y-Z, Z-X). From eq. 2.7 at `B = 45 deg`: `P_ab = (I_a + I_b)/2 - I_ab45`. Returns the
 /// inertia TENSOR about the measurement origin, off-diagonals `-P`.
-pub fn inertia_tensor_from_six(ixx: f64, iyy: f64, izz: f64, i_xy45: f64, i_yz45: f64, i_zx45: f64) -> Result<Matrix3<f64>> {
-    for (name, v) in [("Ixx", ixx), ("Iyy", iyy), ("Izz", izz), ("I(45 X-Y)", i_xy45), ("I(45 Y-Z)", i_yz45), ("I(45 Z-X)", i_zx45)] {
+pub fn inertia_tensor_from_six(
+    ixx: f64,
+    iyy: f64,
+    izz: f64,
+    i_xy45: f64,
+    i_yz45: f64,
+    i_zx45: f64,
+) -> Result<Matrix3<f64>> {
+    for (name, v) in [
+        ("Ixx", ixx),
+        ("Iyy", iyy),
+        ("Izz", izz),
+        ("I(45 X-Y)", i_xy45),
+        ("I(45 Y-Z)", i_yz45),
+        ("I(45 Z-X)", i_zx45),
+    ] {
         positive(name, v)?;
     }
     let pxy = (ixx + iyy) / 2.0 - i_xy45;
@@ -301,7 +345,9 @@ pub fn inertia_tensor_from_six(ixx: f64, iyy: f64, izz: f64, i_xy45: f64, i_yz45
     let pzx = (izz + ixx) / 2.0 - i_zx45;
     let t = Matrix3::new(ixx, -pxy, -pzx, -pxy, iyy, -pyz, -pzx, -pyz, izz);
     if t.cholesky().is_none() {
-        return Err(CharacterizeError::Invalid("measurements give a tensor that is not positive definite".into()));
+        return Err(CharacterizeError::Invalid(
+            "measurements give a tensor that is not positive definite".into(),
+        ));
     }
     Ok(t)
 }
@@ -322,22 +368,38 @@ pub struct LoadCellMoments {
 /// `M_x = -W (R c)_y`, `M_y = W (R c)_x`; each mounting gives two equations and the stack is
 /// solved by least squares. One upright mounting gives x and y; "the satellite is rotated so
 /// it's mounted on its side" for z. Err when the mountings leave an axis unobserved.
-pub fn com_from_load_cell(tests: &[LoadCellMoments], mass_kg: f64, g_m_s2: f64) -> Result<Vector3<f64>> {
+pub fn com_from_load_cell(
+    tests: &[LoadCellMoments],
+    mass_kg: f64,
+    g_m_s2: f64,
+) -> Result<Vector3<f64>> {
     let w = positive("mass", mass_kg)? * positive("gravity", g_m_s2)?;
     if tests.is_empty() {
-        return Err(CharacterizeError::Invalid("no load-cell measurements".into()));
+        return Err(CharacterizeError::Invalid(
+            "no load-cell measurements".into(),
+        ));
     }
     let n = tests.len();
     let mut a = DMatrix::<f64>::zeros(2 * n, 3);
     let mut b = DVector::<f64>::zeros(2 * n);
     for (k, t) in tests.iter().enumerate() {
-        let vals = t.body_to_cell.iter().chain(t.moment_nm.iter()).chain(t.bias_nm.iter());
+        let vals = t
+            .body_to_cell
+            .iter()
+            .chain(t.moment_nm.iter())
+            .chain(t.bias_nm.iter());
         if !vals.clone().all(|v| v.is_finite()) {
-            return Err(CharacterizeError::Invalid(format!("load-cell test {}: non-finite value", k + 1)));
+            return Err(CharacterizeError::Invalid(format!(
+                "load-cell test {}: non-finite value",
+                k + 1
+            )));
         }
         let r = t.body_to_cell;
         if ((r.transpose() * r) - Matrix3::identity()).abs().max() > 1e-6 {
-            return Err(CharacterizeError::Invalid(format!("load-cell test {}: mounting is not a rotation", k + 1)));
+            return Err(CharacterizeError::Invalid(format!(
+                "load-cell test {}: mounting is not a rotation",
+                k + 1
+            )));
         }
         let m = t.moment_nm - t.bias_nm;
         // M_x = -W * (row1 of R) . c ; M_y = W * (row0 of R) . c
@@ -355,7 +417,9 @@ pub fn com_from_load_cell(tests: &[LoadCellMoments], mass_kg: f64, g_m_s2: f64) 
             "mountings leave a CoM axis unobserved (the vertical axis of every mounting); add a mounting on its side".into(),
         ));
     }
-    let x = svd.solve(&b, 0.0).map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
+    let x = svd
+        .solve(&b, 0.0)
+        .map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
     Ok(Vector3::new(x[0], x[1], x[2]))
 }
 
@@ -369,20 +433,39 @@ pub struct ThrustVector {
 /// Seed 3.5: "Force components were averaged over the one-second pulse to create a nominal
 /// vector of applied force"; bias (stand alone, valve closed) removed. Magnitude = norm,
 /// direction = unit vector.
-pub fn thrust_from_load_cell(forces_during_pulse_n: &[Vector3<f64>], bias_n: Vector3<f64>) -> Result<ThrustVector> {
+pub fn thrust_from_load_cell(
+    forces_during_pulse_n: &[Vector3<f64>],
+    bias_n: Vector3<f64>,
+) -> Result<ThrustVector> {
     if forces_during_pulse_n.is_empty() {
-        return Err(CharacterizeError::Invalid("no load-cell samples during the pulse".into()));
+        return Err(CharacterizeError::Invalid(
+            "no load-cell samples during the pulse".into(),
+        ));
     }
-    if !forces_during_pulse_n.iter().chain(std::iter::once(&bias_n)).all(|v| v.iter().all(|x| x.is_finite())) {
-        return Err(CharacterizeError::Invalid("non-finite load-cell sample".into()));
+    if !forces_during_pulse_n
+        .iter()
+        .chain(std::iter::once(&bias_n))
+        .all(|v| v.iter().all(|x| x.is_finite()))
+    {
+        return Err(CharacterizeError::Invalid(
+            "non-finite load-cell sample".into(),
+        ));
     }
-    let mean = forces_during_pulse_n.iter().fold(Vector3::zeros(), |s, v| s + v) / forces_during_pulse_n.len() as f64;
+    let mean = forces_during_pulse_n
+        .iter()
+        .fold(Vector3::zeros(), |s, v| s + v)
+        / forces_during_pulse_n.len() as f64;
     let f = mean - bias_n;
     let mag = f.norm();
     if mag == 0.0 {
-        return Err(CharacterizeError::Invalid("mean force equals the bias: the thruster did not fire".into()));
+        return Err(CharacterizeError::Invalid(
+            "mean force equals the bias: the thruster did not fire".into(),
+        ));
     }
-    Ok(ThrustVector { magnitude_n: mag, direction: (f / mag).into() })
+    Ok(ThrustVector {
+        magnitude_n: mag,
+        direction: (f / mag).into(),
+    })
 }
 
 /// Seed 3.5 with the mounting taken into account ("change coordinate frames"; the two
@@ -395,13 +478,21 @@ pub fn thrust_from_load_cell_in_body(
     body_to_cell: Matrix3<f64>,
 ) -> Result<ThrustVector> {
     if !body_to_cell.iter().all(|v| v.is_finite())
-        || ((body_to_cell.transpose() * body_to_cell) - Matrix3::identity()).abs().max() > 1e-6
+        || ((body_to_cell.transpose() * body_to_cell) - Matrix3::identity())
+            .abs()
+            .max()
+            > 1e-6
     {
-        return Err(CharacterizeError::Invalid("mounting is not a rotation".into()));
+        return Err(CharacterizeError::Invalid(
+            "mounting is not a rotation".into(),
+        ));
     }
     let in_cell = thrust_from_load_cell(forces_during_pulse_n, bias_n)?;
     let d = body_to_cell.transpose() * Vector3::from(in_cell.direction);
-    Ok(ThrustVector { magnitude_n: in_cell.magnitude_n, direction: d.into() })
+    Ok(ThrustVector {
+        magnitude_n: in_cell.magnitude_n,
+        direction: d.into(),
+    })
 }
 
 /// Seed 3.5 / Tables 3.3, C.3-C.4: the nominal values are averages over many tests: mean
@@ -417,15 +508,29 @@ pub struct ThrustAverage {
 /// Averages repeated thrust tests (seed 3.5). At least two tests.
 pub fn average_thrust_tests(tests: &[ThrustVector]) -> Result<ThrustAverage> {
     if tests.len() < 2 {
-        return Err(CharacterizeError::Invalid(format!("need at least 2 thrust tests, got {}", tests.len())));
+        return Err(CharacterizeError::Invalid(format!(
+            "need at least 2 thrust tests, got {}",
+            tests.len()
+        )));
     }
     let n = tests.len() as f64;
     let mean_mag = tests.iter().map(|t| t.magnitude_n).sum::<f64>() / n;
-    let mean_dir: [f64; 3] = std::array::from_fn(|j| tests.iter().map(|t| t.direction[j]).sum::<f64>() / n);
-    let var = |f: &dyn Fn(&ThrustVector) -> f64, m: f64| tests.iter().map(|t| (f(t) - m).powi(2)).sum::<f64>() / (n - 1.0);
+    let mean_dir: [f64; 3] =
+        std::array::from_fn(|j| tests.iter().map(|t| t.direction[j]).sum::<f64>() / n);
+    let var = |f: &dyn Fn(&ThrustVector) -> f64, m: f64| {
+        tests.iter().map(|t| (f(t) - m).powi(2)).sum::<f64>() / (n - 1.0)
+    };
     let magnitude_stdev_n = var(&|t| t.magnitude_n, mean_mag).sqrt();
-    let direction_stdev = std::array::from_fn(|j| var(&|t: &ThrustVector| t.direction[j], mean_dir[j]).sqrt());
-    Ok(ThrustAverage { mean: ThrustVector { magnitude_n: mean_mag, direction: mean_dir }, magnitude_stdev_n, direction_stdev })
+    let direction_stdev =
+        std::array::from_fn(|j| var(&|t: &ThrustVector| t.direction[j], mean_dir[j]).sqrt());
+    Ok(ThrustAverage {
+        mean: ThrustVector {
+            magnitude_n: mean_mag,
+            direction: mean_dir,
+        },
+        magnitude_stdev_n,
+        direction_stdev,
+    })
 }
 
 #[cfg(test)]
@@ -434,36 +539,60 @@ mod tests {
 
     #[test]
     fn nonsense_inputs_are_rejected_with_reasons() {
-        assert!(matches!(omega_from_period(-1.0), Err(CharacterizeError::NotPositive { name: "period", .. })));
+        assert!(matches!(
+            omega_from_period(-1.0),
+            Err(CharacterizeError::NotPositive { name: "period", .. })
+        ));
         assert!(Trifilar::SEED.inertia(f64::NAN).is_err());
-        assert!(matches!(Trifilar::SEED.inertia(100.0), Err(CharacterizeError::InertiaNotAboveBase { .. })));
+        assert!(matches!(
+            Trifilar::SEED.inertia(100.0),
+            Err(CharacterizeError::InertiaNotAboveBase { .. })
+        ));
         assert!(damping_ratio(299.0, 306.0, 13).is_err());
         assert!(damping_ratio(306.0, 299.0, 0).is_err());
-        assert!(products_of_inertia_from_rotations(&[(0.0, 1.0), (std::f64::consts::PI, 1.0), (0.0, 1.0)]).is_err());
+        assert!(products_of_inertia_from_rotations(&[
+            (0.0, 1.0),
+            (std::f64::consts::PI, 1.0),
+            (0.0, 1.0)
+        ])
+        .is_err());
         assert!(thrust_from_load_cell(&[], Vector3::zeros()).is_err());
     }
 
     #[test]
     fn rotated_fit_recovers_a_known_plane() {
         let (iyy, izz, pyz) = (0.0242, 0.0214, 3.1e-4);
-        let ms: Vec<(f64, f64)> = (0..7).map(|k| {
-            let b = k as f64 * 0.4;
-            (b, rotated_inertia(iyy, izz, pyz, b))
-        }).collect();
+        let ms: Vec<(f64, f64)> = (0..7)
+            .map(|k| {
+                let b = k as f64 * 0.4;
+                (b, rotated_inertia(iyy, izz, pyz, b))
+            })
+            .collect();
         let fit = products_of_inertia_from_rotations(&ms).unwrap();
-        assert!((fit.iyy - iyy).abs() < 1e-14 && (fit.izz - izz).abs() < 1e-14 && (fit.pyz - pyz).abs() < 1e-14);
+        assert!(
+            (fit.iyy - iyy).abs() < 1e-14
+                && (fit.izz - izz).abs() < 1e-14
+                && (fit.pyz - pyz).abs() < 1e-14
+        );
     }
 
     #[test]
     fn six_measurement_scheme_recovers_a_tensor() {
         // tensor with off-diagonals -P; axis inertia n^T I n
-        let t = Matrix3::new(0.0245, -1e-4, 2e-4, -1e-4, 0.0215, -3e-4, 2e-4, -3e-4, 0.0203);
+        let t = Matrix3::new(
+            0.0245, -1e-4, 2e-4, -1e-4, 0.0215, -3e-4, 2e-4, -3e-4, 0.0203,
+        );
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let about = |n: Vector3<f64>| (n.transpose() * t * n)[0];
         let got = inertia_tensor_from_six(
-            t[(0, 0)], t[(1, 1)], t[(2, 2)],
-            about(Vector3::new(s, s, 0.0)), about(Vector3::new(0.0, s, s)), about(Vector3::new(s, 0.0, s)),
-        ).unwrap();
+            t[(0, 0)],
+            t[(1, 1)],
+            t[(2, 2)],
+            about(Vector3::new(s, s, 0.0)),
+            about(Vector3::new(0.0, s, s)),
+            about(Vector3::new(s, 0.0, s)),
+        )
+        .unwrap();
         assert!((got - t).abs().max() < 1e-15);
     }
 
@@ -474,7 +603,11 @@ mod tests {
         let w = m * g;
         let cell = |r: Matrix3<f64>| {
             let rc = r * c;
-            LoadCellMoments { body_to_cell: r, moment_nm: Vector3::new(-w * rc.y + 0.01, w * rc.x - 0.02, 0.3), bias_nm: Vector3::new(0.01, -0.02, 0.0) }
+            LoadCellMoments {
+                body_to_cell: r,
+                moment_nm: Vector3::new(-w * rc.y + 0.01, w * rc.x - 0.02, 0.3),
+                bias_nm: Vector3::new(0.01, -0.02, 0.0),
+            }
         };
         let upright = cell(Matrix3::identity());
         // on its side: body z -> cell x (rotation about y by +90 deg)
@@ -529,10 +662,23 @@ mod tests {
 
     #[test]
     fn thrust_average_keeps_unnormalised_mean_direction() {
-        let a = thrust_from_load_cell(&[Vector3::new(0.13, 0.0, 0.01), Vector3::new(0.13, 0.0, -0.01)], Vector3::zeros()).unwrap();
+        let a = thrust_from_load_cell(
+            &[
+                Vector3::new(0.13, 0.0, 0.01),
+                Vector3::new(0.13, 0.0, -0.01),
+            ],
+            Vector3::zeros(),
+        )
+        .unwrap();
         assert!((a.magnitude_n - 0.13).abs() < 1e-15 && (a.direction[0] - 1.0).abs() < 1e-15);
-        let t1 = ThrustVector { magnitude_n: 0.13, direction: [0.6, 0.8, 0.0] };
-        let t2 = ThrustVector { magnitude_n: 0.11, direction: [0.8, 0.6, 0.0] };
+        let t1 = ThrustVector {
+            magnitude_n: 0.13,
+            direction: [0.6, 0.8, 0.0],
+        };
+        let t2 = ThrustVector {
+            magnitude_n: 0.11,
+            direction: [0.8, 0.6, 0.0],
+        };
         let avg = average_thrust_tests(&[t1, t2]).unwrap();
         assert!((avg.mean.magnitude_n - 0.12).abs() < 1e-15);
         assert!((avg.mean.direction[0] - 0.7).abs() < 1e-15);

@@ -4,13 +4,13 @@
 //!
 //! Modules mirror the seed's chapters.
 
-pub mod satellite;
-pub mod recording;
-pub mod preprocess;
-pub mod omega_dot;
+pub mod characterize;
 pub mod mass_id;
-pub mod pipeline;
 pub mod mixer;
 pub mod mixer_check;
-pub mod characterize;
+pub mod omega_dot;
+pub mod pipeline;
+pub mod preprocess;
+pub mod recording;
+pub mod satellite;
 pub mod slosh;

@@ -84,7 +84,10 @@ pub fn inertia_row(
 
 /// The inverse-inertia rows of eq. 3.8 for a given torque `a` (N m): `A2 a`-layout with
 /// `b2 = omega_dot`.
-pub fn inertia_row_for_torque(a: &Vector3<f64>, omega_dot: &Vector3<f64>) -> (SMatrix<f64, 3, 6>, Vector3<f64>) {
+pub fn inertia_row_for_torque(
+    a: &Vector3<f64>,
+    omega_dot: &Vector3<f64>,
+) -> (SMatrix<f64, 3, 6>, Vector3<f64>) {
     #[rustfmt::skip]
     let a2 = SMatrix::<f64, 3, 6>::from_row_slice(&[
         a.x, 0.0, 0.0, a.y, a.z, 0.0,
@@ -102,12 +105,23 @@ pub fn inverse_inertia_matrix(x: &SVector<f64, 6>) -> Matrix3<f64> {
 
 /// A symmetric matrix as `[xx, yy, zz, xy, xz, yz]`.
 pub fn sym_to_vec6(m: &Matrix3<f64>) -> SVector<f64, 6> {
-    SVector::<f64, 6>::from([m[(0, 0)], m[(1, 1)], m[(2, 2)], m[(0, 1)], m[(0, 2)], m[(1, 2)]])
+    SVector::<f64, 6>::from([
+        m[(0, 0)],
+        m[(1, 1)],
+        m[(2, 2)],
+        m[(0, 1)],
+        m[(0, 2)],
+        m[(1, 2)],
+    ])
 }
 
 /// The inverse-inertia vector of a satellite's nominal inertia.
 pub fn nominal_inverse_inertia(sat: &Satellite) -> SVector<f64, 6> {
-    sym_to_vec6(&sat.inertia_matrix().try_inverse().unwrap_or_else(Matrix3::zeros))
+    sym_to_vec6(
+        &sat.inertia_matrix()
+            .try_inverse()
+            .unwrap_or_else(Matrix3::zeros),
+    )
 }
 
 /// Inertia (xx yy zz xy xz yz) from the inverse-inertia vector and its covariance, with
@@ -134,7 +148,11 @@ pub fn inertia_from_inverse(
 /// definite and its diagonal obeys the triangle inequalities (`Ixx + Iyy >= Izz`, cyclic),
 /// and the CoM (model CoM + `com_offset_mm`) lies inside the box of the thruster positions.
 /// `Err` names the first check that fails, as the estimate JSON's status does.
-pub fn physical_validity(sat: &Satellite, com_offset_mm: &[f64; 3], inertia: &[f64; 6]) -> Result<(), &'static str> {
+pub fn physical_validity(
+    sat: &Satellite,
+    com_offset_mm: &[f64; 3],
+    inertia: &[f64; 6],
+) -> Result<(), &'static str> {
     let [xx, yy, zz, xy, xz, yz] = *inertia;
     let m = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
     let minors = [xx, xx * yy - xy * xy, m.determinant()];
@@ -145,8 +163,16 @@ pub fn physical_validity(sat: &Satellite, com_offset_mm: &[f64; 3], inertia: &[f
         return Err("implausible_inertia_triangle_inequality");
     }
     for a in 0..3 {
-        let lo = sat.thruster_pos_m.iter().map(|p| p[a]).fold(f64::INFINITY, f64::min);
-        let hi = sat.thruster_pos_m.iter().map(|p| p[a]).fold(f64::NEG_INFINITY, f64::max);
+        let lo = sat
+            .thruster_pos_m
+            .iter()
+            .map(|p| p[a])
+            .fold(f64::INFINITY, f64::min);
+        let hi = sat
+            .thruster_pos_m
+            .iter()
+            .map(|p| p[a])
+            .fold(f64::NEG_INFINITY, f64::max);
         let c = (sat.com_offset_mm[a] + com_offset_mm[a]) * 1e-3;
         if !(c.is_finite() && lo <= c && c <= hi) {
             return Err("implausible_com_outside_envelope");
@@ -157,7 +183,10 @@ pub fn physical_validity(sat: &Satellite, com_offset_mm: &[f64; 3], inertia: &[f
 
 /// `M^-1 b` by LU with partial pivoting (nalgebra's, on a dynamic copy so that it works
 /// for any size `N`). None when `M` is singular.
-pub fn lu_solve<const N: usize>(m: &SMatrix<f64, N, N>, b: &SVector<f64, N>) -> Option<SVector<f64, N>> {
+pub fn lu_solve<const N: usize>(
+    m: &SMatrix<f64, N, N>,
+    b: &SVector<f64, N>,
+) -> Option<SVector<f64, N>> {
     let lu = DMatrix::from_column_slice(N, N, m.as_slice()).lu();
     let x = lu.solve(&DVector::from_column_slice(b.as_slice()))?;
     if x.iter().all(|v| v.is_finite()) {
@@ -169,7 +198,9 @@ pub fn lu_solve<const N: usize>(m: &SMatrix<f64, N, N>, b: &SVector<f64, N>) -> 
 
 /// `M^-1` by LU. None when `M` is singular.
 pub fn lu_inverse<const N: usize>(m: &SMatrix<f64, N, N>) -> Option<SMatrix<f64, N, N>> {
-    let inv = DMatrix::from_column_slice(N, N, m.as_slice()).lu().try_inverse()?;
+    let inv = DMatrix::from_column_slice(N, N, m.as_slice())
+        .lu()
+        .try_inverse()?;
     if inv.iter().all(|v| v.is_finite()) {
         Some(SMatrix::<f64, N, N>::from_column_slice(inv.as_slice()))
     } else {
@@ -197,7 +228,12 @@ pub fn pin_terms<const N: usize>(
         return Some((out, cov));
     }
     let j_oo = DMatrix::from_fn(free.len(), free.len(), |a, b| info[(free[a], free[b])]);
-    let shift = DVector::from_fn(free.len(), |a, _| pinned.iter().map(|&u| info[(free[a], u)] * (x[u] - values[u])).sum::<f64>());
+    let shift = DVector::from_fn(free.len(), |a, _| {
+        pinned
+            .iter()
+            .map(|&u| info[(free[a], u)] * (x[u] - values[u]))
+            .sum::<f64>()
+    });
     let lu = j_oo.lu();
     let dx = lu.solve(&shift)?;
     let inv = lu.try_inverse()?;
@@ -248,7 +284,9 @@ impl<const N: usize> BatchLs<N> {
     }
 
     pub fn add(&mut self, o: &Observation<N>) {
-        let Some(r_inv) = o.r.try_inverse() else { return };
+        let Some(r_inv) = o.r.try_inverse() else {
+            return;
+        };
         self.info += o.a.transpose() * r_inv * o.a;
         self.rhs += o.a.transpose() * r_inv * o.b;
         self.btwb += (o.b.transpose() * r_inv * o.b)[0];
@@ -297,7 +335,16 @@ pub struct ChangeDetector {
 
 impl ChangeDetector {
     pub fn new(drift: f64, threshold: f64, warmup: usize, refractory: usize) -> Self {
-        ChangeDetector { drift, threshold, warmup, refractory, g: 0.0, seen: 0, e_sum: 0.0, rest: 0 }
+        ChangeDetector {
+            drift,
+            threshold,
+            warmup,
+            refractory,
+            g: 0.0,
+            seen: 0,
+            e_sum: 0.0,
+            rest: 0,
+        }
     }
 
     /// True once the innovation level is learnt and no change is being absorbed (the
@@ -379,13 +426,17 @@ impl<const N: usize> Rls<N> {
         // innovation statistics before the update (predictive residual)
         let q = lu_inverse(&self.info).ok_or(LsError::SingularInformation)?;
         let s = o.a * q * o.a.transpose() + o.r;
-        let e = s.try_inverse().map(|si| (nu.transpose() * si * nu)[0]).unwrap_or(0.0);
+        let e = s
+            .try_inverse()
+            .map(|si| (nu.transpose() * si * nu)[0])
+            .unwrap_or(0.0);
         self.innovation_ss += e;
         if self.forgetting < 1.0 {
             self.info = self.prior_info + (self.info - self.prior_info) * self.forgetting;
         }
         self.info += o.a.transpose() * r_inv * o.a;
-        let dx = lu_solve(&self.info, &(o.a.transpose() * r_inv * nu)).ok_or(LsError::SingularInformation)?;
+        let dx = lu_solve(&self.info, &(o.a.transpose() * r_inv * nu))
+            .ok_or(LsError::SingularInformation)?;
         self.x += dx;
         self.updates += 1;
         Ok(())
@@ -416,9 +467,19 @@ impl Excitation {
     pub fn new(sat: &Satellite) -> Self {
         // the weakest thruster that can fire (a model may disable one with zero thrust)
         let firing = (0..crate::satellite::N_THRUSTERS).filter(|&i| sat.thrust_n[i] > 0.0);
-        let f_min = firing.clone().map(|i| sat.thrust_n[i]).fold(f64::INFINITY, f64::min);
-        let t_min = firing.map(|i| sat.torque_nm(i).norm()).fold(f64::INFINITY, f64::min);
-        Excitation { com: [0.0; 3], inertia: [0.0; 6], force_ref: 0.5 * f_min, torque_ref: 0.5 * t_min }
+        let f_min = firing
+            .clone()
+            .map(|i| sat.thrust_n[i])
+            .fold(f64::INFINITY, f64::min);
+        let t_min = firing
+            .map(|i| sat.torque_nm(i).norm())
+            .fold(f64::INFINITY, f64::min);
+        Excitation {
+            com: [0.0; 3],
+            inertia: [0.0; 6],
+            force_ref: 0.5 * f_min,
+            torque_ref: 0.5 * t_min,
+        }
     }
 
     /// The terms one update with thruster word `word` excites. The rows are taken at zero
@@ -490,7 +551,10 @@ mod tests {
             let (_, tau) = moved.force_torque_for_word(word);
             let wd = i.try_inverse().unwrap() * (tau - omega.cross(&(i * omega)));
             let (a1, b1) = com_row(&s, word, &omega, &wd);
-            assert!((a1 * delta - b1).norm() < 1e-12 * b1.norm().max(1.0), "word {word}");
+            assert!(
+                (a1 * delta - b1).norm() < 1e-12 * b1.norm().max(1.0),
+                "word {word}"
+            );
         }
     }
 
@@ -526,11 +590,15 @@ mod tests {
             let (im, _) = inertia_from_inverse(&xm, &cov).unwrap();
             let col = (ip - im) / (2.0 * h);
             // diag of G cov G' = 1e-4 * sum_m G_jm^2; check G column by column via a unit cov
-            let unit = SMatrix::<f64, 6, 6>::from_fn(|a, b| if a == m && b == m { 1.0 } else { 0.0 });
+            let unit =
+                SMatrix::<f64, 6, 6>::from_fn(|a, b| if a == m && b == m { 1.0 } else { 0.0 });
             let (_, c) = inertia_from_inverse(&x, &unit).unwrap();
             let scale = col.norm_squared();
             for j in 0..6 {
-                assert!((c[(j, j)] - col[j] * col[j]).abs() < 1e-6 * scale, "m={m} j={j}");
+                assert!(
+                    (c[(j, j)] - col[j] * col[j]).abs() < 1e-6 * scale,
+                    "m={m} j={j}"
+                );
             }
         }
         assert!(icov[(0, 0)] > 0.0);
@@ -551,7 +619,11 @@ mod tests {
                 let wd = j_true * (tau - omega.cross(&(i_nom * omega)));
                 let (a, b) = inertia_row(&s, w, &omega, &wd);
                 let noise = Vector3::new(1e-3, -2e-3, 1.5e-3) * ((k % 7) as f64 - 3.0);
-                obs.push(Observation { a, b: b + noise, r: Matrix3::identity() * (1e-4 + 1e-6 * k as f64) });
+                obs.push(Observation {
+                    a,
+                    b: b + noise,
+                    r: Matrix3::identity() * (1e-4 + 1e-6 * k as f64),
+                });
             }
         }
         let x0 = nominal_inverse_inertia(&s);
@@ -569,10 +641,19 @@ mod tests {
             rls.update(o).unwrap();
         }
         let xb = all.solve().unwrap();
-        assert!((rls.x - xb).norm() < 1e-9 * xb.norm(), "{} vs {}", rls.x, xb);
+        assert!(
+            (rls.x - xb).norm() < 1e-9 * xb.norm(),
+            "{} vs {}",
+            rls.x,
+            xb
+        );
         // the predictive-residual sum equals the batch weighted residual
         let rss = all.weighted_rss().unwrap();
-        assert!((rls.innovation_ss - rss).abs() < 1e-6 * rss, "{} vs {rss}", rls.innovation_ss);
+        assert!(
+            (rls.innovation_ss - rss).abs() < 1e-6 * rss,
+            "{} vs {rss}",
+            rls.innovation_ss
+        );
         // and the estimate is close to the truth
         assert!((xb - x_true).norm() < 0.02 * x_true.norm());
     }

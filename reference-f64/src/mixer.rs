@@ -66,7 +66,9 @@ pub enum MixerError {
     BadThruster { thruster: usize, reason: String },
     #[error("pressure drop per extra open thruster must be finite and >= 0, got {0}")]
     BadPressureDrop(f64),
-    #[error("the thrusters cannot produce every force and torque (mixing matrix M M^T is singular)")]
+    #[error(
+        "the thrusters cannot produce every force and torque (mixing matrix M M^T is singular)"
+    )]
     SingularMixingMatrix,
     #[error("command must be finite, got force {force:?} torque {torque:?}")]
     NonFiniteCommand { force: [f64; 3], torque: [f64; 3] },
@@ -87,7 +89,11 @@ pub struct MixerConfig {
 
 impl Default for MixerConfig {
     fn default() -> Self {
-        MixerConfig { period_ms: DEFAULT_PERIOD_MS, min_pulse_ms: MIN_PULSE_MS, pressure_drop_n_per_extra: 0.0 }
+        MixerConfig {
+            period_ms: DEFAULT_PERIOD_MS,
+            min_pulse_ms: MIN_PULSE_MS,
+            pressure_drop_n_per_extra: 0.0,
+        }
     }
 }
 
@@ -145,7 +151,11 @@ impl Firing {
         let mut bt = 0.0;
         for i in 0..N_THRUSTERS {
             let d = self.duration_ms(i);
-            let e = if d == 0 || d == self.period_ms { coarse } else { half };
+            let e = if d == 0 || d == self.period_ms {
+                coarse
+            } else {
+                half
+            };
             bf += e * geometry.force_n[i].norm();
             bt += e * geometry.torque_nm(i).norm();
         }
@@ -166,7 +176,10 @@ pub struct ThrusterGeometry {
 impl ThrusterGeometry {
     /// Geometry of a satellite model about its model CoM, or about `com_estimate_m` (m, from
     /// the geometric centre) when given, so identified mass properties change firing times.
-    pub fn from_satellite(sat: &Satellite, com_estimate_m: Option<Vector3<f64>>) -> ThrusterGeometry {
+    pub fn from_satellite(
+        sat: &Satellite,
+        com_estimate_m: Option<Vector3<f64>>,
+    ) -> ThrusterGeometry {
         let com = com_estimate_m.unwrap_or_else(|| sat.com_m());
         ThrusterGeometry {
             force_n: std::array::from_fn(|i| sat.force_n(i)),
@@ -182,9 +195,15 @@ impl ThrusterGeometry {
 
     fn validate(&self) -> Result<(), MixerError> {
         for i in 0..N_THRUSTERS {
-            let finite = self.force_n[i].iter().chain(self.lever_arm_m[i].iter()).all(|v| v.is_finite());
+            let finite = self.force_n[i]
+                .iter()
+                .chain(self.lever_arm_m[i].iter())
+                .all(|v| v.is_finite());
             if !finite {
-                return Err(MixerError::BadThruster { thruster: i + 1, reason: "non-finite force or lever arm".into() });
+                return Err(MixerError::BadThruster {
+                    thruster: i + 1,
+                    reason: "non-finite force or lever arm".into(),
+                });
             }
             if !(self.thrust_n[i].is_finite() && self.thrust_n[i] > 0.0) {
                 return Err(MixerError::BadThruster {
@@ -193,7 +212,10 @@ impl ThrusterGeometry {
                 });
             }
             if self.force_n[i].norm() == 0.0 {
-                return Err(MixerError::BadThruster { thruster: i + 1, reason: "zero force vector".into() });
+                return Err(MixerError::BadThruster {
+                    thruster: i + 1,
+                    reason: "zero force vector".into(),
+                });
             }
         }
         Ok(())
@@ -235,7 +257,10 @@ impl Mixer {
     pub fn new(geometry: ThrusterGeometry, config: MixerConfig) -> Result<Mixer, MixerError> {
         geometry.validate()?;
         if config.min_pulse_ms == 0 || config.period_ms / 2 < config.min_pulse_ms {
-            return Err(MixerError::BadPeriod { period_ms: config.period_ms, min_pulse_ms: config.min_pulse_ms });
+            return Err(MixerError::BadPeriod {
+                period_ms: config.period_ms,
+                min_pulse_ms: config.min_pulse_ms,
+            });
         }
         let p = config.pressure_drop_n_per_extra;
         if !(p.is_finite() && p >= 0.0) {
@@ -243,7 +268,12 @@ impl Mixer {
         }
         let matrix = mixing_matrix(&geometry);
         let pinv = pseudo_inverse(&matrix).ok_or(MixerError::SingularMixingMatrix)?;
-        Ok(Mixer { geometry, config, matrix, pinv })
+        Ok(Mixer {
+            geometry,
+            config,
+            matrix,
+            pinv,
+        })
     }
 
     /// Mixer for a satellite model (its pressure-drop parameter included), with lever arms
@@ -258,7 +288,10 @@ impl Mixer {
             min_pulse_ms: MIN_PULSE_MS,
             pressure_drop_n_per_extra: sat.pressure_drop_n_per_extra,
         };
-        Mixer::new(ThrusterGeometry::from_satellite(sat, com_estimate_m), config)
+        Mixer::new(
+            ThrusterGeometry::from_satellite(sat, com_estimate_m),
+            config,
+        )
     }
 
     pub fn geometry(&self) -> &ThrusterGeometry {
@@ -278,22 +311,47 @@ impl Mixer {
 
     /// Mixes a body-frame command: `force_n` (N) and `torque_nm` (N m, about the CoM) are the
     /// averages wanted over the control period, i.e. the impulse is `command * T_c`.
-    pub fn mix(&self, force_n: Vector3<f64>, torque_nm: Vector3<f64>) -> Result<Firing, MixerError> {
+    pub fn mix(
+        &self,
+        force_n: Vector3<f64>,
+        torque_nm: Vector3<f64>,
+    ) -> Result<Firing, MixerError> {
         self.mix_traced(force_n, torque_nm).map(|t| t.firing)
     }
 
     /// [`Mixer::mix`] returning every intermediate stage.
-    pub fn mix_traced(&self, force_n: Vector3<f64>, torque_nm: Vector3<f64>) -> Result<MixTrace, MixerError> {
-        if !(force_n.iter().chain(torque_nm.iter()).all(|v| v.is_finite())) {
-            return Err(MixerError::NonFiniteCommand { force: force_n.into(), torque: torque_nm.into() });
+    pub fn mix_traced(
+        &self,
+        force_n: Vector3<f64>,
+        torque_nm: Vector3<f64>,
+    ) -> Result<MixTrace, MixerError> {
+        if !(force_n
+            .iter()
+            .chain(torque_nm.iter())
+            .all(|v| v.is_finite()))
+        {
+            return Err(MixerError::NonFiniteCommand {
+                force: force_n.into(),
+                torque: torque_nm.into(),
+            });
         }
-        let command = Vector6::new(force_n.x, force_n.y, force_n.z, torque_nm.x, torque_nm.y, torque_nm.z);
+        let command = Vector6::new(
+            force_n.x,
+            force_n.y,
+            force_n.z,
+            torque_nm.x,
+            torque_nm.y,
+            torque_nm.z,
+        );
         let period = self.config.period_ms as f64;
 
         // Stage 2: duties from the pseudo-inverse.
         let pinv_duty: [f64; N_THRUSTERS] = (self.pinv * command).into();
         // Stages 3-4.
-        let resolved_duty = resolve_negative_values(&resolve_opposing_thrust(&pinv_duty, &self.geometry.thrust_n), &self.geometry.thrust_n);
+        let resolved_duty = resolve_negative_values(
+            &resolve_opposing_thrust(&pinv_duty, &self.geometry.thrust_n),
+            &self.geometry.thrust_n,
+        );
         // Stage 5.
         let refined_duty = refine_on_active_set(&self.matrix, &command, &resolved_duty);
         // Stage 6.
@@ -309,8 +367,21 @@ impl Mixer {
             period,
         )?;
         // Stages 10-11.
-        let firing = quantise(&corrected_ms, self.config.period_ms, self.config.min_pulse_ms, scale);
-        Ok(MixTrace { pinv_duty, resolved_duty, refined_duty, scale, on_time_ms, corrected_ms, firing })
+        let firing = quantise(
+            &corrected_ms,
+            self.config.period_ms,
+            self.config.min_pulse_ms,
+            scale,
+        );
+        Ok(MixTrace {
+            pinv_duty,
+            resolved_duty,
+            refined_duty,
+            scale,
+            on_time_ms,
+            corrected_ms,
+            firing,
+        })
     }
 }
 
@@ -338,7 +409,10 @@ pub fn pseudo_inverse(m: &MixingMatrix) -> Option<MixingPinv> {
 /// Stage 3 (Fig. 3.2 "Resolve Opposing Thrust": "firing in opposite directions is
 /// inefficient"): when both thrusters of a pair have positive duty, the smaller force
 /// (duty x thrust, N) is removed from both, leaving only the net on one of them.
-pub fn resolve_opposing_thrust(duty: &[f64; N_THRUSTERS], thrust_n: &[f64; N_THRUSTERS]) -> [f64; N_THRUSTERS] {
+pub fn resolve_opposing_thrust(
+    duty: &[f64; N_THRUSTERS],
+    thrust_n: &[f64; N_THRUSTERS],
+) -> [f64; N_THRUSTERS] {
     let mut out = *duty;
     for &(a, b) in OPPOSING_PAIRS.iter() {
         if out[a] > 0.0 && out[b] > 0.0 {
@@ -358,7 +432,10 @@ pub fn resolve_opposing_thrust(duty: &[f64; N_THRUSTERS], thrust_n: &[f64; N_THR
 /// Stage 4 (Fig. 3.2 "Resolve Negative Values": "negative commands are equal to positive
 /// commands to the opposite thruster"): a negative duty becomes the same force (N) on the
 /// opposite thruster of its pair, converted with that thruster's own strength.
-pub fn resolve_negative_values(duty: &[f64; N_THRUSTERS], thrust_n: &[f64; N_THRUSTERS]) -> [f64; N_THRUSTERS] {
+pub fn resolve_negative_values(
+    duty: &[f64; N_THRUSTERS],
+    thrust_n: &[f64; N_THRUSTERS],
+) -> [f64; N_THRUSTERS] {
     let mut out = *duty;
     for &(a, b) in OPPOSING_PAIRS.iter() {
         // net force along thruster a's direction, N
@@ -397,14 +474,20 @@ pub fn refine_on_active_set(
 ) -> [f64; N_THRUSTERS] {
     let mut side: [usize; 6] = std::array::from_fn(|k| {
         let (a, b) = OPPOSING_PAIRS[k];
-        if resolved[b] > resolved[a] { b } else { a }
+        if resolved[b] > resolved[a] {
+            b
+        } else {
+            a
+        }
     });
     for _ in 0..=6 {
         let mut s = Matrix6::<f64>::zeros();
         for (k, &i) in side.iter().enumerate() {
             s.set_column(k, &m.column(i));
         }
-        let Some(v) = s.lu().solve(command) else { return *resolved };
+        let Some(v) = s.lu().solve(command) else {
+            return *resolved;
+        };
         if v.iter().all(|x| *x >= 0.0) {
             let mut out = [0.0; N_THRUSTERS];
             for (k, &i) in side.iter().enumerate() {
@@ -462,7 +545,10 @@ pub fn pressure_drop_correction(
             let thrust_during_stretch = thrust_n[i] - drop_n_per_extra * longer;
             let thrust_at_peak = thrust_n[i] - drop_n_per_extra * (n - 1) as f64;
             if thrust_at_peak <= 0.0 || thrust_during_stretch <= 0.0 {
-                return Err(MixerError::PressureDropExceedsThrust { thruster: i + 1, open: n });
+                return Err(MixerError::PressureDropExceedsThrust {
+                    thruster: i + 1,
+                    open: n,
+                });
             }
             let d = on_time_ms[i];
             let loss = drop_n_per_extra * (shorter_sum + longer * d);
@@ -478,7 +564,12 @@ pub fn pressure_drop_correction(
 
 /// Stages 10-11: the integer rules of the module doc (1 ms resolution with ties up, 10 ms
 /// deadband, round up near the full period, centring with floor).
-pub fn quantise(corrected_ms: &[f64; N_THRUSTERS], period_ms: u32, min_pulse_ms: u32, scale: f64) -> Firing {
+pub fn quantise(
+    corrected_ms: &[f64; N_THRUSTERS],
+    period_ms: u32,
+    min_pulse_ms: u32,
+    scale: f64,
+) -> Firing {
     let mut on_ms = [0u32; N_THRUSTERS];
     let mut off_ms = [0u32; N_THRUSTERS];
     for i in 0..N_THRUSTERS {
@@ -488,7 +579,13 @@ pub fn quantise(corrected_ms: &[f64; N_THRUSTERS], period_ms: u32, min_pulse_ms:
             off_ms[i] = on_ms[i] + dur;
         }
     }
-    Firing { period_ms, min_pulse_ms, on_ms, off_ms, scale }
+    Firing {
+        period_ms,
+        min_pulse_ms,
+        on_ms,
+        off_ms,
+        scale,
+    }
 }
 
 /// One pulse's integer duration (rules 1-3 of the module doc).
@@ -519,7 +616,14 @@ mod tests {
         assert_eq!(quantise_duration(190.5, 200, 10), 200);
         assert_eq!(quantise_duration(-3.0, 200, 10), 0);
         assert_eq!(quantise_duration(250.0, 200, 10), 200);
-        let f = quantise(&[21.0, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 200.0], 200, 10, 1.0);
+        let f = quantise(
+            &[
+                21.0, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 200.0,
+            ],
+            200,
+            10,
+            1.0,
+        );
         assert_eq!((f.on_ms[0], f.off_ms[0]), (89, 110));
         assert_eq!((f.on_ms[1], f.off_ms[1]), (90, 110));
         assert_eq!((f.on_ms[2], f.off_ms[2]), (0, 0));
@@ -531,16 +635,35 @@ mod tests {
         let sat = Satellite::builtin("sph1").unwrap();
         let g = ThrusterGeometry::from_satellite(&sat, None);
         for (period_ms, min_pulse_ms) in [(19, 10), (200, 0), (u32::MAX, u32::MAX), (0, 10)] {
-            let c = MixerConfig { period_ms, min_pulse_ms, pressure_drop_n_per_extra: 0.0 };
-            assert!(matches!(Mixer::new(g.clone(), c), Err(MixerError::BadPeriod { .. })));
+            let c = MixerConfig {
+                period_ms,
+                min_pulse_ms,
+                pressure_drop_n_per_extra: 0.0,
+            };
+            assert!(matches!(
+                Mixer::new(g.clone(), c),
+                Err(MixerError::BadPeriod { .. })
+            ));
         }
-        let c = MixerConfig { pressure_drop_n_per_extra: f64::NAN, ..MixerConfig::default() };
-        assert!(matches!(Mixer::new(g.clone(), c), Err(MixerError::BadPressureDrop(_))));
+        let c = MixerConfig {
+            pressure_drop_n_per_extra: f64::NAN,
+            ..MixerConfig::default()
+        };
+        assert!(matches!(
+            Mixer::new(g.clone(), c),
+            Err(MixerError::BadPressureDrop(_))
+        ));
         // a drop larger than the thrust with several valves open is reported, not mixed
-        let c = MixerConfig { pressure_drop_n_per_extra: 0.2, ..MixerConfig::default() };
+        let c = MixerConfig {
+            pressure_drop_n_per_extra: 0.2,
+            ..MixerConfig::default()
+        };
         let m = Mixer::new(g, c).unwrap();
         let r = m.mix(Vector3::new(0.1, 0.1, 0.1), Vector3::zeros());
-        assert!(matches!(r, Err(MixerError::PressureDropExceedsThrust { .. })));
+        assert!(matches!(
+            r,
+            Err(MixerError::PressureDropExceedsThrust { .. })
+        ));
     }
 
     #[test]

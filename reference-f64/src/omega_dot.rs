@@ -60,7 +60,11 @@ pub fn line_fit_non_overlapping(y: &[f64], dt: f64, n: usize, r: f64) -> Vec<Lin
     let variance = line_fit_variance(r, dt, n);
     y.chunks_exact(n)
         .enumerate()
-        .map(|(w, chunk)| LineFitEstimate { index: w * n + n / 2, omega_dot: line_fit_slope(chunk, dt), variance })
+        .map(|(w, chunk)| LineFitEstimate {
+            index: w * n + n / 2,
+            omega_dot: line_fit_slope(chunk, dt),
+            variance,
+        })
         .collect()
 }
 
@@ -71,7 +75,11 @@ pub fn line_fit_sliding(y: &[f64], dt: f64, n: usize, r: f64) -> Vec<LineFitEsti
     let variance = line_fit_variance(r, dt, n);
     y.windows(n)
         .enumerate()
-        .map(|(s, w)| LineFitEstimate { index: s + n / 2, omega_dot: line_fit_slope(w, dt), variance })
+        .map(|(s, w)| LineFitEstimate {
+            index: s + n / 2,
+            omega_dot: line_fit_slope(w, dt),
+            variance,
+        })
         .collect()
 }
 
@@ -82,7 +90,11 @@ pub fn line_fit_backward(y: &[f64], dt: f64, n: usize, r: f64) -> Vec<LineFitEst
     let variance = line_fit_variance(r, dt, n);
     y.windows(n)
         .enumerate()
-        .map(|(s, w)| LineFitEstimate { index: s + n - 1, omega_dot: line_fit_slope(w, dt), variance })
+        .map(|(s, w)| LineFitEstimate {
+            index: s + n - 1,
+            omega_dot: line_fit_slope(w, dt),
+            variance,
+        })
         .collect()
 }
 
@@ -142,7 +154,9 @@ impl OmegaDotKalman {
     /// Estimate covariance `P = (P^-1)^-1`.
     pub fn covariance(&self) -> Matrix3<f64> {
         // P^-1 is diagonal-dominant and positive definite by construction
-        self.p_inv.try_inverse().unwrap_or_else(|| Matrix3::from_diagonal_element(f64::INFINITY))
+        self.p_inv
+            .try_inverse()
+            .unwrap_or_else(|| Matrix3::from_diagonal_element(f64::INFINITY))
     }
 
     /// Per-axis variance of the estimate, rad^2/s^4.
@@ -236,7 +250,9 @@ pub fn nominal_omega_dot(sat: &Satellite, word: u16, omega: Vector3<f64>) -> Vec
 /// inertia, `-I^-1 (omega x I omega)` (seed eq. 3.1).
 pub fn gyroscopic_omega_dot(sat: &Satellite, omega: &Vector3<f64>) -> Vector3<f64> {
     let i = sat.inertia_matrix();
-    i.lu().solve(&(-omega.cross(&(i * omega)))).unwrap_or_else(Vector3::zeros)
+    i.lu()
+        .solve(&(-omega.cross(&(i * omega))))
+        .unwrap_or_else(Vector3::zeros)
 }
 
 /// Runs the Kalman filter over every firing of `rates` (seed `wdotkalman.m`): reset at
@@ -257,7 +273,11 @@ pub fn gyroscopic_omega_dot(sat: &Satellite, omega: &Vector3<f64>) -> Vector3<f6
 /// word's first sample): the zero of the measurement is the rate at the change sample,
 /// and `H = (k - k_change) dt`. The seed's listing takes the sample before the change and
 /// restarts `H` after the skipped transient; both bias the estimate by ~1 % on a 1 s firing.
-pub fn kalman_per_firing(rates: &Rates, sat: &Satellite, cfg: &KalmanConfig) -> Vec<OmegaDotEstimate> {
+pub fn kalman_per_firing(
+    rates: &Rates,
+    sat: &Satellite,
+    cfg: &KalmanConfig,
+) -> Vec<OmegaDotEstimate> {
     let mut out = Vec::new();
     let mut kf = OmegaDotKalman::new(cfg.r0);
     let skip = cfg.skip_samples(rates.dt);
@@ -338,7 +358,11 @@ mod tests {
         let dt = 0.01;
         let y: Vec<f64> = (0..40).map(|k| 1.0 + 0.37 * k as f64 * dt).collect();
         for n in [3, 5, 15] {
-            for e in line_fit_sliding(&y, dt, n, 1e-7).iter().chain(&line_fit_non_overlapping(&y, dt, n, 1e-7)).chain(&line_fit_backward(&y, dt, n, 1e-7)) {
+            for e in line_fit_sliding(&y, dt, n, 1e-7)
+                .iter()
+                .chain(&line_fit_non_overlapping(&y, dt, n, 1e-7))
+                .chain(&line_fit_backward(&y, dt, n, 1e-7))
+            {
                 assert!((e.omega_dot - 0.37).abs() < 1e-10);
             }
         }

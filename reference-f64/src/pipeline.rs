@@ -7,11 +7,14 @@
 //! and in the offline form knowing in advance which terms the maneuver leaves unobservable
 //! (they are then held at the nominal values, seed eq. 3.13's reduction).
 use crate::mass_id::{
-    inertia_from_inverse, inertia_row_for_torque, inverse_inertia_matrix, lu_inverse, nominal_inverse_inertia,
-    physical_validity, pin_terms, skew, BatchLs, ChangeDetector,
+    inertia_from_inverse, inertia_row_for_torque, inverse_inertia_matrix, lu_inverse,
+    nominal_inverse_inertia, physical_validity, pin_terms, skew, BatchLs, ChangeDetector,
     Excitation, LsError, Observation, Rls, COM_TERMS, INERTIA_TERMS,
 };
-use crate::omega_dot::{gyroscopic_omega_dot, kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate, OmegaDotKalman};
+use crate::omega_dot::{
+    gyroscopic_omega_dot, kalman_per_firing, nominal_omega_dot, KalmanConfig, OmegaDotEstimate,
+    OmegaDotKalman,
+};
 use crate::preprocess::{preprocess_offline, sample_rate_rad_s, CausalLowPass, LowPass2, Rates};
 use crate::recording::{Recording, RecordingError, RecordingReader, Sample};
 use crate::satellite::Satellite;
@@ -34,7 +37,13 @@ pub struct ChangeDetectorConfig {
 
 impl Default for ChangeDetectorConfig {
     fn default() -> Self {
-        ChangeDetectorConfig { drift: 2.0, threshold: 10.0, shrink: 1e-3, warmup_firings: 4, refractory_firings: 6 }
+        ChangeDetectorConfig {
+            drift: 2.0,
+            threshold: 10.0,
+            shrink: 1e-3,
+            warmup_firings: 4,
+            refractory_firings: 6,
+        }
     }
 }
 
@@ -179,7 +188,8 @@ impl MassIdAccumulator {
     pub fn new(sat: &Satellite, cfg: &PipelineConfig, pinned: &[String]) -> Self {
         let x0_inertia = nominal_inverse_inertia(sat);
         let mean_diag = (x0_inertia[0] + x0_inertia[1] + x0_inertia[2]) / 3.0;
-        let weak_std_inertia = SVector::<f64, 6>::repeat(cfg.prior_inverse_inertia_rel_std * mean_diag);
+        let weak_std_inertia =
+            SVector::<f64, 6>::repeat(cfg.prior_inverse_inertia_rel_std * mean_diag);
         let weak_std_com = SVector::<f64, 3>::repeat(cfg.prior_com_std_m);
         // pinned terms get a prior a million times tighter than any plausible estimate
         let mut std_i = weak_std_inertia;
@@ -235,14 +245,21 @@ impl MassIdAccumulator {
     /// the demo, see `reference-f64/README.md`). The estimate is the
     /// thrust-induced acceleration (its gyroscopic part removed by the Kalman filter), so the
     /// rows are taken at zero rate.
-    pub fn observations(sat: &Satellite, e: &OmegaDotEstimate, j: &Matrix3<f64>) -> (Observation<3>, Observation<6>) {
+    pub fn observations(
+        sat: &Satellite,
+        e: &OmegaDotEstimate,
+        j: &Matrix3<f64>,
+    ) -> (Observation<3>, Observation<6>) {
         let wd = Vector3::from(e.omega_dot);
         let r = Matrix3::from_diagonal(&Vector3::from(e.variance));
         let (f, tau_nom) = sat.force_torque_for_word(e.word);
         let a1 = j * skew(&f);
         let b1 = wd - j * tau_nom;
         let (a2, b2) = inertia_row_for_torque(&tau_nom, &wd);
-        (Observation { a: a1, b: b1, r }, Observation { a: a2, b: b2, r })
+        (
+            Observation { a: a1, b: b1, r },
+            Observation { a: a2, b: b2, r },
+        )
     }
 
     /// The inverse inertia the next firing's CoM rows are formed at: the RLS estimate, or the
@@ -251,7 +268,8 @@ impl MassIdAccumulator {
     /// Terms the excitation so far leaves unobservable are held at the model (conditioned on,
     /// as the kernel's solves hold them), so an unconstrained term cannot steer the rows.
     fn current_estimate(&self) -> Matrix3<f64> {
-        if self.cfg.forgetting.is_some() && self.detector.as_ref().is_some_and(|d| !d.in_control()) {
+        if self.cfg.forgetting.is_some() && self.detector.as_ref().is_some_and(|d| !d.in_control())
+        {
             // With forgetting, directions not excited since a detected change have lost their
             // information while the level is re-learnt: keep the last trusted estimate (the
             // kernel's `MassId::in_control`).
@@ -272,9 +290,15 @@ impl MassIdAccumulator {
         let mut held = self.unobservable(self.sample_period_s);
         held.extend(self.pinned.iter().cloned());
         let idx = |names: &[&str]| -> Vec<usize> {
-            names.iter().enumerate().filter(|(_, n)| held.iter().any(|u| u == *n)).map(|(j, _)| j).collect()
+            names
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| held.iter().any(|u| u == *n))
+                .map(|(j, _)| j)
+                .collect()
         };
-        pin_terms(&xi, &info_i, &idx(&INERTIA_TERMS), &nominal_i).map_or(nominal, |(x, _)| inverse_inertia_matrix(&x))
+        pin_terms(&xi, &info_i, &idx(&INERTIA_TERMS), &nominal_i)
+            .map_or(nominal, |(x, _)| inverse_inertia_matrix(&x))
     }
 
     /// The sample period the observability count refers to (default 1 ms).
@@ -343,7 +367,9 @@ impl MassIdAccumulator {
                 }
             }
         }
-        let Some((rc, ri)) = self.rls.as_mut() else { return };
+        let Some((rc, ri)) = self.rls.as_mut() else {
+            return;
+        };
         if let Err(err) = rc.update(&oc).and_then(|_| ri.update(&oi)) {
             self.error = Some(err);
             return;
@@ -362,9 +388,12 @@ impl MassIdAccumulator {
     /// the estimate has not seen yet (large `A Q A'`) from inflating the learnt level, and
     /// keeps small-torque firings (translations, small `b`) from dominating it.
     fn end_of_firing(&mut self) {
-        let (Some(d), Some(x0), Some(q0), Some(last)) =
-            (self.detector.as_mut(), self.x_at_firing_start, self.cov_at_firing_start, self.last_in_firing)
-        else {
+        let (Some(d), Some(x0), Some(q0), Some(last)) = (
+            self.detector.as_mut(),
+            self.x_at_firing_start,
+            self.cov_at_firing_start,
+            self.last_in_firing,
+        ) else {
             return;
         };
         let (_, oi) = Self::observations(&self.sat, &last, &self.coupling);
@@ -394,7 +423,12 @@ impl MassIdAccumulator {
         }
         if let Some(d) = self.cfg.change_detector {
             // one detector on the inertia problem drives both covariance resets
-            self.detector = Some(ChangeDetector::new(d.drift, d.threshold, d.warmup_firings, d.refractory_firings));
+            self.detector = Some(ChangeDetector::new(
+                d.drift,
+                d.threshold,
+                d.warmup_firings,
+                d.refractory_firings,
+            ));
         }
         self.rls = Some((rc, ri));
         Ok(())
@@ -407,7 +441,11 @@ impl MassIdAccumulator {
         let (ivec, icov) = inertia_from_inverse(&ri.x, &ci)?;
         let held = self.unobservable(self.sample_period_s);
         let unobservable = core::array::from_fn(|j| {
-            let name = if j < 3 { COM_TERMS[j] } else { INERTIA_TERMS[j - 3] };
+            let name = if j < 3 {
+                COM_TERMS[j]
+            } else {
+                INERTIA_TERMS[j - 3]
+            };
             held.iter().any(|h| h == name)
         });
         Some(HistoryPoint {
@@ -459,9 +497,21 @@ impl MassIdAccumulator {
             detections_s: self.detections_s.clone(),
         };
         if self.updates == 0 {
-            let all: Vec<String> = COM_TERMS.iter().chain(INERTIA_TERMS.iter()).map(|s| s.to_string()).collect();
-            let status = if self.unresponsive_firings > 0 { "no_gyro_response" } else { "no_firings" };
-            return Estimate { status: status.into(), unobservable: all, ..nominal };
+            let all: Vec<String> = COM_TERMS
+                .iter()
+                .chain(INERTIA_TERMS.iter())
+                .map(|s| s.to_string())
+                .collect();
+            let status = if self.unresponsive_firings > 0 {
+                "no_gyro_response"
+            } else {
+                "no_firings"
+            };
+            return Estimate {
+                status: status.into(),
+                unobservable: all,
+                ..nominal
+            };
         }
         if self.rls.is_none() && self.error.is_none() {
             // fewer firings than the batch needs: the batch is the estimate
@@ -470,7 +520,10 @@ impl MassIdAccumulator {
             }
         }
         if let Some(e) = &self.error {
-            return Estimate { status: e.to_string(), ..nominal };
+            return Estimate {
+                status: e.to_string(),
+                ..nominal
+            };
         }
         let result = (|| -> Result<Estimate, LsError> {
             let (rc, ri) = self.rls.as_ref().ok_or(LsError::SingularInformation)?;
@@ -485,13 +538,20 @@ impl MassIdAccumulator {
             // on them; offline they were already pinned by the prior) and their honest
             // uncertainty is the weak prior's
             let idx = |names: &[&str]| -> Vec<usize> {
-                names.iter().enumerate().filter(|(_, n)| unobservable.iter().any(|u| u == *n)).map(|(j, _)| j).collect()
+                names
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, n)| unobservable.iter().any(|u| u == *n))
+                    .map(|(j, _)| j)
+                    .collect()
             };
             let (pin_c, pin_i) = (idx(&COM_TERMS), idx(&INERTIA_TERMS));
             let nominal_i = nominal_inverse_inertia(&self.sat);
             let zero_c = SVector::<f64, 3>::zeros();
-            let (xc, cc) = pin_terms(&rc.x, &rc.info, &pin_c, &zero_c).ok_or(LsError::SingularInformation)?;
-            let (xi, ci) = pin_terms(&ri.x, &ri.info, &pin_i, &nominal_i).ok_or(LsError::SingularInformation)?;
+            let (xc, cc) =
+                pin_terms(&rc.x, &rc.info, &pin_c, &zero_c).ok_or(LsError::SingularInformation)?;
+            let (xi, ci) = pin_terms(&ri.x, &ri.info, &pin_i, &nominal_i)
+                .ok_or(LsError::SingularInformation)?;
             let mut cc = cc * (vf_c * per_firing);
             let mut ci = ci * (vf_i * per_firing);
             for &j in &pin_c {
@@ -500,10 +560,19 @@ impl MassIdAccumulator {
             for &j in &pin_i {
                 ci[(j, j)] = self.weak_std_inertia[j].powi(2);
             }
-            let (ivec, icov) = inertia_from_inverse(&xi, &ci).ok_or(LsError::SingularInformation)?;
-            let (xb_c, _) = pin_terms(&self.com_all.solve()?, &self.com_all.info, &pin_c, &zero_c).ok_or(LsError::SingularInformation)?;
-            let (xb_i, _) = pin_terms(&self.inertia_all.solve()?, &self.inertia_all.info, &pin_i, &nominal_i).ok_or(LsError::SingularInformation)?;
-            let (ib, _) = inertia_from_inverse(&xb_i, &SMatrix::<f64, 6, 6>::zeros()).ok_or(LsError::SingularInformation)?;
+            let (ivec, icov) =
+                inertia_from_inverse(&xi, &ci).ok_or(LsError::SingularInformation)?;
+            let (xb_c, _) = pin_terms(&self.com_all.solve()?, &self.com_all.info, &pin_c, &zero_c)
+                .ok_or(LsError::SingularInformation)?;
+            let (xb_i, _) = pin_terms(
+                &self.inertia_all.solve()?,
+                &self.inertia_all.info,
+                &pin_i,
+                &nominal_i,
+            )
+            .ok_or(LsError::SingularInformation)?;
+            let (ib, _) = inertia_from_inverse(&xb_i, &SMatrix::<f64, 6, 6>::zeros())
+                .ok_or(LsError::SingularInformation)?;
             let com_mm: [f64; 3] = (xc * 1e3).into();
             let status = match physical_validity(&self.sat, &com_mm, &ivec.into()) {
                 Err(why) => why,
@@ -525,13 +594,22 @@ impl MassIdAccumulator {
                 detections_s: self.detections_s.clone(),
             })
         })();
-        result.unwrap_or_else(|e| Estimate { status: e.to_string(), ..nominal })
+        result.unwrap_or_else(|e| Estimate {
+            status: e.to_string(),
+            ..nominal
+        })
     }
 }
 
 /// Sorts term names into the canonical order cm_x cm_y cm_z Ixx Iyy Izz Ixy Ixz Iyz.
 fn order_terms(v: &mut [String]) {
-    let rank = |s: &String| COM_TERMS.iter().chain(INERTIA_TERMS.iter()).position(|t| t == s).unwrap_or(usize::MAX);
+    let rank = |s: &String| {
+        COM_TERMS
+            .iter()
+            .chain(INERTIA_TERMS.iter())
+            .position(|t| t == s)
+            .unwrap_or(usize::MAX)
+    };
     v.sort_by_key(rank);
 }
 
@@ -630,7 +708,11 @@ impl OnlineEstimator {
                 f
             })
         });
-        let omega = Vector3::new(filters[0].step(raw[0]), filters[1].step(raw[1]), filters[2].step(raw[2]));
+        let omega = Vector3::new(
+            filters[0].step(raw[0]),
+            filters[1].step(raw[1]),
+            filters[2].step(raw[2]),
+        );
         let k = self.sample_no;
         self.sample_no += 1;
         let word = s.thrusters & 0x0fff;
@@ -751,19 +833,33 @@ mod tests {
     /// A small rigid-body generator: Euler's equation (RK4, 0.1 ms steps), the word of
     /// sample k acting over [t_k, t_k+1), gyro counts with Gaussian noise, 1 kHz.
     /// `inertia_at(t_ms)` gives the true inertia (a proof mass may be attached mid-run).
-    fn simulate(model: &Satellite, schedule: &[(u64, u64, u16)], inertia_at: impl Fn(u64) -> Matrix3<f64>, seed: u64) -> Recording {
+    fn simulate(
+        model: &Satellite,
+        schedule: &[(u64, u64, u16)],
+        inertia_at: impl Fn(u64) -> Matrix3<f64>,
+        seed: u64,
+    ) -> Recording {
         let end = schedule.last().map(|s| s.1 + 500).unwrap_or(1000);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let noise = Normal::new(0.0, 0.6).unwrap();
         let mut omega = Vector3::zeros();
         let mut samples = Vec::new();
         for t in 0..end {
-            let word = schedule.iter().find(|s| s.0 <= t && t < s.1).map(|s| s.2).unwrap_or(0);
+            let word = schedule
+                .iter()
+                .find(|s| s.0 <= t && t < s.1)
+                .map(|s| s.2)
+                .unwrap_or(0);
             let gyro = [0, 1, 2].map(|a| {
                 let c = model.rad_s_to_gyro_counts(a, omega[a]) + noise.sample(&mut rng);
                 c.round().clamp(0.0, 4095.0) as u16
             });
-            samples.push(Sample { time_ms: t, gyro, accel: [2048; 3], thrusters: word });
+            samples.push(Sample {
+                time_ms: t,
+                gyro,
+                accel: [2048; 3],
+                thrusters: word,
+            });
             let i = inertia_at(t);
             let i_inv = i.try_inverse().unwrap();
             let (_, tau) = model.force_torque_for_word(word);
@@ -787,14 +883,26 @@ mod tests {
     }
 
     fn principal_rel_err(e: &Estimate, truth: &Matrix3<f64>) -> f64 {
-        (0..3).map(|j| (e.inertia_kgm2[j] / truth[(j, j)] - 1.0).abs()).fold(0.0, f64::max)
+        (0..3)
+            .map(|j| (e.inertia_kgm2[j] / truth[(j, j)] - 1.0).abs())
+            .fold(0.0, f64::max)
     }
 
     #[test]
     fn absurd_timestamps_are_refused_not_interpolated() {
         let sat = Satellite::builtin("sph2").unwrap();
-        let s = |t: u64| Sample { time_ms: t, gyro: [2077, 2070, 2058], accel: [2048; 3], thrusters: 3 };
-        let rec = Recording::new("x.csv", Some("sph2"), Some(1000.0), vec![s(0), s(1), s(u64::MAX / 2)]);
+        let s = |t: u64| Sample {
+            time_ms: t,
+            gyro: [2077, 2070, 2058],
+            accel: [2048; 3],
+            thrusters: 3,
+        };
+        let rec = Recording::new(
+            "x.csv",
+            Some("sph2"),
+            Some(1000.0),
+            vec![s(0), s(1), s(u64::MAX / 2)],
+        );
         let e = estimate_offline(&rec, &sat, &PipelineConfig::default());
         assert_eq!(e.status, "too_sparse");
         // the online form never interpolates, so it just runs
@@ -809,11 +917,23 @@ mod tests {
         let cfg = PipelineConfig::default();
         let mut text = Vec::new();
         rec.write_to(&mut text).unwrap();
-        let streamed = estimate_online_stream(RecordingReader::new(text.as_slice(), "s.csv").unwrap(), &sat, &cfg).unwrap();
+        let streamed = estimate_online_stream(
+            RecordingReader::new(text.as_slice(), "s.csv").unwrap(),
+            &sat,
+            &cfg,
+        )
+        .unwrap();
         let online = estimate_online(&rec, &sat, &cfg);
-        assert_eq!(streamed, online, "streaming and in-memory online forms agree exactly");
+        assert_eq!(
+            streamed, online,
+            "streaming and in-memory online forms agree exactly"
+        );
         for e in [estimate_offline(&rec, &sat, &cfg), online] {
-            assert!(principal_rel_err(&e, &sat.inertia_matrix()) < 0.005, "{:?}", e.inertia_kgm2);
+            assert!(
+                principal_rel_err(&e, &sat.inertia_matrix()) < 0.005,
+                "{:?}",
+                e.inertia_kgm2
+            );
             // rotations only: the CoM is not observable, and is said to be
             assert_eq!(e.unobservable, vec!["cm_x", "cm_y", "cm_z"]);
             assert_eq!(e.status, "unobservable_terms");
@@ -829,12 +949,24 @@ mod tests {
         // the RGA pair-firing tests were telemetered at 100 Hz (seed 4.3): decimate by 10
         let sat = Satellite::builtin("sph3").unwrap();
         let full = simulate(&sat, &rotation_schedule(2), |_| sat.inertia_matrix(), 4);
-        let samples: Vec<Sample> = full.samples.iter().filter(|s| s.time_ms % 10 == 0).cloned().collect();
+        let samples: Vec<Sample> = full
+            .samples
+            .iter()
+            .filter(|s| s.time_ms % 10 == 0)
+            .cloned()
+            .collect();
         let rec = Recording::new("r100.csv", Some("sph3"), Some(100.0), samples);
         assert_eq!(PipelineConfig::default().kalman.skip_samples(0.01), 0);
         let cfg = PipelineConfig::default();
-        for e in [estimate_offline(&rec, &sat, &cfg), estimate_online(&rec, &sat, &cfg)] {
-            assert!(principal_rel_err(&e, &sat.inertia_matrix()) < 0.01, "{:?}", e.inertia_kgm2);
+        for e in [
+            estimate_offline(&rec, &sat, &cfg),
+            estimate_online(&rec, &sat, &cfg),
+        ] {
+            assert!(
+                principal_rel_err(&e, &sat.inertia_matrix()) < 0.01,
+                "{:?}",
+                e.inertia_kgm2
+            );
             // 12 firings of 99 updates (the change's own sample carries none)
             assert_eq!(e.updates, 12 * 99);
         }
@@ -846,27 +978,58 @@ mod tests {
         let schedule = rotation_schedule(6);
         let change_ms = schedule[18].0 - 250; // half way, during a coast
         let after = sat.inertia_matrix() + proof_mass_inertia();
-        let rec = simulate(&sat, &schedule, |t| if t < change_ms { sat.inertia_matrix() } else { after }, 2);
+        let rec = simulate(
+            &sat,
+            &schedule,
+            |t| {
+                if t < change_ms {
+                    sat.inertia_matrix()
+                } else {
+                    after
+                }
+            },
+            2,
+        );
 
         let plain = estimate_offline(&rec, &sat, &PipelineConfig::default());
         assert!(plain.detections_s.is_empty());
         let blend_err = principal_rel_err(&plain, &after);
-        assert!(blend_err > 0.03, "without tracking the estimate blends before and after: {blend_err}");
+        assert!(
+            blend_err > 0.03,
+            "without tracking the estimate blends before and after: {blend_err}"
+        );
 
-        let det = PipelineConfig { change_detector: Some(ChangeDetectorConfig::default()), ..PipelineConfig::default() };
+        let det = PipelineConfig {
+            change_detector: Some(ChangeDetectorConfig::default()),
+            ..PipelineConfig::default()
+        };
         let tracked = estimate_offline(&rec, &sat, &det);
         let first = *tracked.detections_s.first().expect("a detection");
         // within the first three firings after the change (each 1.5 s apart)
-        assert!(first > change_ms as f64 / 1000.0 && first < change_ms as f64 / 1000.0 + 4.6, "detected at {first}");
-        assert!(principal_rel_err(&tracked, &after) < 0.01, "{:?}", tracked.inertia_kgm2);
+        assert!(
+            first > change_ms as f64 / 1000.0 && first < change_ms as f64 / 1000.0 + 4.6,
+            "detected at {first}"
+        );
+        assert!(
+            principal_rel_err(&tracked, &after) < 0.01,
+            "{:?}",
+            tracked.inertia_kgm2
+        );
 
-        let forget = PipelineConfig { forgetting: Some(1.0 - 1.0 / 3000.0), ..PipelineConfig::default() };
+        let forget = PipelineConfig {
+            forgetting: Some(1.0 - 1.0 / 3000.0),
+            ..PipelineConfig::default()
+        };
         let f = estimate_offline(&rec, &sat, &forget);
         assert!(principal_rel_err(&f, &after) < 0.02, "{:?}", f.inertia_kgm2);
 
         // and no false alarm on a run without a change
         let steady = simulate(&sat, &schedule, |_| sat.inertia_matrix(), 3);
         let quiet = estimate_offline(&steady, &sat, &det);
-        assert!(quiet.detections_s.is_empty(), "false alarms at {:?}", quiet.detections_s);
+        assert!(
+            quiet.detections_s.is_empty(),
+            "false alarms at {:?}",
+            quiet.detections_s
+        );
     }
 }

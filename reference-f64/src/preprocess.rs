@@ -76,7 +76,10 @@ pub fn too_sparse(rec: &Recording) -> bool {
 pub fn uniform_rates(rec: &Recording, sat: &Satellite) -> Rates {
     let period_ms = rec.sample_period_ms();
     let dt = period_ms as f64 / 1000.0;
-    let mut out = Rates { dt, ..Rates::default() };
+    let mut out = Rates {
+        dt,
+        ..Rates::default()
+    };
     let Some(first) = rec.samples.first() else {
         return out;
     };
@@ -103,7 +106,11 @@ pub fn uniform_rates(rec: &Recording, sat: &Satellite) -> Rates {
             let f = (t - a.time_ms) as f64 / (b.time_ms - a.time_ms) as f64;
             let (wa, wb) = (sample_rate_rad_s(sat, a), sample_rate_rad_s(sat, b));
             let omega = [0, 1, 2].map(|i| wa[i] + f * (wb[i] - wa[i]));
-            let word = if t - a.time_ms <= b.time_ms - t { a.thrusters } else { b.thrusters };
+            let word = if t - a.time_ms <= b.time_ms - t {
+                a.thrusters
+            } else {
+                b.thrusters
+            };
             (omega, word, true)
         };
         out.t_s.push(t as f64 / 1000.0);
@@ -131,7 +138,10 @@ impl LowPass2 {
         let k = 2.0 / dt;
         let g = wc / (k + wc);
         let p = (k - wc) / (k + wc);
-        LowPass2 { b: [g * g, 2.0 * g * g, g * g], a: [1.0, -2.0 * p, p * p] }
+        LowPass2 {
+            b: [g * g, 2.0 * g * g, g * g],
+            a: [1.0, -2.0 * p, p * p],
+        }
     }
 
     /// The seed's 50 Hz design at `dt`.
@@ -156,7 +166,9 @@ impl LowPass2 {
     /// thruster-word change must subtract `slope change x this` from that rate.
     pub fn zero_phase_kink_offset_s(&self, dt: f64) -> f64 {
         let n = 4 * self.settling_samples().max(50);
-        let x: Vec<f64> = (0..2 * n).map(|k| if k > n { (k - n) as f64 * dt } else { 0.0 }).collect();
+        let x: Vec<f64> = (0..2 * n)
+            .map(|k| if k > n { (k - n) as f64 * dt } else { 0.0 })
+            .collect();
         self.filtfilt(&x)[n]
     }
 
@@ -217,7 +229,10 @@ pub struct CausalLowPass {
 
 impl CausalLowPass {
     pub fn new(filter: LowPass2) -> Self {
-        CausalLowPass { filter, z: [0.0; 2] }
+        CausalLowPass {
+            filter,
+            z: [0.0; 2],
+        }
     }
 
     /// Sets the state to the steady state for a constant input `x0`.
@@ -343,12 +358,25 @@ mod tests {
 
     #[test]
     fn gaps_are_interpolated_and_words_nearest() {
-        let s = |t: u64, g: u16, w: u16| Sample { time_ms: t, gyro: [g, 2070, 2058], accel: [2048; 3], thrusters: w };
-        let rec = Recording::new("g.csv", Some("sph2"), Some(1000.0), vec![s(0, 2077, 0), s(1, 2077, 0), s(5, 2081, 8), s(6, 2081, 8)]);
+        let s = |t: u64, g: u16, w: u16| Sample {
+            time_ms: t,
+            gyro: [g, 2070, 2058],
+            accel: [2048; 3],
+            thrusters: w,
+        };
+        let rec = Recording::new(
+            "g.csv",
+            Some("sph2"),
+            Some(1000.0),
+            vec![s(0, 2077, 0), s(1, 2077, 0), s(5, 2081, 8), s(6, 2081, 8)],
+        );
         let sat = Satellite::builtin("sph2").unwrap();
         let r = uniform_rates(&rec, &sat);
         assert_eq!(r.len(), 7);
-        assert_eq!(r.interpolated, vec![false, false, true, true, true, false, false]);
+        assert_eq!(
+            r.interpolated,
+            vec![false, false, true, true, true, false, false]
+        );
         let scale = 1412.79;
         for (k, expect_counts) in [(2, 1.0), (3, 2.0), (4, 3.0)] {
             assert!((r.omega[k][0] - expect_counts / scale).abs() < 1e-12);

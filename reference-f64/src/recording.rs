@@ -18,8 +18,16 @@ use std::path::Path;
 /// The only format version this crate reads and writes.
 pub const FORMAT_V1: &str = "massid-recording/1";
 /// Header columns in the order this crate writes them.
-pub const COLUMNS: [&str; 8] =
-    ["time_ms", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z", "thrusters"];
+pub const COLUMNS: [&str; 8] = [
+    "time_ms",
+    "gyro_x",
+    "gyro_y",
+    "gyro_z",
+    "accel_x",
+    "accel_y",
+    "accel_z",
+    "thrusters",
+];
 /// Largest 12-bit count; counts at 0 or this value are saturated readings.
 pub const MAX_COUNT: u16 = 4095;
 /// Sample rate assumed when neither metadata nor timestamps tell (the SPHERES IMU rate).
@@ -37,7 +45,10 @@ pub struct Sample {
 impl Sample {
     /// True when any gyro or accelerometer count is at 0 or 4095.
     pub fn is_saturated(&self) -> bool {
-        self.gyro.iter().chain(self.accel.iter()).any(|&c| c == 0 || c == MAX_COUNT)
+        self.gyro
+            .iter()
+            .chain(self.accel.iter())
+            .any(|&c| c == 0 || c == MAX_COUNT)
     }
 }
 
@@ -111,13 +122,21 @@ impl Recording {
             }
             kept.push(s);
         }
-        let period = sample_rate_hz.map(|r| 1000.0 / r).or_else(|| steps.median()).unwrap_or(1.0);
+        let period = sample_rate_hz
+            .map(|r| 1000.0 / r)
+            .or_else(|| steps.median())
+            .unwrap_or(1.0);
         let (gaps, missing_samples) = steps.gaps(period);
         Recording {
             source: source.to_string(),
             metadata,
             samples: kept,
-            issues: DataIssues { gaps, missing_samples, duplicates, saturated },
+            issues: DataIssues {
+                gaps,
+                missing_samples,
+                duplicates,
+                saturated,
+            },
             rate_line: None,
         }
     }
@@ -153,8 +172,15 @@ impl Recording {
     /// rename). The caller checks that `path` is not an input.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
         let name = path.display().to_string();
-        let err = |e: std::io::Error| RecordingError { file: name.clone(), line: 0, reason: e.to_string() };
-        let file_name = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+        let err = |e: std::io::Error| RecordingError {
+            file: name.clone(),
+            line: 0,
+            reason: e.to_string(),
+        };
+        let file_name = path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
         let result = (|| {
             let f = std::fs::File::create(&tmp)?;
@@ -186,7 +212,14 @@ impl Recording {
             writeln!(
                 w,
                 "{},{},{},{},{},{},{},{}",
-                s.time_ms, s.gyro[0], s.gyro[1], s.gyro[2], s.accel[0], s.accel[1], s.accel[2], s.thrusters
+                s.time_ms,
+                s.gyro[0],
+                s.gyro[1],
+                s.gyro[2],
+                s.accel[0],
+                s.accel[1],
+                s.accel[2],
+                s.thrusters
             )?;
         }
         w.flush()
@@ -194,7 +227,10 @@ impl Recording {
 
     /// The first value of a metadata key.
     pub fn meta(&self, key: &str) -> Option<&str> {
-        self.metadata.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+        self.metadata
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
     }
 
     /// Sets (replaces or appends) a metadata key.
@@ -212,7 +248,10 @@ impl Recording {
 
     /// Sample rate: the `sample_rate_hz` metadata, else 1000 / median time step, else 1000 Hz.
     pub fn sample_rate_hz(&self) -> f64 {
-        if let Some(r) = self.meta("sample_rate_hz").and_then(|v| v.trim().parse::<f64>().ok()) {
+        if let Some(r) = self
+            .meta("sample_rate_hz")
+            .and_then(|v| v.trim().parse::<f64>().ok())
+        {
             if r.is_finite() && r > 0.0 {
                 return r;
             }
@@ -221,7 +260,10 @@ impl Recording {
         for w in self.samples.windows(2) {
             steps.add(w[1].time_ms - w[0].time_ms);
         }
-        steps.median().map(|p| 1000.0 / p).unwrap_or(DEFAULT_SAMPLE_RATE_HZ)
+        steps
+            .median()
+            .map(|p| 1000.0 / p)
+            .unwrap_or(DEFAULT_SAMPLE_RATE_HZ)
     }
 
     /// The sample period in whole milliseconds, checked: a declared `sample_rate_hz` must
@@ -234,7 +276,10 @@ impl Recording {
         for w in self.samples.windows(2) {
             steps.add(w[1].time_ms - w[0].time_ms);
         }
-        let declared = self.meta("sample_rate_hz").and_then(|v| v.trim().parse::<f64>().ok()).filter(|r| r.is_finite() && *r > 0.0);
+        let declared = self
+            .meta("sample_rate_hz")
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .filter(|r| r.is_finite() && *r > 0.0);
         match (declared, steps.median()) {
             (Some(r), Some(step)) => {
                 let period = 1000.0 / r;
@@ -384,7 +429,12 @@ impl<R: BufRead> RecordingReader<R> {
                                 rd.nominal_period_ms = Some(1000.0 / r);
                                 rd.rate_line = Some(rd.line_no);
                             }
-                            _ => return Err(rd.error(format!("sample_rate_hz '{}' is not a positive number", clip(&v)))),
+                            _ => {
+                                return Err(rd.error(format!(
+                                    "sample_rate_hz '{}' is not a positive number",
+                                    clip(&v)
+                                )))
+                            }
                         }
                     }
                     rd.metadata.push((k, v));
@@ -395,12 +445,28 @@ impl<R: BufRead> RecordingReader<R> {
         };
         let header_line = rd.line_no;
         match format_line {
-            None => return Err(rd.error_at(header_line, "missing 'format' metadata key (expected '# format = massid-recording/1')")),
+            None => {
+                return Err(rd.error_at(
+                    header_line,
+                    "missing 'format' metadata key (expected '# format = massid-recording/1')",
+                ))
+            }
             Some((_, v)) if v == FORMAT_V1 => {}
             Some((l, v)) if v.starts_with("massid-recording/") => {
-                return Err(rd.error_at(l, format!("unknown format version '{}' (this reader knows {FORMAT_V1})", clip(&v))))
+                return Err(rd.error_at(
+                    l,
+                    format!(
+                        "unknown format version '{}' (this reader knows {FORMAT_V1})",
+                        clip(&v)
+                    ),
+                ))
             }
-            Some((l, v)) => return Err(rd.error_at(l, format!("unknown format '{}' (expected {FORMAT_V1})", clip(&v)))),
+            Some((l, v)) => {
+                return Err(rd.error_at(
+                    l,
+                    format!("unknown format '{}' (expected {FORMAT_V1})", clip(&v)),
+                ))
+            }
         }
         rd.column_slot = rd.parse_header(&header)?;
         Ok(rd)
@@ -412,7 +478,9 @@ impl<R: BufRead> RecordingReader<R> {
         let mut seen = [false; COLUMNS.len()];
         for n in &names {
             match COLUMNS.iter().position(|c| c == n) {
-                Some(i) if seen[i] => return Err(self.error(format!("header column '{n}' appears twice"))),
+                Some(i) if seen[i] => {
+                    return Err(self.error(format!("header column '{n}' appears twice")))
+                }
                 Some(i) => {
                     seen[i] = true;
                     slots.push(i);
@@ -420,7 +488,12 @@ impl<R: BufRead> RecordingReader<R> {
                 None => return Err(self.error(format!("unknown header column '{}'", clip(n)))),
             }
         }
-        let missing: Vec<&str> = COLUMNS.iter().zip(seen).filter(|(_, s)| !s).map(|(c, _)| *c).collect();
+        let missing: Vec<&str> = COLUMNS
+            .iter()
+            .zip(seen)
+            .filter(|(_, s)| !s)
+            .map(|(c, _)| *c)
+            .collect();
         if !missing.is_empty() {
             return Err(self.error(format!("missing header column(s): {}", missing.join(", "))));
         }
@@ -440,9 +513,17 @@ impl<R: BufRead> RecordingReader<R> {
     /// Issues counted over the samples yielded so far (gaps judged against the metadata
     /// sample rate, else the median step so far).
     pub fn issues(&self) -> DataIssues {
-        let period = self.nominal_period_ms.or_else(|| self.steps.median()).unwrap_or(1.0);
+        let period = self
+            .nominal_period_ms
+            .or_else(|| self.steps.median())
+            .unwrap_or(1.0);
         let (gaps, missing_samples) = self.steps.gaps(period);
-        DataIssues { gaps, missing_samples, duplicates: self.duplicates, saturated: self.saturated }
+        DataIssues {
+            gaps,
+            missing_samples,
+            duplicates: self.duplicates,
+            saturated: self.saturated,
+        }
     }
 
     fn error(&self, reason: impl Into<String>) -> RecordingError {
@@ -450,15 +531,20 @@ impl<R: BufRead> RecordingReader<R> {
     }
 
     fn error_at(&self, line: usize, reason: impl Into<String>) -> RecordingError {
-        RecordingError { file: self.source.clone(), line, reason: reason.into() }
+        RecordingError {
+            file: self.source.clone(),
+            line,
+            reason: reason.into(),
+        }
     }
 
     /// The next physical line without its line end, or None at end of input.
     fn next_line(&mut self) -> Result<Option<String>, RecordingError> {
         self.buf.clear();
-        let n = self.input.read_until(b'\n', &mut self.buf).map_err(|e| {
-            self.error_at(self.line_no + 1, format!("read error: {e}"))
-        })?;
+        let n = self
+            .input
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|e| self.error_at(self.line_no + 1, format!("read error: {e}")))?;
         if n == 0 {
             return Ok(None);
         }
@@ -470,7 +556,11 @@ impl<R: BufRead> RecordingReader<R> {
             self.buf.pop();
         }
         // A UTF-8 byte-order mark (spreadsheet exports write one) is not part of the text.
-        let text = if self.line_no == 1 { self.buf.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&self.buf) } else { &self.buf[..] };
+        let text = if self.line_no == 1 {
+            self.buf.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&self.buf)
+        } else {
+            &self.buf[..]
+        };
         match std::str::from_utf8(text) {
             Ok(s) => Ok(Some(s.to_string())),
             Err(_) => Err(self.error("line is not valid UTF-8")),
@@ -496,8 +586,12 @@ impl<R: BufRead> RecordingReader<R> {
             let v: u64 = if f.is_empty() {
                 return Err(self.error(format!("{name} is empty")));
             } else if f.bytes().all(|b| b.is_ascii_digit()) {
-                f.parse().map_err(|_| self.error(format!("{name} '{shown}' is out of range")))?
-            } else if f.starts_with('-') && f.len() > 1 && f[1..].bytes().all(|b| b.is_ascii_digit()) {
+                f.parse()
+                    .map_err(|_| self.error(format!("{name} '{shown}' is out of range")))?
+            } else if f.starts_with('-')
+                && f.len() > 1
+                && f[1..].bytes().all(|b| b.is_ascii_digit())
+            {
                 return Err(self.error(format!("{name} '{shown}' is out of range (negative)")));
             } else {
                 return Err(self.error(format!("{name} '{shown}' is not an integer")));
@@ -527,7 +621,10 @@ impl<R: BufRead> RecordingReader<R> {
             let s = self.parse_row(&line)?;
             if let Some(last) = self.last_time {
                 if s.time_ms < last {
-                    return Err(self.error(format!("time_ms goes backwards ({} after {last})", s.time_ms)));
+                    return Err(self.error(format!(
+                        "time_ms goes backwards ({} after {last})",
+                        s.time_ms
+                    )));
                 }
                 if s.time_ms == last {
                     self.duplicates += 1;
@@ -592,7 +689,11 @@ mod tests {
         let big = "9".repeat(2_000_000) + "x";
         let bad = GOOD.replace("1,2077,2071", &format!("1,{big},2071"));
         let e = read(&bad).expect_err("not an integer").to_string();
-        assert!(e.len() < 200 && e.contains("gyro_x") && e.contains("2000001 bytes"), "{}", &e[..e.len().min(300)]);
+        assert!(
+            e.len() < 200 && e.contains("gyro_x") && e.contains("2000001 bytes"),
+            "{}",
+            &e[..e.len().min(300)]
+        );
         assert!(e.starts_with("t.csv:7:"), "{e}");
     }
 
@@ -603,7 +704,15 @@ mod tests {
         assert_eq!(r.satellite(), Some("sph2"));
         assert_eq!(r.meta("custom"), Some("kept"));
         assert_eq!(r.sample_rate_hz(), 1000.0);
-        assert_eq!(r.samples[1], Sample { time_ms: 1, gyro: [2077, 2071, 2058], accel: [2048, 2049, 2047], thrusters: 0 });
+        assert_eq!(
+            r.samples[1],
+            Sample {
+                time_ms: 1,
+                gyro: [2077, 2071, 2058],
+                accel: [2048, 2049, 2047],
+                thrusters: 0
+            }
+        );
         assert_eq!(r.issues, DataIssues::default());
     }
 
@@ -624,7 +733,15 @@ mod tests {
         let r = read(&text).unwrap();
         assert_eq!(r.samples.len(), 5);
         assert_eq!(r.samples[1].gyro, [1, 2, 3], "first duplicate wins");
-        assert_eq!(r.issues, DataIssues { gaps: 1, missing_samples: 3, duplicates: 1, saturated: 2 });
+        assert_eq!(
+            r.issues,
+            DataIssues {
+                gaps: 1,
+                missing_samples: 3,
+                duplicates: 1,
+                saturated: 2
+            }
+        );
         assert_eq!(r.sample_rate_hz(), 1000.0, "inferred from the median step");
     }
 
@@ -632,7 +749,15 @@ mod tests {
     fn columns_in_any_order() {
         let text = "# format = massid-recording/1\nthrusters,time_ms,gyro_z,gyro_y,gyro_x,accel_z,accel_y,accel_x\n5,10,3,2,1,6,5,4\n";
         let r = read(text).unwrap();
-        assert_eq!(r.samples[0], Sample { time_ms: 10, gyro: [1, 2, 3], accel: [4, 5, 6], thrusters: 5 });
+        assert_eq!(
+            r.samples[0],
+            Sample {
+                time_ms: 10,
+                gyro: [1, 2, 3],
+                accel: [4, 5, 6],
+                thrusters: 5
+            }
+        );
     }
 
     fn err(s: &str) -> RecordingError {
@@ -647,19 +772,67 @@ mod tests {
             (String::new(), 1, "empty file"),
             (format!("{f}\n"), 1, "no header"),
             (format!("{h}\n0,1,2,3,4,5,6,0\n"), 1, "missing 'format'"),
-            (format!("# format = massid-recording/2\n{h}\n"), 1, "unknown format version"),
+            (
+                format!("# format = massid-recording/2\n{h}\n"),
+                1,
+                "unknown format version",
+            ),
             (format!("# format = csv\n{h}\n"), 1, "unknown format"),
-            (format!("{f}\ntime_ms,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n"), 2, "missing header column"),
-            (format!("{f}\n{h},extra\n"), 2, "unknown header column 'extra'"),
-            (format!("{f}\n{h}\n0,1,2,3,4,5,6,0\n1,1,2,x,4,5,6,0\n"), 4, "gyro_z 'x' is not an integer"),
-            (format!("{f}\n{h}\n0,1,2,3,4,5,6,1.5\n"), 3, "not an integer"),
-            (format!("{f}\n{h}\n0,1,2,3,4096,5,6,0\n"), 3, "accel_x 4096 is out of range"),
-            (format!("{f}\n{h}\n0,1,-2,3,4,5,6,0\n"), 3, "out of range (negative)"),
-            (format!("{f}\n{h}\n99999999999999999999999,1,2,3,4,5,6,0\n"), 3, "time_ms"),
-            (format!("{f}\n{h}\n5,1,2,3,4,5,6,0\n4,1,2,3,4,5,6,0\n"), 4, "time_ms goes backwards"),
-            (format!("{f}\n{h}\n0,1,2,3,4,5,6\n"), 3, "row has 7 fields, the header has 8"),
-            (format!("{f}\n{h}\n0,1,2,3,4,5,6,0,9\n"), 3, "row has 9 fields"),
-            (format!("{f}\n# sample_rate_hz = fast\n{h}\n"), 2, "sample_rate_hz"),
+            (
+                format!("{f}\ntime_ms,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n"),
+                2,
+                "missing header column",
+            ),
+            (
+                format!("{f}\n{h},extra\n"),
+                2,
+                "unknown header column 'extra'",
+            ),
+            (
+                format!("{f}\n{h}\n0,1,2,3,4,5,6,0\n1,1,2,x,4,5,6,0\n"),
+                4,
+                "gyro_z 'x' is not an integer",
+            ),
+            (
+                format!("{f}\n{h}\n0,1,2,3,4,5,6,1.5\n"),
+                3,
+                "not an integer",
+            ),
+            (
+                format!("{f}\n{h}\n0,1,2,3,4096,5,6,0\n"),
+                3,
+                "accel_x 4096 is out of range",
+            ),
+            (
+                format!("{f}\n{h}\n0,1,-2,3,4,5,6,0\n"),
+                3,
+                "out of range (negative)",
+            ),
+            (
+                format!("{f}\n{h}\n99999999999999999999999,1,2,3,4,5,6,0\n"),
+                3,
+                "time_ms",
+            ),
+            (
+                format!("{f}\n{h}\n5,1,2,3,4,5,6,0\n4,1,2,3,4,5,6,0\n"),
+                4,
+                "time_ms goes backwards",
+            ),
+            (
+                format!("{f}\n{h}\n0,1,2,3,4,5,6\n"),
+                3,
+                "row has 7 fields, the header has 8",
+            ),
+            (
+                format!("{f}\n{h}\n0,1,2,3,4,5,6,0,9\n"),
+                3,
+                "row has 9 fields",
+            ),
+            (
+                format!("{f}\n# sample_rate_hz = fast\n{h}\n"),
+                2,
+                "sample_rate_hz",
+            ),
         ];
         for (text, line, reason) in cases {
             let e = err(&text);
@@ -690,12 +863,35 @@ mod tests {
             Some("sph1"),
             Some(100.0),
             vec![
-                Sample { time_ms: 0, gyro: [1, 2, 3], accel: [4, 5, 6], thrusters: 4095 },
-                Sample { time_ms: 10, gyro: [0, 2, 3], accel: [4, 5, 6], thrusters: 1 },
-                Sample { time_ms: 40, gyro: [1, 2, 3], accel: [4, 5, 6], thrusters: 1 },
+                Sample {
+                    time_ms: 0,
+                    gyro: [1, 2, 3],
+                    accel: [4, 5, 6],
+                    thrusters: 4095,
+                },
+                Sample {
+                    time_ms: 10,
+                    gyro: [0, 2, 3],
+                    accel: [4, 5, 6],
+                    thrusters: 1,
+                },
+                Sample {
+                    time_ms: 40,
+                    gyro: [1, 2, 3],
+                    accel: [4, 5, 6],
+                    thrusters: 1,
+                },
             ],
         );
-        assert_eq!(r.issues, DataIssues { gaps: 1, missing_samples: 2, duplicates: 0, saturated: 1 });
+        assert_eq!(
+            r.issues,
+            DataIssues {
+                gaps: 1,
+                missing_samples: 2,
+                duplicates: 0,
+                saturated: 1
+            }
+        );
         r.write(&p).unwrap();
         let back = Recording::read(&p).unwrap();
         assert_eq!(back.samples, r.samples);

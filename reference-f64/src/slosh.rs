@@ -30,15 +30,27 @@ pub struct SloshModel {
 
 impl SloshModel {
     /// Seed eq. B.5: `H(s) = 1 / (s^2 + 0.02 s + 6)` (M = 0.05 kg, k = 0.3, b = 0.001).
-    pub const SEED: SloshModel = SloshModel { stiffness_per_mass: 6.0, damping_per_mass: 0.02, input_gain: 1.0 };
+    pub const SEED: SloshModel = SloshModel {
+        stiffness_per_mass: 6.0,
+        damping_per_mass: 0.02,
+        input_gain: 1.0,
+    };
 
     /// From the physical parameters of eq. B.1 (`x'' + (b/M) x' + (k/M) x = u/M`): the input
     /// gain is `1/M`. `from_physical(0.05, 0.3, 0.001)` has the seed's poles with gain 20.
-    pub fn from_physical(mass_kg: f64, spring_n_per_m: f64, damper_n_s_per_m: f64) -> Result<SloshModel, SloshError> {
+    pub fn from_physical(
+        mass_kg: f64,
+        spring_n_per_m: f64,
+        damper_n_s_per_m: f64,
+    ) -> Result<SloshModel, SloshError> {
         let m = pos("slosh mass", mass_kg)?;
         let k = pos("spring constant", spring_n_per_m)?;
         let b = nonneg("damping coefficient", damper_n_s_per_m)?;
-        Ok(SloshModel { stiffness_per_mass: k / m, damping_per_mass: b / m, input_gain: 1.0 / m })
+        Ok(SloshModel {
+            stiffness_per_mass: k / m,
+            damping_per_mass: b / m,
+            input_gain: 1.0 / m,
+        })
     }
 
     pub fn a(&self) -> Matrix2<f64> {
@@ -61,7 +73,11 @@ impl SloshModel {
     /// Zero-order-hold discretisation at sample time `dt` (s).
     pub fn discretize_zoh(&self, dt_s: f64) -> Result<DiscreteSlosh, SloshError> {
         let dt = pos("sample time", dt_s)?;
-        for (name, v) in [("k/M", self.stiffness_per_mass), ("b/M", self.damping_per_mass), ("input gain", self.input_gain)] {
+        for (name, v) in [
+            ("k/M", self.stiffness_per_mass),
+            ("b/M", self.damping_per_mass),
+            ("input gain", self.input_gain),
+        ] {
             if !v.is_finite() {
                 return Err(SloshError::NotPositive { name, value: v });
             }
@@ -80,10 +96,18 @@ impl SloshModel {
 }
 
 fn pos(name: &'static str, v: f64) -> Result<f64, SloshError> {
-    if v.is_finite() && v > 0.0 { Ok(v) } else { Err(SloshError::NotPositive { name, value: v }) }
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(SloshError::NotPositive { name, value: v })
+    }
 }
 fn nonneg(name: &'static str, v: f64) -> Result<f64, SloshError> {
-    if v.is_finite() && v >= 0.0 { Ok(v) } else { Err(SloshError::Negative { name, value: v }) }
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(SloshError::Negative { name, value: v })
+    }
 }
 
 /// Discrete model `x[k+1] = A_d x[k] + B_d u[k]`, `y[k] = C x[k]`.

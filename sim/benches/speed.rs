@@ -30,31 +30,67 @@ fn bench(c: &mut Criterion) {
     let all = Truth::from_json_str(ALL_EFFECTS, "bench").unwrap().effects;
     // 10 s of random short-pulse combos (about 100 valve edges per second) at 1 kHz.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-    let words: Vec<u16> = maneuvers::combo(9.0, &mut rng).into_iter().take(10_000).collect();
+    let words: Vec<u16> = maneuvers::combo(9.0, &mut rng)
+        .into_iter()
+        .take(10_000)
+        .collect();
     let times: Vec<u64> = (0..words.len() as u64).collect();
 
     let mut g = c.benchmark_group("predict_10s_at_1kHz");
     g.sample_size(30);
-    for (label, n_effects) in [("nominal", 0usize), ("3_effects", 3), ("6_effects", 6), ("12_effects", 12)] {
+    for (label, n_effects) in [
+        ("nominal", 0usize),
+        ("3_effects", 3),
+        ("6_effects", 6),
+        ("12_effects", 12),
+    ] {
         let p = Predictor::new(&sat, &all[..n_effects]);
         g.bench_function(format!("{label}_step_1ms"), |b| {
-            b.iter(|| black_box(p.run(&times, &words, [0.0; 3], PredictOptions { max_step_ms: 1.0 })))
+            b.iter(|| {
+                black_box(p.run(
+                    &times,
+                    &words,
+                    [0.0; 3],
+                    PredictOptions { max_step_ms: 1.0 },
+                ))
+            })
         });
     }
     let p = Predictor::new(&sat, &[]);
     for step in [0.5, 0.25, 0.1] {
         g.bench_function(format!("nominal_step_{step}ms"), |b| {
-            b.iter(|| black_box(p.run(&times, &words, [0.0; 3], PredictOptions { max_step_ms: step })))
+            b.iter(|| {
+                black_box(p.run(
+                    &times,
+                    &words,
+                    [0.0; 3],
+                    PredictOptions { max_step_ms: step },
+                ))
+            })
         });
     }
     let p = Predictor::new(&sat, &all);
     g.bench_function("12_effects_step_0.1ms", |b| {
-        b.iter(|| black_box(p.run(&times, &words, [0.0; 3], PredictOptions { max_step_ms: 0.1 })))
+        b.iter(|| {
+            black_box(p.run(
+                &times,
+                &words,
+                [0.0; 3],
+                PredictOptions { max_step_ms: 0.1 },
+            ))
+        })
     });
     // The baseline again: how much the machine drifted during the run.
     let p = Predictor::new(&sat, &[]);
     g.bench_function("nominal_step_1ms_repeat", |b| {
-        b.iter(|| black_box(p.run(&times, &words, [0.0; 3], PredictOptions { max_step_ms: 1.0 })))
+        b.iter(|| {
+            black_box(p.run(
+                &times,
+                &words,
+                [0.0; 3],
+                PredictOptions { max_step_ms: 1.0 },
+            ))
+        })
     });
     g.finish();
 
@@ -63,7 +99,9 @@ fn bench(c: &mut Criterion) {
     let mut spec = SimSpec::new(sat.clone(), all.clone(), Maneuver::Combo);
     spec.seconds = Some(9.0);
     spec.sensors = SensorConfig::default();
-    g.bench_function("full_6dof_sensors_12_effects", |b| b.iter(|| black_box(simulate(&spec).unwrap())));
+    g.bench_function("full_6dof_sensors_12_effects", |b| {
+        b.iter(|| black_box(simulate(&spec).unwrap()))
+    });
     g.finish();
 }
 

@@ -169,7 +169,13 @@ impl Plant {
     /// [`Plant::segment`] with a thrust-rise transient: at `t0_ms` thruster i delivers
     /// `steady_i + excess_n[i]` (N, before blowdown), the excess decaying with the plant's
     /// `thrust_rise_tau_ms` (lever arms of the mass properties in force at `t_ms`).
-    pub fn segment_with_rise(&self, valves: u16, t_ms: f64, excess_n: &[f64; N_THRUSTERS], t0_ms: f64) -> Segment {
+    pub fn segment_with_rise(
+        &self,
+        valves: u16,
+        t_ms: f64,
+        excess_n: &[f64; N_THRUSTERS],
+        t0_ms: f64,
+    ) -> Segment {
         let mut s = self.segment(valves, t_ms);
         let tau = self.cfg.thrust_rise_tau_ms;
         if tau > 0.0 && excess_n.iter().any(|&x| x != 0.0) {
@@ -203,11 +209,24 @@ pub struct Derivative {
 
 /// The equations of motion at `x`, time `t_ms`. `full` also computes attitude and translation.
 #[inline]
-pub fn derivative(x: &State, t_ms: f64, seg: &Segment, cfg: &PlantConfig, full: bool) -> Derivative {
-    let b = if cfg.blowdowns.is_empty() { 1.0 } else { cfg.blowdown_factor(t_ms * 1e-3) };
+pub fn derivative(
+    x: &State,
+    t_ms: f64,
+    seg: &Segment,
+    cfg: &PlantConfig,
+    full: bool,
+) -> Derivative {
+    let b = if cfg.blowdowns.is_empty() {
+        1.0
+    } else {
+        cfg.blowdown_factor(t_ms * 1e-3)
+    };
     let (torque0, force0) = if seg.rise_tau_ms > 0.0 {
         let e = (-(t_ms - seg.rise_t0_ms) / seg.rise_tau_ms).exp();
-        (seg.torque0 + seg.rise_torque * e, seg.force0 + seg.rise_force * e)
+        (
+            seg.torque0 + seg.rise_torque * e,
+            seg.force0 + seg.rise_force * e,
+        )
     } else {
         (seg.torque0, seg.force0)
     };
@@ -234,9 +253,21 @@ pub fn derivative(x: &State, t_ms: f64, seg: &Segment, cfg: &PlantConfig, full: 
         let r = UnitQuaternion::new_unchecked(x.q);
         (qd, x.vel, r * specific_force)
     } else {
-        (Quaternion::new(0.0, 0.0, 0.0, 0.0), Vector3::zeros(), Vector3::zeros())
+        (
+            Quaternion::new(0.0, 0.0, 0.0, 0.0),
+            Vector3::zeros(),
+            Vector3::zeros(),
+        )
     };
-    Derivative { w_dot, phi_dot: x.dphi, phi_ddot, q_dot, vel, acc, specific_force }
+    Derivative {
+        w_dot,
+        phi_dot: x.dphi,
+        phi_ddot,
+        q_dot,
+        vel,
+        acc,
+        specific_force,
+    }
 }
 
 fn add(x: &State, d: &Derivative, h: f64) -> State {
@@ -252,7 +283,14 @@ fn add(x: &State, d: &Derivative, h: f64) -> State {
 
 /// One classical RK4 step of `h_ms` from `t_ms`.
 #[inline]
-pub fn rk4_step(x: &State, t_ms: f64, h_ms: f64, seg: &Segment, cfg: &PlantConfig, full: bool) -> State {
+pub fn rk4_step(
+    x: &State,
+    t_ms: f64,
+    h_ms: f64,
+    seg: &Segment,
+    cfg: &PlantConfig,
+    full: bool,
+) -> State {
     let h = h_ms * 1e-3;
     let k1 = derivative(x, t_ms, seg, cfg, full);
     let k2 = derivative(&add(x, &k1, h / 2.0), t_ms + h_ms / 2.0, seg, cfg, full);

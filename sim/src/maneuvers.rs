@@ -19,7 +19,8 @@ use reference_f64::satellite::{N_THRUSTERS, OPPOSING_PAIRS};
 /// (+x, -x, +y, -y, +z, -z) translations. Each pair's torques add and forces cancel (rotation)
 /// or forces add and torques cancel (translation); the tests check this against the geometry.
 pub const RGA_ROTATIONS: [(usize, usize); 6] = [(4, 11), (5, 10), (0, 7), (1, 6), (2, 9), (3, 8)];
-pub const RGA_TRANSLATIONS: [(usize, usize); 6] = [(0, 1), (6, 7), (2, 3), (8, 9), (4, 5), (10, 11)];
+pub const RGA_TRANSLATIONS: [(usize, usize); 6] =
+    [(0, 1), (6, 7), (2, 3), (8, 9), (4, 5), (10, 11)];
 
 /// The control / PWM period, ms.
 pub const PERIOD_MS: usize = 200;
@@ -78,7 +79,18 @@ fn random_width(rng: &mut ChaCha8Rng) -> usize {
 }
 
 fn opposite(i: usize) -> usize {
-    OPPOSING_PAIRS.iter().find_map(|&(a, b)| if a == i { Some(b) } else if b == i { Some(a) } else { None }).unwrap_or(i)
+    OPPOSING_PAIRS
+        .iter()
+        .find_map(|&(a, b)| {
+            if a == i {
+                Some(b)
+            } else if b == i {
+                Some(a)
+            } else {
+                None
+            }
+        })
+        .unwrap_or(i)
 }
 
 /// Random short-pulse combos for about `seconds` of firing (whole 200 ms periods).
@@ -99,7 +111,8 @@ pub fn combo(seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
                 chosen.push(i);
             }
         }
-        let firing: Vec<(usize, usize)> = chosen.into_iter().map(|i| (i, random_width(rng))).collect();
+        let firing: Vec<(usize, usize)> =
+            chosen.into_iter().map(|i| (i, random_width(rng))).collect();
         w.extend_from_slice(&centred_period(&firing));
     }
     push(&mut w, 0, 1500);

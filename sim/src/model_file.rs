@@ -62,31 +62,54 @@ pub struct ModelFileError {
 impl ModelFile {
     pub fn read(path: &Path) -> Result<ModelFile, ModelFileError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ModelFileError { file: file.clone(), line: 0, reason: format!("cannot read: {e}") })?;
+        let text = std::fs::read_to_string(path).map_err(|e| ModelFileError {
+            file: file.clone(),
+            line: 0,
+            reason: format!("cannot read: {e}"),
+        })?;
         Self::parse(&text, &file)
     }
 
     /// Parses model-file text; `file` names it in errors.
     pub fn parse(text: &str, file: &str) -> Result<ModelFile, ModelFileError> {
-        let err = |line: usize, reason: String| ModelFileError { file: file.to_string(), line, reason };
+        let err = |line: usize, reason: String| ModelFileError {
+            file: file.to_string(),
+            line,
+            reason,
+        };
         let raw: RawModel = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start.min(text.len())].lines().count().max(1)).unwrap_or(0);
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+                .unwrap_or(0);
             err(line, e.message().to_string())
         })?;
         let satellite = match raw.satellite {
             SatelliteRef::Name(n) => Satellite::builtin(&n).ok_or_else(|| {
-                err(line_of(text, "satellite"), format!("unknown satellite {n:?} (built-in: {})", Satellite::BUILTIN_NAMES.join(", ")))
+                err(
+                    line_of(text, "satellite"),
+                    format!(
+                        "unknown satellite {n:?} (built-in: {})",
+                        Satellite::BUILTIN_NAMES.join(", ")
+                    ),
+                )
             })?,
             SatelliteRef::Inline(s) => {
-                s.validate().map_err(|r| err(line_of(text, "[satellite]"), r))?;
+                s.validate()
+                    .map_err(|r| err(line_of(text, "[satellite]"), r))?;
                 *s
             }
         };
         for (i, e) in raw.effects.iter().enumerate() {
-            e.validate().map_err(|r| err(nth_line_of(text, "[[effects]]", i), r))?;
+            e.validate()
+                .map_err(|r| err(nth_line_of(text, "[[effects]]", i), r))?;
         }
-        Ok(ModelFile { satellite, effects: raw.effects, sensors: raw.sensors, artefacts: raw.artefacts })
+        Ok(ModelFile {
+            satellite,
+            effects: raw.effects,
+            sensors: raw.sensors,
+            artefacts: raw.artefacts,
+        })
     }
 }
 
@@ -95,5 +118,10 @@ fn line_of(text: &str, needle: &str) -> usize {
 }
 
 fn nth_line_of(text: &str, needle: &str, n: usize) -> usize {
-    text.lines().enumerate().filter(|(_, l)| l.trim_start().starts_with(needle)).nth(n).map(|(i, _)| i + 1).unwrap_or(0)
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with(needle))
+        .nth(n)
+        .map(|(i, _)| i + 1)
+        .unwrap_or(0)
 }

@@ -54,7 +54,10 @@ impl Predictor {
 
     /// From an already-built plant configuration (e.g. one a fitter edits directly).
     pub fn from_config(sat: &Satellite, cfg: PlantConfig) -> Self {
-        Predictor { plant: Plant::new(sat, cfg), counts_per_rad_s: sat.gyro_counts_per_rad_s }
+        Predictor {
+            plant: Plant::new(sat, cfg),
+            counts_per_rad_s: sat.gyro_counts_per_rad_s,
+        }
     }
 
     pub fn plant(&self) -> &Plant {
@@ -63,7 +66,13 @@ impl Predictor {
 
     /// Predicts at `times_ms` for commanded `words` (word k holds until sample k+1), the body
     /// turning at `initial_rate` (rad/s) at the first sample, liquid at rest.
-    pub fn run(&self, times_ms: &[u64], words: &[u16], initial_rate: [f64; 3], opts: PredictOptions) -> Prediction {
+    pub fn run(
+        &self,
+        times_ms: &[u64],
+        words: &[u16],
+        initial_rate: [f64; 3],
+        opts: PredictOptions,
+    ) -> Prediction {
         let n = times_ms.len().min(words.len());
         let mut p = Prediction {
             gyro_rad_s: Vec::with_capacity(n),
@@ -73,14 +82,29 @@ impl Predictor {
             valves_open: Vec::with_capacity(n),
             edges: Vec::new(),
         };
-        let step = StepOptions { max_step_ms: opts.max_step_ms, full: false };
-        p.edges = propagate(&self.plant, times_ms, words, State::with_rates(initial_rate), step, |s| {
-            p.body_rate.push(s.state.w.into());
-            p.angular_accel.push(s.derivative.w_dot.into());
-            p.specific_force.push(s.derivative.specific_force.into());
-            p.valves_open.push(s.valves);
-        });
-        let ringing = ringing_at(&self.plant.cfg, &shock_times_ms(&p.edges), &times_ms[..n], |_, _, _| 0.0);
+        let step = StepOptions {
+            max_step_ms: opts.max_step_ms,
+            full: false,
+        };
+        p.edges = propagate(
+            &self.plant,
+            times_ms,
+            words,
+            State::with_rates(initial_rate),
+            step,
+            |s| {
+                p.body_rate.push(s.state.w.into());
+                p.angular_accel.push(s.derivative.w_dot.into());
+                p.specific_force.push(s.derivative.specific_force.into());
+                p.valves_open.push(s.valves);
+            },
+        );
+        let ringing = ringing_at(
+            &self.plant.cfg,
+            &shock_times_ms(&p.edges),
+            &times_ms[..n],
+            |_, _, _| 0.0,
+        );
         let cfg = &self.plant.cfg;
         p.gyro_rad_s = (0..n)
             .map(|k| {
@@ -158,9 +182,17 @@ pub fn ringing_at(
                     let (re, im) = advance(t - te);
                     let weights = std::array::from_fn(|a| {
                         let p = phase(ri, next_shock, a);
-                        (r.amplitude_rad_s[a] * p.cos(), r.amplitude_rad_s[a] * p.sin())
+                        (
+                            r.amplitude_rad_s[a] * p.cos(),
+                            r.amplitude_rad_s[a] * p.sin(),
+                        )
                     });
-                    live.push(Tone { start_ms: te, re, im, weights });
+                    live.push(Tone {
+                        start_ms: te,
+                        re,
+                        im,
+                        weights,
+                    });
                 } else {
                     // Still draw its phases so the random sequence does not depend on timing.
                     for a in 0..3 {
@@ -191,7 +223,9 @@ pub fn predict_gyro_rates(
     initial_rate: [f64; 3],
     opts: PredictOptions,
 ) -> Vec<[f64; 3]> {
-    Predictor::new(sat, effects).run(times_ms, words, initial_rate, opts).gyro_rad_s
+    Predictor::new(sat, effects)
+        .run(times_ms, words, initial_rate, opts)
+        .gyro_rad_s
 }
 
 /// The full prediction (rates, accelerations, valve states); see [`Prediction`].
@@ -214,11 +248,20 @@ mod tests {
     #[test]
     fn ringing_recurrence_equals_the_direct_formula() {
         let sat = Satellite::builtin("sph2").unwrap();
-        let r = GyroRinging { freq_hz: 338.33, decay_ms: 30.0, apparent_hz: 38.33, amplitude_rad_s: [0.01, 0.02, 0.03] };
+        let r = GyroRinging {
+            freq_hz: 338.33,
+            decay_ms: 30.0,
+            apparent_hz: 38.33,
+            amplitude_rad_s: [0.01, 0.02, 0.03],
+        };
         let cfg = PlantConfig::new(&sat, &[Effect::GyroRinging(r.clone())]);
         let shocks = [3.0, 7.4, 7.9, 150.0, 400.25];
         // Irregular sampling with a gap, to exercise the factor cache.
-        let times: Vec<u64> = (0..300u64).chain(310..700).step_by(1).filter(|t| t % 7 != 3).collect();
+        let times: Vec<u64> = (0..300u64)
+            .chain(310..700)
+            .step_by(1)
+            .filter(|t| t % 7 != 3)
+            .collect();
         let phase = |_: usize, s: usize, a: usize| 0.3 * s as f64 + a as f64;
         let got = ringing_at(&cfg, &shocks, &times, phase);
         for (k, &t) in times.iter().enumerate() {
@@ -229,7 +272,11 @@ mod tests {
                     .filter(|(_, &te)| t as f64 >= te && t as f64 - te <= 8.0 * r.decay_ms)
                     .map(|(s, &te)| r.response(a, (t as f64 - te) * 1e-3, phase(0, s, a)))
                     .sum();
-                assert!((got[k][a] - direct).abs() < 1e-14, "t {t} axis {a}: {} vs {direct}", got[k][a]);
+                assert!(
+                    (got[k][a] - direct).abs() < 1e-14,
+                    "t {t} axis {a}: {} vs {direct}",
+                    got[k][a]
+                );
             }
         }
     }

@@ -34,7 +34,10 @@ pub struct StepOptions {
 
 impl Default for StepOptions {
     fn default() -> Self {
-        StepOptions { max_step_ms: 1.0, full: false }
+        StepOptions {
+            max_step_ms: 1.0,
+            full: false,
+        }
     }
 }
 
@@ -78,7 +81,14 @@ impl<'a> Propagator<'a> {
         let mut breaks: Vec<f64> = plant.cfg.changes.iter().map(|(at, _)| at * 1e3).collect();
         breaks.extend(plant.cfg.blowdowns.iter().map(|b| b.start_s * 1e3));
         breaks.sort_by(f64::total_cmp);
-        let opts = StepOptions { max_step_ms: if opts.max_step_ms > 0.0 { opts.max_step_ms } else { 1.0 }, ..opts };
+        let opts = StepOptions {
+            max_step_ms: if opts.max_step_ms > 0.0 {
+                opts.max_step_ms
+            } else {
+                1.0
+            },
+            ..opts
+        };
         Propagator {
             plant,
             opts,
@@ -128,14 +138,27 @@ impl<'a> Propagator<'a> {
                     continue;
                 }
                 let opens = word & bit != 0;
-                let t = self.t_ms + if opens { cfg.open_delay_ms } else { cfg.close_delay_ms };
+                let t = self.t_ms
+                    + if opens {
+                        cfg.open_delay_ms
+                    } else {
+                        cfg.close_delay_ms
+                    };
                 if !opens {
-                    if let Some(i) = self.pending.iter().position(|e| e.thruster == th as u8 && e.opens && e.t_ms >= t) {
+                    if let Some(i) = self
+                        .pending
+                        .iter()
+                        .position(|e| e.thruster == th as u8 && e.opens && e.t_ms >= t)
+                    {
                         self.pending.remove(i);
                         continue;
                     }
                 }
-                let e = ValveEdge { t_ms: t, thruster: th as u8, opens };
+                let e = ValveEdge {
+                    t_ms: t,
+                    thruster: th as u8,
+                    opens,
+                };
                 let at = self.pending.partition_point(|p| p.t_ms <= t);
                 self.pending.insert(at, e);
             }
@@ -183,14 +206,21 @@ impl<'a> Propagator<'a> {
     }
 
     fn segment(&mut self, t_ms: f64) -> Segment {
-        let phase = self.plant.cfg.changes.iter().filter(|(at, _)| at * 1e3 <= t_ms).count();
+        let phase = self
+            .plant
+            .cfg
+            .changes
+            .iter()
+            .filter(|(at, _)| at * 1e3 <= t_ms)
+            .count();
         match self.cache {
             Some((v, ph, s)) if v == self.valves && ph == phase => s,
             _ => {
                 let s = if self.rise_live {
                     let steady = self.plant.thrusts(self.valves);
                     let excess = std::array::from_fn(|i| self.rise_level[i] - steady[i]);
-                    self.plant.segment_with_rise(self.valves, t_ms, &excess, self.rise_t0_ms)
+                    self.plant
+                        .segment_with_rise(self.valves, t_ms, &excess, self.rise_t0_ms)
                 } else {
                     self.plant.segment(self.valves, t_ms)
                 };
@@ -224,7 +254,8 @@ impl<'a> Propagator<'a> {
                     next = e.t_ms;
                 }
             }
-            while self.next_break < self.breaks.len() && self.breaks[self.next_break] <= t + EPS_MS {
+            while self.next_break < self.breaks.len() && self.breaks[self.next_break] <= t + EPS_MS
+            {
                 self.next_break += 1;
             }
             if let Some(&b) = self.breaks.get(self.next_break) {
@@ -262,7 +293,13 @@ pub fn propagate(
         p.advance_to(t_k);
         p.command(words[k]);
         let d = p.derivative_now();
-        on_sample(&SampleView { index: k, t_ms: t_k, state: &p.x, derivative: &d, valves: p.valves });
+        on_sample(&SampleView {
+            index: k,
+            t_ms: t_k,
+            state: &p.x,
+            derivative: &d,
+            valves: p.valves,
+        });
     }
     p.into_edges()
 }

@@ -40,7 +40,12 @@ struct Case<'a> {
 
 impl Case<'_> {
     fn residuals(&self, effects: &[Effect], w0: [f64; 3]) -> (Vec<[f64; 3]>, Vec<f64>) {
-        let p = Predictor::new(self.sat, effects).run(&self.times, &self.words, w0, PredictOptions::default());
+        let p = Predictor::new(self.sat, effects).run(
+            &self.times,
+            &self.words,
+            w0,
+            PredictOptions::default(),
+        );
         let r = self
             .measured_at
             .iter()
@@ -62,14 +67,20 @@ fn rms(r: &[[f64; 3]]) -> [f64; 3] {
 
 /// Reproduces `rec` with the effects of `truth`.
 pub fn reproduce(rec: &Recording, truth: &Truth) -> Result<Reproduction, String> {
-    let sat = Satellite::builtin(&truth.satellite).ok_or_else(|| format!("unknown satellite {}", truth.satellite))?;
+    let sat = Satellite::builtin(&truth.satellite)
+        .ok_or_else(|| format!("unknown satellite {}", truth.satellite))?;
     let samples = &rec.samples;
     let rest = samples.iter().take_while(|s| s.thrusters == 0).count();
     if rest < 20 {
-        return Err(format!("{}: needs a rest period before the first command (has {rest} samples)", rec.source));
+        return Err(format!(
+            "{}: needs a rest period before the first command (has {rest} samples)",
+            rec.source
+        ));
     }
-    let meas: Vec<[f64; 3]> =
-        samples.iter().map(|s| std::array::from_fn(|a| sat.gyro_counts_to_rad_s(a, s.gyro[a] as f64))).collect();
+    let meas: Vec<[f64; 3]> = samples
+        .iter()
+        .map(|s| std::array::from_fn(|a| sat.gyro_counts_to_rad_s(a, s.gyro[a] as f64)))
+        .collect();
     let noise_floor: [f64; 3] = std::array::from_fn(|a| {
         let m = meas[..rest].iter().map(|x| x[a]).sum::<f64>() / rest as f64;
         (meas[..rest].iter().map(|x| (x[a] - m).powi(2)).sum::<f64>() / (rest - 1) as f64).sqrt()
@@ -85,7 +96,11 @@ pub fn reproduce(rec: &Recording, truth: &Truth) -> Result<Reproduction, String>
     let mut fitted = Vec::new();
     let mut effects = truth.effects.clone();
     // Ringing is fitted shock by shock at the end: predict without it meanwhile.
-    let ringing: Vec<Effect> = effects.iter().filter(|e| matches!(e, Effect::GyroRinging(_))).cloned().collect();
+    let ringing: Vec<Effect> = effects
+        .iter()
+        .filter(|e| matches!(e, Effect::GyroRinging(_)))
+        .cloned()
+        .collect();
     effects.retain(|e| !matches!(e, Effect::GyroRinging(_)));
 
     fit_gap_commands(&mut case, &effects, rec.sample_period_ms(), &mut fitted);
@@ -93,24 +108,39 @@ pub fn reproduce(rec: &Recording, truth: &Truth) -> Result<Reproduction, String>
 
     // Initial rate.
     let (r, _) = case.residuals(&effects, [0.0; 3]);
-    let w0: [f64; 3] = std::array::from_fn(|a| r[..rest].iter().map(|x| x[a]).sum::<f64>() / rest as f64);
-    fitted.push(format!("initial rate [{:.1e}, {:.1e}, {:.1e}] rad/s", w0[0], w0[1], w0[2]));
+    let w0: [f64; 3] =
+        std::array::from_fn(|a| r[..rest].iter().map(|x| x[a]).sum::<f64>() / rest as f64);
+    fitted.push(format!(
+        "initial rate [{:.1e}, {:.1e}, {:.1e}] rad/s",
+        w0[0], w0[1], w0[2]
+    ));
     let (mut r, shocks) = case.residuals(&effects, w0);
 
     for e in &ringing {
         if let Effect::GyroRinging(g) = e {
             let amp = fit_ringing_per_shock(&case, &mut r, &shocks, g.freq_hz, g.decay_ms);
-            fitted.push(format!("ringing amplitude and phase per shock ({} shocks, mean amplitude {amp:.4} rad/s)", shocks.len()));
+            fitted.push(format!(
+                "ringing amplitude and phase per shock ({} shocks, mean amplitude {amp:.4} rad/s)",
+                shocks.len()
+            ));
         }
     }
-    Ok(Reproduction { samples: samples.len(), residual_rms: rms(&r), nominal_rms, noise_floor, fitted })
+    Ok(Reproduction {
+        samples: samples.len(),
+        residual_rms: rms(&r),
+        nominal_rms,
+        noise_floor,
+        fitted,
+    })
 }
 
 /// A gap that hides a command change: try every millisecond of the gap for the change and
 /// keep the best (judged over the 300 ms after the gap).
 fn fit_gap_commands(case: &mut Case, effects: &[Effect], period_ms: u64, fitted: &mut Vec<String>) {
     let gaps: Vec<usize> = (1..case.times.len())
-        .filter(|&k| case.times[k] - case.times[k - 1] > period_ms && case.words[k] != case.words[k - 1])
+        .filter(|&k| {
+            case.times[k] - case.times[k - 1] > period_ms && case.words[k] != case.words[k - 1]
+        })
         .collect();
     // Insert from the last gap backwards so earlier indices stay valid.
     let mut inserted = Vec::new();
@@ -124,33 +154,59 @@ fn fit_gap_commands(case: &mut Case, effects: &[Effect], period_ms: u64, fitted:
     let extra: std::collections::BTreeSet<usize> = {
         let mut sorted: Vec<usize> = inserted.iter().map(|x| x.0).collect();
         sorted.sort();
-        sorted.into_iter().enumerate().map(|(shift, k)| k + shift).collect()
+        sorted
+            .into_iter()
+            .enumerate()
+            .map(|(shift, k)| k + shift)
+            .collect()
     };
-    case.measured_at = (0..case.times.len()).filter(|i| !extra.contains(i)).collect();
+    case.measured_at = (0..case.times.len())
+        .filter(|i| !extra.contains(i))
+        .collect();
     for &idx in &extra {
         let (t0, t1) = (case.times[idx - 1], case.times[idx + 1]);
-        let window: Vec<usize> =
-            case.measured_at.iter().enumerate().filter(|(_, &i)| case.times[i] >= t1 && case.times[i] < t1 + 300).map(|(j, _)| j).collect();
+        let window: Vec<usize> = case
+            .measured_at
+            .iter()
+            .enumerate()
+            .filter(|(_, &i)| case.times[i] >= t1 && case.times[i] < t1 + 300)
+            .map(|(j, _)| j)
+            .collect();
         let mut best = (f64::INFINITY, t0 + 1);
         for ts in t0 + 1..=t1 {
             case.times[idx] = ts;
             let (r, _) = case.residuals(effects, [0.0; 3]);
-            let e: f64 = window.iter().map(|&j| r[j].iter().map(|v| v * v).sum::<f64>()).sum();
+            let e: f64 = window
+                .iter()
+                .map(|&j| r[j].iter().map(|v| v * v).sum::<f64>())
+                .sum();
             if e < best.0 {
                 best = (e, ts);
             }
         }
         case.times[idx] = best.1;
-        fitted.push(format!("command change hidden in the gap {t0}..{t1} ms placed at {} ms", best.1));
+        fitted.push(format!(
+            "command change hidden in the gap {t0}..{t1} ms placed at {} ms",
+            best.1
+        ));
     }
 }
 
 /// Golden-section search of the slosh liquid fraction (all axes alike) in [0.005, 0.2].
 fn fit_slosh_fraction(case: &Case, effects: &mut [Effect], fitted: &mut Vec<String>) {
-    let Some(i) = effects.iter().position(|e| matches!(e, Effect::FuelSlosh(_))) else { return };
+    let Some(i) = effects
+        .iter()
+        .position(|e| matches!(e, Effect::FuelSlosh(_)))
+    else {
+        return;
+    };
     let with = |f: f64, effects: &mut [Effect]| {
         effects[i] = effects[i]
-            .with_params(&[("inertia_fraction[0]", f), ("inertia_fraction[1]", f), ("inertia_fraction[2]", f)])
+            .with_params(&[
+                ("inertia_fraction[0]", f),
+                ("inertia_fraction[1]", f),
+                ("inertia_fraction[2]", f),
+            ])
             .expect("fuel_slosh has inertia_fraction");
     };
     let cost = |f: f64, effects: &mut [Effect]| {
@@ -184,11 +240,25 @@ fn fit_slosh_fraction(case: &Case, effects: &mut [Effect], fitted: &mut Vec<Stri
 
 /// Removes from `r` the best sine+cosine tone after each shock, per axis; returns the mean
 /// fitted amplitude.
-fn fit_ringing_per_shock(case: &Case, r: &mut [[f64; 3]], shocks: &[f64], freq_hz: f64, decay_ms: f64) -> f64 {
-    let times: Vec<f64> = case.measured_at.iter().map(|&i| case.times[i] as f64).collect();
+fn fit_ringing_per_shock(
+    case: &Case,
+    r: &mut [[f64; 3]],
+    shocks: &[f64],
+    freq_hz: f64,
+    decay_ms: f64,
+) -> f64 {
+    let times: Vec<f64> = case
+        .measured_at
+        .iter()
+        .map(|&i| case.times[i] as f64)
+        .collect();
     let mut amps = Vec::new();
     for (s, &te) in shocks.iter().enumerate() {
-        let end = shocks.get(s + 1).copied().unwrap_or(f64::INFINITY).min(te + 8.0 * decay_ms);
+        let end = shocks
+            .get(s + 1)
+            .copied()
+            .unwrap_or(f64::INFINITY)
+            .min(te + 8.0 * decay_ms);
         let lo = times.partition_point(|&t| t < te);
         let hi = times.partition_point(|&t| t < end);
         if hi <= lo + 2 {

@@ -55,7 +55,11 @@ impl GyroNoise {
     pub fn new(cfg: &SensorConfig) -> Self {
         let bw = cfg.gyro_bandwidth_hz.max(1e-6);
         GyroNoise {
-            sigma: if cfg.noiseless { [0.0; 3] } else { cfg.gyro_noise_rad_s },
+            sigma: if cfg.noiseless {
+                [0.0; 3]
+            } else {
+                cfg.gyro_noise_rad_s
+            },
             tau_ms: 1e3 / (2.0 * std::f64::consts::PI * bw),
             state: None,
         }

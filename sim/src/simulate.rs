@@ -141,7 +141,11 @@ fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
 /// Runs the simulation.
 pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let period_ms = 1000.0 / spec.rate_hz;
-    if !(spec.rate_hz.is_finite() && spec.rate_hz > 0.0 && period_ms >= 1.0 && (period_ms - period_ms.round()).abs() < 1e-9) {
+    if !(spec.rate_hz.is_finite()
+        && spec.rate_hz > 0.0
+        && period_ms >= 1.0
+        && (period_ms - period_ms.round()).abs() < 1e-9)
+    {
         return Err(SimError::BadRate(spec.rate_hz));
     }
     let period_ms = period_ms.round() as usize;
@@ -190,7 +194,10 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
         &plant,
         State::with_rates(spec.initial_rate),
         0.0,
-        StepOptions { max_step_ms: spec.max_step_ms, full: true },
+        StepOptions {
+            max_step_ms: spec.max_step_ms,
+            full: true,
+        },
     );
     let mut commands = Vec::with_capacity(total_ms);
     let mut times = Vec::new();
@@ -203,7 +210,11 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     for t in 0..total_ms {
         prop.advance_to(t as f64);
         let is_sample = t % period_ms == 0;
-        let noise = if is_sample { Some(gyro_noise.sample(t as f64, &mut gyro_rng)) } else { None };
+        let noise = if is_sample {
+            Some(gyro_noise.sample(t as f64, &mut gyro_rng))
+        } else {
+            None
+        };
         if let Some(ctl) = controller.as_mut() {
             if t % maneuvers::PERIOD_MS == 0 {
                 // The controller reads the same gyro as the recording (converted with the
@@ -211,7 +222,8 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
                 let n = noise.unwrap_or_else(|| ctrl_noise.sample(t as f64, &mut ctrl_rng));
                 let x = prop.state();
                 let sensed = Vector3::from(std::array::from_fn::<f64, 3, _>(|a| {
-                    c.gyro_scale[a] * (x.w[a] + n[a]) + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
+                    c.gyro_scale[a] * (x.w[a] + n[a])
+                        + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
                 }));
                 ctl.plan(t, &sensed, &x.attitude())?;
             }
@@ -240,7 +252,9 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     // Ringing at the sample instants with a random phase per shock and axis.
     let mut ring_rng = rng(spec.seed, STREAM_RINGING);
     let shocks = shock_times_ms(&edges);
-    let ringing = ringing_at(&plant.cfg, &shocks, &times, |_, _, _| ring_rng.gen_range(0.0..std::f64::consts::TAU));
+    let ringing = ringing_at(&plant.cfg, &shocks, &times, |_, _, _| {
+        ring_rng.gen_range(0.0..std::f64::consts::TAU)
+    });
 
     let mut samples = Vec::with_capacity(times.len());
     for k in 0..times.len() {
@@ -250,9 +264,15 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             quantise(bias + sensed * sat.gyro_counts_per_rad_s[a])
         });
         let an = accel_noise(&spec.sensors, &mut accel_rng);
-        let acc: [u16; 3] =
-            std::array::from_fn(|a| quantise(sat.accel_bias_counts[a] + (accel[k][a] + an[a]) / sat.accel_m_s2_per_count));
-        samples.push(Sample { time_ms: times[k], gyro, accel: acc, thrusters: words[k] });
+        let acc: [u16; 3] = std::array::from_fn(|a| {
+            quantise(sat.accel_bias_counts[a] + (accel[k][a] + an[a]) / sat.accel_m_s2_per_count)
+        });
+        samples.push(Sample {
+            time_ms: times[k],
+            gyro,
+            accel: acc,
+            thrusters: words[k],
+        });
     }
     let mut recording = Recording::new("massid-sim", Some(&sat.name), Some(spec.rate_hz), samples);
     recording.set_meta("generator", "massid-sim");
@@ -260,14 +280,19 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     recording.set_meta("seed", &spec.seed.to_string());
     let mut art_rng = rng(spec.seed, STREAM_ARTEFACTS);
     if spec.artefacts.gaps > 0 || spec.artefacts.duplicates > 0 {
-        let rows = spec.artefacts.apply(std::mem::take(&mut recording.samples), &mut art_rng);
+        let rows = spec
+            .artefacts
+            .apply(std::mem::take(&mut recording.samples), &mut art_rng);
         let clean = Recording::new("massid-sim", None, Some(spec.rate_hz), rows.clone());
         recording.issues = clean.issues;
         recording.samples = rows;
     }
     Ok(SimOutput {
         recording,
-        truth: Truth { satellite: sat.name.clone(), effects: spec.effects.clone() },
+        truth: Truth {
+            satellite: sat.name.clone(),
+            effects: spec.effects.clone(),
+        },
         commands,
         body_rate: rates,
         final_state,
@@ -291,8 +316,14 @@ const RATE_CMD: f64 = 0.15;
 
 impl Controller {
     fn new(sat: &Satellite, total_ms: usize) -> Result<Self, SimError> {
-        let mixer = Mixer::from_satellite(sat, None, maneuvers::PERIOD_MS as u32).map_err(|e| SimError::Mixer(e.to_string()))?;
-        Ok(Controller { mixer, inertia: sat.inertia_matrix(), total_ms, firing: None })
+        let mixer = Mixer::from_satellite(sat, None, maneuvers::PERIOD_MS as u32)
+            .map_err(|e| SimError::Mixer(e.to_string()))?;
+        Ok(Controller {
+            mixer,
+            inertia: sat.inertia_matrix(),
+            total_ms,
+            firing: None,
+        })
     }
 
     /// Rate command at `t` (None = attitude hold): the first 60% of the run is split into
@@ -308,7 +339,12 @@ impl Controller {
         Some(w)
     }
 
-    fn plan(&mut self, t: usize, w: &Vector3<f64>, q: &UnitQuaternion<f64>) -> Result<(), SimError> {
+    fn plan(
+        &mut self,
+        t: usize,
+        w: &Vector3<f64>,
+        q: &UnitQuaternion<f64>,
+    ) -> Result<(), SimError> {
         let period_s = maneuvers::PERIOD_MS as f64 * 1e-3;
         let alpha = match self.target(t) {
             // Remove half the rate error per period.
@@ -320,7 +356,10 @@ impl Controller {
             }
         };
         let torque = self.inertia * alpha;
-        let firing = self.mixer.mix(Vector3::zeros(), torque).map_err(|e| SimError::Mixer(e.to_string()))?;
+        let firing = self
+            .mixer
+            .mix(Vector3::zeros(), torque)
+            .map_err(|e| SimError::Mixer(e.to_string()))?;
         self.firing = Some((t, firing));
         Ok(())
     }

@@ -17,7 +17,12 @@ pub struct ValveEdge {
 
 /// Actual valve edges for commanded `words` at `times_ms`, sorted by time (stable: at equal
 /// times thruster order, closes before opens of the same thruster).
-pub fn valve_edges(times_ms: &[u64], words: &[u16], open_delay_ms: f64, close_delay_ms: f64) -> Vec<ValveEdge> {
+pub fn valve_edges(
+    times_ms: &[u64],
+    words: &[u16],
+    open_delay_ms: f64,
+    close_delay_ms: f64,
+) -> Vec<ValveEdge> {
     let mut edges = Vec::new();
     let n = times_ms.len().min(words.len());
     for th in 0..N_THRUSTERS {
@@ -33,8 +38,16 @@ pub fn valve_edges(times_ms: &[u64], words: &[u16], open_delay_ms: f64, close_de
                 if let Some(t_open) = on_since.take() {
                     let t_close = t + close_delay_ms;
                     if t_close > t_open {
-                        edges.push(ValveEdge { t_ms: t_open, thruster: th as u8, opens: true });
-                        edges.push(ValveEdge { t_ms: t_close, thruster: th as u8, opens: false });
+                        edges.push(ValveEdge {
+                            t_ms: t_open,
+                            thruster: th as u8,
+                            opens: true,
+                        });
+                        edges.push(ValveEdge {
+                            t_ms: t_close,
+                            thruster: th as u8,
+                            opens: false,
+                        });
                     }
                 }
             }
@@ -42,10 +55,19 @@ pub fn valve_edges(times_ms: &[u64], words: &[u16], open_delay_ms: f64, close_de
         }
         // Still commanded open at the last sample: it opens and stays open.
         if let Some(t_open) = on_since {
-            edges.push(ValveEdge { t_ms: t_open, thruster: th as u8, opens: true });
+            edges.push(ValveEdge {
+                t_ms: t_open,
+                thruster: th as u8,
+                opens: true,
+            });
         }
     }
-    edges.sort_by(|a, b| a.t_ms.total_cmp(&b.t_ms).then(a.opens.cmp(&b.opens)).then(a.thruster.cmp(&b.thruster)));
+    edges.sort_by(|a, b| {
+        a.t_ms
+            .total_cmp(&b.t_ms)
+            .then(a.opens.cmp(&b.opens))
+            .then(a.thruster.cmp(&b.thruster))
+    });
     edges
 }
 

@@ -41,8 +41,13 @@ fn every_open_recording_is_reproduced_to_the_noise_floor() {
         }
         // Where the truth has a dynamic effect, the nominal model alone is visibly worse.
         if !truth.effects.is_empty() {
-            let worst = (0..3).map(|a| r.nominal_rms[a] / r.noise_floor[a]).fold(0.0, f64::max);
-            assert!(worst > 1.2, "{name}: the nominal model already fits ({worst:.3})");
+            let worst = (0..3)
+                .map(|a| r.nominal_rms[a] / r.noise_floor[a])
+                .fold(0.0, f64::max);
+            assert!(
+                worst > 1.2,
+                "{name}: the nominal model already fits ({worst:.3})"
+            );
         }
     }
 }
@@ -50,8 +55,16 @@ fn every_open_recording_is_reproduced_to_the_noise_floor() {
 #[test]
 fn the_fitted_slosh_coupling_is_the_generators_three_percent() {
     let p = open_dir().join("o04_fuel_slosh_rga12.csv");
-    let r = reproduce(&Recording::read(&p).unwrap(), &Truth::read(&Truth::path_for(&p)).unwrap()).unwrap();
-    let line = r.fitted.iter().find(|f| f.starts_with("slosh liquid inertia fraction")).unwrap();
+    let r = reproduce(
+        &Recording::read(&p).unwrap(),
+        &Truth::read(&Truth::path_for(&p)).unwrap(),
+    )
+    .unwrap();
+    let line = r
+        .fitted
+        .iter()
+        .find(|f| f.starts_with("slosh liquid inertia fraction"))
+        .unwrap();
     let f: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
     // The open data's README: "fluid inertia 3% per axis".
     assert!((f - 0.03).abs() < 0.002, "{line}");
@@ -61,25 +74,43 @@ fn the_fitted_slosh_coupling_is_the_generators_three_percent() {
 fn accelerometer_agrees_with_the_open_data_over_every_firing() {
     use massid_sim::{predict, PredictOptions};
     use reference_f64::satellite::Satellite;
-    for name in ["o01_nominal_rga12.csv", "o08_com_offset_rga12.csv", "o06_thrust_scale_combo.csv"] {
+    for name in [
+        "o01_nominal_rga12.csv",
+        "o08_com_offset_rga12.csv",
+        "o06_thrust_scale_combo.csv",
+    ] {
         let p = open_dir().join(name);
         let rec = Recording::read(&p).unwrap();
         let truth = Truth::read(&Truth::path_for(&p)).unwrap();
         let sat = Satellite::builtin(&truth.satellite).unwrap();
         let t: Vec<u64> = rec.samples.iter().map(|s| s.time_ms).collect();
         let w: Vec<u16> = rec.samples.iter().map(|s| s.thrusters).collect();
-        let pred = predict(&sat, &truth.effects, &t, &w, [0.0; 3], PredictOptions::default());
+        let pred = predict(
+            &sat,
+            &truth.effects,
+            &t,
+            &w,
+            [0.0; 3],
+            PredictOptions::default(),
+        );
         // Mean over 1 s windows (the noise of a 1000-sample mean is about 0.06 counts).
         let mut compared = 0;
         for start in (1000..t.len().saturating_sub(1000)).step_by(1000) {
             for a in 0..3 {
-                let recorded: f64 = rec.samples[start..start + 1000].iter().map(|s| s.accel[a] as f64).sum::<f64>() / 1000.0;
+                let recorded: f64 = rec.samples[start..start + 1000]
+                    .iter()
+                    .map(|s| s.accel[a] as f64)
+                    .sum::<f64>()
+                    / 1000.0;
                 let predicted: f64 = pred.specific_force[start..start + 1000]
                     .iter()
                     .map(|f| sat.accel_bias_counts[a] + f[a] / sat.accel_m_s2_per_count)
                     .sum::<f64>()
                     / 1000.0;
-                assert!((recorded - predicted).abs() < 0.3, "{name} {start} ms axis {a}: {recorded:.3} vs {predicted:.3} counts");
+                assert!(
+                    (recorded - predicted).abs() < 0.3,
+                    "{name} {start} ms axis {a}: {recorded:.3} vs {predicted:.3} counts"
+                );
                 compared += 1;
             }
         }

@@ -13,7 +13,9 @@ fn sph2() -> Satellite {
 }
 
 fn open(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/open")
+        .join(name)
 }
 
 fn bytes(spec: &SimSpec) -> Vec<u8> {
@@ -32,7 +34,11 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
     let mut spec = SimSpec::new(sph2(), truth.effects, Maneuver::Combo);
     spec.seconds = Some(3.0);
     spec.seed = 11;
-    spec.artefacts = Artefacts { gaps: 2, max_gap: 5, duplicates: 2 };
+    spec.artefacts = Artefacts {
+        gaps: 2,
+        max_gap: 5,
+        duplicates: 2,
+    };
     let a = bytes(&spec);
     assert_eq!(a, bytes(&spec));
     spec.seed = 12;
@@ -56,14 +62,20 @@ fn rga_pairs_are_pure_rotations_and_translations() {
         let torque = sat.lever_arm_m(i).cross(&sat.dir(i)) + sat.lever_arm_m(j).cross(&sat.dir(j));
         let force = sat.dir(i) + sat.dir(j);
         let (axis, sign) = (k / 2, if k % 2 == 0 { 1.0 } else { -1.0 });
-        assert!(torque[axis] * sign > 0.19, "rotation {k}: torque {torque:?}");
+        assert!(
+            torque[axis] * sign > 0.19,
+            "rotation {k}: torque {torque:?}"
+        );
         assert!(force.norm() < 0.1, "rotation {k}: force {force:?}");
     }
     for (k, &(i, j)) in RGA_TRANSLATIONS.iter().enumerate() {
         let force = sat.dir(i) + sat.dir(j);
         let torque = sat.pos_m(i).cross(&sat.dir(i)) + sat.pos_m(j).cross(&sat.dir(j));
         let (axis, sign) = (k / 2, if k % 2 == 0 { 1.0 } else { -1.0 });
-        assert!(force[axis] * sign > 1.99, "translation {k}: force {force:?}");
+        assert!(
+            force[axis] * sign > 1.99,
+            "translation {k}: force {force:?}"
+        );
         assert!(torque.norm() < 0.01, "translation {k}: torque {torque:?}");
     }
 }
@@ -77,7 +89,9 @@ fn combo_fires_1_to_4_centred_pulses_per_period() {
         let fired = period.iter().fold(0u16, |a, &b| a | b);
         assert!((1..=4).contains(&fired.count_ones()), "{fired:b}");
         for th in 0..12 {
-            let on: Vec<usize> = (0..period.len()).filter(|&t| period[t] & (1 << th) != 0).collect();
+            let on: Vec<usize> = (0..period.len())
+                .filter(|&t| period[t] & (1 << th) != 0)
+                .collect();
             if let (Some(&first), Some(&last)) = (on.first(), on.last()) {
                 let width = last - first + 1;
                 assert_eq!(on.len(), width, "one contiguous pulse");
@@ -98,7 +112,13 @@ fn noise_matches_the_open_datas_generator() {
     let std = |r: &Recording, ch: usize| {
         let x: Vec<f64> = r.samples[..1000]
             .iter()
-            .map(|s| if ch < 3 { s.gyro[ch] as f64 } else { s.accel[ch - 3] as f64 })
+            .map(|s| {
+                if ch < 3 {
+                    s.gyro[ch] as f64
+                } else {
+                    s.accel[ch - 3] as f64
+                }
+            })
             .collect();
         let m = x.iter().sum::<f64>() / x.len() as f64;
         (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
@@ -106,7 +126,10 @@ fn noise_matches_the_open_datas_generator() {
     for ch in 0..6 {
         let (a, b) = (std(&rec, ch), std(&sim, ch));
         // 1000 samples: the std estimate's own spread is about 2-3%.
-        assert!((a / b - 1.0).abs() < 0.1, "channel {ch}: open {a:.3} counts, simulated {b:.3}");
+        assert!(
+            (a / b - 1.0).abs() < 0.1,
+            "channel {ch}: open {a:.3} counts, simulated {b:.3}"
+        );
     }
 }
 
@@ -114,10 +137,20 @@ fn noise_matches_the_open_datas_generator() {
 fn noiseless_simulation_equals_the_prediction() {
     let mut spec = SimSpec::new(sph2(), vec![], Maneuver::Combo);
     spec.seconds = Some(5.0);
-    spec.sensors = SensorConfig { noiseless: true, ..SensorConfig::default() };
+    spec.sensors = SensorConfig {
+        noiseless: true,
+        ..SensorConfig::default()
+    };
     let out = simulate(&spec).unwrap();
     let t: Vec<u64> = (0..out.commands.len() as u64).collect();
-    let p = predict(&spec.satellite, &[], &t, &out.commands, [0.0; 3], PredictOptions::default());
+    let p = predict(
+        &spec.satellite,
+        &[],
+        &t,
+        &out.commands,
+        [0.0; 3],
+        PredictOptions::default(),
+    );
     for (k, s) in out.recording.samples.iter().enumerate() {
         for a in 0..3 {
             assert!((out.body_rate[k][a] - p.body_rate[k][a]).abs() < 1e-12);
@@ -132,7 +165,10 @@ fn noiseless_simulation_equals_the_prediction() {
 fn accelerometer_reads_thrust_over_mass() {
     let sat = sph2();
     let mut spec = SimSpec::new(sat.clone(), vec![], Maneuver::Rga12);
-    spec.sensors = SensorConfig { noiseless: true, ..SensorConfig::default() };
+    spec.sensors = SensorConfig {
+        noiseless: true,
+        ..SensorConfig::default()
+    };
     let out = simulate(&spec).unwrap();
     // +x translation pair (thrusters 1 and 2) fires 13000..14000 ms.
     let s = &out.recording.samples[13_500];
@@ -140,7 +176,11 @@ fn accelerometer_reads_thrust_over_mass() {
     let (force, _) = sat.force_torque_for_word(0b11);
     for a in 0..3 {
         let expected = sat.accel_bias_counts[a] + force[a] / sat.mass_kg / sat.accel_m_s2_per_count;
-        assert!((s.accel[a] as f64 - expected).abs() <= 0.5 + 1e-9, "axis {a}: {} vs {expected}", s.accel[a]);
+        assert!(
+            (s.accel[a] as f64 - expected).abs() <= 0.5 + 1e-9,
+            "axis {a}: {} vs {expected}",
+            s.accel[a]
+        );
     }
     // The satellite moves along +x: 2 x 0.11 N for 1 s on 3.5 kg gives ~0.06 m/s.
     assert!(out.final_state.pos.norm() > 0.0);
@@ -150,12 +190,24 @@ fn accelerometer_reads_thrust_over_mass() {
 fn artefacts_are_what_a_reader_counts() {
     let mut spec = SimSpec::new(sph2(), vec![], Maneuver::Combo);
     spec.seconds = Some(5.0);
-    spec.artefacts = Artefacts { gaps: 4, max_gap: 20, duplicates: 3 };
+    spec.artefacts = Artefacts {
+        gaps: 4,
+        max_gap: 20,
+        duplicates: 3,
+    };
     let mut text = Vec::new();
-    simulate(&spec).unwrap().recording.write_to(&mut text).unwrap();
+    simulate(&spec)
+        .unwrap()
+        .recording
+        .write_to(&mut text)
+        .unwrap();
     let back = Recording::from_reader(std::io::Cursor::new(text), "sim").unwrap();
     assert_eq!(back.issues.duplicates, 3);
-    assert!(back.issues.gaps >= 1 && back.issues.gaps <= 4, "{:?}", back.issues);
+    assert!(
+        back.issues.gaps >= 1 && back.issues.gaps <= 4,
+        "{:?}",
+        back.issues
+    );
     assert!(back.issues.missing_samples >= back.issues.gaps);
 }
 
@@ -170,11 +222,20 @@ fn closed_loop_follows_rate_commands_then_holds_attitude() {
         let want = if leg % 2 == 0 { 0.15 } else { -0.15 };
         let got = out.body_rate[k][leg / 2];
         // The 10 ms minimum pulse leaves a dead band of about 0.01 rad/s.
-        assert!((got - want).abs() < 0.02, "leg {leg}: rate {got}, commanded {want}");
+        assert!(
+            (got - want).abs() < 0.02,
+            "leg {leg}: rate {got}, commanded {want}"
+        );
     }
     let w_end = out.body_rate.last().unwrap();
-    assert!(w_end.iter().all(|w| w.abs() < 0.02), "attitude hold ends at rest: {w_end:?}");
-    assert!(out.commands[18_000..].iter().any(|&w| w != 0), "the hold fires thrusters");
+    assert!(
+        w_end.iter().all(|w| w.abs() < 0.02),
+        "attitude hold ends at rest: {w_end:?}"
+    );
+    assert!(
+        out.commands[18_000..].iter().any(|&w| w != 0),
+        "the hold fires thrusters"
+    );
 }
 
 #[test]
@@ -187,14 +248,21 @@ fn model_file_parses_and_errors_name_file_and_line() {
     assert_eq!(m.satellite.name, "sph2");
     assert_eq!(m.effects[0].name(), "pressure_drop");
     assert_eq!(m.artefacts.gaps, 2);
-    let e = ModelFile::parse("satellite = \"sph2\"\n\n[[effects]]\neffect = \"warp\"\nparams = {}\n", "m.toml").unwrap_err();
+    let e = ModelFile::parse(
+        "satellite = \"sph2\"\n\n[[effects]]\neffect = \"warp\"\nparams = {}\n",
+        "m.toml",
+    )
+    .unwrap_err();
     assert_eq!((e.file.as_str(), e.line), ("m.toml", 4), "{e}");
     let e = ModelFile::parse("satellite = \"sph2\"\n[[effects]]\neffect = \"blowdown\"\nparams = { start_s = 1.0, tau_s = 0.0 }\n", "m.toml")
         .unwrap_err();
     assert_eq!(e.line, 2, "{e}");
     assert!(e.reason.contains("tau_s"), "{e}");
     let e = ModelFile::parse("satellite = \"sph7\"\n", "m.toml").unwrap_err();
-    assert!(e.to_string().starts_with("m.toml:1: unknown satellite"), "{e}");
+    assert!(
+        e.to_string().starts_with("m.toml:1: unknown satellite"),
+        "{e}"
+    );
     let e = ModelFile::parse("satelite = \"sph2\"\n", "m.toml").unwrap_err();
     assert_eq!(e.line, 1, "{e}");
 }
@@ -221,8 +289,19 @@ fn model_file_takes_an_inline_satellite() {
     assert_eq!(m.satellite, sat);
     // Its pressure drop is part of the plant: a 2-thruster firing is weaker than nominal.
     let t: Vec<u64> = (0..20).collect();
-    let w: Vec<u16> = t.iter().map(|&k| if k >= 10 { (1 << 4) | (1 << 11) } else { 0 }).collect();
-    let a = predict(&m.satellite, &[], &t, &w, [0.0; 3], PredictOptions::default()).angular_accel[10];
+    let w: Vec<u16> = t
+        .iter()
+        .map(|&k| if k >= 10 { (1 << 4) | (1 << 11) } else { 0 })
+        .collect();
+    let a = predict(
+        &m.satellite,
+        &[],
+        &t,
+        &w,
+        [0.0; 3],
+        PredictOptions::default(),
+    )
+    .angular_accel[10];
     let b = predict(&sph2(), &[], &t, &w, [0.0; 3], PredictOptions::default()).angular_accel[10];
     assert!(a[0].abs() < b[0].abs(), "{a:?} vs {b:?}");
 }

@@ -8,12 +8,18 @@ fn open_dir() -> PathBuf {
 
 #[test]
 fn latency_serialises_as_the_contract_example() {
-    let e = Effect::ThrusterLatency(ThrusterLatency { open_ms: 6.0, close_ms: 6.0 });
+    let e = Effect::ThrusterLatency(ThrusterLatency {
+        open_ms: 6.0,
+        close_ms: 6.0,
+    });
     assert_eq!(
         serde_json::to_string(&e).unwrap(),
         r#"{"effect":"thruster_latency","params":{"open_ms":6.0,"close_ms":6.0}}"#
     );
-    let back: Effect = serde_json::from_str(r#"{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}"#).unwrap();
+    let back: Effect = serde_json::from_str(
+        r#"{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}"#,
+    )
+    .unwrap();
     assert_eq!(back, e);
 }
 
@@ -65,13 +71,19 @@ fn every_open_truth_file_parses() {
 
 #[test]
 fn bad_truth_is_a_clear_error() {
-    let e = Truth::from_json_str(r#"{"satellite": "sph2", "effects": [{"effect": "warp_drive", "params": {}}]}"#, "x.truth.json")
-        .unwrap_err()
-        .to_string();
+    let e = Truth::from_json_str(
+        r#"{"satellite": "sph2", "effects": [{"effect": "warp_drive", "params": {}}]}"#,
+        "x.truth.json",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.starts_with("x.truth.json: line 1"), "{e}");
-    let e = Truth::from_json_str(r#"{"satellite": "sph2", "effects": [{"effect": "blowdown", "params": {"start_s": 1}}]}"#, "y")
-        .unwrap_err()
-        .to_string();
+    let e = Truth::from_json_str(
+        r#"{"satellite": "sph2", "effects": [{"effect": "blowdown", "params": {"start_s": 1}}]}"#,
+        "y",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("tau_s"), "{e}");
     let e = Truth::from_json_str(r#"{"satellite": "s", "effects": [{"effect": "blowdown", "params": {"start_s": 1, "tau_s": -3}}]}"#, "z")
         .unwrap_err()
@@ -89,6 +101,9 @@ fn params_flatten_and_replace() {
     let changed = scale.with_params(&[("scale[5]", 0.5)]).unwrap();
     assert_eq!(changed.params()[5].1, 0.5);
     let lat = t.effects[0].with_params(&[("open_ms", 7.5)]).unwrap();
-    assert_eq!(lat.params().iter().find(|(k, _)| k == "open_ms").unwrap().1, 7.5);
+    assert_eq!(
+        lat.params().iter().find(|(k, _)| k == "open_ms").unwrap().1,
+        7.5
+    );
     assert!(t.effects[0].with_params(&[("nope", 1.0)]).is_err());
 }

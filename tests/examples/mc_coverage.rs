@@ -6,8 +6,14 @@
 use massid_tests::coverage::{run_flights, Table};
 
 fn main() {
-    let n: u64 = std::env::args().nth(1).and_then(|v| v.parse().ok()).unwrap_or(200);
-    let seed0: u64 = std::env::args().nth(2).and_then(|v| v.parse().ok()).unwrap_or(10_000);
+    let n: u64 = std::env::args()
+        .nth(1)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(200);
+    let seed0: u64 = std::env::args()
+        .nth(2)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10_000);
     let t: Table = run_flights(n, seed0);
     print!("{}", t.markdown());
 }

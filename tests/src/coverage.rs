@@ -67,7 +67,10 @@ impl Table {
             self.cells[k][j].add(e.com_offset_mm[j], e.com_offset_stderr_mm[j]);
         }
         for j in 0..3 {
-            self.cells[k][3 + j].add(e.inertia_kgm2[j] - sat.inertia_kgm2[j], e.inertia_stderr_kgm2[j]);
+            self.cells[k][3 + j].add(
+                e.inertia_kgm2[j] - sat.inertia_kgm2[j],
+                e.inertia_stderr_kgm2[j],
+            );
         }
     }
 
@@ -77,7 +80,14 @@ impl Table {
         for (k, name) in IMPLS.iter().enumerate() {
             for (j, t) in TERMS.iter().enumerate() {
                 let c = &self.cells[k][j];
-                s += &format!("| {name} | {t} | {} | {:.1} % | {:.1} % | {:+.2} | {:.2} |\n", c.n, c.cover1(), c.cover2(), c.bias(), c.ratio());
+                s += &format!(
+                    "| {name} | {t} | {} | {:.1} % | {:.1} % | {:+.2} | {:.2} |\n",
+                    c.n,
+                    c.cover1(),
+                    c.cover2(),
+                    c.bias(),
+                    c.ratio()
+                );
             }
         }
         s
@@ -92,7 +102,10 @@ pub fn run_flights(n: u64, seed0: u64) -> Table {
 /// [`run_flights`] with the kernels' estimates altered by `fault` first (planted-fault tests).
 pub fn run_flights_with(n: u64, seed0: u64, fault: impl Fn(&mut Estimate)) -> Table {
     let sat = Satellite::builtin("sph2").expect("sph2");
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     let mut t = Table::default();
     for seed in seed0..seed0 + n {
         let mut spec = SimSpec::new(sat.clone(), Vec::new(), Maneuver::Rga12);

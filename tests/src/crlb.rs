@@ -27,7 +27,11 @@ pub fn crlb(spec: &SimSpec) -> [f64; N] {
     // Sensitivities, one column per unknown: rows are (sample, axis).
     let mut jac = DMatrix::<f64>::zeros(3 * n, N);
     for j in 0..N {
-        let h = if j < 3 { 0.5 } else { 1e-4 * base.inertia_kgm2[0] };
+        let h = if j < 3 {
+            0.5
+        } else {
+            1e-4 * base.inertia_kgm2[0]
+        };
         let moved = |sign: f64| {
             let mut s = base.clone();
             if j < 3 {
@@ -51,25 +55,43 @@ pub fn crlb(spec: &SimSpec) -> [f64; N] {
     for a in 0..3 {
         let var_e = spec.sensors.gyro_noise_rad_s[a].powi(2) * (1.0 - rho * rho);
         for k in 1..n {
-            let row = SMatrix::<f64, 1, N>::from_fn(|_, j| jac[(3 * k + a, j)] - rho * jac[(3 * (k - 1) + a, j)]);
+            let row = SMatrix::<f64, 1, N>::from_fn(|_, j| {
+                jac[(3 * k + a, j)] - rho * jac[(3 * (k - 1) + a, j)]
+            });
             fim += row.transpose() * row / var_e;
         }
     }
-    let cov = fim.try_inverse().unwrap_or_else(|| SMatrix::<f64, N, N>::from_element(f64::NAN));
+    let cov = fim
+        .try_inverse()
+        .unwrap_or_else(|| SMatrix::<f64, N, N>::from_element(f64::NAN));
     core::array::from_fn(|j| cov[(j, j)])
 }
 
 /// The estimators compared with the bound.
-pub const ESTIMATORS: [&str; 4] = ["f64 offline (batch)", "f64 online", "f32 kernel", "fixed kernel"];
+pub const ESTIMATORS: [&str; 4] = [
+    "f64 offline (batch)",
+    "f64 online",
+    "f32 kernel",
+    "fixed kernel",
+];
 
 /// Monte Carlo variance of each estimator's error for the nine unknowns over `flights` rga12
 /// flights of the nominal SPH2 (seeds from `seed0`), and the CRLB; `(mc_var, crlb)`.
 pub fn mc_against_crlb(flights: u64, seed0: u64) -> ([[f64; N]; 4], [f64; N]) {
     let sat = Satellite::builtin("sph2").expect("sph2");
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     let mut sum_sq = [[0.0f64; N]; 4];
     let errors = |e: &Estimate| -> [f64; N] {
-        core::array::from_fn(|j| if j < 3 { e.com_offset_mm[j] } else { e.inertia_kgm2[j - 3] - sat.inertia_kgm2[j - 3] })
+        core::array::from_fn(|j| {
+            if j < 3 {
+                e.com_offset_mm[j]
+            } else {
+                e.inertia_kgm2[j - 3] - sat.inertia_kgm2[j - 3]
+            }
+        })
     };
     for seed in seed0..seed0 + flights {
         let mut spec = SimSpec::new(sat.clone(), Vec::new(), Maneuver::Rga12);
@@ -95,7 +117,9 @@ pub fn mc_against_crlb(flights: u64, seed0: u64) -> ([[f64; N]; 4], [f64; N]) {
 
 /// The table: per estimator and unknown, the Monte Carlo variance over the CRLB.
 pub fn markdown(mc: &[[f64; N]; 4], bound: &[f64; N]) -> String {
-    const NAMES: [&str; N] = ["cm_x", "cm_y", "cm_z", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"];
+    const NAMES: [&str; N] = [
+        "cm_x", "cm_y", "cm_z", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz",
+    ];
     let mut s = String::from("| estimator |");
     for n in NAMES {
         s += &format!(" {n} |");
@@ -104,7 +128,11 @@ pub fn markdown(mc: &[[f64; N]; 4], bound: &[f64; N]) -> String {
     s += &"---|".repeat(N);
     s += "\n| CRLB sigma |";
     for (j, b) in bound.iter().enumerate() {
-        s += &if j < 3 { format!(" {:.3} mm |", b.sqrt()) } else { format!(" {:.1e} |", b.sqrt()) };
+        s += &if j < 3 {
+            format!(" {:.3} mm |", b.sqrt())
+        } else {
+            format!(" {:.1e} |", b.sqrt())
+        };
     }
     s += "\n";
     for (k, name) in ESTIMATORS.iter().enumerate() {

@@ -67,8 +67,21 @@ fn mixer_status(e: MixerError) -> i32 {
     }
 }
 
-fn write_solve<S: Flavour>(out: &mut String, t: i64, e: &Estimates<S>, mixer: Result<Mixer<S>, i32>) {
-    let _ = write!(out, "{} t={t} estimates status={} firings={} updates={} resets={} com", S::NAME, e.status as u8, e.firings, e.updates, e.resets);
+fn write_solve<S: Flavour>(
+    out: &mut String,
+    t: i64,
+    e: &Estimates<S>,
+    mixer: Result<Mixer<S>, i32>,
+) {
+    let _ = write!(
+        out,
+        "{} t={t} estimates status={} firings={} updates={} resets={} com",
+        S::NAME,
+        e.status as u8,
+        e.firings,
+        e.updates,
+        e.resets
+    );
     for v in e.delta_com_m {
         let _ = write!(out, " {:08x}", v.bits());
     }
@@ -77,19 +90,31 @@ fn write_solve<S: Flavour>(out: &mut String, t: i64, e: &Estimates<S>, mixer: Re
         let _ = write!(out, " {:08x}", v.bits());
     }
     out.push_str(" unobs ");
-    for f in e.unobservable_com.iter().chain(e.unobservable_inertia.iter()) {
+    for f in e
+        .unobservable_com
+        .iter()
+        .chain(e.unobservable_inertia.iter())
+    {
         out.push(if *f { '1' } else { '0' });
     }
     out.push('\n');
     for (k, c) in COMMANDS.iter().enumerate() {
         let cmd: [S; 6] = c.map(S::command);
         let result: Result<Firing, i32> = match &mixer {
-            Ok(m) => m.mix([cmd[0], cmd[1], cmd[2]], [cmd[3], cmd[4], cmd[5]]).map_err(mixer_status),
+            Ok(m) => m
+                .mix([cmd[0], cmd[1], cmd[2]], [cmd[3], cmd[4], cmd[5]])
+                .map_err(mixer_status),
             Err(s) => Err(*s),
         };
         let (status, f) = match result {
             Ok(f) => (0, f),
-            Err(s) => (s, Firing { on_ms: [0; 12], off_ms: [0; 12] }),
+            Err(s) => (
+                s,
+                Firing {
+                    on_ms: [0; 12],
+                    off_ms: [0; 12],
+                },
+            ),
         };
         let _ = write!(out, "{} t={t} mix{k} status={status} on", S::NAME);
         for v in f.on_ms {
@@ -119,7 +144,10 @@ fn read_rows(path: &Path) -> Vec<(i64, [u16; 3], u16)> {
         let f: Vec<i64> = line
             .trim()
             .split(',')
-            .map(|v| v.parse().unwrap_or_else(|_| panic!("{}:{}: bad field {v:?}", path.display(), n + 1)))
+            .map(|v| {
+                v.parse()
+                    .unwrap_or_else(|_| panic!("{}:{}: bad field {v:?}", path.display(), n + 1))
+            })
             .collect();
         assert_eq!(f.len(), 8, "{}:{}", path.display(), n + 1);
         rows.push((f[0], [f[1] as u16, f[2] as u16, f[3] as u16], f[7] as u16));
@@ -141,10 +169,19 @@ fn rust_run_options<S: Flavour>(rows: &[(i64, [u16; 3], u16)], out: &mut String)
     rust_run_with(cfg, true, rows, out)
 }
 
-fn rust_run_with<S: Flavour>(cfg: PipelineConfig<S>, gaps_at_once: bool, rows: &[(i64, [u16; 3], u16)], out: &mut String) {
+fn rust_run_with<S: Flavour>(
+    cfg: PipelineConfig<S>,
+    gaps_at_once: bool,
+    rows: &[(i64, [u16; 3], u16)],
+    out: &mut String,
+) {
     let mut p = Pipeline::<S>::new(&SPH2, cfg).expect("SPH2 is valid");
     let rebuild = |p: &Pipeline<S>| {
-        let cfg = MixerConfig { period_ms: PERIOD_MS, min_pulse_ms: MIN_PULSE_MS, pressure_drop_n: S::from_f32(SPH2.pressure_drop_n_per_extra) };
+        let cfg = MixerConfig {
+            period_ms: PERIOD_MS,
+            min_pulse_ms: MIN_PULSE_MS,
+            pressure_drop_n: S::from_f32(SPH2.pressure_drop_n_per_extra),
+        };
         Mixer::new(&SPH2, p.estimates().delta_com_m, cfg).map_err(mixer_status)
     };
     let mut last: i64 = -1;
@@ -174,7 +211,9 @@ fn rust_run_with<S: Flavour>(cfg: PipelineConfig<S>, gaps_at_once: bool, rows: &
 }
 
 fn run(cmd: &mut Command, what: &str) -> std::process::Output {
-    let out = cmd.output().unwrap_or_else(|e| panic!("{what}: cannot start: {e}"));
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what}: cannot start: {e}"));
     assert!(
         out.status.success(),
         "{what} failed ({}):\n{}\n{}",
@@ -202,7 +241,15 @@ fn build_c_program() -> PathBuf {
     let exe = tmp.join("capi_run");
     run(
         Command::new("gcc")
-            .args(["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-I"])
+            .args([
+                "-std=c99",
+                "-O2",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-pedantic",
+                "-I",
+            ])
             .arg(root.join("kernel/include"))
             .arg(root.join("kernel/capi-test/capi_run.c"))
             .arg(&lib)
@@ -220,26 +267,43 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
     assert!(String::from_utf8_lossy(&selftest.stdout).contains("all checks passed"));
 
     // A 1 s-firing recording, a random-PWM one with pressure drop, and one with gaps and duplicates.
-    for name in ["o01_nominal_rga12.csv", "o03_pressure_drop_combo.csv", "o09_nominal_artefacts_combo.csv"] {
+    for name in [
+        "o01_nominal_rga12.csv",
+        "o03_pressure_drop_combo.csv",
+        "o09_nominal_artefacts_combo.csv",
+    ] {
         let path = open_data().join(name);
-        let c_out = String::from_utf8(run(Command::new(&exe).arg(&path), name).stdout).expect("utf-8 output");
+        let c_out = String::from_utf8(run(Command::new(&exe).arg(&path), name).stdout)
+            .expect("utf-8 output");
         let rows = read_rows(&path);
         let mut expected = String::new();
         rust_run::<Q8_24>(&rows, &mut expected);
         rust_run::<f32>(&rows, &mut expected);
-        let solves = expected.lines().filter(|l| l.contains(" estimates ")).count();
+        let solves = expected
+            .lines()
+            .filter(|l| l.contains(" estimates "))
+            .count();
         assert!(solves >= 4, "{name}: expected several solves, got {solves}");
-        assert!(expected.lines().any(|l| l.contains(" mix0 status=0 ")), "{name}: no successful mix");
+        assert!(
+            expected.lines().any(|l| l.contains(" mix0 status=0 ")),
+            "{name}: no successful mix"
+        );
         for (n, (c, r)) in c_out.lines().zip(expected.lines()).enumerate() {
             assert_eq!(c, r, "{name}: line {} differs (C vs Rust)", n + 1);
         }
-        assert_eq!(c_out.lines().count(), expected.lines().count(), "{name}: line counts differ");
+        assert_eq!(
+            c_out.lines().count(),
+            expected.lines().count(),
+            "{name}: line counts differ"
+        );
     }
     // C callers choose the options Rust callers can (detector, forgetting, gyroscopic
     // correction) and skip a gap in one call: the same output as the Rust API.
     for name in ["o09_nominal_artefacts_combo.csv", "o01_nominal_rga12.csv"] {
         let path = open_data().join(name);
-        let c_out = String::from_utf8(run(Command::new(&exe).arg("--options").arg(&path), name).stdout).expect("utf-8");
+        let c_out =
+            String::from_utf8(run(Command::new(&exe).arg("--options").arg(&path), name).stdout)
+                .expect("utf-8");
         let rows = read_rows(&path);
         let mut expected = String::new();
         rust_run_options::<Q8_24>(&rows, &mut expected);
@@ -251,6 +315,10 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
         for (n, (c, r)) in c_out.lines().zip(expected.lines()).enumerate() {
             assert_eq!(c, r, "{name} --options: line {} differs (C vs Rust)", n + 1);
         }
-        assert_eq!(c_out.lines().count(), expected.lines().count(), "{name} --options: line counts differ");
+        assert_eq!(
+            c_out.lines().count(),
+            expected.lines().count(),
+            "{name} --options: line counts differ"
+        );
     }
 }

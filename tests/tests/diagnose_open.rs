@@ -12,7 +12,10 @@ use serde_json::Value;
 
 fn diagnose_file(dir: &std::path::Path, name: &str) -> (DiagnosisOutput, Value) {
     let csv = dir.join(format!("{name}.csv"));
-    let truth: Value = serde_json::from_str(&std::fs::read_to_string(dir.join(format!("{name}.truth.json"))).unwrap()).unwrap();
+    let truth: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join(format!("{name}.truth.json"))).unwrap(),
+    )
+    .unwrap();
     let rec = Recording::read(&csv).unwrap();
     let sat = Satellite::builtin(rec.satellite().unwrap()).unwrap();
     let a = diagnose_recording(&rec, &sat, &Settings::default()).unwrap();
@@ -38,7 +41,12 @@ const KNOWN_MISSES: [&str; 4] = [
 fn check(dir: &std::path::Path, name: &str) -> Vec<String> {
     let (out, truth) = diagnose_file(dir, name);
     // one row of the README's table (diagnose/README.md, "Open recordings")
-    let truth_names: Vec<&str> = truth["effects"].as_array().unwrap().iter().filter_map(|e| e["effect"].as_str()).collect();
+    let truth_names: Vec<&str> = truth["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|e| e["effect"].as_str())
+        .collect();
     let named: Vec<String> = out
         .effects
         .iter()
@@ -46,7 +54,10 @@ fn check(dir: &std::path::Path, name: &str) -> Vec<String> {
             let p: Vec<String> = flatten(&Value::Object(e.params.clone()))
                 .into_iter()
                 .filter(|(k, v)| {
-                    !k.starts_with("amplitude") && (!k.starts_with("scale") || e.effect == "gyro_scale" || (v - 1.0).abs() > 0.05)
+                    !k.starts_with("amplitude")
+                        && (!k.starts_with("scale")
+                            || e.effect == "gyro_scale"
+                            || (v - 1.0).abs() > 0.05)
                 })
                 .map(|(k, v)| format!("{k} {v:.4}"))
                 .collect();
@@ -56,14 +67,30 @@ fn check(dir: &std::path::Path, name: &str) -> Vec<String> {
     let r = |v: [f64; 3]| format!("{:.5} {:.5} {:.5}", v[0], v[1], v[2]);
     eprintln!(
         "| {name} | {} | {} | {} | {} | {} |",
-        if truth_names.is_empty() { "-".to_string() } else { truth_names.join(" + ") },
-        if named.is_empty() { "-".to_string() } else { named.join("; ") },
+        if truth_names.is_empty() {
+            "-".to_string()
+        } else {
+            truth_names.join(" + ")
+        },
+        if named.is_empty() {
+            "-".to_string()
+        } else {
+            named.join("; ")
+        },
         r(out.residual_rms_before),
         r(out.residual_rms_after),
-        out.unexplained.as_ref().map(|u| format!("axes {} ({})", u.axes.join(" "), u.condition)).unwrap_or("-".into())
+        out.unexplained
+            .as_ref()
+            .map(|u| format!("axes {} ({})", u.axes.join(" "), u.condition))
+            .unwrap_or("-".into())
     );
     let mut fails = vec![];
-    let want: Vec<&str> = truth["effects"].as_array().unwrap().iter().map(|e| e["effect"].as_str().unwrap()).collect();
+    let want: Vec<&str> = truth["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["effect"].as_str().unwrap())
+        .collect();
     let mut got: Vec<&str> = out.effects.iter().map(|e| e.effect.as_str()).collect();
     let mut want_sorted = want.clone();
     want_sorted.sort();
@@ -72,33 +99,74 @@ fn check(dir: &std::path::Path, name: &str) -> Vec<String> {
         fails.push(format!("{name}: effects {got:?}, truth {want_sorted:?}"));
     }
     for te in truth["effects"].as_array().unwrap() {
-        let Some(e) = out.effects.iter().find(|e| e.effect == te["effect"].as_str().unwrap()) else { continue };
-        let est: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.params.clone())).into_iter().collect();
-        let se: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.stderr.clone())).into_iter().collect();
+        let Some(e) = out
+            .effects
+            .iter()
+            .find(|e| e.effect == te["effect"].as_str().unwrap())
+        else {
+            continue;
+        };
+        let est: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.params.clone()))
+            .into_iter()
+            .collect();
+        let se: std::collections::HashMap<String, f64> = flatten(&Value::Object(e.stderr.clone()))
+            .into_iter()
+            .collect();
         for (k, t) in flatten(&te["params"]) {
             let Some(&x) = est.get(&k) else {
                 fails.push(format!("{name}: {} lacks parameter {k}", e.effect));
                 continue;
             };
             let err = (x - t).abs();
-            let tol = if k.starts_with("offset_mm") { 0.1 } else { (2.0 * se.get(&k).copied().unwrap_or(0.0)).max(0.1 * t.abs()) };
+            let tol = if k.starts_with("offset_mm") {
+                0.1
+            } else {
+                (2.0 * se.get(&k).copied().unwrap_or(0.0)).max(0.1 * t.abs())
+            };
             if err > tol {
-                fails.push(format!("{MISS}{name}: {}.{k} = {x} (+/- {:?}), truth {t}", e.effect, se.get(&k)));
+                fails.push(format!(
+                    "{MISS}{name}: {}.{k} = {x} (+/- {:?}), truth {t}",
+                    e.effect,
+                    se.get(&k)
+                ));
             }
         }
     }
     // contract shape
     let v = serde_json::to_value(&out).unwrap();
-    for key in ["format", "recording", "model", "samples", "residual_rms_before", "residual_rms_after", "effects", "data_issues"] {
+    for key in [
+        "format",
+        "recording",
+        "model",
+        "samples",
+        "residual_rms_before",
+        "residual_rms_after",
+        "effects",
+        "data_issues",
+    ] {
         if v.get(key).is_none() {
             fails.push(format!("{name}: JSON lacks {key}"));
         }
     }
-    if out.format != "massid-diagnosis/1" || out.recording != format!("{name}.csv") || Some(out.model.as_str()) != truth["satellite"].as_str() {
-        fails.push(format!("{name}: header {} {} {}", out.format, out.recording, out.model));
+    if out.format != "massid-diagnosis/1"
+        || out.recording != format!("{name}.csv")
+        || Some(out.model.as_str()) != truth["satellite"].as_str()
+    {
+        fails.push(format!(
+            "{name}: header {} {} {}",
+            out.format, out.recording, out.model
+        ));
     }
     for e in &v["effects"].as_array().unwrap().clone() {
-        for key in ["effect", "params", "stderr", "evidence", "windows_ms", "rms_after", "delta_bic"] {
+        for key in [
+            "effect",
+            "params",
+            "stderr",
+            "evidence",
+            "windows_ms",
+            "rms_after",
+            "delta_bic",
+        ] {
             if e.get(key).is_none() {
                 fails.push(format!("{name}: effect lacks {key}"));
             }
@@ -128,7 +196,12 @@ fn csv_names(dir: &std::path::Path) -> Vec<(std::path::PathBuf, String)> {
         .unwrap()
         .filter_map(|e| {
             let p = e.ok()?.path();
-            (p.extension()? == "csv").then(|| (dir.to_path_buf(), p.file_stem().unwrap().to_string_lossy().into_owned()))
+            (p.extension()? == "csv").then(|| {
+                (
+                    dir.to_path_buf(),
+                    p.file_stem().unwrap().to_string_lossy().into_owned(),
+                )
+            })
         })
         .collect();
     names.sort();
@@ -155,13 +228,27 @@ fn open_recordings_are_diagnosed_as_their_truth() {
         }
     });
     let fails = fails.into_inner().unwrap();
-    let (misses, wrong): (Vec<String>, Vec<String>) = fails.into_iter().partition(|f| f.starts_with(MISS));
+    let (misses, wrong): (Vec<String>, Vec<String>) =
+        fails.into_iter().partition(|f| f.starts_with(MISS));
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
-    let mut missed: Vec<String> =
-        misses.iter().map(|m| m.trim_start_matches(MISS).split(" = ").next().unwrap_or("").to_string()).collect();
+    let mut missed: Vec<String> = misses
+        .iter()
+        .map(|m| {
+            m.trim_start_matches(MISS)
+                .split(" = ")
+                .next()
+                .unwrap_or("")
+                .to_string()
+        })
+        .collect();
     missed.sort();
     eprintln!("parameter misses:\n{}", misses.join("\n"));
-    assert_eq!(missed, KNOWN_MISSES.to_vec(), "parameter misses changed:\n{}", misses.join("\n"));
+    assert_eq!(
+        missed,
+        KNOWN_MISSES.to_vec(),
+        "parameter misses changed:\n{}",
+        misses.join("\n")
+    );
 }
 
 #[test]

@@ -7,9 +7,18 @@
 use massid_diagnose::synth::{self, Maneuver};
 use massid_diagnose::{diagnose_recording, score, Settings};
 
-fn run(sat: &str, m: Maneuver, rate: u32, effects: &[&str], seed: u64) -> (score::Score, massid_diagnose::DiagnosisOutput) {
+fn run(
+    sat: &str,
+    m: Maneuver,
+    rate: u32,
+    effects: &[&str],
+    seed: u64,
+) -> (score::Score, massid_diagnose::DiagnosisOutput) {
     let eff: Vec<_> = effects.iter().map(|j| synth::effect(j)).collect();
-    let truth: Vec<serde_json::Value> = effects.iter().map(|j| serde_json::from_str(j).unwrap()).collect();
+    let truth: Vec<serde_json::Value> = effects
+        .iter()
+        .map(|j| serde_json::from_str(j).unwrap())
+        .collect();
     let s = synth::make(sat, m, rate, eff, seed);
     let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default()).unwrap();
     (score::score(&a.output, &truth), a.output)
@@ -35,9 +44,21 @@ fn ringing_and_latency_together_on_sph1_at_100_hz() {
         ],
         102,
     );
-    assert!(sc.named_correctly, "missing {:?} extra {:?}", sc.missing, sc.extra);
-    assert_eq!(sc.params_ok, sc.params, "worst {} {:.3}", sc.worst_param, sc.worst_rel_err);
-    let ring = out.effects.iter().find(|e| e.effect == "gyro_ringing").unwrap();
+    assert!(
+        sc.named_correctly,
+        "missing {:?} extra {:?}",
+        sc.missing, sc.extra
+    );
+    assert_eq!(
+        sc.params_ok, sc.params,
+        "worst {} {:.3}",
+        sc.worst_param, sc.worst_rel_err
+    );
+    let ring = out
+        .effects
+        .iter()
+        .find(|e| e.effect == "gyro_ringing")
+        .unwrap();
     assert!(ring.evidence.contains("prior"), "{}", ring.evidence);
 }
 
@@ -50,6 +71,14 @@ fn pressure_drop_on_sph4_at_100_hz() {
         &[r#"{"effect":"pressure_drop","params":{"newton_per_extra_thruster":0.006}}"#],
         103,
     );
-    assert!(sc.named_correctly, "missing {:?} extra {:?}", sc.missing, sc.extra);
-    assert_eq!(sc.params_ok, sc.params, "worst {} {:.3}", sc.worst_param, sc.worst_rel_err);
+    assert!(
+        sc.named_correctly,
+        "missing {:?} extra {:?}",
+        sc.missing, sc.extra
+    );
+    assert_eq!(
+        sc.params_ok, sc.params,
+        "worst {} {:.3}",
+        sc.worst_param, sc.worst_rel_err
+    );
 }

@@ -14,7 +14,12 @@ fn check(t: &Table, flights: u64) -> Vec<String> {
         for (j, term) in TERMS.iter().enumerate() {
             let c = &t.cells[k][j];
             if c.n != flights as u32 || !(0.7..=1.4).contains(&c.ratio()) || c.bias().abs() > 0.5 {
-                bad.push(format!("{name} {term}: n {} ratio {:.2} bias {:+.2}", c.n, c.ratio(), c.bias()));
+                bad.push(format!(
+                    "{name} {term}: n {} ratio {:.2} bias {:+.2}",
+                    c.n,
+                    c.ratio(),
+                    c.bias()
+                ));
             }
         }
     }
@@ -26,7 +31,11 @@ fn standard_errors_match_the_monte_carlo_scatter() {
     let t = run_flights(FLIGHTS, 10_000);
     println!("{}", t.markdown());
     let bad = check(&t, FLIGHTS);
-    assert!(bad.is_empty(), "dishonest standard errors:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "dishonest standard errors:\n{}",
+        bad.join("\n")
+    );
 }
 
 #[test]
@@ -45,5 +54,8 @@ fn the_check_catches_kernel_sigmas_without_the_variance_factor() {
     });
     let faulty = check(&t, 40);
     // the 40-flight sample may itself miss a cell or two; the fault must miss many more
-    assert!(faulty.len() >= honest + 10, "planted fault not caught: {faulty:?}");
+    assert!(
+        faulty.len() >= honest + 10,
+        "planted fault not caught: {faulty:?}"
+    );
 }

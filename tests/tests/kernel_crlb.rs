@@ -11,9 +11,18 @@ fn no_estimator_beats_the_cramer_rao_bound() {
     let (mc, bound) = mc_against_crlb(100, 30_000);
     println!("{}", massid_tests::crlb::markdown(&mc, &bound));
     for j in 0..N {
-        assert!(bound[j].is_finite() && bound[j] > 0.0, "bound {j}: {}", bound[j]);
+        assert!(
+            bound[j].is_finite() && bound[j] > 0.0,
+            "bound {j}: {}",
+            bound[j]
+        );
         for (k, name) in ESTIMATORS.iter().enumerate() {
-            assert!(mc[k][j] / bound[j] >= 0.7, "{name}, unknown {j}: variance {} below the bound {}", mc[k][j], bound[j]);
+            assert!(
+                mc[k][j] / bound[j] >= 0.7,
+                "{name}, unknown {j}: variance {} below the bound {}",
+                mc[k][j],
+                bound[j]
+            );
         }
     }
 }

@@ -1,7 +1,10 @@
 //! The kernel's O(1) fast paths against the defining slow forms they replace: any difference
 //! would change the kernel's results (and the QEMU-vs-host equality rests on one code path).
 
-use massid_kernel::scalar::{fixed_div_by_digits, fixed_div_by_i64, fixed_div_by_words, split_pow2_by_steps, Fx, Scalar, Q16_16, Q8_24};
+use massid_kernel::scalar::{
+    fixed_div_by_digits, fixed_div_by_i64, fixed_div_by_words, split_pow2_by_steps, Fx, Scalar,
+    Q16_16, Q8_24,
+};
 use proptest::prelude::*;
 
 type Q4_28 = Fx<fixed::types::extra::U28>;
@@ -15,7 +18,12 @@ fn same_fx<F: fixed::types::extra::LeEqU32>(b: i32) -> Result<(), TestCaseError>
     let v: Fx<F> = fx_bits(b);
     let (m_fast, k_fast) = v.split_pow2();
     let (m_loop, k_loop) = split_pow2_by_steps(v);
-    prop_assert_eq!((m_fast.0.to_bits(), k_fast), (m_loop.0.to_bits(), k_loop), "bits {:#x}", b);
+    prop_assert_eq!(
+        (m_fast.0.to_bits(), k_fast),
+        (m_loop.0.to_bits(), k_loop),
+        "bits {:#x}",
+        b
+    );
     Ok(())
 }
 
@@ -86,7 +94,9 @@ fn crate_div(a: i32, b: i32, frac: u32) -> Option<i32> {
     use fixed::FixedI32;
     macro_rules! q {
         ($f:ty) => {
-            FixedI32::<$f>::from_bits(a).checked_div(FixedI32::<$f>::from_bits(b)).map(|v| v.to_bits())
+            FixedI32::<$f>::from_bits(a)
+                .checked_div(FixedI32::<$f>::from_bits(b))
+                .map(|v| v.to_bits())
         };
     }
     match frac {
@@ -105,9 +115,30 @@ const FRACS: [u32; 6] = [0, 12, 16, 24, 28, 31];
 fn same_div(a: i32, b: i32) -> Result<(), TestCaseError> {
     for f in FRACS {
         let want = crate_div(a, b, f);
-        prop_assert_eq!(fixed_div_by_words(a, b, f), want, "words {} / {} frac {}", a, b, f);
-        prop_assert_eq!(fixed_div_by_i64(a, b, f), want, "i64 {} / {} frac {}", a, b, f);
-        prop_assert_eq!(fixed_div_by_digits(a, b, f), want, "digits {} / {} frac {}", a, b, f);
+        prop_assert_eq!(
+            fixed_div_by_words(a, b, f),
+            want,
+            "words {} / {} frac {}",
+            a,
+            b,
+            f
+        );
+        prop_assert_eq!(
+            fixed_div_by_i64(a, b, f),
+            want,
+            "i64 {} / {} frac {}",
+            a,
+            b,
+            f
+        );
+        prop_assert_eq!(
+            fixed_div_by_digits(a, b, f),
+            want,
+            "digits {} / {} frac {}",
+            a,
+            b,
+            f
+        );
     }
     Ok(())
 }
@@ -162,7 +193,10 @@ proptest! {
 
 /// The gyro low-pass in i128 (no overflow possible): the definition the kernel's i32 state
 /// with 32 x 32 -> 64 products must equal, including at slow sampling where the pole is negative.
-fn low_pass_wide(coefs: massid_kernel::gyro_filter::LowPassCoefs, xs: &[[u16; 3]]) -> Vec<[i32; 3]> {
+fn low_pass_wide(
+    coefs: massid_kernel::gyro_filter::LowPassCoefs,
+    xs: &[[u16; 3]],
+) -> Vec<[i32; 3]> {
     let (p, g) = (i128::from(coefs.p_q30), i128::from(coefs.g_q30));
     let half = 1i128 << 29;
     let first = xs[0].map(|c| i128::from(c) << 12);

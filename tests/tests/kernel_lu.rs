@@ -22,12 +22,21 @@ fn rank_deficient_matrix_gives_singular_where_nalgebra_returns_garbage() {
     if let Some(x) = x {
         let residual = (na * x - nb).norm();
         let size = x.norm();
-        assert!(residual > 1e-3 || size > 1e12, "nalgebra unexpectedly accurate: x {x:?}");
+        assert!(
+            residual > 1e-3 || size > 1e12,
+            "nalgebra unexpectedly accurate: x {x:?}"
+        );
     }
     let tol_f32 = 2f32.powi(-20);
-    assert!(matches!(solve::<f32, 3>(&to(a), &b.map(|v| v as f32), tol_f32), Err(LuError::Singular { column: 2 })));
+    assert!(matches!(
+        solve::<f32, 3>(&to(a), &b.map(|v| v as f32), tol_f32),
+        Err(LuError::Singular { column: 2 })
+    ));
     let tol_q = Q8_24::from_int_pow2(1, -20);
-    assert!(matches!(solve::<Q8_24, 3>(&to(a), &b.map(|v| Q8_24::from_f32(v as f32)), tol_q), Err(LuError::Singular { .. })));
+    assert!(matches!(
+        solve::<Q8_24, 3>(&to(a), &b.map(|v| Q8_24::from_f32(v as f32)), tol_q),
+        Err(LuError::Singular { .. })
+    ));
 }
 
 /// nalgebra's LU over the `fixed` types is the example: a near-singular matrix in
@@ -51,26 +60,42 @@ fn solution_that_does_not_fit_is_overflow_not_garbage() {
     // x2 = (2 - 1) / 2^-8 = 256 exceeds Q8.24's range: the kernel reports it.
     let a = [[1.0, 1.0], [1.0, 1.0 + 2f64.powi(-8)]];
     let b = [Q8_24::from_f32(1.0), Q8_24::from_f32(2.0)];
-    assert_eq!(solve::<Q8_24, 2>(&to(a), &b, Q8_24::from_int_pow2(1, -20)), Err(LuError::Overflow));
+    assert_eq!(
+        solve::<Q8_24, 2>(&to(a), &b, Q8_24::from_int_pow2(1, -20)),
+        Err(LuError::Overflow)
+    );
     // f32 has the range: exact answer x = (1 - 256, 256).
     let x = solve::<f32, 2>(&to(a), &[1.0, 2.0], 2f32.powi(-20)).expect("f32 fits");
-    assert!((x[1] - 256.0).abs() < 1e-3 && (x[0] + 255.0).abs() < 1e-3, "{x:?}");
+    assert!(
+        (x[1] - 256.0).abs() < 1e-3 && (x[0] + 255.0).abs() < 1e-3,
+        "{x:?}"
+    );
 }
 
 #[test]
 fn zero_matrix_and_partial_pivoting() {
     let z = [[0.0; 3]; 3];
-    assert!(matches!(Lu::<f32, 3>::factor(&to(z), 1e-6), Err(LuError::ZeroMatrix)));
+    assert!(matches!(
+        Lu::<f32, 3>::factor(&to(z), 1e-6),
+        Err(LuError::ZeroMatrix)
+    ));
     // A zero leading entry needs a row swap; without pivoting this fails.
     let a = [[0.0, 2.0, 1.0], [1.0, 1.0, 0.0], [3.0, 0.0, 1.0]];
     let xt = [0.5, -1.25, 2.0];
     let b: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| a[i][j] * xt[j]).sum());
-    for (got, want) in solve::<Q8_24, 3>(&to(a), &b.map(|v| Q8_24::from_f32(v as f32)), Q8_24::from_int_pow2(1, -20))
-        .expect("regular")
-        .iter()
-        .zip(xt)
+    for (got, want) in solve::<Q8_24, 3>(
+        &to(a),
+        &b.map(|v| Q8_24::from_f32(v as f32)),
+        Q8_24::from_int_pow2(1, -20),
+    )
+    .expect("regular")
+    .iter()
+    .zip(xt)
     {
-        assert!((f64::from(got.to_f32()) - want).abs() < 1e-6, "{got:?} vs {want}");
+        assert!(
+            (f64::from(got.to_f32()) - want).abs() < 1e-6,
+            "{got:?} vs {want}"
+        );
     }
 }
 
@@ -81,7 +106,9 @@ fn random_regular_systems_are_solved_accurately() {
     use rand::{Rng, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     for _ in 0..500 {
-        let a: [[f64; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| rng.gen_range(-1.0..1.0) + if i == j { 3.0 } else { 0.0 }));
+        let a: [[f64; 6]; 6] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| rng.gen_range(-1.0..1.0) + if i == j { 3.0 } else { 0.0 })
+        });
         let b: [f64; 6] = std::array::from_fn(|_| rng.gen_range(-1.0..1.0));
         let aq: [[Q8_24; 6]; 6] = to(a);
         let bq = b.map(|v| Q8_24::from_f32(v as f32));

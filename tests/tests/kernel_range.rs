@@ -8,7 +8,8 @@ use reference_f64::recording::Recording;
 
 #[test]
 fn kalman_and_rls_ranges_on_a_1s_firing() {
-    let rec = Recording::read(&massid_tests::open_data_dir().join("o01_nominal_rga12.csv")).expect("o01");
+    let rec =
+        Recording::read(&massid_tests::open_data_dir().join("o01_nominal_rga12.csv")).expect("o01");
     let cfg = PipelineConfig::<Q8_24>::with_gyroscopic(1, SPH2_GYRO_BIAS_COUNTS);
     let kf = KfConfig::seed(1);
     let mut p = Pipeline::<Q8_24>::new(&SPH2, cfg).expect("model");
@@ -37,14 +38,22 @@ fn kalman_and_rls_ranges_on_a_1s_firing() {
             let r = kf.r_rad2_s2[a];
             let dt = kf.dt_s;
             let info64 = 1.0 / kf.p0 + dt * dt * s2 / r;
-            worst_rel = worst_rel.max((info - info64).abs() / info64).max((var * info64 - 1.0).abs());
+            worst_rel = worst_rel
+                .max((info - info64).abs() / info64)
+                .max((var * info64 - 1.0).abs());
         }
         let (c, i) = p.mass_id().problems();
         for e in [c.exponent(), i.exponent()] {
             exp_lo = exp_lo.min(e);
             exp_hi = exp_hi.max(e);
         }
-        for v in i.information().iter().flatten().chain(i.info_vector().iter()).chain(c.information().iter().flatten()) {
+        for v in i
+            .information()
+            .iter()
+            .flatten()
+            .chain(i.info_vector().iter())
+            .chain(c.information().iter().flatten())
+        {
             max_mantissa = max_mantissa.max(f64::from(v.to_f32().abs()));
         }
     }

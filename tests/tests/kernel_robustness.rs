@@ -13,7 +13,11 @@ fn configs<S: Scalar>() -> Vec<PipelineConfig<S>> {
     let mut tracking = PipelineConfig::<S>::with_gyroscopic(1, SPH2_GYRO_BIAS_COUNTS);
     tracking.rls.forgetting = Some(S::from_f32(0.999));
     tracking.rls.detector = Some(DetectorConfig::standard());
-    vec![PipelineConfig::seed(1), PipelineConfig::with_gyroscopic(10, SPH2_GYRO_BIAS_COUNTS), tracking]
+    vec![
+        PipelineConfig::seed(1),
+        PipelineConfig::with_gyroscopic(10, SPH2_GYRO_BIAS_COUNTS),
+        tracking,
+    ]
 }
 
 fn hammer<S: Scalar>(seed: u64) -> (usize, usize) {
@@ -30,7 +34,7 @@ fn hammer<S: Scalar>(seed: u64) -> (usize, usize) {
                 word = if rng.gen_bool(0.3) { 0 } else { rng.gen() };
             }
             match rng.gen_range(0..100) {
-                0 => gyro = [0, 4095, 0],                                  // saturated
+                0 => gyro = [0, 4095, 0],                                    // saturated
                 1 => gyro = std::array::from_fn(|_| rng.gen_range(0..4096)), // jump
                 2..=40 => {
                     for g in gyro.iter_mut() {
@@ -39,16 +43,27 @@ fn hammer<S: Scalar>(seed: u64) -> (usize, usize) {
                 }
                 _ => {}
             }
-            let r = if rng.gen_ratio(1, 200) { p.tick_gap() } else { p.tick(gyro, word) };
+            let r = if rng.gen_ratio(1, 200) {
+                p.tick_gap()
+            } else {
+                p.tick(gyro, word)
+            };
             if r.event == massid_kernel::TickEvent::Solved {
                 solved += 1;
             }
         }
         p.finish();
         let e = p.estimates();
-        if matches!(e.status, PipelineStatus::Ok | PipelineStatus::PartlyUnobservable) {
+        if matches!(
+            e.status,
+            PipelineStatus::Ok | PipelineStatus::PartlyUnobservable
+        ) {
             ok += 1;
-            assert!(e.theta_inertia.iter().chain(e.delta_com_m.iter()).all(|v| v.is_valid()));
+            assert!(e
+                .theta_inertia
+                .iter()
+                .chain(e.delta_com_m.iter())
+                .all(|v| v.is_valid()));
         }
         let _ = p.mass_id().variances();
     }
@@ -74,22 +89,47 @@ fn one_endless_firing_is_frozen_not_overflowed() {
             let c = (2077 + (k / 200) % 1500) as u16; // a rate ramp that saturates the axis range
             last = Some(p.tick([c, 2070, 2058], 0x810));
         }
-        assert_eq!(last.map(|r| r.event), Some(massid_kernel::TickEvent::FiringTooLong));
+        assert_eq!(
+            last.map(|r| r.event),
+            Some(massid_kernel::TickEvent::FiringTooLong)
+        );
         p.finish();
     }
 }
 
 #[test]
 fn extreme_mixer_commands_give_statuses() {
-    let cfg = MixerConfig { period_ms: 200, min_pulse_ms: 10, pressure_drop_n: 0.0106f32 };
+    let cfg = MixerConfig {
+        period_ms: 200,
+        min_pulse_ms: 10,
+        pressure_drop_n: 0.0106f32,
+    };
     let m = Mixer::<f32>::new(&SPH2, [0.0; 3], cfg).expect("mixer");
-    let cfgq = MixerConfig { period_ms: 200, min_pulse_ms: 10, pressure_drop_n: Q8_24::from_f32(0.0106) };
+    let cfgq = MixerConfig {
+        period_ms: 200,
+        min_pulse_ms: 10,
+        pressure_drop_n: Q8_24::from_f32(0.0106),
+    };
     let mq = Mixer::<Q8_24>::new(&SPH2, [Q8_24::ZERO; 3], cfgq).expect("mixer");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let specials = [f32::NAN, f32::INFINITY, -f32::INFINITY, 1e30, -1e30, 0.0, 1e-30, 5.0, -5.0];
+    let specials = [
+        f32::NAN,
+        f32::INFINITY,
+        -f32::INFINITY,
+        1e30,
+        -1e30,
+        0.0,
+        1e-30,
+        5.0,
+        -5.0,
+    ];
     for _ in 0..3000 {
         let pick = |rng: &mut rand_chacha::ChaCha8Rng| {
-            if rng.gen_bool(0.2) { specials[rng.gen_range(0..specials.len())] } else { rng.gen_range(-2.0f32..2.0) }
+            if rng.gen_bool(0.2) {
+                specials[rng.gen_range(0..specials.len())]
+            } else {
+                rng.gen_range(-2.0f32..2.0)
+            }
         };
         let f: [f32; 3] = std::array::from_fn(|_| pick(&mut rng));
         let t: [f32; 3] = std::array::from_fn(|_| pick(&mut rng) * 0.1);
@@ -107,7 +147,16 @@ fn extreme_mixer_commands_give_statuses() {
         }
     }
     // Bad configurations are statuses.
-    assert!(Mixer::<f32>::new(&SPH2, [0.0; 3], MixerConfig { period_ms: 15, min_pulse_ms: 10, pressure_drop_n: 0.0 }).is_err());
+    assert!(Mixer::<f32>::new(
+        &SPH2,
+        [0.0; 3],
+        MixerConfig {
+            period_ms: 15,
+            min_pulse_ms: 10,
+            pressure_drop_n: 0.0
+        }
+    )
+    .is_err());
     let mut bad = SPH2;
     bad.thrust_n[3] = 0.0;
     assert!(Mixer::<f32>::new(&bad, [0.0; 3], cfg).is_err());
@@ -120,7 +169,8 @@ fn garbage_matrices_give_statuses_or_finite_solutions() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     for _ in 0..5000 {
         let scale = 10f32.powi(rng.gen_range(-12..12));
-        let a: [[f32; 6]; 6] = std::array::from_fn(|_| std::array::from_fn(|_| rng.gen_range(-1.0f32..1.0) * scale));
+        let a: [[f32; 6]; 6] =
+            std::array::from_fn(|_| std::array::from_fn(|_| rng.gen_range(-1.0f32..1.0) * scale));
         let b: [f32; 6] = std::array::from_fn(|_| rng.gen_range(-1.0f32..1.0));
         if let Ok(x) = solve::<f32, 6>(&a, &b, 2f32.powi(-20)) {
             assert!(x.iter().all(|v| v.is_finite()));
@@ -137,15 +187,36 @@ fn garbage_matrices_give_statuses_or_finite_solutions() {
 #[test]
 fn multiply_by_halves_is_exact() {
     use massid_kernel::scalar::mul_32x32_by_halves;
-    let edges = [0, 1, -1, 0xffff, -0xffff, 0x10000, -0x10000, i32::MAX, i32::MIN, i32::MIN + 1, 0x7fff_0000, -0x7fff_ffff];
+    let edges = [
+        0,
+        1,
+        -1,
+        0xffff,
+        -0xffff,
+        0x10000,
+        -0x10000,
+        i32::MAX,
+        i32::MIN,
+        i32::MIN + 1,
+        0x7fff_0000,
+        -0x7fff_ffff,
+    ];
     for &a in &edges {
         for &b in &edges {
-            assert_eq!(mul_32x32_by_halves(a, b), i64::from(a) * i64::from(b), "{a} * {b}");
+            assert_eq!(
+                mul_32x32_by_halves(a, b),
+                i64::from(a) * i64::from(b),
+                "{a} * {b}"
+            );
         }
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
     for _ in 0..1_000_000 {
         let (a, b): (i32, i32) = (rng.gen(), rng.gen());
-        assert_eq!(mul_32x32_by_halves(a, b), i64::from(a) * i64::from(b), "{a} * {b}");
+        assert_eq!(
+            mul_32x32_by_halves(a, b),
+            i64::from(a) * i64::from(b),
+            "{a} * {b}"
+        );
     }
 }

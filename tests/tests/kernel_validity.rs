@@ -20,17 +20,29 @@ fn flight(maneuver: Maneuver, seconds: Option<f64>, seed: u64) -> Recording {
 
 /// f64 (online form, as flight code runs), f32, fixed.
 fn all_three(rec: &Recording, sat: &Satellite) -> [(&'static str, Estimate); 3] {
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     [
         ("f64", estimate_online(rec, sat, &cfg)),
-        ("f32", massid_kernel_host::estimate::<f32>(rec, sat).expect("f32 runs")),
-        ("fixed", massid_kernel_host::estimate::<massid_kernel::Q8_24>(rec, sat).expect("fixed runs")),
+        (
+            "f32",
+            massid_kernel_host::estimate::<f32>(rec, sat).expect("f32 runs"),
+        ),
+        (
+            "fixed",
+            massid_kernel_host::estimate::<massid_kernel::Q8_24>(rec, sat).expect("fixed runs"),
+        ),
     ]
 }
 
 fn assert_same_unobservable(case: &str, r: &[(&str, Estimate); 3]) {
     for (name, e) in &r[1..] {
-        assert_eq!(e.unobservable, r[0].1.unobservable, "{case}: {name} vs f64 unobservable sets");
+        assert_eq!(
+            e.unobservable, r[0].1.unobservable,
+            "{case}: {name} vs f64 unobservable sets"
+        );
     }
 }
 
@@ -44,8 +56,16 @@ fn assert_not_ok(case: &str, r: &[(&str, Estimate); 3]) {
 fn assert_stderrs_defined(case: &str, r: &[(&str, Estimate); 3]) {
     for (name, e) in r {
         if e.status == "ok" || e.status == "unobservable_terms" {
-            for v in e.com_offset_stderr_mm.iter().chain(e.inertia_stderr_kgm2.iter()) {
-                assert!(v.is_finite() && *v > 0.0, "{case}: {name} status {} with stderr {v}", e.status);
+            for v in e
+                .com_offset_stderr_mm
+                .iter()
+                .chain(e.inertia_stderr_kgm2.iter())
+            {
+                assert!(
+                    v.is_finite() && *v > 0.0,
+                    "{case}: {name} status {} with stderr {v}",
+                    e.status
+                );
             }
         }
     }
@@ -64,12 +84,24 @@ fn rotations_about_x_only_leave_the_com_unobservable_in_all_three() {
             continue; // by 16 s rga12 has flown an x translation: only cm_x stays unobservable
         }
         for t in ["cm_x", "cm_y", "cm_z"] {
-            assert!(r[0].1.unobservable.iter().any(|u| u == t), "{case}: {t} not flagged: {:?}", r[0].1.unobservable);
+            assert!(
+                r[0].1.unobservable.iter().any(|u| u == t),
+                "{case}: {t} not flagged: {:?}",
+                r[0].1.unobservable
+            );
         }
         for (name, e) in &r {
             // held at the model, with the prior's uncertainty (20 mm), not a fitted value
-            assert_eq!(e.com_offset_mm, [0.0; 3], "{case}: {name} CoM not held at the model");
-            assert!(e.com_offset_stderr_mm.iter().all(|s| (*s - 20.0).abs() < 1e-4), "{case}: {name}");
+            assert_eq!(
+                e.com_offset_mm, [0.0; 3],
+                "{case}: {name} CoM not held at the model"
+            );
+            assert!(
+                e.com_offset_stderr_mm
+                    .iter()
+                    .all(|s| (*s - 20.0).abs() < 1e-4),
+                "{case}: {name}"
+            );
         }
     }
 }
@@ -98,7 +130,12 @@ fn all_thrusters_on_and_no_firings_excite_nothing() {
     let r = all_three(&all_on, &sph2());
     assert_same_unobservable("all on", &r);
     assert_not_ok("all on", &r);
-    assert_eq!(r[0].1.unobservable.len(), 9, "all on: {:?}", r[0].1.unobservable);
+    assert_eq!(
+        r[0].1.unobservable.len(),
+        9,
+        "all on: {:?}",
+        r[0].1.unobservable
+    );
     let mut none = base;
     for s in none.samples.iter_mut() {
         s.thrusters = 0;
@@ -107,7 +144,13 @@ fn all_thrusters_on_and_no_firings_excite_nothing() {
     for (name, e) in &r {
         assert_eq!(e.status, "no_firings", "{name}");
         assert_eq!(e.unobservable.len(), 9, "{name}");
-        assert!(e.com_offset_stderr_mm.iter().chain(e.inertia_stderr_kgm2.iter()).all(|v| v.is_finite() && *v > 0.0), "{name}: no data is not certainty: {e:?}");
+        assert!(
+            e.com_offset_stderr_mm
+                .iter()
+                .chain(e.inertia_stderr_kgm2.iter())
+                .all(|v| v.is_finite() && *v > 0.0),
+            "{name}: no data is not certainty: {e:?}"
+        );
     }
 }
 
@@ -136,10 +179,17 @@ fn a_dead_gyro_is_never_ok() {
     for (name, e) in &r {
         // every rotation is dropped as unresponsive: no inertia term is estimated
         for t in ["Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"] {
-            assert!(e.unobservable.iter().any(|u| u == t), "dead gyro: {name} fitted {t}: {e:?}");
+            assert!(
+                e.unobservable.iter().any(|u| u == t),
+                "dead gyro: {name} fitted {t}: {e:?}"
+            );
         }
         for (a, b) in e.inertia_kgm2.iter().zip(sph2().inertia_kgm2.iter()) {
-            assert!((a - b).abs() <= 1e-8, "dead gyro: {name} inertia {:?} is not the model's", e.inertia_kgm2);
+            assert!(
+                (a - b).abs() <= 1e-8,
+                "dead gyro: {name} inertia {:?} is not the model's",
+                e.inertia_kgm2
+            );
         }
     }
     // and the firings are counted, not silently dropped
@@ -169,7 +219,9 @@ fn a_rate_label_that_contradicts_the_time_steps_is_an_error_with_its_line() {
     let path = dir.join("mislabelled.csv");
     rec.write(&path).expect("write");
     let back = Recording::read(&path).expect("read");
-    let err = back.checked_period_ms().expect_err("100 Hz label on 1 ms steps");
+    let err = back
+        .checked_period_ms()
+        .expect_err("100 Hz label on 1 ms steps");
     let line = std::fs::read_to_string(&path)
         .expect("read")
         .lines()
@@ -177,7 +229,10 @@ fn a_rate_label_that_contradicts_the_time_steps_is_an_error_with_its_line() {
         .expect("key")
         + 1;
     assert_eq!(err.line, line, "{err}");
-    assert!(err.to_string().contains("mislabelled.csv") && err.to_string().contains("sample_rate_hz"), "{err}");
+    assert!(
+        err.to_string().contains("mislabelled.csv") && err.to_string().contains("sample_rate_hz"),
+        "{err}"
+    );
     assert!(massid_kernel_host::estimate::<f32>(&back, &sph2()).is_err());
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -201,13 +256,20 @@ fn a_huge_time_jump_costs_nothing_and_changes_nothing_in_a_coast() {
         }
     }
     let mid = (best.0 + best.1) / 2;
-    assert!(best.1 - best.0 > 100, "a coast of {} samples", best.1 - best.0);
+    assert!(
+        best.1 - best.0 > 100,
+        "a coast of {} samples",
+        best.1 - best.0
+    );
     let mut jumped = rec.clone();
     for s in jumped.samples[mid..].iter_mut() {
         s.time_ms += 100_000_000_000;
     }
     for (a, b) in [
-        (massid_kernel_host::estimate::<f32>(&rec, &sph2()).expect("f32"), massid_kernel_host::estimate::<f32>(&jumped, &sph2()).expect("f32")),
+        (
+            massid_kernel_host::estimate::<f32>(&rec, &sph2()).expect("f32"),
+            massid_kernel_host::estimate::<f32>(&jumped, &sph2()).expect("f32"),
+        ),
         (
             massid_kernel_host::estimate::<massid_kernel::Q8_24>(&rec, &sph2()).expect("fixed"),
             massid_kernel_host::estimate::<massid_kernel::Q8_24>(&jumped, &sph2()).expect("fixed"),
@@ -241,7 +303,13 @@ fn a_solve_completed_by_a_catch_up_is_reported() {
     // firing is never ended here; firings the gyros did not respond to are not fitted; two
     // solves falling on one tick count once.
     let dropped = p.data_counters().unresponsive_firings;
-    assert!(p.estimates().updates > 0 && dropped < changes / 2, "dropped {dropped}");
+    assert!(
+        p.estimates().updates > 0 && dropped < changes / 2,
+        "dropped {dropped}"
+    );
     let folded = changes - 1 - dropped;
-    assert!(solved + 2 >= folded - 1 && solved < folded, "{solved} Solved events for {folded} folded firings");
+    assert!(
+        solved + 2 >= folded - 1 && solved < folded,
+        "{solved} Solved events for {folded} folded firings"
+    );
 }

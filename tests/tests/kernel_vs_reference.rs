@@ -9,7 +9,9 @@ use massid_kernel_host::params;
 /// Runs a recording through the kernel as flight code would (the one host driver: one tick
 /// per sample period, a telemetry gap as one gap call).
 fn run<S: Scalar>(rec: &Recording, sat: &Satellite) -> massid_kernel::Estimates<S> {
-    massid_kernel_host::run::<S>(rec, sat).expect("kernel runs").estimates()
+    massid_kernel_host::run::<S>(rec, sat)
+        .expect("kernel runs")
+        .estimates()
 }
 
 fn open_recordings() -> Vec<std::path::PathBuf> {
@@ -27,7 +29,9 @@ fn open_recordings() -> Vec<std::path::PathBuf> {
 /// CoM difference in mm.
 fn differences(ki: &[f64; 6], kc: &[f64; 3], ri: &[f64; 6], rc: &[f64; 3]) -> (f64, f64) {
     let scale = (ri[0] + ri[1] + ri[2]) / 3.0;
-    let di = (0..6).map(|k| ((ki[k] - ri[k]) / if k < 3 { ri[k] } else { scale }).abs()).fold(0.0, f64::max);
+    let di = (0..6)
+        .map(|k| ((ki[k] - ri[k]) / if k < 3 { ri[k] } else { scale }).abs())
+        .fold(0.0, f64::max);
     let dc = (0..3).map(|k| (kc[k] - rc[k]).abs()).fold(0.0, f64::max);
     (di, dc)
 }
@@ -47,22 +51,51 @@ fn kernels_match_reference_on_open_recordings() {
         assert_eq!(r.status, "ok", "{}: reference status", path.display());
         let ef = run::<f32>(&rec, &sat);
         let eq = run::<Q8_24>(&rec, &sat);
-        for (slot, (name, e)) in [("f32", ef.inertia_kgm2(), ef.com_offset_mm(), ef.status), ("fixed", eq.inertia_kgm2(), eq.com_offset_mm(), eq.status)]
-            .iter()
-            .map(|(n, i, c, st)| (*n, (i, c, st)))
-            .enumerate()
+        for (slot, (name, e)) in [
+            ("f32", ef.inertia_kgm2(), ef.com_offset_mm(), ef.status),
+            ("fixed", eq.inertia_kgm2(), eq.com_offset_mm(), eq.status),
+        ]
+        .iter()
+        .map(|(n, i, c, st)| (*n, (i, c, st)))
+        .enumerate()
         {
             let (i, c, st) = e;
-            assert_eq!(*st, massid_kernel::PipelineStatus::Ok, "{}: {name} status", path.display());
+            assert_eq!(
+                *st,
+                massid_kernel::PipelineStatus::Ok,
+                "{}: {name} status",
+                path.display()
+            );
             let i = i.expect("invertible inertia");
             let (di, dc) = differences(&i, c, &r.inertia_kgm2, &r.com_offset_mm);
-            println!("{:40} {name:5}: inertia {:.5} % CoM {:.5} mm", path.file_name().unwrap().to_string_lossy(), di * 100.0, dc);
-            assert!(di < 0.005, "{}: {name} inertia {i:?} vs reference {:?}", path.display(), r.inertia_kgm2);
-            assert!(dc < 0.1, "{}: {name} CoM {c:?} vs reference {:?}", path.display(), r.com_offset_mm);
+            println!(
+                "{:40} {name:5}: inertia {:.5} % CoM {:.5} mm",
+                path.file_name().unwrap().to_string_lossy(),
+                di * 100.0,
+                dc
+            );
+            assert!(
+                di < 0.005,
+                "{}: {name} inertia {i:?} vs reference {:?}",
+                path.display(),
+                r.inertia_kgm2
+            );
+            assert!(
+                dc < 0.1,
+                "{}: {name} CoM {c:?} vs reference {:?}",
+                path.display(),
+                r.com_offset_mm
+            );
             worst[slot] = (worst[slot].0.max(di), worst[slot].1.max(dc));
         }
     }
-    println!("worst: f32 inertia {:.5} % CoM {:.5} mm; fixed inertia {:.5} % CoM {:.5} mm", worst[0].0 * 100.0, worst[0].1, worst[1].0 * 100.0, worst[1].1);
+    println!(
+        "worst: f32 inertia {:.5} % CoM {:.5} mm; fixed inertia {:.5} % CoM {:.5} mm",
+        worst[0].0 * 100.0,
+        worst[0].1,
+        worst[1].0 * 100.0,
+        worst[1].1
+    );
 }
 
 mod mixer {
@@ -71,12 +104,31 @@ mod mixer {
     use rand::{Rng, SeedableRng};
     use reference_f64::mixer as rm;
 
-    fn kernel_mixer<S: Scalar>(sat: &Satellite, com_delta_m: [f64; 3], period: u32, drop: f64) -> Mixer<S> {
-        let cfg = MixerConfig { period_ms: period, min_pulse_ms: rm::MIN_PULSE_MS, pressure_drop_n: S::from_f32(drop as f32) };
-        Mixer::new(&params(sat), com_delta_m.map(|v| S::from_f32(v as f32)), cfg).expect("kernel mixer")
+    fn kernel_mixer<S: Scalar>(
+        sat: &Satellite,
+        com_delta_m: [f64; 3],
+        period: u32,
+        drop: f64,
+    ) -> Mixer<S> {
+        let cfg = MixerConfig {
+            period_ms: period,
+            min_pulse_ms: rm::MIN_PULSE_MS,
+            pressure_drop_n: S::from_f32(drop as f32),
+        };
+        Mixer::new(
+            &params(sat),
+            com_delta_m.map(|v| S::from_f32(v as f32)),
+            cfg,
+        )
+        .expect("kernel mixer")
     }
 
-    fn reference_mixer(sat: &Satellite, com_delta_m: [f64; 3], period: u32, drop: f64) -> rm::Mixer {
+    fn reference_mixer(
+        sat: &Satellite,
+        com_delta_m: [f64; 3],
+        period: u32,
+        drop: f64,
+    ) -> rm::Mixer {
         let mut sat = sat.clone();
         sat.pressure_drop_n_per_extra = drop;
         // The kernel's parameters are f32: give the reference the same rounded geometry.
@@ -113,16 +165,31 @@ mod mixer {
         max_dev_ms: f64,
     }
 
-    fn compare<S: Scalar>(drop: f64, com_delta_m: [f64; 3], seed: u64, n: usize, margin: f64) -> Tally {
+    fn compare<S: Scalar>(
+        drop: f64,
+        com_delta_m: [f64; 3],
+        seed: u64,
+        n: usize,
+        margin: f64,
+    ) -> Tally {
         let sat = Satellite::builtin("sph2").expect("sph2");
         let km = kernel_mixer::<S>(&sat, com_delta_m, 200, drop);
         let rmx = reference_mixer(&sat, com_delta_m, 200, drop);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let mut t = Tally { compared: 0, equal: 0, undecidable: 0, max_dev_ms: 0.0 };
+        let mut t = Tally {
+            compared: 0,
+            equal: 0,
+            undecidable: 0,
+            max_dev_ms: 0.0,
+        };
         for _ in 0..n {
             // Forces up to 0.3 N and torques up to 0.03 N m: inside and beyond the thrusters' reach.
-            let f: [f64; 3] = std::array::from_fn(|_| rng.gen_range(-0.3..0.3) * rng.gen_range(0.0f64..1.0).powi(2));
-            let tq: [f64; 3] = std::array::from_fn(|_| rng.gen_range(-0.03..0.03) * rng.gen_range(0.0f64..1.0).powi(2));
+            let f: [f64; 3] = std::array::from_fn(|_| {
+                rng.gen_range(-0.3..0.3) * rng.gen_range(0.0f64..1.0).powi(2)
+            });
+            let tq: [f64; 3] = std::array::from_fn(|_| {
+                rng.gen_range(-0.03..0.03) * rng.gen_range(0.0f64..1.0).powi(2)
+            });
             // The kernel sees the command rounded to its format; the reference gets the same numbers.
             let fs = f.map(|v| S::from_f32(v as f32));
             let ts = tq.map(|v| S::from_f32(v as f32));
@@ -131,7 +198,9 @@ mod mixer {
             let k = km.mix(fs, ts).expect("kernel mix");
             let frac = km.pulse_fractions(fs, ts).expect("kernel mix");
             for (kf, rd) in frac.iter().zip(trace.corrected_ms.iter()) {
-                t.max_dev_ms = t.max_dev_ms.max((f64::from(kf.to_f32()) * 200.0 - rd).abs());
+                t.max_dev_ms = t
+                    .max_dev_ms
+                    .max((f64::from(kf.to_f32()) * 200.0 - rd).abs());
             }
             t.compared += 1;
             if margin_ms(&trace) < margin {
@@ -151,7 +220,11 @@ mod mixer {
 
     #[test]
     fn f32_and_fixed_mixer_times_equal_the_reference() {
-        for (name, drop, delta) in [("nominal", 0.0, [0.0; 3]), ("pressure drop", 0.0106, [0.0; 3]), ("CoM estimate", 0.0, [1.5e-3, -2e-3, 3e-3])] {
+        for (name, drop, delta) in [
+            ("nominal", 0.0, [0.0; 3]),
+            ("pressure drop", 0.0106, [0.0; 3]),
+            ("CoM estimate", 0.0, [1.5e-3, -2e-3, 3e-3]),
+        ] {
             let a = compare::<f32>(drop, delta, 7, 4000, MARGIN_F32_MS);
             let b = compare::<Q8_24>(drop, delta, 7, 4000, MARGIN_FIXED_MS);
             println!("{name}: f32 {}/{} equal ({} within {MARGIN_F32_MS} ms of a rounding boundary) max dev {:.2e} ms, fixed {}/{} ({} within {MARGIN_FIXED_MS} ms) max dev {:.2e} ms",
@@ -163,4 +236,3 @@ mod mixer {
         }
     }
 }
-

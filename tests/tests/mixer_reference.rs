@@ -12,7 +12,9 @@
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use reference_f64::mixer::{MixTrace, Mixer, MixerConfig, ThrusterGeometry, MIN_PULSE_MS};
-use reference_f64::satellite::{Satellite, N_THRUSTERS, OPPOSING_PAIRS, SEED_PRESSURE_DROP_N_PER_EXTRA};
+use reference_f64::satellite::{
+    Satellite, N_THRUSTERS, OPPOSING_PAIRS, SEED_PRESSURE_DROP_N_PER_EXTRA,
+};
 
 const PERIOD_MS: u32 = 200;
 
@@ -34,7 +36,12 @@ fn class_bound_s(trace: &MixTrace, i: usize) -> f64 {
 
 /// Checks the impulse of `trace`'s firing against `scale * command * period` within the
 /// derived bound; returns (force error, force bound) for reporting.
-fn check_impulse(m: &Mixer, trace: &MixTrace, force: Vector3<f64>, torque: Vector3<f64>) -> (f64, f64) {
+fn check_impulse(
+    m: &Mixer,
+    trace: &MixTrace,
+    force: Vector3<f64>,
+    torque: Vector3<f64>,
+) -> (f64, f64) {
     let g = m.geometry();
     let p_s = trace.firing.period_ms as f64 * 1e-3;
     let want_f = force * trace.scale * p_s;
@@ -48,21 +55,41 @@ fn check_impulse(m: &Mixer, trace: &MixTrace, force: Vector3<f64>, torque: Vecto
         ideal_t += g.torque_nm(i) * trace.corrected_ms[i] * 1e-3;
     }
     let tol = 1e-9 * (1.0 + want_f.norm() + want_t.norm());
-    assert!((ideal_f - want_f).norm() < tol, "pre-quantisation force impulse {ideal_f:?} != {want_f:?}");
-    assert!((ideal_t - want_t).norm() < tol, "pre-quantisation torque impulse {ideal_t:?} != {want_t:?}");
+    assert!(
+        (ideal_f - want_f).norm() < tol,
+        "pre-quantisation force impulse {ideal_f:?} != {want_f:?}"
+    );
+    assert!(
+        (ideal_t - want_t).norm() < tol,
+        "pre-quantisation torque impulse {ideal_t:?} != {want_t:?}"
+    );
 
     // 2. Each integer on-time is within its class bound of the real one.
     for i in 0..N_THRUSTERS {
         let e = (trace.firing.duration_ms(i) as f64 - trace.corrected_ms[i]) * 1e-3;
-        assert!(e.abs() <= class_bound_s(trace, i) + 1e-12, "thruster {}: e = {e} s", i + 1);
+        assert!(
+            e.abs() <= class_bound_s(trace, i) + 1e-12,
+            "thruster {}: e = {e} s",
+            i + 1
+        );
     }
 
     // 3. The output firing's impulse is within the derived bound of the command.
     let (jf, jt) = trace.firing.impulse(g);
-    let bf: f64 = (0..N_THRUSTERS).map(|i| class_bound_s(trace, i) * g.force_n[i].norm()).sum();
-    let bt: f64 = (0..N_THRUSTERS).map(|i| class_bound_s(trace, i) * g.torque_nm(i).norm()).sum();
-    assert!((jf - want_f).norm() <= bf + 1e-12, "force impulse {jf:?} vs {want_f:?}, bound {bf}");
-    assert!((jt - want_t).norm() <= bt + 1e-12, "torque impulse {jt:?} vs {want_t:?}, bound {bt}");
+    let bf: f64 = (0..N_THRUSTERS)
+        .map(|i| class_bound_s(trace, i) * g.force_n[i].norm())
+        .sum();
+    let bt: f64 = (0..N_THRUSTERS)
+        .map(|i| class_bound_s(trace, i) * g.torque_nm(i).norm())
+        .sum();
+    assert!(
+        (jf - want_f).norm() <= bf + 1e-12,
+        "force impulse {jf:?} vs {want_f:?}, bound {bf}"
+    );
+    assert!(
+        (jt - want_t).norm() <= bt + 1e-12,
+        "torque impulse {jt:?} vs {want_t:?}, bound {bt}"
+    );
     // and within the coarser output-only bound of `Firing::quantisation_bound`
     let (cf, ct) = trace.firing.quantisation_bound(g);
     assert!((jf - want_f).norm() <= cf + 1e-12 && (jt - want_t).norm() <= ct + 1e-12);
@@ -73,22 +100,43 @@ fn check_no_opposing_overlap(trace: &MixTrace) {
     let f = &trace.firing;
     for &(a, b) in OPPOSING_PAIRS.iter() {
         let overlap = f.on_ms[a].max(f.on_ms[b]) < f.off_ms[a].min(f.off_ms[b]);
-        assert!(!overlap, "opposing thrusters {} and {} fire together: {f:?}", a + 1, b + 1);
+        assert!(
+            !overlap,
+            "opposing thrusters {} and {} fire together: {f:?}",
+            a + 1,
+            b + 1
+        );
     }
 }
 
 fn check_integer_invariants(trace: &MixTrace) {
     let f = &trace.firing;
     for i in 0..N_THRUSTERS {
-        assert!(f.on_ms[i] <= f.off_ms[i] && f.off_ms[i] <= f.period_ms, "thruster {}: {f:?}", i + 1);
+        assert!(
+            f.on_ms[i] <= f.off_ms[i] && f.off_ms[i] <= f.period_ms,
+            "thruster {}: {f:?}",
+            i + 1
+        );
         let d = f.duration_ms(i);
-        assert!(d == 0 || d >= f.min_pulse_ms, "thruster {} pulse {d} ms below the minimum", i + 1);
-        assert!(d == f.period_ms || f.period_ms - d >= f.min_pulse_ms, "thruster {}: gap below minimum", i + 1);
+        assert!(
+            d == 0 || d >= f.min_pulse_ms,
+            "thruster {} pulse {d} ms below the minimum",
+            i + 1
+        );
+        assert!(
+            d == f.period_ms || f.period_ms - d >= f.min_pulse_ms,
+            "thruster {}: gap below minimum",
+            i + 1
+        );
         if d > 0 {
             // centred: the slack before and after differ by at most 1 ms (floor rule)
             let before = f.on_ms[i];
             let after = f.period_ms - f.off_ms[i];
-            assert!(after == before || after == before + 1, "thruster {} not centred: {f:?}", i + 1);
+            assert!(
+                after == before || after == before + 1,
+                "thruster {} not centred: {f:?}",
+                i + 1
+            );
         } else {
             assert_eq!((f.on_ms[i], f.off_ms[i]), (0, 0));
         }
@@ -152,7 +200,10 @@ fn command_beyond_reach_is_scaled_keeping_its_direction() {
         let trace = m.mix_traced(f, t).unwrap();
         assert!(trace.scale < 1.0, "{f:?} {t:?} should exceed the reach");
         // the largest pulse is the whole period
-        let longest = (0..N_THRUSTERS).map(|i| trace.firing.duration_ms(i)).max().unwrap();
+        let longest = (0..N_THRUSTERS)
+            .map(|i| trace.firing.duration_ms(i))
+            .max()
+            .unwrap();
         assert_eq!(longest, PERIOD_MS);
         check_integer_invariants(&trace);
         check_no_opposing_overlap(&trace);
@@ -164,14 +215,18 @@ fn command_beyond_reach_is_scaled_keeping_its_direction() {
         let cos = got.dot(&want) / (got.norm() * want.norm());
         assert!(cos > 0.995, "direction cosine {cos} for {f:?} {t:?}");
         // a command just inside the reach is not scaled
-        let inside = m.mix_traced(f * trace.scale * 0.95, t * trace.scale * 0.95).unwrap();
+        let inside = m
+            .mix_traced(f * trace.scale * 0.95, t * trace.scale * 0.95)
+            .unwrap();
         assert_eq!(inside.scale, 1.0);
     }
 }
 
 #[test]
 fn zero_command_fires_nothing() {
-    let f = mixer("sph1").mix(Vector3::zeros(), Vector3::zeros()).unwrap();
+    let f = mixer("sph1")
+        .mix(Vector3::zeros(), Vector3::zeros())
+        .unwrap();
     assert!((0..N_THRUSTERS).all(|i| !f.fires(i)));
 }
 
@@ -181,7 +236,12 @@ fn identified_com_changes_firing_times() {
     // update of the CoM changes the on-times of a torque command.
     let sat = Satellite::builtin("sph3").unwrap();
     let nominal = Mixer::from_satellite(&sat, None, PERIOD_MS).unwrap();
-    let shifted = Mixer::from_satellite(&sat, Some(sat.com_m() + Vector3::new(0.0, 0.0, 0.008)), PERIOD_MS).unwrap();
+    let shifted = Mixer::from_satellite(
+        &sat,
+        Some(sat.com_m() + Vector3::new(0.0, 0.0, 0.008)),
+        PERIOD_MS,
+    )
+    .unwrap();
     let f = Vector3::new(0.08, 0.0, 0.0);
     let a = nominal.mix(f, Vector3::zeros()).unwrap();
     let b = shifted.mix(f, Vector3::zeros()).unwrap();
@@ -190,12 +250,18 @@ fn identified_com_changes_firing_times() {
     // the nominal one, so b's torque impulse about the nominal CoM is not ~0.
     let (_, t_b_nominal) = b.impulse(nominal.geometry());
     let (_, t_b_own) = b.impulse(shifted.geometry());
-    assert!(t_b_nominal.norm() > 5.0 * t_b_own.norm(), "{t_b_nominal:?} vs {t_b_own:?}");
+    assert!(
+        t_b_nominal.norm() > 5.0 * t_b_own.norm(),
+        "{t_b_nominal:?} vs {t_b_own:?}"
+    );
 }
 
 /// Impulse of a firing under the seed's multi-thruster model: each open thruster gives
 /// `thrust_n - p (n_open - 1)` along its direction (Satellite::thrusts_for_word), ms by ms.
-fn impulse_with_pressure_drop(sat: &Satellite, firing: &reference_f64::mixer::Firing) -> (Vector3<f64>, Vector3<f64>) {
+fn impulse_with_pressure_drop(
+    sat: &Satellite,
+    firing: &reference_f64::mixer::Firing,
+) -> (Vector3<f64>, Vector3<f64>) {
     let mut f = Vector3::zeros();
     let mut t = Vector3::zeros();
     for ms in 0..firing.period_ms {
@@ -214,7 +280,10 @@ fn pressure_drop_correction_restores_the_impulse() {
     let corrected = Mixer::from_satellite(&sat, None, PERIOD_MS).unwrap();
     let naive = Mixer::new(
         ThrusterGeometry::from_satellite(&sat, None),
-        MixerConfig { pressure_drop_n_per_extra: 0.0, ..*corrected.config() },
+        MixerConfig {
+            pressure_drop_n_per_extra: 0.0,
+            ..*corrected.config()
+        },
     )
     .unwrap();
     let mut checked = 0;
@@ -222,12 +291,18 @@ fn pressure_drop_correction_restores_the_impulse() {
         (Vector3::new(0.05, 0.04, 0.0), Vector3::new(0.0, 0.0, 0.004)),
         (Vector3::new(0.06, -0.05, 0.03), Vector3::zeros()),
         (Vector3::new(0.0, 0.05, 0.05), Vector3::new(0.003, 0.0, 0.0)),
-        (Vector3::new(-0.04, 0.03, -0.05), Vector3::new(0.0, -0.002, 0.002)),
+        (
+            Vector3::new(-0.04, 0.03, -0.05),
+            Vector3::new(0.0, -0.002, 0.002),
+        ),
     ] {
         let c = corrected.mix_traced(f, t).unwrap();
         let n = naive.mix_traced(f, t).unwrap();
         assert_eq!(c.scale, 1.0);
-        assert!((0..N_THRUSTERS).filter(|&i| c.firing.fires(i)).count() >= 3, "want multi-thruster firings");
+        assert!(
+            (0..N_THRUSTERS).filter(|&i| c.firing.fires(i)).count() >= 3,
+            "want multi-thruster firings"
+        );
         check_integer_invariants(&c);
         check_no_opposing_overlap(&c);
         let want = f * 0.2;
@@ -235,7 +310,10 @@ fn pressure_drop_correction_restores_the_impulse() {
         let (jn, _) = impulse_with_pressure_drop(&sat, &n.firing);
         let (ec, en) = ((jc - want).norm(), (jn - want).norm());
         println!("pressure drop: corrected error {ec:.3e} N s, uncorrected {en:.3e} N s");
-        assert!(ec < 0.5 * en, "corrected error {ec} not well below uncorrected {en} for {f:?} {t:?}");
+        assert!(
+            ec < 0.5 * en,
+            "corrected error {ec} not well below uncorrected {en} for {f:?} {t:?}"
+        );
         // corrected pulses are longer: the correction only stretches
         for i in 0..N_THRUSTERS {
             assert!(c.firing.duration_ms(i) >= n.firing.duration_ms(i));
@@ -248,8 +326,12 @@ fn pressure_drop_correction_restores_the_impulse() {
 #[test]
 fn bad_inputs_are_errors_not_panics() {
     let m = mixer("sph1");
-    assert!(m.mix(Vector3::new(f64::NAN, 0.0, 0.0), Vector3::zeros()).is_err());
-    assert!(m.mix(Vector3::zeros(), Vector3::new(0.0, f64::INFINITY, 0.0)).is_err());
+    assert!(m
+        .mix(Vector3::new(f64::NAN, 0.0, 0.0), Vector3::zeros())
+        .is_err());
+    assert!(m
+        .mix(Vector3::zeros(), Vector3::new(0.0, f64::INFINITY, 0.0))
+        .is_err());
     let sat = Satellite::builtin("sph1").unwrap();
     assert!(Mixer::from_satellite(&sat, None, 15).is_err());
     let mut g = ThrusterGeometry::from_satellite(&sat, None);
@@ -310,11 +392,20 @@ fn stage_5_is_what_makes_the_impulse_exact() {
             let got5 = m.matrix() * nalgebra::SVector::<f64, N_THRUSTERS>::from(tr.refined_duty);
             // compare in a common scale: force N and torque / 0.1 m
             let w = nalgebra::Vector6::new(1.0, 1.0, 1.0, 10.0, 10.0, 10.0);
-            let rel = |g: nalgebra::Vector6<f64>| (g - c).component_mul(&w).norm() / c.component_mul(&w).norm();
-            assert!(rel(got5) < 1e-9, "stage 5 misses {f:?} {t:?} by {}", rel(got5));
+            let rel = |g: nalgebra::Vector6<f64>| {
+                (g - c).component_mul(&w).norm() / c.component_mul(&w).norm()
+            };
+            assert!(
+                rel(got5) < 1e-9,
+                "stage 5 misses {f:?} {t:?} by {}",
+                rel(got5)
+            );
             worst_stage4 = worst_stage4.max(rel(got4));
         }
     }
     println!("worst relative 6-axis error of stage-4 duties (no re-solve): {worst_stage4:.4}");
-    assert!(worst_stage4 > 0.01, "stage 4 alone was already exact ({worst_stage4}): stage 5 would be unneeded");
+    assert!(
+        worst_stage4 > 0.01,
+        "stage 4 alone was already exact ({worst_stage4}): stage 5 would be unneeded"
+    );
 }

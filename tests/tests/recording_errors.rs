@@ -22,14 +22,54 @@ fn each_error_class_names_file_line_and_reason() {
     // (contract error class, file content, line, words the reason must contain)
     let cases: Vec<(&str, String, usize, &str)> = vec![
         ("empty file", String::new(), 1, "empty file"),
-        ("missing format key", format!("# satellite = sph2\n{HEADER}\n0,1,2,3,4,5,6,0\n"), 2, "missing 'format'"),
-        ("unknown format version", format!("# format = massid-recording/7\n{HEADER}\n"), 1, "unknown format version"),
-        ("missing header column", format!("{FORMAT}\ntime_ms,gyro_x,gyro_y,gyro_z,accel_x,accel_y,thrusters\n"), 2, "missing header column(s): accel_z"),
-        ("unknown header column", format!("{FORMAT}\n{HEADER},temp\n"), 2, "unknown header column 'temp'"),
-        ("non-integer field", format!("{FORMAT}\n{HEADER}\n0,1,2,3,4,5,6,0\n1,1,2.5,3,4,5,6,0\n"), 4, "gyro_y '2.5' is not an integer"),
-        ("out-of-range field", format!("{FORMAT}\n{HEADER}\n0,1,2,3,4,5,6,4096\n"), 3, "thrusters 4096 is out of range"),
-        ("time going backwards", format!("{FORMAT}\n{HEADER}\n10,1,2,3,4,5,6,0\n9,1,2,3,4,5,6,0\n"), 4, "time_ms goes backwards"),
-        ("wrong number of fields", format!("{FORMAT}\n{HEADER}\n0,1,2,3,4,5,6,0\n1,1,2,3\n"), 4, "row has 4 fields"),
+        (
+            "missing format key",
+            format!("# satellite = sph2\n{HEADER}\n0,1,2,3,4,5,6,0\n"),
+            2,
+            "missing 'format'",
+        ),
+        (
+            "unknown format version",
+            format!("# format = massid-recording/7\n{HEADER}\n"),
+            1,
+            "unknown format version",
+        ),
+        (
+            "missing header column",
+            format!("{FORMAT}\ntime_ms,gyro_x,gyro_y,gyro_z,accel_x,accel_y,thrusters\n"),
+            2,
+            "missing header column(s): accel_z",
+        ),
+        (
+            "unknown header column",
+            format!("{FORMAT}\n{HEADER},temp\n"),
+            2,
+            "unknown header column 'temp'",
+        ),
+        (
+            "non-integer field",
+            format!("{FORMAT}\n{HEADER}\n0,1,2,3,4,5,6,0\n1,1,2.5,3,4,5,6,0\n"),
+            4,
+            "gyro_y '2.5' is not an integer",
+        ),
+        (
+            "out-of-range field",
+            format!("{FORMAT}\n{HEADER}\n0,1,2,3,4,5,6,4096\n"),
+            3,
+            "thrusters 4096 is out of range",
+        ),
+        (
+            "time going backwards",
+            format!("{FORMAT}\n{HEADER}\n10,1,2,3,4,5,6,0\n9,1,2,3,4,5,6,0\n"),
+            4,
+            "time_ms goes backwards",
+        ),
+        (
+            "wrong number of fields",
+            format!("{FORMAT}\n{HEADER}\n0,1,2,3,4,5,6,0\n1,1,2,3\n"),
+            4,
+            "row has 4 fields",
+        ),
     ];
     for (class, text, line, reason) in cases {
         let path = dir.join(format!("{}.csv", class.replace(' ', "_")));
@@ -40,8 +80,15 @@ fn each_error_class_names_file_line_and_reason() {
         assert_eq!(e.file, path.display().to_string(), "{class}");
         assert_eq!(e.line, line, "{class}: {shown}");
         assert!(e.reason.contains(reason), "{class}: {shown}");
-        assert!(shown.starts_with(&format!("{}:{line}: ", path.display())), "{shown}");
-        assert_eq!(std::fs::read(&path).unwrap(), before, "the input is never modified");
+        assert!(
+            shown.starts_with(&format!("{}:{line}: ", path.display())),
+            "{shown}"
+        );
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            before,
+            "the input is never modified"
+        );
     }
     let missing = dir.join("does-not-exist.csv");
     let e = Recording::read(&missing).unwrap_err();
@@ -57,7 +104,9 @@ fn artefacts_are_survived_and_counted() {
     assert_eq!(rec.issues.duplicates, 5);
     assert!(rec.issues.missing_samples >= 8 && rec.issues.missing_samples <= 160);
     // the streaming reader counts the same without holding the samples
-    let f = std::io::BufReader::new(std::fs::File::open(open_data_dir().join("o09_nominal_artefacts_combo.csv")).unwrap());
+    let f = std::io::BufReader::new(
+        std::fs::File::open(open_data_dir().join("o09_nominal_artefacts_combo.csv")).unwrap(),
+    );
     let mut rd = RecordingReader::new(f, "o09").unwrap();
     let n = rd.by_ref().inspect(|s| assert!(s.is_ok(), "{s:?}")).count();
     assert_eq!(n, rec.samples.len());
@@ -67,13 +116,17 @@ fn artefacts_are_survived_and_counted() {
 #[test]
 fn recordings_and_model_files_round_trip() {
     let dir = scratch_dir("roundtrip");
-    let mut rec = Recording::read(&open_data_dir().join("o09_nominal_artefacts_combo.csv")).unwrap();
+    let mut rec =
+        Recording::read(&open_data_dir().join("o09_nominal_artefacts_combo.csv")).unwrap();
     rec.samples.truncate(5000);
     let p = dir.join("copy.csv");
     rec.write(&p).unwrap();
     let back = Recording::read(&p).unwrap();
     assert_eq!(back.samples, rec.samples);
-    assert_eq!(back.metadata, rec.metadata, "unknown keys pass through in order");
+    assert_eq!(
+        back.metadata, rec.metadata,
+        "unknown keys pass through in order"
+    );
     for name in Satellite::BUILTIN_NAMES {
         let s = Satellite::builtin(name).unwrap();
         let mp = dir.join(format!("{name}.toml"));
@@ -86,7 +139,12 @@ fn recordings_and_model_files_round_trip() {
 fn valid_text() -> String {
     let mut t = format!("{FORMAT}\n# satellite = sph2\n# sample_rate_hz = 1000\n{HEADER}\n");
     for k in 0..20u32 {
-        t.push_str(&format!("{k},{},{},2058,2048,2049,2047,{}\n", 2077 + k % 3, 2070 + k % 5, (k / 5) * 3));
+        t.push_str(&format!(
+            "{k},{},{},2058,2048,2049,2047,{}\n",
+            2077 + k % 3,
+            2070 + k % 5,
+            (k / 5) * 3
+        ));
     }
     t
 }

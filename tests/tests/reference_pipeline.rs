@@ -6,8 +6,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use reference_f64::omega_dot::{
-    kalman_variance_after, line_fit_non_overlapping, line_fit_sliding, line_fit_variance, OmegaDotKalman,
-    SEED_KF_FINAL_VARIANCE, SEED_KF_P0, SEED_R0,
+    kalman_variance_after, line_fit_non_overlapping, line_fit_sliding, line_fit_variance,
+    OmegaDotKalman, SEED_KF_FINAL_VARIANCE, SEED_KF_P0, SEED_R0,
 };
 use reference_f64::pipeline::{estimate_offline, estimate_online, Estimate, PipelineConfig};
 use reference_f64::recording::Recording;
@@ -27,20 +27,32 @@ fn sph2() -> Satellite {
 }
 
 fn cfg() -> PipelineConfig {
-    PipelineConfig { keep_history: true, history_every: 50, ..PipelineConfig::default() }
+    PipelineConfig {
+        keep_history: true,
+        history_every: 50,
+        ..PipelineConfig::default()
+    }
 }
 
 fn assert_principal_within(e: &Estimate, sat: &Satellite, tol: f64, what: &str) {
     for j in 0..3 {
         let rel = e.inertia_kgm2[j] / sat.inertia_kgm2[j] - 1.0;
-        assert!(rel.abs() < tol, "{what}: {} off by {:.3} %", ["Ixx", "Iyy", "Izz"][j], rel * 100.0);
+        assert!(
+            rel.abs() < tol,
+            "{what}: {} off by {:.3} %",
+            ["Ixx", "Iyy", "Izz"][j],
+            rel * 100.0
+        );
     }
 }
 
 #[test]
 fn o01_nominal_recovers_sph2_principal_inertias_and_rls_ends_at_batch() {
     let rec = open("o01_nominal_rga12.csv");
-    assert!(truth("o01_nominal_rga12.csv")["effects"].as_array().unwrap().is_empty());
+    assert!(truth("o01_nominal_rga12.csv")["effects"]
+        .as_array()
+        .unwrap()
+        .is_empty());
     let sat = sph2();
     let e = estimate_offline(&rec, &sat, &cfg());
     assert_eq!(e.status, "ok");
@@ -51,13 +63,23 @@ fn o01_nominal_recovers_sph2_principal_inertias_and_rls_ends_at_batch() {
     // total rate made Ixy 2.03e-4 against 1.08e-4
     for j in 3..6 {
         let d = (e.inertia_kgm2[j] - sat.inertia_kgm2[j]).abs();
-        assert!(d < 3e-5, "product {j}: {} vs {}", e.inertia_kgm2[j], sat.inertia_kgm2[j]);
+        assert!(
+            d < 3e-5,
+            "product {j}: {} vs {}",
+            e.inertia_kgm2[j],
+            sat.inertia_kgm2[j]
+        );
     }
     // the RLS (seeded by the batch over the first two firings) ends where the batch over
     // all firings does (seed 4.4.3: "mathematically equivalent")
     for j in 0..6 {
         let d = (e.inertia_kgm2[j] - e.batch_all_inertia_kgm2[j]).abs();
-        assert!(d < 1e-9 * e.inertia_kgm2[0], "inertia term {j}: RLS {} batch {}", e.inertia_kgm2[j], e.batch_all_inertia_kgm2[j]);
+        assert!(
+            d < 1e-9 * e.inertia_kgm2[0],
+            "inertia term {j}: RLS {} batch {}",
+            e.inertia_kgm2[j],
+            e.batch_all_inertia_kgm2[j]
+        );
     }
     for j in 0..3 {
         assert!((e.com_offset_mm[j] - e.batch_all_com_offset_mm[j]).abs() < 1e-9);
@@ -71,7 +93,11 @@ fn o01_nominal_recovers_sph2_principal_inertias_and_rls_ends_at_batch() {
         ..cfg()
     };
     let quiet = estimate_offline(&rec, &sat, &det);
-    assert!(quiet.detections_s.is_empty(), "false alarms at {:?}", quiet.detections_s);
+    assert!(
+        quiet.detections_s.is_empty(),
+        "false alarms at {:?}",
+        quiet.detections_s
+    );
     // the online (causal filter) form gets there too
     let on = estimate_online(&rec, &sat, &cfg());
     assert_eq!(on.status, "ok");
@@ -84,16 +110,33 @@ fn o08_recovers_the_hidden_com_offset() {
     let t = truth(name);
     let effect = &t["effects"][0];
     assert_eq!(effect["effect"], "com_offset");
-    let offset: Vec<f64> = effect["params"]["offset_mm"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let offset: Vec<f64> = effect["params"]["offset_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
     let rec = open(name);
     let sat = sph2();
-    for (form, e) in [("offline", estimate_offline(&rec, &sat, &cfg())), ("online", estimate_online(&rec, &sat, &cfg()))] {
+    for (form, e) in [
+        ("offline", estimate_offline(&rec, &sat, &cfg())),
+        ("online", estimate_online(&rec, &sat, &cfg())),
+    ] {
         assert_eq!(e.status, "ok", "{form}");
         for j in 0..3 {
             let err = e.com_offset_mm[j] - offset[j];
-            assert!(err.abs() < 0.2, "{form}: cm axis {j}: {} vs {} mm", e.com_offset_mm[j], offset[j]);
+            assert!(
+                err.abs() < 0.2,
+                "{form}: cm axis {j}: {} vs {} mm",
+                e.com_offset_mm[j],
+                offset[j]
+            );
             // and the reported standard error is honest (within 4 sigma)
-            assert!(err.abs() < 4.0 * e.com_offset_stderr_mm[j], "{form}: axis {j}: error {err} stderr {}", e.com_offset_stderr_mm[j]);
+            assert!(
+                err.abs() < 4.0 * e.com_offset_stderr_mm[j],
+                "{form}: axis {j}: error {err} stderr {}",
+                e.com_offset_stderr_mm[j]
+            );
         }
     }
 }
@@ -108,14 +151,26 @@ fn single_axis_slice_reports_the_unobservable_terms() {
     let sat = sph2();
     let e = estimate_offline(&rec, &sat, &cfg());
     assert_eq!(e.status, "unobservable_terms");
-    assert_eq!(e.unobservable, vec!["cm_x", "cm_y", "cm_z", "Iyy", "Izz", "Iyz"]);
+    assert_eq!(
+        e.unobservable,
+        vec!["cm_x", "cm_y", "cm_z", "Iyy", "Izz", "Iyz"]
+    );
     // held at the model's values (their inverse-inertia entries are; the inertia entries
     // move only through the inversion, by the excited terms' change)
     for (j, name) in [(1, "Iyy"), (2, "Izz")] {
         let rel = (e.inertia_kgm2[j] - sat.inertia_kgm2[j]).abs() / sat.inertia_kgm2[j];
-        assert!(rel < 0.01, "{name} {} vs model {}", e.inertia_kgm2[j], sat.inertia_kgm2[j]);
+        assert!(
+            rel < 0.01,
+            "{name} {} vs model {}",
+            e.inertia_kgm2[j],
+            sat.inertia_kgm2[j]
+        );
     }
-    assert!((e.inertia_kgm2[5] - sat.inertia_kgm2[5]).abs() < 1e-6, "Iyz {}", e.inertia_kgm2[5]);
+    assert!(
+        (e.inertia_kgm2[5] - sat.inertia_kgm2[5]).abs() < 1e-6,
+        "Iyz {}",
+        e.inertia_kgm2[5]
+    );
     assert!(e.com_offset_mm.iter().all(|c| c.abs() < 1e-6));
     // ... while the excited axis is still identified
     let rel = e.inertia_kgm2[0] / sat.inertia_kgm2[0] - 1.0;
@@ -132,14 +187,22 @@ fn single_axis_slice_reports_the_unobservable_terms() {
 }
 
 /// Monte Carlo variance of an estimator of a constant slope `a` from `omega = a t + noise`.
-fn mc_variance(trials: usize, n_samples: usize, dt: f64, r: f64, est: impl Fn(&[f64]) -> Vec<f64>) -> f64 {
+fn mc_variance(
+    trials: usize,
+    n_samples: usize,
+    dt: f64,
+    r: f64,
+    est: impl Fn(&[f64]) -> Vec<f64>,
+) -> f64 {
     let a = 0.9;
     let mut rng = ChaCha8Rng::seed_from_u64(42);
     let noise = Normal::new(0.0, r.sqrt()).unwrap();
     let mut sum = 0.0;
     let mut n = 0usize;
     for _ in 0..trials {
-        let y: Vec<f64> = (0..n_samples).map(|k| a * k as f64 * dt + noise.sample(&mut rng)).collect();
+        let y: Vec<f64> = (0..n_samples)
+            .map(|k| a * k as f64 * dt + noise.sample(&mut rng))
+            .collect();
         for v in est(&y) {
             sum += (v - a) * (v - a);
             n += 1;
@@ -156,10 +219,26 @@ fn line_fit_variances_with_the_seed_r0_fall_with_window_and_match_theory() {
     let mut prev = f64::INFINITY;
     for &n in &windows {
         let theory = line_fit_variance(r, dt, n);
-        let slide = mc_variance(300, 100, dt, r, |y| line_fit_sliding(y, dt, n, r).iter().map(|e| e.omega_dot).collect());
-        let block = mc_variance(300, 100, dt, r, |y| line_fit_non_overlapping(y, dt, n, r).iter().map(|e| e.omega_dot).collect());
-        assert!((slide / theory - 1.0).abs() < 0.1, "sliding n={n}: {slide} vs {theory}");
-        assert!((block / theory - 1.0).abs() < 0.15, "non-overlapping n={n}: {block} vs {theory}");
+        let slide = mc_variance(300, 100, dt, r, |y| {
+            line_fit_sliding(y, dt, n, r)
+                .iter()
+                .map(|e| e.omega_dot)
+                .collect()
+        });
+        let block = mc_variance(300, 100, dt, r, |y| {
+            line_fit_non_overlapping(y, dt, n, r)
+                .iter()
+                .map(|e| e.omega_dot)
+                .collect()
+        });
+        assert!(
+            (slide / theory - 1.0).abs() < 0.1,
+            "sliding n={n}: {slide} vs {theory}"
+        );
+        assert!(
+            (block / theory - 1.0).abs() < 0.15,
+            "non-overlapping n={n}: {block} vs {theory}"
+        );
         assert!(theory < prev, "variance must fall with the window");
         prev = theory;
     }
@@ -169,8 +248,24 @@ fn line_fit_variances_with_the_seed_r0_fall_with_window_and_match_theory() {
 fn table_4_2_non_overlapping_column_is_a_zero_filled_series_variance() {
     // Seed Table 4.2 (variance, rad^2/s^4), windows 3..15.
     let windows = [3.0f64, 5.0, 7.0, 9.0, 11.0, 13.0, 15.0];
-    let non_overlapping = [0.048096876, 0.034451072, 0.02625048, 0.02116443, 0.017619908, 0.015165923, 0.0132204];
-    let sliding = [0.004892723, 0.004578282, 0.004207598, 0.003802696, 0.003386425, 0.002978758, 0.00259468];
+    let non_overlapping = [
+        0.048096876,
+        0.034451072,
+        0.02625048,
+        0.02116443,
+        0.017619908,
+        0.015165923,
+        0.0132204,
+    ];
+    let sliding = [
+        0.004892723,
+        0.004578282,
+        0.004207598,
+        0.003802696,
+        0.003386425,
+        0.002978758,
+        0.00259468,
+    ];
     // Pattern: sliding far below non-overlapping, both falling with the window.
     for k in 0..windows.len() {
         assert!(sliding[k] * 4.0 < non_overlapping[k]);
@@ -186,7 +281,11 @@ fn table_4_2_non_overlapping_column_is_a_zero_filled_series_variance() {
     for k in 1..windows.len() {
         let seed_ratio = non_overlapping[k] / non_overlapping[0];
         let zero_fill_ratio = shape(windows[k]) / shape(windows[0]);
-        assert!((seed_ratio / zero_fill_ratio - 1.0).abs() < 0.02, "N={}: {seed_ratio} vs {zero_fill_ratio}", windows[k]);
+        assert!(
+            (seed_ratio / zero_fill_ratio - 1.0).abs() < 0.02,
+            "N={}: {seed_ratio} vs {zero_fill_ratio}",
+            windows[k]
+        );
     }
     // Our estimator in the same statistic reproduces the pattern: zero-filled
     // non-overlapping series vs every-sample sliding series over a 1 s firing at 100 Hz.
@@ -197,13 +296,18 @@ fn table_4_2_non_overlapping_column_is_a_zero_filled_series_variance() {
     };
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let noise = Normal::new(0.0, r.sqrt()).unwrap();
-    let y: Vec<f64> = (0..100).map(|k| 0.465 * k as f64 * dt + noise.sample(&mut rng)).collect();
+    let y: Vec<f64> = (0..100)
+        .map(|k| 0.465 * k as f64 * dt + noise.sample(&mut rng))
+        .collect();
     for n in [3usize, 9, 15] {
         let mut filled = vec![0.0; y.len()];
         for e in line_fit_non_overlapping(&y, dt, n, r) {
             filled[e.index] = e.omega_dot;
         }
-        let s: Vec<f64> = line_fit_sliding(&y, dt, n, r).iter().map(|e| e.omega_dot).collect();
+        let s: Vec<f64> = line_fit_sliding(&y, dt, n, r)
+            .iter()
+            .map(|e| e.omega_dot)
+            .collect();
         assert!(stat(&s) * 4.0 < stat(&filled), "n={n}");
     }
 }
@@ -218,20 +322,34 @@ fn kalman_variance_is_far_below_the_line_fits() {
     assert!(p_end < 1e-3 * best_line_fit_1khz && p_end < 1e-3 * best_line_fit_100hz);
     // the filter itself reports exactly that variance
     let mut kf = OmegaDotKalman::new(SEED_R0);
-    kf.reset(nalgebra::Vector3::zeros(), SEED_KF_P0, nalgebra::Vector3::zeros());
+    kf.reset(
+        nalgebra::Vector3::zeros(),
+        SEED_KF_P0,
+        nalgebra::Vector3::zeros(),
+    );
     let mut rng = ChaCha8Rng::seed_from_u64(3);
-    let noise: Vec<Normal<f64>> = SEED_R0.iter().map(|r| Normal::new(0.0, r.sqrt()).unwrap()).collect();
+    let noise: Vec<Normal<f64>> = SEED_R0
+        .iter()
+        .map(|r| Normal::new(0.0, r.sqrt()).unwrap())
+        .collect();
     let truth = nalgebra::Vector3::new(0.9, -0.05, 0.02);
     for k in 1..=1000 {
         let t = k as f64 * dt;
-        let z = truth * t + nalgebra::Vector3::new(noise[0].sample(&mut rng), noise[1].sample(&mut rng), noise[2].sample(&mut rng));
+        let z = truth * t
+            + nalgebra::Vector3::new(
+                noise[0].sample(&mut rng),
+                noise[1].sample(&mut rng),
+                noise[2].sample(&mut rng),
+            );
         kf.update(z, t);
     }
     assert!((kf.variance()[0] / p_end - 1.0).abs() < 1e-9);
     assert!((kf.x - truth).norm() < 6.0 * p_end.sqrt() * 3f64.sqrt());
     // The seed's printed 5.4508e-5 rad^2/s^4 is of this filter's order only early in a
     // firing: with R0_x at 1 kHz the variance crosses it after 37 updates (37 ms).
-    let n_cross = (1..1000).find(|&n| kalman_variance_after(SEED_R0[0], SEED_KF_P0, dt, n) < SEED_KF_FINAL_VARIANCE).unwrap();
+    let n_cross = (1..1000)
+        .find(|&n| kalman_variance_after(SEED_R0[0], SEED_KF_P0, dt, n) < SEED_KF_FINAL_VARIANCE)
+        .unwrap();
     assert_eq!(n_cross, 37);
     let p37 = kalman_variance_after(SEED_R0[0], SEED_KF_P0, dt, 37);
     assert!((p37 / SEED_KF_FINAL_VARIANCE - 1.0).abs() < 0.01, "{p37}");
@@ -281,14 +399,27 @@ fn pressure_drop_is_a_model_parameter() {
     let name = "o03_pressure_drop_combo.csv";
     let t = truth(name);
     assert_eq!(t["effects"][0]["effect"], "pressure_drop");
-    let drop = t["effects"][0]["params"]["newton_per_extra_thruster"].as_f64().unwrap();
+    let drop = t["effects"][0]["params"]["newton_per_extra_thruster"]
+        .as_f64()
+        .unwrap();
     let rec = open(name);
     let nominal = sph2();
-    assert_eq!(nominal.pressure_drop_n_per_extra, 0.0, "built-in models have none");
-    let cfg = PipelineConfig { keep_history: false, ..PipelineConfig::default() };
+    assert_eq!(
+        nominal.pressure_drop_n_per_extra, 0.0,
+        "built-in models have none"
+    );
+    let cfg = PipelineConfig {
+        keep_history: false,
+        ..PipelineConfig::default()
+    };
     let without = estimate_offline(&rec, &nominal, &cfg);
-    let worst = (0..3).map(|j| (without.inertia_kgm2[j] / nominal.inertia_kgm2[j] - 1.0).abs()).fold(0.0, f64::max);
-    assert!(worst > 0.05, "without the drop the inertias are off by {worst}");
+    let worst = (0..3)
+        .map(|j| (without.inertia_kgm2[j] / nominal.inertia_kgm2[j] - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst > 0.05,
+        "without the drop the inertias are off by {worst}"
+    );
     let mut with_drop = nominal.clone();
     with_drop.pressure_drop_n_per_extra = drop;
     let e = estimate_offline(&rec, &with_drop, &cfg);

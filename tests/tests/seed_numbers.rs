@@ -3,7 +3,8 @@
 //! precision), unless a comment says why a number is checked differently.
 use nalgebra::{Matrix3, Vector3};
 use reference_f64::characterize::{
-    chord_error, damping_inertia_error_percent, damping_ratio, parallel_axis_error, torsion_kappa, Trifilar,
+    chord_error, damping_inertia_error_percent, damping_ratio, parallel_axis_error, torsion_kappa,
+    Trifilar,
 };
 use reference_f64::satellite::{Satellite, N_THRUSTERS, THRUSTER_POS_M};
 use reference_f64::slosh::SloshModel;
@@ -18,24 +19,63 @@ fn assert_printed(what: &str, computed: f64, printed: f64, half_unit: f64) {
 
 /// App. D.1 (massid_kc1.m, `Sph == 1`): SPH1's thrust directions to five decimals.
 const D_SPH1_D1: [[f64; 12]; 3] = [
-    [0.99824, 0.99853, 0.05895, -0.00176, 0.01074, -0.02244, -0.99856, -0.99845, 0.04179, -0.01939, 0.00412, -0.00184],
-    [-0.02206, -0.00082, 0.99608, 0.99944, 0.03370, -0.01207, -0.00774, -0.00946, -0.99902, -0.99971, 0.06026, -0.02973],
-    [0.02491, -0.02481, 0.03236, 0.00365, 0.99913, 0.99941, 0.04447, -0.03675, 0.00876, 0.00438, -0.99814, -0.99936],
+    [
+        0.99824, 0.99853, 0.05895, -0.00176, 0.01074, -0.02244, -0.99856, -0.99845, 0.04179,
+        -0.01939, 0.00412, -0.00184,
+    ],
+    [
+        -0.02206, -0.00082, 0.99608, 0.99944, 0.03370, -0.01207, -0.00774, -0.00946, -0.99902,
+        -0.99971, 0.06026, -0.02973,
+    ],
+    [
+        0.02491, -0.02481, 0.03236, 0.00365, 0.99913, 0.99941, 0.04447, -0.03675, 0.00876, 0.00438,
+        -0.99814, -0.99936,
+    ],
 ];
 
 /// App. E flight C code: `const float L_cross_D[3][12]`.
 const L_CROSS_D_C: [[f64; 12]; 3] = [
     [
-        0.002128790, -0.000079130, -0.001669776, -0.000188340, 0.098154965, -0.097065877, 0.000746910, -0.000912890,
-        0.000452016, 0.000226008, -0.099429926, 0.097972308,
+        0.002128790,
+        -0.000079130,
+        -0.001669776,
+        -0.000188340,
+        0.098154965,
+        -0.097065877,
+        0.000746910,
+        -0.000912890,
+        0.000452016,
+        0.000226008,
+        -0.099429926,
+        0.097972308,
     ],
     [
-        0.097615516, -0.097638341, -0.003122740, 0.000352225, -0.000554184, 0.001157904, -0.098655692, 0.098246725,
-        -0.000845340, 0.000422670, 0.000212592, -0.000094944,
+        0.097615516,
+        -0.097638341,
+        -0.003122740,
+        0.000352225,
+        -0.000554184,
+        0.001157904,
+        -0.098655692,
+        0.098246725,
+        -0.000845340,
+        0.000422670,
+        0.000212592,
+        -0.000094944,
     ],
     [
-        0.001138296, 0.000042312, 0.099163540, -0.096536776, -0.001036410, -0.002165460, -0.000399384, -0.000488136,
-        -0.098561794, 0.097472539, -0.000397580, -0.000177560,
+        0.001138296,
+        0.000042312,
+        0.099163540,
+        -0.096536776,
+        -0.001036410,
+        -0.002165460,
+        -0.000399384,
+        -0.000488136,
+        -0.098561794,
+        0.097472539,
+        -0.000397580,
+        -0.000177560,
     ],
 ];
 
@@ -47,7 +87,12 @@ fn l_cross_d_constant_is_lnom_cross_d_for_sph1() {
         let d = Vector3::new(D_SPH1_D1[0][i], D_SPH1_D1[1][i], D_SPH1_D1[2][i]);
         let lxd = l.cross(&d);
         for a in 0..3 {
-            assert_printed(&format!("L_cross_D[{a}][{i}]"), lxd[a], L_CROSS_D_C[a][i], 0.5e-9);
+            assert_printed(
+                &format!("L_cross_D[{a}][{i}]"),
+                lxd[a],
+                L_CROSS_D_C[a][i],
+                0.5e-9,
+            );
         }
     }
     // And with the 4-decimal directions of satellites.md / App. C.4 (the built-in model):
@@ -70,11 +115,20 @@ fn l_cross_d_constant_is_lnom_cross_d_for_sph1() {
             }
         }
     }
-    assert_eq!(outside, vec![(2, 3)], "components of the built-in SPH1 L x D off the C constant");
+    assert_eq!(
+        outside,
+        vec![(2, 3)],
+        "components of the built-in SPH1 L x D off the C constant"
+    );
     // The [2][3] gap is the typo exactly:
     let l4 = sph1.pos_m(3);
     let dx_gap = sph1.dir(3).x - D_SPH1_D1[0][3];
-    assert_printed("thruster 4 Dx: App. C.4 minus D.1", dx_gap, -0.01584, 0.000001);
+    assert_printed(
+        "thruster 4 Dx: App. C.4 minus D.1",
+        dx_gap,
+        -0.01584,
+        0.000001,
+    );
     let lxd4 = l4.cross(&sph1.dir(3));
     let expected_gap = -l4.y * dx_gap; // d(Lx Dy - Ly Dx) = -Ly dDx
     let dy_rounding = l4.x.abs() * 5e-5;
@@ -84,12 +138,21 @@ fn l_cross_d_constant_is_lnom_cross_d_for_sph1() {
 #[test]
 fn i_inv_constant_is_inverse_of_i_nom() {
     // App. D.1 / E: I_nom and the flight code's I_inv (4 decimals).
-    let i_nom = Matrix3::new(0.0229, 0.0000965, -0.000293, 0.0000965, 0.0242, -0.0000311, -0.000293, -0.0000311, 0.0214);
-    let i_inv_c = Matrix3::new(43.6765, -0.1734, 0.5977, -0.1734, 41.3231, 0.0577, 0.5977, 0.0577, 46.7372);
+    let i_nom = Matrix3::new(
+        0.0229, 0.0000965, -0.000293, 0.0000965, 0.0242, -0.0000311, -0.000293, -0.0000311, 0.0214,
+    );
+    let i_inv_c = Matrix3::new(
+        43.6765, -0.1734, 0.5977, -0.1734, 41.3231, 0.0577, 0.5977, 0.0577, 46.7372,
+    );
     let inv = i_nom.try_inverse().expect("I_nom is invertible");
     for r in 0..3 {
         for c in 0..3 {
-            assert_printed(&format!("I_inv[{r}][{c}]"), inv[(r, c)], i_inv_c[(r, c)], 0.5e-4);
+            assert_printed(
+                &format!("I_inv[{r}][{c}]"),
+                inv[(r, c)],
+                i_inv_c[(r, c)],
+                0.5e-4,
+            );
         }
     }
 }
@@ -109,7 +172,10 @@ fn b6_is_the_zoh_discretisation_of_b5_at_10_ms() {
     assert_printed("B.5 pole imaginary part", im, 2.45, 0.005);
     // physical parameters of B.4 (M = 0.05 kg, k = 0.3, b = 0.001) give the same poles
     let phys = SloshModel::from_physical(0.05, 0.3, 0.001).unwrap();
-    assert!((phys.stiffness_per_mass - 6.0).abs() < 1e-12 && (phys.damping_per_mass - 0.02).abs() < 1e-12);
+    assert!(
+        (phys.stiffness_per_mass - 6.0).abs() < 1e-12
+            && (phys.damping_per_mass - 0.02).abs() < 1e-12
+    );
 }
 
 #[test]
@@ -151,7 +217,12 @@ fn section_2_3_6_chord_error_is_half_a_percent() {
     // and half the radius respectively: r*(theta/2) and 2 r sin(theta/4).
     let (arc_half, _, _) = chord_error(0.1461, 10f64.to_radians()).unwrap();
     assert_printed("printed arc", arc_half, 0.025499, 0.0000005);
-    assert_printed("printed chord", 2.0 * 0.1461 * (20f64.to_radians() / 4.0).sin(), 0.025467, 0.0000005);
+    assert_printed(
+        "printed chord",
+        2.0 * 0.1461 * (20f64.to_radians() / 4.0).sin(),
+        0.025467,
+        0.0000005,
+    );
 }
 
 #[test]
@@ -163,8 +234,12 @@ fn eq_2_21_oscillation_energies() {
     assert_printed("E_A (J)", ea, 0.037005, 0.0000005);
     assert_printed("E_B (J)", eb, 0.001423, 0.0000005);
     // "This constitutes an inertia error of 3.845%. Alternatively, if A_B = 0.005 ... 0.961%."
-    let e1 = 100.0 * p.swing_inertia_error_fraction(20f64.to_radians(), 0.01).unwrap();
-    let e2 = 100.0 * p.swing_inertia_error_fraction(20f64.to_radians(), 0.005).unwrap();
+    let e1 = 100.0
+        * p.swing_inertia_error_fraction(20f64.to_radians(), 0.01)
+            .unwrap();
+    let e2 = 100.0
+        * p.swing_inertia_error_fraction(20f64.to_radians(), 0.005)
+            .unwrap();
     assert_printed("swing inertia error 1 cm (%)", e1, 3.845, 0.0005);
     assert_printed("swing inertia error 5 mm (%)", e2, 0.961, 0.0005);
 }
@@ -176,12 +251,27 @@ fn eq_2_6_pendulum_inertia_with_the_seeds_parameters() {
     // 20 oscillations changes I by 0.0007696 kg m^2 (1.194 %). Eq. 2.15 = eq. 2.6 with
     // omega = 40 pi / T. The seed does not print T; T = 42 s is the value that reproduces BOTH
     // printed numbers (inferred, stated here rather than hidden).
-    let nominal = Trifilar { length_m: 2.6, ..Trifilar::SEED };
+    let nominal = Trifilar {
+        length_m: 2.6,
+        ..Trifilar::SEED
+    };
     let t = 42.0;
     let d_i = nominal.stopwatch_inertia_error(t, 20, 0.25).unwrap();
-    assert_printed("stopwatch inertia error (kg m^2)", d_i, 0.0007696, 0.00000005);
-    let total = nominal.total_inertia(40.0 * std::f64::consts::PI / t).unwrap();
-    assert_printed("stopwatch inertia error (%)", 100.0 * d_i / total, 1.194, 0.0005);
+    assert_printed(
+        "stopwatch inertia error (kg m^2)",
+        d_i,
+        0.0007696,
+        0.00000005,
+    );
+    let total = nominal
+        .total_inertia(40.0 * std::f64::consts::PI / t)
+        .unwrap();
+    assert_printed(
+        "stopwatch inertia error (%)",
+        100.0 * d_i / total,
+        1.194,
+        0.0005,
+    );
     // eq. 2.6 and 2.15 agree: inertia from the stopwatch equals inertia from omega.
     let via_stopwatch = nominal.inertia_from_stopwatch(t, 20).unwrap();
     assert!((via_stopwatch - (total - nominal.base_inertia_kgm2)).abs() < 1e-15);
@@ -194,8 +284,13 @@ fn eq_2_6_pendulum_inertia_with_the_seeds_parameters() {
         .iter()
         .flat_map(|n| Satellite::builtin(n).unwrap().inertia_kgm2[..3].to_vec())
         .collect();
-    let (lo, hi) = principal.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-    assert!(lo <= i_sat && i_sat <= hi, "eq. 2.6 satellite inertia {i_sat} outside [{lo}, {hi}]");
+    let (lo, hi) = principal
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    assert!(
+        lo <= i_sat && i_sat <= hi,
+        "eq. 2.6 satellite inertia {i_sat} outside [{lo}, {hi}]"
+    );
 }
 
 #[test]
@@ -219,17 +314,36 @@ fn fig_b5_wider_impulse_larger_response_same_frequency() {
     };
     let (y2, y4) = (response(2.0), response(4.0));
     let on4 = 400; // both inputs have ended after 4 s
-    // free oscillation after the input ends, about the rest position 0
-    let amp = |y: &[f64], from: usize| y[from..from + 300].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                   // free oscillation after the input ends, about the rest position 0
+    let amp = |y: &[f64], from: usize| {
+        y[from..from + 300]
+            .iter()
+            .fold(0.0f64, |a, v| a.max(v.abs()))
+    };
     let (a2, a4) = (amp(&y2, on4 + 10), amp(&y4, on4 + 10));
-    assert!(a4 > a2, "4 s response {a4} not larger than 2 s response {a2}");
+    assert!(
+        a4 > a2,
+        "4 s response {a4} not larger than 2 s response {a2}"
+    );
     // frequency from the spacing of upward zero crossings over 40 s of free response
     let freq = |y: &[f64], from: usize| {
-        let ups: Vec<usize> = (from + 1..y.len()).filter(|&k| y[k - 1] < 0.0 && y[k] >= 0.0).collect();
+        let ups: Vec<usize> = (from + 1..y.len())
+            .filter(|&k| y[k - 1] < 0.0 && y[k] >= 0.0)
+            .collect();
         let cycles = (ups.len() - 1) as f64;
         2.0 * std::f64::consts::PI * cycles / ((ups[ups.len() - 1] - ups[0]) as f64 * 0.01)
     };
     let (w2, w4) = (freq(&y2, on4 + 10), freq(&y4, on4 + 10));
-    assert_printed("free-response frequency, 2 s input (rad/s)", w2, 2.45, 0.005);
-    assert_printed("free-response frequency, 4 s input (rad/s)", w4, 2.45, 0.005);
+    assert_printed(
+        "free-response frequency, 2 s input (rad/s)",
+        w2,
+        2.45,
+        0.005,
+    );
+    assert_printed(
+        "free-response frequency, 4 s input (rad/s)",
+        w4,
+        2.45,
+        0.005,
+    );
 }

@@ -10,10 +10,17 @@ pub fn params() -> SatelliteParams {
     let mut p = SPH2;
     for i in 0..12 {
         p.thrust_n[i] = any_f64_in(env::THRUST_N.0, env::THRUST_N.1) as f32;
-        let main = (0..3).fold(0, |m, k| if SPH2.thrust_dir[i][k].abs() > SPH2.thrust_dir[i][m].abs() { k } else { m });
+        let main = (0..3).fold(0, |m, k| {
+            if SPH2.thrust_dir[i][k].abs() > SPH2.thrust_dir[i][m].abs() {
+                k
+            } else {
+                m
+            }
+        });
         for k in 0..3 {
             p.thrust_dir[i][k] = if k == main {
-                SPH2.thrust_dir[i][k].signum() * any_f64_in(env::DIRECTION_MAIN.0, env::DIRECTION_MAIN.1) as f32
+                SPH2.thrust_dir[i][k].signum()
+                    * any_f64_in(env::DIRECTION_MAIN.0, env::DIRECTION_MAIN.1) as f32
             } else {
                 any_f64_in(env::DIRECTION_OFF_AXIS.0, env::DIRECTION_OFF_AXIS.1) as f32
             };
@@ -46,7 +53,12 @@ pub fn word() -> u16 {
 /// Three gyro counts off the rails (a sample at a rail cuts the firing, so runs that should
 /// reach a solve draw these most of the time).
 pub fn counts_off_rail() -> [u16; 3] {
-    [0; 3].map(|_| any_in(env::GYRO_COUNTS.0.saturating_add(1), env::GYRO_COUNTS.1.saturating_sub(1)))
+    [0; 3].map(|_| {
+        any_in(
+            env::GYRO_COUNTS.0.saturating_add(1),
+            env::GYRO_COUNTS.1.saturating_sub(1),
+        )
+    })
 }
 
 /// Three gyro counts.

@@ -19,25 +19,45 @@ const MAX_SAMPLES: u32 = 40;
 fn filter_bounds(rails_only: bool) {
     let dt_ms = any_in(1u32, 20);
     let coefs = LowPassCoefs::design(50.0, dt_ms as f64 * 1e-3);
-    let (p, g) = (coefs.p_q30 as f64 / (1u64 << 30) as f64, coefs.g_q30 as f64 / (1u64 << 30) as f64);
+    let (p, g) = (
+        coefs.p_q30 as f64 / (1u64 << 30) as f64,
+        coefs.g_q30 as f64 / (1u64 << 30) as f64,
+    );
     let l = g * (1.0 + (1.0 + p).abs() / (1.0 - p.abs()));
-    assert!(l * l * 4095.0 * 4096.0 < i32::MAX as f64, "the i32 conversion could fall back");
+    assert!(
+        l * l * 4095.0 * 4096.0 < i32::MAX as f64,
+        "the i32 conversion could fall back"
+    );
     let mut f = GyroLowPass::new(coefs);
     let n = any_in(1u32, if rails_only { 8 } else { MAX_SAMPLES });
     for _ in 0..n {
         let c: [u16; 3] = if rails_only {
-            [if any_bool() { env::GYRO_COUNTS.1 } else { env::GYRO_COUNTS.0 }; 3]
+            [if any_bool() {
+                env::GYRO_COUNTS.1
+            } else {
+                env::GYRO_COUNTS.0
+            }; 3]
         } else {
             [0; 3].map(|_| any_in(env::GYRO_COUNTS.0, env::GYRO_COUNTS.1))
         };
         let y = f.step(c);
         let top = (env::GYRO_COUNTS.1 as f64) * 4096.0;
-        let (lo, hi) = if l <= 1.0 + 1e-9 { (0.0, top) } else { (-(l * l - 1.0) * top / 2.0, top + (l * l - 1.0) * top / 2.0) };
+        let (lo, hi) = if l <= 1.0 + 1e-9 {
+            (0.0, top)
+        } else {
+            (-(l * l - 1.0) * top / 2.0, top + (l * l - 1.0) * top / 2.0)
+        };
         for v in y {
             // Rounding adds at most 1/2 LSB per section per step; 8 LSB of slack over a run.
-            assert!((lo - 8.0..=hi + 8.0).contains(&(v as f64)), "filtered {v} outside [{lo}, {hi}] (dt {dt_ms} ms, L {l})");
+            assert!(
+                (lo - 8.0..=hi + 8.0).contains(&(v as f64)),
+                "filtered {v} outside [{lo}, {hi}] (dt {dt_ms} ms, L {l})"
+            );
         }
-        cover!(l > 1.0 && y.iter().any(|v| *v as f64 > top), "overshoot above the top rail (p < 0)");
+        cover!(
+            l > 1.0 && y.iter().any(|v| *v as f64 > top),
+            "overshoot above the top rail (p < 0)"
+        );
         cover!(y[0] > 4000 * 4096, "near the top rail");
     }
 }
@@ -57,6 +77,18 @@ pub fn gyro_filter_rails() {
 }
 
 pub const HARNESSES: [Harness; 2] = [
-    Harness { name: "gyro_filter_any_sequence", body: gyro_filter_any_sequence, covers: &["near the top rail"], random_runs: 20_000, exhaustive_limit: None },
-    Harness { name: "gyro_filter_rails", body: gyro_filter_rails, covers: &["near the top rail", "overshoot above the top rail (p < 0)"], random_runs: 2_000, exhaustive_limit: Some(20 * 8 * 512) },
+    Harness {
+        name: "gyro_filter_any_sequence",
+        body: gyro_filter_any_sequence,
+        covers: &["near the top rail"],
+        random_runs: 20_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "gyro_filter_rails",
+        body: gyro_filter_rails,
+        covers: &["near the top rail", "overshoot above the top rail (p < 0)"],
+        random_runs: 2_000,
+        exhaustive_limit: Some(20 * 8 * 512),
+    },
 ];

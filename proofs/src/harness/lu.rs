@@ -3,23 +3,35 @@
 //! by the backward-error bound of partial-pivoting LU in the scalar's own arithmetic.
 
 use super::Harness;
+use crate::budget::Exact;
 use crate::cover;
 use crate::engine::{any_f64_in, any_in};
 use massid_kernel::lu::{Lu, LuError};
 use massid_kernel::Q8_24;
-use crate::budget::Exact;
 
 /// Unit roundoff and absolute step of the scalar, measured through the trait.
 fn roundoff<S: Exact>() -> (f64, f64) {
     let step = crate::budget::fixed_step::<S>();
     // f32 has no absolute step worth the name (subnormals): relative 2^-24; fixed: absolute.
-    if step < 1e-30 { (f32::EPSILON as f64 / 2.0, 0.0) } else { (0.0, step) }
+    if step < 1e-30 {
+        (f32::EPSILON as f64 / 2.0, 0.0)
+    } else {
+        (0.0, step)
+    }
 }
 
 /// The residual bound checked: `|A x - b|_inf <= c (u (|A|_inf |x|_inf + |b|_inf) + s (1 + |x|_1) n)`
 /// with `c = 2^(n-1) * 4 n^2` (partial pivoting growth times the operation count), `u` the
 /// relative and `s` the absolute rounding step of the format.
-pub fn residual_bound(n: usize, a_inf: f64, x_inf: f64, x_1: f64, b_inf: f64, u: f64, s: f64) -> f64 {
+pub fn residual_bound(
+    n: usize,
+    a_inf: f64,
+    x_inf: f64,
+    x_1: f64,
+    b_inf: f64,
+    u: f64,
+    s: f64,
+) -> f64 {
     let c = (1u64 << (n - 1)) as f64 * 4.0 * (n * n) as f64;
     c * (u * (a_inf * x_inf + b_inf) + s * (1.0 + x_1) * n as f64)
 }
@@ -66,7 +78,10 @@ fn factor_solve<S: Exact, const N: usize>() {
             let bf = b_s.map(|v| v.exact());
             let xf = x.map(|v| v.exact());
             assert!(x.iter().all(|v| v.is_valid()));
-            let a_inf = af.iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
+            let a_inf = af
+                .iter()
+                .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+                .fold(0.0, f64::max);
             let x_inf = xf.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let x_1: f64 = xf.iter().map(|v| v.abs()).sum();
             let b_inf = bf.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -74,7 +89,10 @@ fn factor_solve<S: Exact, const N: usize>() {
             let bound = residual_bound(N, a_inf, x_inf, x_1, b_inf, u, s);
             for i in 0..N {
                 let r: f64 = (0..N).map(|j| af[i][j] * xf[j]).sum::<f64>() - bf[i];
-                assert!(r.abs() <= bound, "row {i}: residual {r:e} > bound {bound:e}; A = {af:?} b = {bf:?} x = {xf:?}");
+                assert!(
+                    r.abs() <= bound,
+                    "row {i}: residual {r:e} > bound {bound:e}; A = {af:?} b = {bf:?} x = {xf:?}"
+                );
             }
         }
     }
@@ -98,7 +116,25 @@ pub fn lu6_f32() {
 
 const COVERS: &[&str] = &["singular status", "solved"];
 pub const HARNESSES: [Harness; 3] = [
-    Harness { name: "lu3_q8_24", body: lu3_q8_24, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
-    Harness { name: "lu6_q8_24", body: lu6_q8_24, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
-    Harness { name: "lu6_f32", body: lu6_f32, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
+    Harness {
+        name: "lu3_q8_24",
+        body: lu3_q8_24,
+        covers: COVERS,
+        random_runs: 20_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "lu6_q8_24",
+        body: lu6_q8_24,
+        covers: COVERS,
+        random_runs: 20_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "lu6_f32",
+        body: lu6_f32,
+        covers: COVERS,
+        random_runs: 20_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -37,7 +37,10 @@ pub struct Harness {
 impl Harness {
     /// The engine modes this harness runs in (random always; exhaustive when feasible).
     pub fn modes(&self, seed: u64) -> Vec<Mode> {
-        let mut m = vec![Mode::Random { runs: self.random_runs, seed }];
+        let mut m = vec![Mode::Random {
+            runs: self.random_runs,
+            seed,
+        }];
         if let Some(limit) = self.exhaustive_limit {
             m.push(Mode::Exhaustive { limit });
         }

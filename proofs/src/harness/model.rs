@@ -4,10 +4,10 @@
 //! envelope.
 
 use super::{draw, Harness};
+use crate::budget::Exact;
 use crate::cover;
 use crate::envelope as env;
 use massid_kernel::Q8_24;
-use crate::budget::Exact;
 
 fn firing_terms<S: Exact>() {
     let p = draw::params_or_sph2();
@@ -28,7 +28,13 @@ fn firing_terms_for<S: Exact>(p: massid_kernel::model::SatelliteParams, word: u1
         // The envelope's inertia box is positive definite (Gershgorin), so this is a failure.
         panic!("terms rejected inside the envelope: {:?}", terms.err());
     };
-    for v in terms.inertia_inv.iter().flatten().chain(terms.lever_x_dir.iter().flatten()).chain(terms.theta_inertia_nominal.iter()) {
+    for v in terms
+        .inertia_inv
+        .iter()
+        .flatten()
+        .chain(terms.lever_x_dir.iter().flatten())
+        .chain(terms.theta_inertia_nominal.iter())
+    {
         assert!(v.is_valid(), "a model term saturated the format");
     }
     let ft = terms.firing_terms(word);
@@ -39,23 +45,40 @@ fn firing_terms_for<S: Exact>(p: massid_kernel::model::SatelliteParams, word: u1
     }
     for v in ft.omega_dot_nominal {
         let v = v.exact();
-        assert!(env::within(v, env::OMEGA_DOT_RAD_S2), "omega_dot nominal {v} outside the envelope");
+        assert!(
+            env::within(v, env::OMEGA_DOT_RAD_S2),
+            "omega_dot nominal {v} outside the envelope"
+        );
     }
     // Each output equals the f64 computation from the same parameters within the rounding
     // allowance: <= 12 terms of 3 rounded factors (36 steps), x100 for cN m, x91 (largest
     // |inv(I)| entry) x 3 terms for the I^-1 products: < 2^14 steps of the format.
     let exact = exact_firing_terms(&p, word);
     let step = crate::budget::fixed_step::<S>();
-    let u = if step == 0.0 { f32::EPSILON as f64 / 2.0 } else { step };
+    let u = if step == 0.0 {
+        f32::EPSILON as f64 / 2.0
+    } else {
+        step
+    };
     let got: Vec<f64> = all_outputs(&ft).map(|v| v.exact()).collect();
     for (k, (g, e)) in got.iter().zip(exact.iter()).enumerate() {
         let tol = 16384.0 * u * (1.0 + e.abs());
-        assert!((g - e).abs() <= tol, "word {word:#x} output {k}: {g} vs exact {e}");
+        assert!(
+            (g - e).abs() <= tol,
+            "word {word:#x} output {k}: {g} vs exact {e}"
+        );
     }
 }
 
-fn all_outputs<S: Exact>(ft: &massid_kernel::model::FiringTerms<S>) -> impl Iterator<Item = S> + '_ {
-    ft.force_n.iter().chain(ft.torque_cnm.iter()).chain(ft.omega_dot_nominal.iter()).chain(ft.a_com.iter().flatten()).copied()
+fn all_outputs<S: Exact>(
+    ft: &massid_kernel::model::FiringTerms<S>,
+) -> impl Iterator<Item = S> + '_ {
+    ft.force_n
+        .iter()
+        .chain(ft.torque_cnm.iter())
+        .chain(ft.omega_dot_nominal.iter())
+        .chain(ft.a_com.iter().flatten())
+        .copied()
 }
 
 /// The firing terms in f64 straight from the parameters (force, torque in cN m, I^-1 a,
@@ -73,7 +96,11 @@ pub fn exact_firing_terms(p: &massid_kernel::model::SatelliteParams, word: u16) 
         let f = (p.thrust_n[i] as f64 - drop).max(0.0);
         let d = p.thrust_dir[i].map(|v| v as f64);
         let l = [0, 1, 2].map(|k| p.thruster_pos_m[i][k] as f64 - p.com_offset_mm[k] as f64 * 1e-3);
-        let lxd = [l[1] * d[2] - l[2] * d[1], l[2] * d[0] - l[0] * d[2], l[0] * d[1] - l[1] * d[0]];
+        let lxd = [
+            l[1] * d[2] - l[2] * d[1],
+            l[2] * d[0] - l[0] * d[2],
+            l[0] * d[1] - l[1] * d[0],
+        ];
         for k in 0..3 {
             c[k] += d[k] * f;
             a[k] += lxd[k] * f;
@@ -123,8 +150,32 @@ pub fn firing_terms_every_word_f32() {
 
 const COVERS: &[&str] = &["terms derived", "all twelve open", "all closed"];
 pub const HARNESSES: [Harness; 4] = [
-    Harness { name: "firing_terms_every_word_q8_24", body: firing_terms_every_word_q8_24, covers: COVERS, random_runs: 1_000, exhaustive_limit: Some(4096) },
-    Harness { name: "firing_terms_every_word_f32", body: firing_terms_every_word_f32, covers: COVERS, random_runs: 1_000, exhaustive_limit: Some(4096) },
-    Harness { name: "firing_terms_q8_24", body: firing_terms_q8_24, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
-    Harness { name: "firing_terms_f32", body: firing_terms_f32, covers: COVERS, random_runs: 20_000, exhaustive_limit: None },
+    Harness {
+        name: "firing_terms_every_word_q8_24",
+        body: firing_terms_every_word_q8_24,
+        covers: COVERS,
+        random_runs: 1_000,
+        exhaustive_limit: Some(4096),
+    },
+    Harness {
+        name: "firing_terms_every_word_f32",
+        body: firing_terms_every_word_f32,
+        covers: COVERS,
+        random_runs: 1_000,
+        exhaustive_limit: Some(4096),
+    },
+    Harness {
+        name: "firing_terms_q8_24",
+        body: firing_terms_q8_24,
+        covers: COVERS,
+        random_runs: 20_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "firing_terms_f32",
+        body: firing_terms_f32,
+        covers: COVERS,
+        random_runs: 20_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -20,7 +20,8 @@ const Q12: i32 = 4096;
 fn any_sequence<S: Exact>() {
     let cfg = KfConfig::seed(1);
     let mut kf = OmegaDotKf::<S>::new(&cfg);
-    let prior = [0; 3].map(|_| S::from_f32(any_f64_in(env::OMEGA_DOT_RAD_S2.0, env::OMEGA_DOT_RAD_S2.1) as f32));
+    let prior = [0; 3]
+        .map(|_| S::from_f32(any_f64_in(env::OMEGA_DOT_RAD_S2.0, env::OMEGA_DOT_RAD_S2.1) as f32));
     kf.reset(prior);
     let n = any_in(1u32, MAX_SAMPLES);
     let saturated_gyro = any_bool();
@@ -35,14 +36,26 @@ fn any_sequence<S: Exact>() {
         };
         let st = kf.update(counts);
         if t == 0 {
-            assert_eq!(st, if counts.is_some() { KfStatus::Anchored } else { KfStatus::Missing });
+            assert_eq!(
+                st,
+                if counts.is_some() {
+                    KfStatus::Anchored
+                } else {
+                    KfStatus::Missing
+                }
+            );
         }
         match kf.estimate() {
             None => cover!(true, "estimate does not fit: status"),
             Some(e) => {
                 cover!(e.updates > 0, "estimate after updates");
                 for i in 0..3 {
-                    assert!(e.omega_dot[i].is_valid(), "omega_dot[{i}] invalid: {} sums {:?}", e.omega_dot[i].exact(), kf.sums());
+                    assert!(
+                        e.omega_dot[i].is_valid(),
+                        "omega_dot[{i}] invalid: {} sums {:?}",
+                        e.omega_dot[i].exact(),
+                        kf.sums()
+                    );
                     assert!(S::ZERO.lt(e.variance[i].m), "variance not positive");
                     assert!(S::ZERO.lt(e.information[i].m), "information not positive");
                 }
@@ -89,7 +102,12 @@ fn ramp<S: Exact>() {
     for i in 0..3 {
         let tol = allowance("kf.omega_dot", fmt_of::<S>(), x[i], ratio);
         let got = e.omega_dot[i].exact();
-        assert!((got - x[i]).abs() <= tol, "axis {i}: {got} vs {} (tol {tol:e}, sums {:?})", x[i], kf.sums());
+        assert!(
+            (got - x[i]).abs() <= tol,
+            "axis {i}: {got} vs {} (tol {tol:e}, sums {:?})",
+            x[i],
+            kf.sums()
+        );
     }
 }
 
@@ -110,7 +128,25 @@ pub fn kf_ramp_f32() {
 }
 
 pub const HARNESSES: [Harness; 3] = [
-    Harness { name: "kf_any_sequence_q8_24", body: kf_any_sequence_q8_24, covers: &["estimate after updates"], random_runs: 5_000, exhaustive_limit: None },
-    Harness { name: "kf_ramp_q8_24", body: kf_ramp_q8_24, covers: &["nonzero slope"], random_runs: 5_000, exhaustive_limit: None },
-    Harness { name: "kf_ramp_f32", body: kf_ramp_f32, covers: &["nonzero slope"], random_runs: 5_000, exhaustive_limit: None },
+    Harness {
+        name: "kf_any_sequence_q8_24",
+        body: kf_any_sequence_q8_24,
+        covers: &["estimate after updates"],
+        random_runs: 5_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "kf_ramp_q8_24",
+        body: kf_ramp_q8_24,
+        covers: &["nonzero slope"],
+        random_runs: 5_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "kf_ramp_f32",
+        body: kf_ramp_f32,
+        covers: &["nonzero slope"],
+        random_runs: 5_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -13,7 +13,8 @@ const MAX_TICKS: u32 = 120;
 
 fn any_run<S: Scalar>() {
     let p = draw::params_or_sph2();
-    let mut pl = Pipeline::<S>::new(&p, PipelineConfig::seed(1)).expect("envelope parameters are valid");
+    let mut pl =
+        Pipeline::<S>::new(&p, PipelineConfig::seed(1)).expect("envelope parameters are valid");
     let n = any_in(1u32, MAX_TICKS);
     let mut word = 0u16;
     // Firings of 12..30 ticks so that several firings (batch, then RLS) fit in a run.
@@ -24,9 +25,20 @@ fn any_run<S: Scalar>() {
             left = any_in(12u32, 30);
         }
         left -= 1;
-        let counts = if any_in(0u8, 15) == 0 { draw::counts() } else { draw::counts_off_rail() };
-        let r = if any_in(0u8, 15) == 0 { pl.tick_gap() } else { pl.tick(counts, word) };
-        cover!(r.event == TickEvent::Railed, "railed sample cuts the firing");
+        let counts = if any_in(0u8, 15) == 0 {
+            draw::counts()
+        } else {
+            draw::counts_off_rail()
+        };
+        let r = if any_in(0u8, 15) == 0 {
+            pl.tick_gap()
+        } else {
+            pl.tick(counts, word)
+        };
+        cover!(
+            r.event == TickEvent::Railed,
+            "railed sample cuts the firing"
+        );
         cover!(r.event == TickEvent::Solved, "solved");
         if r.event == TickEvent::KfOverflow {
             // Only a fixed format can fail to hold an estimate (f32 never reaches this).
@@ -35,9 +47,16 @@ fn any_run<S: Scalar>() {
         let e = pl.estimates();
         // Random counts rarely make a physical body: the kept estimate after an Implausible
         // solve must be as valid as an accepted one.
-        if matches!(e.status, PipelineStatus::Ok | PipelineStatus::PartlyUnobservable | PipelineStatus::Implausible) {
+        if matches!(
+            e.status,
+            PipelineStatus::Ok | PipelineStatus::PartlyUnobservable | PipelineStatus::Implausible
+        ) {
             cover!(true, "estimates valid");
-            assert!(e.delta_com_m.iter().chain(e.theta_inertia.iter()).all(|v| v.is_valid()));
+            assert!(e
+                .delta_com_m
+                .iter()
+                .chain(e.theta_inertia.iter())
+                .all(|v| v.is_valid()));
         }
     }
     let _ = pl.finish();
@@ -55,6 +74,18 @@ pub fn pipeline_f32() {
 }
 
 pub const HARNESSES: [Harness; 2] = [
-    Harness { name: "pipeline_q8_24", body: pipeline_q8_24, covers: &["solved", "estimates valid"], random_runs: 2_000, exhaustive_limit: None },
-    Harness { name: "pipeline_f32", body: pipeline_f32, covers: &["solved", "estimates valid"], random_runs: 2_000, exhaustive_limit: None },
+    Harness {
+        name: "pipeline_q8_24",
+        body: pipeline_q8_24,
+        covers: &["solved", "estimates valid"],
+        random_runs: 2_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "pipeline_f32",
+        body: pipeline_f32,
+        covers: &["solved", "estimates valid"],
+        random_runs: 2_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -23,8 +23,16 @@ fn clamp(v: i128) -> i32 {
 /// `a + b`, `a - b`, `-a`, `|a|` equal the exact result clamped.
 pub fn check_add_sub(a: i32, b: i32) {
     let (x, y) = (q(a), q(b));
-    assert_eq!((x + y).0.to_bits(), clamp(a as i128 + b as i128), "add {a} {b}");
-    assert_eq!((x - y).0.to_bits(), clamp(a as i128 - b as i128), "sub {a} {b}");
+    assert_eq!(
+        (x + y).0.to_bits(),
+        clamp(a as i128 + b as i128),
+        "add {a} {b}"
+    );
+    assert_eq!(
+        (x - y).0.to_bits(),
+        clamp(a as i128 - b as i128),
+        "sub {a} {b}"
+    );
     assert_eq!((-x).0.to_bits(), clamp(-(a as i128)), "neg {a}");
     assert_eq!(x.abs().0.to_bits(), clamp((a as i128).abs()), "abs {a}");
 }
@@ -35,7 +43,10 @@ pub fn check_mul(a: i32, b: i32) {
     let got = (q(a) * q(b)).0.to_bits() as i128;
     let lo = clamp(exact.div_euclid(1 << FRAC)) as i128;
     let hi = clamp(exact.div_euclid(1 << FRAC) + 1) as i128;
-    assert!(lo <= got && got <= hi, "mul {a} {b}: {got} not in [{lo}, {hi}]");
+    assert!(
+        lo <= got && got <= hi,
+        "mul {a} {b}: {got} not in [{lo}, {hi}]"
+    );
 }
 
 /// `checked_div` is `None` exactly for a zero divisor or a quotient that does not fit, else
@@ -52,16 +63,27 @@ pub fn check_div(a: i32, b: i32) {
         Some(v) => {
             assert!((v.0.to_bits() as f64 - exact).abs() <= 1.0, "div {a} {b}");
         }
-        None => assert!(!fits || (exact.abs() - i32::MAX as f64).abs() <= 1.0, "div {a} {b} fits but None"),
+        None => assert!(
+            !fits || (exact.abs() - i32::MAX as f64).abs() <= 1.0,
+            "div {a} {b} fits but None"
+        ),
     }
 }
 
 /// `mul_pow2` and `from_int_pow2` scale by 2^e exactly when representable, saturate above,
 /// and round toward -inf below the resolution.
 pub fn check_pow2(a: i32, e: i32) {
-    assert_eq!(q(a).mul_pow2(e).0.to_bits(), clamp(scale_pow2(a as i128, e)), "mul_pow2 {a} {e}");
+    assert_eq!(
+        q(a).mul_pow2(e).0.to_bits(),
+        clamp(scale_pow2(a as i128, e)),
+        "mul_pow2 {a} {e}"
+    );
     let e_bits = e + FRAC as i32;
-    assert_eq!(Q8_24::from_int_pow2(a, e).0.to_bits(), clamp(scale_pow2(a as i128, e_bits)), "from_int_pow2 {a} {e}");
+    assert_eq!(
+        Q8_24::from_int_pow2(a, e).0.to_bits(),
+        clamp(scale_pow2(a as i128, e_bits)),
+        "from_int_pow2 {a} {e}"
+    );
 }
 
 /// `v * 2^sh` exactly, saturated to i128 (|v| < 2^32, so any |result| past 2^100 is "huge");
@@ -71,7 +93,11 @@ fn scale_pow2(v: i128, sh: i32) -> i128 {
         if v == 0 {
             0
         } else if sh >= 90 {
-            if v > 0 { i128::MAX } else { i128::MIN }
+            if v > 0 {
+                i128::MAX
+            } else {
+                i128::MIN
+            }
         } else {
             v << sh
         }
@@ -90,7 +116,10 @@ pub fn check_order(a: i32, b: i32) {
 pub fn q8_24_add_sub() {
     let a = any_in(i32::MIN, i32::MAX);
     let b = any_in(i32::MIN, i32::MAX);
-    cover!((a as i64 + b as i64) > i32::MAX as i64, "add saturates high");
+    cover!(
+        (a as i64 + b as i64) > i32::MAX as i64,
+        "add saturates high"
+    );
     cover!((a as i64 + b as i64) < i32::MIN as i64, "add saturates low");
     check_add_sub(a, b);
 }
@@ -99,8 +128,14 @@ pub fn q8_24_add_sub() {
 pub fn q8_24_mul() {
     let a = any_in(i32::MIN, i32::MAX);
     let b = any_in(i32::MIN, i32::MAX);
-    cover!(((a as i128 * b as i128) >> FRAC) > i32::MAX as i128, "mul saturates");
-    cover!(((a as i128 * b as i128) >> FRAC).abs() < 1 << 20, "mul in range");
+    cover!(
+        ((a as i128 * b as i128) >> FRAC) > i32::MAX as i128,
+        "mul saturates"
+    );
+    cover!(
+        ((a as i128 * b as i128) >> FRAC).abs() < 1 << 20,
+        "mul in range"
+    );
     check_mul(a, b);
 }
 
@@ -109,7 +144,10 @@ pub fn q8_24_div() {
     let a = any_in(i32::MIN, i32::MAX);
     let b = any_in(i32::MIN, i32::MAX);
     cover!(b == 0, "zero divisor");
-    cover!(b != 0 && (((a as i128) << FRAC) / b as i128).abs() > i32::MAX as i128, "quotient too big");
+    cover!(
+        b != 0 && (((a as i128) << FRAC) / b as i128).abs() > i32::MAX as i128,
+        "quotient too big"
+    );
     check_div(a, b);
 }
 
@@ -131,9 +169,39 @@ pub fn q8_24_order() {
 }
 
 pub const HARNESSES: [Harness; 5] = [
-    Harness { name: "q8_24_add_sub", body: q8_24_add_sub, covers: &["add saturates high", "add saturates low"], random_runs: 200_000, exhaustive_limit: None },
-    Harness { name: "q8_24_mul", body: q8_24_mul, covers: &["mul saturates", "mul in range"], random_runs: 200_000, exhaustive_limit: None },
-    Harness { name: "q8_24_div", body: q8_24_div, covers: &["zero divisor", "quotient too big"], random_runs: 200_000, exhaustive_limit: None },
-    Harness { name: "q8_24_pow2", body: q8_24_pow2, covers: &["shift saturates or fits high", "shift below resolution"], random_runs: 200_000, exhaustive_limit: None },
-    Harness { name: "q8_24_order", body: q8_24_order, covers: &["limit"], random_runs: 100_000, exhaustive_limit: None },
+    Harness {
+        name: "q8_24_add_sub",
+        body: q8_24_add_sub,
+        covers: &["add saturates high", "add saturates low"],
+        random_runs: 200_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "q8_24_mul",
+        body: q8_24_mul,
+        covers: &["mul saturates", "mul in range"],
+        random_runs: 200_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "q8_24_div",
+        body: q8_24_div,
+        covers: &["zero divisor", "quotient too big"],
+        random_runs: 200_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "q8_24_pow2",
+        body: q8_24_pow2,
+        covers: &["shift saturates or fits high", "shift below resolution"],
+        random_runs: 200_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "q8_24_order",
+        body: q8_24_order,
+        covers: &["limit"],
+        random_runs: 100_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -5,12 +5,12 @@
 //! bound, and `solve` returns a status or a valid estimate.
 
 use super::Harness;
+use crate::budget::Exact;
 use crate::cover;
 use crate::engine::{any_f64_in, any_in};
 use massid_kernel::model::inertia_rows;
 use massid_kernel::rls::InfoLs;
 use massid_kernel::{Scaled, Q8_24};
-use crate::budget::Exact;
 
 /// Most updates drawn per sequence (Kani unwinds this far).
 const MAX_UPDATES: usize = 8;
@@ -61,13 +61,20 @@ fn information_update<S: Exact, const N: usize>() {
     // is small enough for the positive-definiteness check to bite).
     let row_max = [ROW_MAX, 8.0, 1.0][any_in(0usize, 2)];
     let step = crate::budget::fixed_step::<S>();
-    let u = if step < 1e-30 { f32::EPSILON as f64 } else { 0.0 };
+    let u = if step < 1e-30 {
+        f32::EPSILON as f64
+    } else {
+        0.0
+    };
     let mut err_bound = 0.0f64; // in units of 2^exp, accumulated per add
     for _ in 0..n {
         let a = rows::<N>(row_max);
         let b = [0; 3].map(|_| any_f64_in(-50.0, 50.0));
         // Weights 1/variance of the Kalman estimate: 2^-10 .. 2^31.
-        let w: [Scaled<S>; 3] = [0; 3].map(|_| Scaled { m: S::from_f32(any_f64_in(1.0, 1.99) as f32), e: any_in(-10i32, 30) });
+        let w: [Scaled<S>; 3] = [0; 3].map(|_| Scaled {
+            m: S::from_f32(any_f64_in(1.0, 1.99) as f32),
+            e: any_in(-10i32, 30),
+        });
         let a_s = a.map(|r| r.map(|v| S::from_f32(v as f32)));
         let b_s = b.map(|v| S::from_f32(v as f32));
         ls.add(&a_s, &b_s, &w);
@@ -107,19 +114,30 @@ fn information_update<S: Exact, const N: usize>() {
         }
     }
     // Positive semidefinite within its rounding.
-    assert!(cholesky_ok(&shifted(&mf, N as f64 * tol + 1e-300)), "information not PSD within {tol:e}");
+    assert!(
+        cholesky_ok(&shifted(&mf, N as f64 * tol + 1e-300)),
+        "information not PSD within {tol:e}"
+    );
     // Positive definite whenever the exact information is well conditioned.
     let ex = exact.map(|r| r.map(|v| v / scale));
     let margin = 1e-3 * max_diag;
     if margin > N as f64 * tol && cholesky_ok(&shifted(&ex, -margin)) {
         cover!(true, "well conditioned: PD");
-        assert!(cholesky_ok(&mf), "information not positive definite although exact lambda_min > {margin:e}");
+        assert!(
+            cholesky_ok(&mf),
+            "information not positive definite although exact lambda_min > {margin:e}"
+        );
     } else {
         cover!(true, "rank deficient or ill conditioned");
     }
     // The solve gives a status or valid numbers.
     let prior = [S::ZERO; N];
-    if let Ok(sol) = ls.solve(&prior, &[false; N], S::from_int_pow2(1, -14), S::from_int_pow2(1, -20)) {
+    if let Ok(sol) = ls.solve(
+        &prior,
+        &[false; N],
+        S::from_int_pow2(1, -14),
+        S::from_int_pow2(1, -20),
+    ) {
         cover!(true, "solved");
         assert!(sol.x.iter().all(|v| v.is_valid()));
     }
@@ -136,10 +154,26 @@ pub fn rls_com_f32() {
     information_update::<f32, 3>()
 }
 
-const COVERS: &[&str] = &["well conditioned: PD", "rank deficient or ill conditioned", "solved"];
+const COVERS: &[&str] = &[
+    "well conditioned: PD",
+    "rank deficient or ill conditioned",
+    "solved",
+];
 pub const HARNESSES: [Harness; 2] = [
-    Harness { name: "rls_inertia_q8_24", body: rls_inertia_q8_24, covers: COVERS, random_runs: 10_000, exhaustive_limit: None },
-    Harness { name: "rls_com_f32", body: rls_com_f32, covers: COVERS, random_runs: 10_000, exhaustive_limit: None },
+    Harness {
+        name: "rls_inertia_q8_24",
+        body: rls_inertia_q8_24,
+        covers: COVERS,
+        random_runs: 10_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "rls_com_f32",
+        body: rls_com_f32,
+        covers: COVERS,
+        random_runs: 10_000,
+        exhaustive_limit: None,
+    },
 ];
 
 /// `MassId` (the identification state the pipeline drives) with the optional exponential
@@ -152,7 +186,9 @@ fn mass_id_options<S: Exact>() {
     use massid_kernel::fold::FiringFold;
     use massid_kernel::rls::{DetectorConfig, MassId, Measurement, RlsConfig, RlsStatus};
     let p = super::draw::params_or_sph2();
-    let Ok(terms) = p.terms::<S>() else { panic!("envelope parameters rejected") };
+    let Ok(terms) = p.terms::<S>() else {
+        panic!("envelope parameters rejected")
+    };
     let forgetting = crate::engine::any_bool();
     let detector = crate::engine::any_bool();
     let cfg = RlsConfig {
@@ -181,7 +217,8 @@ fn mass_id_options<S: Exact>() {
             let var = [0; 3].map(|_| any_f64_in(1e-9, 1e-3));
             for i in 0..3 {
                 let w = 1.0 / (var[i] * k as f64);
-                let b_in = (0..6).map(|j| rows[i][j].exact() * theta[j]).sum::<f64>() + any_f64_in(-1.0, 1.0) * var[i].sqrt();
+                let b_in = (0..6).map(|j| rows[i][j].exact() * theta[j]).sum::<f64>()
+                    + any_f64_in(-1.0, 1.0) * var[i].sqrt();
                 w_sum[i] += w;
                 wb_in[i] += w * b_in;
                 wb_com[i] += w * any_f64_in(-1.0, 1.0);
@@ -198,18 +235,33 @@ fn mass_id_options<S: Exact>() {
         let resets_before = mass.resets;
         // The deployed end-of-firing fold (batch for the first two firings, solved after the
         // second; then RLS with the change test and forgetting).
-        let Some(solved) = FiringFold::new(agg, len as u32, f < 2, f == 1).run(&mut mass) else { continue };
+        let Some(solved) = FiringFold::new(agg, len as u32, f < 2, f == 1).run(&mut mass) else {
+            continue;
+        };
         let st = solved.status;
         cover!(mass.resets > resets_before, "change detector reset");
         cover!(st == RlsStatus::Ok, "ok");
         cover!(forgetting && st == RlsStatus::Ok, "ok with forgetting");
         if matches!(st, RlsStatus::Ok | RlsStatus::PartlyUnobservable) {
-            assert!(mass.delta_com_m.iter().chain(mass.theta_inertia.iter()).all(|v| v.is_valid()), "invalid estimate under {st:?}");
+            assert!(
+                mass.delta_com_m
+                    .iter()
+                    .chain(mass.theta_inertia.iter())
+                    .all(|v| v.is_valid()),
+                "invalid estimate under {st:?}"
+            );
             let (c, i) = mass.problems();
-            assert!(!c.is_saturated() && !i.is_saturated(), "saturated information under {st:?}");
+            assert!(
+                !c.is_saturated() && !i.is_saturated(),
+                "saturated information under {st:?}"
+            );
         }
         if mass.problems().1.is_saturated() {
-            assert_eq!(st, RlsStatus::Overflow, "saturated information must give Overflow");
+            assert_eq!(
+                st,
+                RlsStatus::Overflow,
+                "saturated information must give Overflow"
+            );
         }
     }
 }
@@ -226,6 +278,18 @@ pub fn mass_id_options_f32() {
 }
 
 pub const OPTION_HARNESSES: [Harness; 2] = [
-    Harness { name: "mass_id_options_q8_24", body: mass_id_options_q8_24, covers: &["ok", "ok with forgetting", "change detector reset"], random_runs: 3_000, exhaustive_limit: None },
-    Harness { name: "mass_id_options_f32", body: mass_id_options_f32, covers: &["ok", "ok with forgetting", "change detector reset"], random_runs: 3_000, exhaustive_limit: None },
+    Harness {
+        name: "mass_id_options_q8_24",
+        body: mass_id_options_q8_24,
+        covers: &["ok", "ok with forgetting", "change detector reset"],
+        random_runs: 3_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "mass_id_options_f32",
+        body: mass_id_options_f32,
+        covers: &["ok", "ok with forgetting", "change detector reset"],
+        random_runs: 3_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -18,7 +18,11 @@ fn value<S: Exact>(x: Scaled<S>) -> f64 {
 /// absolute on [1, 2)) or f32's unit roundoff.
 fn unit<S: Exact>() -> f64 {
     let s = fixed_step::<S>();
-    if s == 0.0 { f32::EPSILON as f64 / 2.0 } else { s }
+    if s == 0.0 {
+        f32::EPSILON as f64 / 2.0
+    } else {
+        s
+    }
 }
 
 /// A block-floating-point operand. `full`: any mantissa below 100 (zero included) with any
@@ -31,13 +35,25 @@ fn any_scaled<S: Exact>(full: bool) -> Scaled<S> {
         1 => any_f64_in(-100.0, 100.0),
         _ => any_f64_in(1.0, 1.999) * if any_bool() { 1.0 } else { -1.0 },
     };
-    let e = if full { any_in(-200i32, 200) } else if m == 0.0 { 0 } else { any_in(-80i32, 80) };
-    Scaled { m: S::from_f32(m as f32), e }
+    let e = if full {
+        any_in(-200i32, 200)
+    } else if m == 0.0 {
+        0
+    } else {
+        any_in(-80i32, 80)
+    };
+    Scaled {
+        m: S::from_f32(m as f32),
+        e,
+    }
 }
 
 fn close(got: f64, want: f64, rel: f64, what: &str) {
     let tol = rel * want.abs();
-    assert!((got - want).abs() <= tol, "{what}: {got:e} vs {want:e} (tolerance {tol:e})");
+    assert!(
+        (got - want).abs() <= tol,
+        "{what}: {got:e} vs {want:e} (tolerance {tol:e})"
+    );
 }
 
 fn scaled_ops<S: Exact>(full: bool) {
@@ -49,7 +65,10 @@ fn scaled_ops<S: Exact>(full: bool) {
     close(value(na), va, 16.0 * u, "normalized");
     if va != 0.0 {
         let m = na.m.exact().abs();
-        assert!((1.0..2.0).contains(&m), "normalized mantissa {m} outside [1, 2)");
+        assert!(
+            (1.0..2.0).contains(&m),
+            "normalized mantissa {m} outside [1, 2)"
+        );
         cover!(a.m.exact().abs() >= 2.0, "normalised down");
     }
     // Product and quotient: mantissas in [1, 2) carry <= 16 u relative each, product/quotient
@@ -70,9 +89,17 @@ fn scaled_ops<S: Exact>(full: bool) {
     // (A zero operand returns the other: kernel finding 12, fixed in 6177694.)
     let big = va.abs().max(vb.abs());
     let sum = value(a.plus(b));
-    assert!((sum - (va + vb)).abs() <= 40.0 * u * big, "plus: {sum:e} vs {:e}", va + vb);
+    assert!(
+        (sum - (va + vb)).abs() <= 40.0 * u * big,
+        "plus: {sum:e} vs {:e}",
+        va + vb
+    );
     let diff = value(a.minus(b));
-    assert!((diff - (va - vb)).abs() <= 40.0 * u * big, "minus: {diff:e} vs {:e}", va - vb);
+    assert!(
+        (diff - (va - vb)).abs() <= 40.0 * u * big,
+        "minus: {diff:e} vs {:e}",
+        va - vb
+    );
     cover!(va != 0.0 && (va + vb).abs() < 1e-3 * big, "cancellation");
     // Scaling by a plain O(1) scalar (the kernel scales normalised values or `from_i64`
     // mantissas in [0.5, 1); the full domain also scales raw mantissas up to 100).
@@ -83,7 +110,10 @@ fn scaled_ops<S: Exact>(full: bool) {
     // the operand's exponent, absolute, besides the relative part.
     let (got, want) = (value(sa.scale(ks)), value(sa) * ks.exact());
     let tol = 40.0 * u * want.abs() + 2.0 * fixed_step::<S>() * (2.0f64).powi(sa.e);
-    assert!((got - want).abs() <= tol, "scale: {got:e} vs {want:e} (tolerance {tol:e})");
+    assert!(
+        (got - want).abs() <= tol,
+        "scale: {got:e} vs {want:e} (tolerance {tol:e})"
+    );
 }
 
 fn from_integer<S: Exact>() {
@@ -95,7 +125,12 @@ fn from_integer<S: Exact>() {
     let x = Scaled::<S>::from_i64(v);
     cover!(v.unsigned_abs() > 1 << 30, "beyond 30 bits");
     // The top 30 bits, then the format's rounding of a mantissa in [0.5, 1).
-    close(value(x), v as f64, 2.0f64.powi(-29) + 4.0 * unit::<S>(), "from_i64");
+    close(
+        value(x),
+        v as f64,
+        2.0f64.powi(-29) + 4.0 * unit::<S>(),
+        "from_i64",
+    );
 }
 
 #[cfg_attr(kani, kani::proof)]
@@ -132,10 +167,46 @@ pub fn scaled_from_i64_f32() {
 
 const OPS: &[&str] = &["normalised down", "zero divisor", "cancellation"];
 pub const HARNESSES: [Harness; 6] = [
-    Harness { name: "scaled_ops_full_q8_24", body: scaled_ops_full_q8_24, covers: OPS, random_runs: 50_000, exhaustive_limit: None },
-    Harness { name: "scaled_ops_full_f32", body: scaled_ops_full_f32, covers: OPS, random_runs: 50_000, exhaustive_limit: None },
-    Harness { name: "scaled_ops_q8_24", body: scaled_ops_q8_24, covers: OPS, random_runs: 50_000, exhaustive_limit: None },
-    Harness { name: "scaled_ops_f32", body: scaled_ops_f32, covers: OPS, random_runs: 50_000, exhaustive_limit: None },
-    Harness { name: "scaled_from_i64_q8_24", body: scaled_from_i64_q8_24, covers: &["beyond 30 bits"], random_runs: 50_000, exhaustive_limit: None },
-    Harness { name: "scaled_from_i64_f32", body: scaled_from_i64_f32, covers: &["beyond 30 bits"], random_runs: 50_000, exhaustive_limit: None },
+    Harness {
+        name: "scaled_ops_full_q8_24",
+        body: scaled_ops_full_q8_24,
+        covers: OPS,
+        random_runs: 50_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "scaled_ops_full_f32",
+        body: scaled_ops_full_f32,
+        covers: OPS,
+        random_runs: 50_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "scaled_ops_q8_24",
+        body: scaled_ops_q8_24,
+        covers: OPS,
+        random_runs: 50_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "scaled_ops_f32",
+        body: scaled_ops_f32,
+        covers: OPS,
+        random_runs: 50_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "scaled_from_i64_q8_24",
+        body: scaled_from_i64_q8_24,
+        covers: &["beyond 30 bits"],
+        random_runs: 50_000,
+        exhaustive_limit: None,
+    },
+    Harness {
+        name: "scaled_from_i64_f32",
+        body: scaled_from_i64_f32,
+        covers: &["beyond 30 bits"],
+        random_runs: 50_000,
+        exhaustive_limit: None,
+    },
 ];

@@ -91,7 +91,10 @@ impl PlantConfig {
             pressure_drop_n: sat.pressure_drop_n_per_extra,
             blowdowns: Vec::new(),
             thrust_scale: [1.0; N_THRUSTERS],
-            initial: MassPhase { com_offset_m: [0.0; 3], inertia_kgm2: sat.inertia_kgm2 },
+            initial: MassPhase {
+                com_offset_m: [0.0; 3],
+                inertia_kgm2: sat.inertia_kgm2,
+            },
             changes: Vec::new(),
             slosh: Vec::new(),
             gyro_bias_counts: [0.0; 3],
@@ -247,7 +250,12 @@ impl Effect {
             match (slot, idx) {
                 (serde_json::Value::Array(a), Some(i)) if i < a.len() => a[i] = num,
                 (s, None) if !s.is_array() => *s = num,
-                _ => return Err(format!("{}: parameter {name:?} has the wrong shape", self.name())),
+                _ => {
+                    return Err(format!(
+                        "{}: parameter {name:?} has the wrong shape",
+                        self.name()
+                    ))
+                }
             }
         }
         serde_json::from_value(v).map_err(|e| e.to_string())
@@ -257,7 +265,10 @@ impl Effect {
     pub fn validate(&self) -> Result<(), String> {
         let bad = self.params().into_iter().find(|(_, v)| !v.is_finite());
         if let Some((k, _)) = bad {
-            return Err(format!("{}: parameter {k} is not a finite number", self.name()));
+            return Err(format!(
+                "{}: parameter {k} is not a finite number",
+                self.name()
+            ));
         }
         let positive = |what: &str, v: f64| {
             if v > 0.0 {
@@ -280,15 +291,21 @@ impl Effect {
             }
             Effect::Blowdown(e) => positive("tau_s", e.tau_s),
             Effect::ThrustScale(e) => e.scale.iter().try_for_each(|s| non_negative("scale", *s)),
-            Effect::Inertia(e) => e.inertia_kgm2[..3].iter().try_for_each(|v| positive("inertia_kgm2 diagonal", *v)),
+            Effect::Inertia(e) => e.inertia_kgm2[..3]
+                .iter()
+                .try_for_each(|v| positive("inertia_kgm2 diagonal", *v)),
             Effect::MassPropertyChange(e) => {
                 non_negative("at_s", e.at_s)?;
-                e.inertia_kgm2[..3].iter().try_for_each(|v| positive("inertia_kgm2 diagonal", *v))
+                e.inertia_kgm2[..3]
+                    .iter()
+                    .try_for_each(|v| positive("inertia_kgm2 diagonal", *v))
             }
             Effect::FuelSlosh(e) => {
                 positive("freq_hz", e.freq_hz)?;
                 non_negative("damping_ratio", e.damping_ratio)?;
-                e.inertia_fraction.iter().try_for_each(|v| non_negative("inertia_fraction", *v))
+                e.inertia_fraction
+                    .iter()
+                    .try_for_each(|v| non_negative("inertia_fraction", *v))
             }
             Effect::GyroScale(e) => e.scale.iter().try_for_each(|s| positive("scale", *s)),
             Effect::GyroRinging(e) => {
@@ -312,9 +329,17 @@ pub struct Truth {
 #[derive(Debug, thiserror::Error)]
 pub enum TruthError {
     #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: line {line}, column {column}: {msg}")]
-    Parse { path: String, line: usize, column: usize, msg: String },
+    Parse {
+        path: String,
+        line: usize,
+        column: usize,
+        msg: String,
+    },
     #[error("{path}: {msg}")]
     Invalid { path: String, msg: String },
 }
@@ -329,7 +354,10 @@ impl Truth {
             msg: e.to_string(),
         })?;
         for e in &t.effects {
-            e.validate().map_err(|msg| TruthError::Invalid { path: path.to_string(), msg })?;
+            e.validate().map_err(|msg| TruthError::Invalid {
+                path: path.to_string(),
+                msg,
+            })?;
         }
         Ok(t)
     }
@@ -337,7 +365,10 @@ impl Truth {
     /// Reads `NAME.truth.json`.
     pub fn read(path: &Path) -> Result<Truth, TruthError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| TruthError::Io { path: p.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| TruthError::Io {
+            path: p.clone(),
+            source,
+        })?;
         Self::from_json_str(&text, &p)
     }
 
@@ -355,7 +386,10 @@ impl Truth {
 
     /// The truth path beside a recording: `X.csv` -> `X.truth.json`.
     pub fn path_for(recording: &Path) -> std::path::PathBuf {
-        let stem = recording.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let stem = recording
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
         recording.with_file_name(format!("{stem}.truth.json"))
     }
 }

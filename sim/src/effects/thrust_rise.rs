@@ -55,8 +55,24 @@ mod tests {
 
     fn pulse(effects: &[Effect], max_step_ms: f64) -> Prediction {
         let t: Vec<u64> = (0..END_MS).collect();
-        let w: Vec<u16> = t.iter().map(|&t| if (OPEN_MS..CLOSE_MS).contains(&t) { PAIR } else { 0 }).collect();
-        predict(&sph2(), effects, &t, &w, [0.0; 3], PredictOptions { max_step_ms })
+        let w: Vec<u16> = t
+            .iter()
+            .map(|&t| {
+                if (OPEN_MS..CLOSE_MS).contains(&t) {
+                    PAIR
+                } else {
+                    0
+                }
+            })
+            .collect();
+        predict(
+            &sph2(),
+            effects,
+            &t,
+            &w,
+            [0.0; 3],
+            PredictOptions { max_step_ms },
+        )
     }
 
     fn norm(v: [f64; 3]) -> f64 {
@@ -76,7 +92,12 @@ mod tests {
     ///   the nominal one by alpha * tau (alpha = the nominal angular acceleration), within 3 %;
     /// - the rise is smooth: at tau after the opening the angular acceleration is
     ///   (1 - 1/e) of its final value within 5 % (a pure delay would give 0 or 1).
-    fn rise_check(nominal: &Prediction, rising: &Prediction, tau_ms: f64, t_open_ms: f64) -> Result<(), String> {
+    fn rise_check(
+        nominal: &Prediction,
+        rising: &Prediction,
+        tau_ms: f64,
+        t_open_ms: f64,
+    ) -> Result<(), String> {
         let tau_s = tau_ms * 1e-3;
         let alpha = nominal.angular_accel[(CLOSE_MS - 50) as usize];
         let want = norm(alpha) * tau_s;
@@ -84,7 +105,9 @@ mod tests {
         for k in from..CLOSE_MS as usize {
             let deficit = norm(diff(nominal.body_rate[k], rising.body_rate[k]));
             if (deficit - want).abs() > 0.03 * want {
-                return Err(format!("t {k} ms: rate deficit {deficit:.6} rad/s, alpha*tau {want:.6}"));
+                return Err(format!(
+                    "t {k} ms: rate deficit {deficit:.6} rad/s, alpha*tau {want:.6}"
+                ));
             }
         }
         // Sample at (or just after) t_open + tau; the expected fraction at that sample.
@@ -93,7 +116,9 @@ mod tests {
         let final_ = rising.angular_accel[(CLOSE_MS - 50) as usize];
         let got = rising.angular_accel[k][0] / final_[0];
         if (got - expected).abs() > 0.05 * expected {
-            return Err(format!("accel at t_open + tau is {got:.4} of final, want {expected:.4} (1 - 1/e = 0.632)"));
+            return Err(format!(
+                "accel at t_open + tau is {got:.4} of final, want {expected:.4} (1 - 1/e = 0.632)"
+            ));
         }
         Ok(())
     }
@@ -101,12 +126,20 @@ mod tests {
     #[test]
     fn serialises_as_an_effect_and_validates() {
         let e = rise(20.0);
-        assert_eq!(serde_json::to_string(&e).unwrap(), r#"{"effect":"thrust_rise","params":{"tau_ms":20.0}}"#);
-        let back: Effect = serde_json::from_str(r#"{"effect": "thrust_rise", "params": {"tau_ms": 20.0}}"#).unwrap();
+        assert_eq!(
+            serde_json::to_string(&e).unwrap(),
+            r#"{"effect":"thrust_rise","params":{"tau_ms":20.0}}"#
+        );
+        let back: Effect =
+            serde_json::from_str(r#"{"effect": "thrust_rise", "params": {"tau_ms": 20.0}}"#)
+                .unwrap();
         assert_eq!(back, e);
         assert_eq!(e.name(), "thrust_rise");
         assert_eq!(e.params(), vec![("tau_ms".to_string(), 20.0)]);
-        assert!(!crate::effects::EFFECT_NAMES.contains(&"thrust_rise"), "outside the contract's vocabulary");
+        assert!(
+            !crate::effects::EFFECT_NAMES.contains(&"thrust_rise"),
+            "outside the contract's vocabulary"
+        );
         assert!(rise(0.0).validate().is_ok());
         assert!(rise(-1.0).validate().unwrap_err().contains("tau_ms"));
         assert!(rise(f64::NAN).validate().is_err());
@@ -129,13 +162,22 @@ mod tests {
         };
         assert!(nominal.recording.samples.len() > 3000);
         assert!(bytes(&nominal) == bytes(&zero), "recordings differ");
-        let bits = |o: &crate::SimOutput| o.body_rate.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let bits = |o: &crate::SimOutput| {
+            o.body_rate
+                .iter()
+                .flatten()
+                .map(|x| x.to_bits())
+                .collect::<Vec<_>>()
+        };
         assert_eq!(bits(&nominal), bits(&zero));
         // And the same recording differs once tau is set (so the comparison can fail).
         let on = simulate(&spec(vec![rise(20.0)])).unwrap();
         assert!(bytes(&nominal) != bytes(&on));
         // The fast prediction too, with latency.
-        let lat = Effect::ThrusterLatency(ThrusterLatency { open_ms: 6.4, close_ms: 3.7 });
+        let lat = Effect::ThrusterLatency(ThrusterLatency {
+            open_ms: 6.4,
+            close_ms: 3.7,
+        });
         let a = pulse(std::slice::from_ref(&lat), 1.0);
         let b = pulse(&[lat, rise(0.0)], 1.0);
         assert_eq!(a, b);
@@ -151,11 +193,17 @@ mod tests {
         let k = OPEN_MS as usize;
         assert!(norm(nominal.angular_accel[k]) > 0.1);
         assert!(norm(rising.angular_accel[k]) < 1e-9 * norm(nominal.angular_accel[k]));
-        let (a, b) = (rising.angular_accel[CLOSE_MS as usize - 1], nominal.angular_accel[CLOSE_MS as usize - 1]);
+        let (a, b) = (
+            rising.angular_accel[CLOSE_MS as usize - 1],
+            nominal.angular_accel[CLOSE_MS as usize - 1],
+        );
         assert!(norm(diff(a, b)) < 1e-3 * norm(b), "{a:?} vs {b:?}");
         // After the close the force decays as exp(-t/tau): at tau, 1/e of the steady value.
         let at = rising.angular_accel[(CLOSE_MS + 20) as usize][0] / b[0];
-        assert!((at - (-1.0f64).exp()).abs() < 0.02 * (-1.0f64).exp(), "{at}");
+        assert!(
+            (at - (-1.0f64).exp()).abs() < 0.02 * (-1.0f64).exp(),
+            "{at}"
+        );
         // The impulse is only shifted, not lost: long after the close the rates agree.
         let last = END_MS as usize - 1;
         let d = norm(diff(nominal.body_rate[last], rising.body_rate[last]));
@@ -164,7 +212,10 @@ mod tests {
 
     #[test]
     fn composes_with_latency_off_the_grid() {
-        let lat = Effect::ThrusterLatency(ThrusterLatency { open_ms: 6.4, close_ms: 3.7 });
+        let lat = Effect::ThrusterLatency(ThrusterLatency {
+            open_ms: 6.4,
+            close_ms: 3.7,
+        });
         let nominal = pulse(std::slice::from_ref(&lat), 1.0);
         let rising = pulse(&[lat, rise(20.0)], 1.0);
         rise_check(&nominal, &rising, 20.0, OPEN_MS as f64 + 6.4).unwrap();
@@ -181,9 +232,13 @@ mod tests {
         let ignored = pulse(&[rise(0.0)], 1.0);
         let err = rise_check(&nominal, &ignored, 20.0, OPEN_MS as f64).unwrap_err();
         assert!(err.contains("rate deficit"), "{err}");
-        let worst =
-            (0..END_MS as usize).map(|k| norm(diff(rising.body_rate[k], nominal.body_rate[k]))).fold(0.0, f64::max);
-        assert!(worst > 10.0 * COUNT_RAD_S, "tau = 20 ms moves the rate by only {worst} rad/s");
+        let worst = (0..END_MS as usize)
+            .map(|k| norm(diff(rising.body_rate[k], nominal.body_rate[k])))
+            .fold(0.0, f64::max);
+        assert!(
+            worst > 10.0 * COUNT_RAD_S,
+            "tau = 20 ms moves the rate by only {worst} rad/s"
+        );
         // A wrong tau fails too.
         let other = pulse(&[rise(15.0)], 1.0);
         assert!(rise_check(&nominal, &other, 20.0, OPEN_MS as f64).is_err());
@@ -193,8 +248,13 @@ mod tests {
     fn any_tau_is_integrated_accurately() {
         // 1 ms steps against 0.1 ms steps, for slow and very fast rises (the steps are cut
         // to tau/8 while a transient is young), also with latency and pressure drop.
-        let lat = Effect::ThrusterLatency(ThrusterLatency { open_ms: 0.37, close_ms: 2.2 });
-        let drop = Effect::PressureDrop(crate::effects::PressureDrop { newton_per_extra_thruster: 0.0106 });
+        let lat = Effect::ThrusterLatency(ThrusterLatency {
+            open_ms: 0.37,
+            close_ms: 2.2,
+        });
+        let drop = Effect::PressureDrop(crate::effects::PressureDrop {
+            newton_per_extra_thruster: 0.0106,
+        });
         for tau in [20.0, 3.0, 0.05] {
             let fx = [lat.clone(), drop.clone(), rise(tau)];
             let coarse = pulse(&fx, 1.0);
@@ -208,7 +268,10 @@ mod tests {
             let k = CLOSE_MS as usize - 10;
             let want = norm(nominal.angular_accel[k]) * tau * 1e-3;
             let got = norm(diff(nominal.body_rate[k], coarse.body_rate[k]));
-            assert!((got - want).abs() < 0.03 * want, "tau {tau}: deficit {got} vs {want}");
+            assert!(
+                (got - want).abs() < 0.03 * want,
+                "tau {tau}: deficit {got} vs {want}"
+            );
         }
     }
 }

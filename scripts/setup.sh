@@ -17,6 +17,8 @@ if [ ${#need_apt[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_apt[@]}" >/dev/null
 fi
 
+# Formatting, lints and docs are part of the test command.
+rustup component add rustfmt clippy >/dev/null 2>&1 || rustup component add rustfmt clippy
 rustup target add thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imc-unknown-none-elf >/dev/null 2>&1 || \
   rustup target add thumbv6m-none-eabi thumbv7em-none-eabihf riscv32imc-unknown-none-elf
 if rustup toolchain list | grep -q nightly; then :; else rustup toolchain install nightly --profile minimal; fi

@@ -9,6 +9,11 @@ step() { printf '\n==== %s ====\n' "$*"; }
 step "toolchain and system packages"
 scripts/setup.sh
 
+step "formatting, lints and docs (every crate, every target; warnings are errors)"
+cargo fmt --all --check
+cargo clippy --workspace --all-targets --locked -- -D warnings
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
+
 step "workspace tests (host)"
 cargo test --workspace --locked
 

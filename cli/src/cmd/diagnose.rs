@@ -50,7 +50,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(dir) = &args.report {
         super::check_output(&dir.join("report.html"), &[&args.recording])?;
     }
-    let analysis = diagnose_recording(&rec, &sat, &Settings::default())?;
+    // A diagnosis of a long recording takes tens of seconds: say that it is working (stderr,
+    // drawn only on a terminal; indicatif hides it otherwise).
+    let spinner = indicatif::ProgressBar::new_spinner();
+    spinner.set_message(format!(
+        "diagnosing {} ({} samples): locating, fitting and checking candidate effects",
+        args.recording.display(),
+        rec.samples.len()
+    ));
+    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    let analysis = diagnose_recording(&rec, &sat, &Settings::default());
+    spinner.finish_and_clear();
+    let analysis = analysis?;
     print!("{}", report::summary(&analysis));
     if let Some(out) = &args.json {
         let text = serde_json::to_string_pretty(&analysis.output)?;

@@ -30,6 +30,9 @@ enum Command {
     Mix(cmd::mix::Args),
     /// Ground characterization tools (trifilar pendulum, torsion spring, damping, ...).
     Characterize(cmd::characterize::Args),
+    /// Show a model file normalised, or check it (the one format every subcommand reads).
+    #[command(subcommand)]
+    Model(cmd::model::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -41,6 +44,7 @@ fn main() -> std::process::ExitCode {
         Command::Diagnose(a) => cmd::diagnose::run(a),
         Command::Mix(a) => cmd::mix::run(a),
         Command::Characterize(a) => cmd::characterize::run(a),
+        Command::Model(a) => cmd::model::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

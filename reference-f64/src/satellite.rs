@@ -49,8 +49,10 @@ pub const THRUSTER_POS_M: [[f64; 3]; N_THRUSTERS] = [
 ];
 
 /// A satellite model: everything the nominal physics and the estimators need.
-/// A model file (TOML) is exactly this struct serialized (see the crate README).
+/// A model file (TOML) is exactly this struct serialized (see the crate README); unknown
+/// keys are errors (a typo must not silently leave a parameter at its default).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Satellite {
     /// Name used in recordings' `satellite` metadata (e.g. "sph2").
     pub name: String,

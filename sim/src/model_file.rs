@@ -1,5 +1,13 @@
-//! The model file (TOML): which satellite and which effects are on, plus optional sensor and
-//! telemetry-artefact settings.
+//! The model file (TOML), the one format every `massid` subcommand reads: which satellite
+//! (a built-in name or a full description) and, for the simulator, which effects are on, plus
+//! optional sensor and telemetry-artefact settings. Two layouts are read:
+//!
+//! * this one (a `satellite` key, then effects etc.), written back by
+//!   [`ModelFile::to_toml_string`] with the satellite in full;
+//! * the plain satellite description (`reference_f64::satellite::Satellite` as TOML, no
+//!   `satellite` key), which is a model without effects.
+//!
+//! Unknown keys are errors naming the file, line and column.
 //!
 //! ```toml
 //! satellite = "sph2"                  # a built-in name, or a [satellite] table (reference-f64 model format)
@@ -19,7 +27,7 @@
 use crate::effects::Effect;
 use crate::sensors::{Artefacts, SensorConfig};
 use reference_f64::satellite::Satellite;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 #[derive(Deserialize)]
@@ -50,13 +58,36 @@ pub struct ModelFile {
     pub artefacts: Artefacts,
 }
 
-/// Why a model file is unusable: the file, the line (0 when unknown) and the reason.
+/// Why a model file is unusable: the file, the line (0 when unknown) and the reason (which
+/// starts with the column when the parser knows it).
 #[derive(Debug, thiserror::Error)]
 #[error("{file}:{line}: {reason}")]
 pub struct ModelFileError {
     pub file: String,
     pub line: usize,
     pub reason: String,
+}
+
+/// The normalised layout [`ModelFile::to_toml_string`] writes.
+#[derive(Serialize)]
+struct WrittenModel<'a> {
+    satellite: &'a Satellite,
+    effects: &'a [Effect],
+    sensors: &'a SensorConfig,
+    artefacts: &'a Artefacts,
+}
+
+/// `(line, "column C: message")` of a TOML error in `text`.
+fn locate(text: &str, e: &toml::de::Error) -> (usize, String) {
+    match e.span() {
+        Some(span) => {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            (line, format!("column {column}: {}", e.message()))
+        }
+        None => (0, e.message().to_string()),
+    }
 }
 
 impl ModelFile {
@@ -77,12 +108,29 @@ impl ModelFile {
             line,
             reason,
         };
+        // A UTF-8 byte-order mark is not part of the text.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let table: toml::Table = toml::from_str(text).map_err(|e| {
+            let (line, reason) = locate(text, &e);
+            err(line, reason)
+        })?;
+        if !table.contains_key("satellite") {
+            // The plain satellite description: a model without effects.
+            let satellite: Satellite = toml::from_str(text).map_err(|e| {
+                let (line, reason) = locate(text, &e);
+                err(line, format!("{reason} (a model file has a `satellite` key, or is a satellite description)"))
+            })?;
+            satellite.validate().map_err(|r| err(0, r))?;
+            return Ok(ModelFile {
+                satellite,
+                effects: Vec::new(),
+                sensors: SensorConfig::default(),
+                artefacts: Artefacts::default(),
+            });
+        }
         let raw: RawModel = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
-                .unwrap_or(0);
-            err(line, e.message().to_string())
+            let (line, reason) = locate(text, &e);
+            err(line, reason)
         })?;
         let satellite = match raw.satellite {
             SatelliteRef::Name(n) => Satellite::builtin(&n).ok_or_else(|| {
@@ -113,6 +161,20 @@ impl ModelFile {
     }
 }
 
+impl ModelFile {
+    /// The model in the normalised layout (the satellite in full, every section present);
+    /// [`ModelFile::parse`] reads it back to the same model.
+    pub fn to_toml_string(&self) -> String {
+        let w = WrittenModel {
+            satellite: &self.satellite,
+            effects: &self.effects,
+            sensors: &self.sensors,
+            artefacts: &self.artefacts,
+        };
+        toml::to_string_pretty(&w).unwrap_or_default()
+    }
+}
+
 fn line_of(text: &str, needle: &str) -> usize {
     nth_line_of(text, needle, 0)
 }
@@ -124,4 +186,49 @@ fn nth_line_of(text: &str, needle: &str, n: usize) -> usize {
         .nth(n)
         .map(|(i, _)| i + 1)
         .unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sph2() -> Satellite {
+        Satellite::builtin("sph2").expect("sph2")
+    }
+
+    #[test]
+    fn both_layouts_read_and_the_normalised_one_reads_back() {
+        let flat = sph2().to_toml_string();
+        let a = ModelFile::parse(&flat, "flat.toml").expect("a plain satellite description");
+        assert_eq!(a.satellite, sph2());
+        assert!(a.effects.is_empty());
+        let sim = "satellite = \"sph2\"\n\n[[effects]]\neffect = \"thruster_latency\"\nparams = { open_ms = 6.0, close_ms = 6.0 }\n";
+        let b = ModelFile::parse(sim, "sim.toml").expect("the simulator layout");
+        assert_eq!(b.effects.len(), 1);
+        let back = ModelFile::parse(&b.to_toml_string(), "normalised.toml")
+            .expect("normalised reads back");
+        assert_eq!(back, b);
+        // with a byte-order mark too
+        assert!(ModelFile::parse(&format!("\u{feff}{sim}"), "bom.toml").is_ok());
+    }
+
+    #[test]
+    fn unknown_keys_are_errors_with_line_and_column() {
+        let flat = sph2().to_toml_string().replacen("mass_kg", "mass_kgg", 1);
+        let e = ModelFile::parse(&flat, "typo.toml")
+            .expect_err("a typo is not ignored")
+            .to_string();
+        assert!(
+            e.starts_with("typo.toml:") && e.contains("column") && e.contains("mass_kgg"),
+            "{e}"
+        );
+        let sim = "satellite = \"sph2\"\nefects = []\n";
+        let e = ModelFile::parse(sim, "sim.toml")
+            .expect_err("unknown key")
+            .to_string();
+        assert!(
+            e.starts_with("sim.toml:2:") && e.contains("column 1"),
+            "{e}"
+        );
+    }
 }

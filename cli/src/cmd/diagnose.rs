@@ -27,7 +27,8 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let rec = Recording::read(&args.recording)?;
     let sat = if let Some(m) = &args.model {
-        Satellite::from_toml_file(m)?
+        // The one model format (either layout): the nominal model is its satellite.
+        massid_sim::model_file::ModelFile::read(m)?.satellite
     } else {
         let name = args
             .satellite

@@ -82,13 +82,9 @@ pub fn load_satellite(
     model: Option<&Path>,
 ) -> anyhow::Result<Satellite> {
     if let Some(path) = model {
-        return match Satellite::from_toml_file(path) {
-            Ok(s) => Ok(s),
-            Err(plain) => match massid_sim::model_file::ModelFile::read(path) {
-                Ok(m) => Ok(m.satellite),
-                Err(sim) => Err(anyhow!("{plain}\n(also not a simulator model file: {sim})")),
-            },
-        };
+        // The one model format (either layout); its effects describe a simulated truth, the
+        // estimators use its satellite.
+        return Ok(massid_sim::model_file::ModelFile::read(path)?.satellite);
     }
     let name = match satellite {
         Some(n) => n.to_string(),

@@ -73,7 +73,7 @@ fn load_satellite(args: &Args) -> anyhow::Result<Satellite> {
                 Satellite::BUILTIN_NAMES.join(", ")
             )
         }),
-        (None, Some(path)) => Satellite::from_toml_file(path).map_err(|e| anyhow!("{e}")),
+        (None, Some(path)) => Ok(massid_sim::model_file::ModelFile::read(path)?.satellite),
         _ => bail!("give exactly one of --satellite or --model"),
     }
 }

@@ -4,6 +4,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod estimate;
 pub mod mix;
+pub mod model;
 pub mod simulate;
 
 /// Refuses to write `out` when it is the same file as any input (a tool never overwrites

@@ -120,3 +120,26 @@ fn a_typo_is_an_error_with_line_and_column() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn simulate_says_when_the_recording_is_longer_than_asked() {
+    // combo --seconds 20 writes 22.5 s (its last command and coast): said, not silent.
+    let d = tmp("seconds");
+    let rec = d.join("combo.csv");
+    let out = massid(&[
+        "simulate",
+        "--maneuver",
+        "combo",
+        "--seconds",
+        "20",
+        "--out",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("note: --seconds 20") && err.contains("22.4"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

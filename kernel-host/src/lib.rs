@@ -8,7 +8,7 @@
 use massid_kernel::model::SatelliteParams;
 use massid_kernel::validity::Invalid;
 use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scalar, TickReport};
-use reference_f64::mass_id::{COM_TERMS, INERTIA_TERMS};
+use reference_f64::mass_id::{inertia_from_inverse, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::pipeline::Estimate;
 use reference_f64::recording::{Recording, RecordingError};
 use reference_f64::satellite::Satellite;
@@ -134,8 +134,8 @@ pub fn status_name<S: Scalar>(p: &Pipeline<S>, any_unobservable: bool) -> &'stat
 
 /// The kernel's final state as the contract's [`Estimate`]. Standard errors: the kernel's LS
 /// variances times its variance factors (`MassId::variance_factors`); a term held at the
-/// model gets the weak prior's standard error; inertia by first-order propagation
-/// `dI = -I dJ I` (`J = 100 theta`), terms taken as independent. A standard error the kernel
+/// model gets the weak prior's standard error; inertia by the reference's first-order
+/// propagation `dI = -I dJ I` (`J = 100 theta`), terms taken as independent. A standard error the kernel
 /// could not form is NaN (`null` in JSON) and the status says `uncertainty_undefined`.
 pub fn to_estimate<S: Scalar>(p: &Pipeline<S>, sat: &Satellite) -> Estimate {
     let e = p.estimates();
@@ -198,7 +198,16 @@ pub fn to_estimate<S: Scalar>(p: &Pipeline<S>, sat: &Satellite) -> Estimate {
                 .unwrap_or(f64::NAN)
         }
     });
-    let inertia_stderr = propagate_inverse_variances(&inertia, &var_j);
+    // dI = -I dJ I (the reference's exact first-order propagation), terms independent.
+    let inertia_stderr = {
+        let [xx, yy, zz, xy, xz, yz] = inertia;
+        let i = nalgebra::Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+        let j = i.try_inverse().map(|m| sym_to_vec6(&m));
+        let cov = nalgebra::SMatrix::<f64, 6, 6>::from_diagonal(&nalgebra::SVector::from(var_j));
+        j.and_then(|j| inertia_from_inverse(&j, &cov))
+            .map(|(_, c)| [0, 1, 2, 3, 4, 5].map(|k| c[(k, k)].max(0.0).sqrt()))
+            .unwrap_or([f64::NAN; 6])
+    };
     if status == "ok"
         && com_stderr
             .iter()
@@ -222,36 +231,6 @@ pub fn to_estimate<S: Scalar>(p: &Pipeline<S>, sat: &Satellite) -> Estimate {
         variance_factor: vf,
         detections_s: Vec::new(),
     }
-}
-
-/// Standard errors of the inertia `I` (xx yy zz xy xz yz) from independent variances of
-/// the inverse-inertia terms `var_j` (1/(kg m^2))^2, by `dI = -I dJ I`.
-fn propagate_inverse_variances(inertia: &[f64; 6], var_j: &[f64; 6]) -> [f64; 6] {
-    let im = [
-        [inertia[0], inertia[3], inertia[4]],
-        [inertia[3], inertia[1], inertia[5]],
-        [inertia[4], inertia[5], inertia[2]],
-    ];
-    let idx = |a: usize, b: usize| -> usize {
-        match (a.min(b), a.max(b)) {
-            (0, 0) => 0,
-            (1, 1) => 1,
-            (2, 2) => 2,
-            (0, 1) => 3,
-            (0, 2) => 4,
-            _ => 5,
-        }
-    };
-    let pairs = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
-    pairs.map(|(a, b)| {
-        let mut v = 0.0;
-        for c in 0..3 {
-            for d in 0..3 {
-                v += (im[a][c] * im[d][b]).powi(2) * var_j[idx(c, d)];
-            }
-        }
-        v.sqrt()
-    })
 }
 
 #[cfg(test)]

@@ -162,19 +162,10 @@ pub fn physical_validity(
     if xx + yy < zz || xx + zz < yy || yy + zz < xx {
         return Err("implausible_inertia_triangle_inequality");
     }
+    let (lo, hi) = sat.thruster_box_m();
     for a in 0..3 {
-        let lo = sat
-            .thruster_pos_m
-            .iter()
-            .map(|p| p[a])
-            .fold(f64::INFINITY, f64::min);
-        let hi = sat
-            .thruster_pos_m
-            .iter()
-            .map(|p| p[a])
-            .fold(f64::NEG_INFINITY, f64::max);
         let c = (sat.com_offset_mm[a] + com_offset_mm[a]) * 1e-3;
-        if !(c.is_finite() && lo <= c && c <= hi) {
+        if !(c.is_finite() && lo[a] <= c && c <= hi[a]) {
             return Err("implausible_com_outside_envelope");
         }
     }

@@ -136,27 +136,18 @@ pub fn check(
     }
 }
 
-/// The CoM estimate must lie inside the craft: the box of its thruster positions (the same
-/// envelope as `mass_id::physical_validity`). `Err` says where it is and where the box is.
+/// The CoM estimate must lie inside the craft: the box of its thruster positions (`Satellite::thruster_box_m`,
+/// the envelope `mass_id::physical_validity` checks too). `Err` says where it is and where the box is.
 pub fn com_inside(sat: &Satellite, com_m: &Vector3<f64>) -> Result<(), String> {
+    let (lo, hi) = sat.thruster_box_m();
     for a in 0..3 {
-        let lo = sat
-            .thruster_pos_m
-            .iter()
-            .map(|p| p[a])
-            .fold(f64::INFINITY, f64::min);
-        let hi = sat
-            .thruster_pos_m
-            .iter()
-            .map(|p| p[a])
-            .fold(f64::NEG_INFINITY, f64::max);
-        if !(com_m[a].is_finite() && lo <= com_m[a] && com_m[a] <= hi) {
+        if !(com_m[a].is_finite() && lo[a] <= com_m[a] && com_m[a] <= hi[a]) {
             return Err(format!(
                 "CoM {:.1} mm on {} is outside the craft (thrusters span {:.1} .. {:.1} mm)",
                 com_m[a] * 1e3,
                 ["x", "y", "z"][a],
-                lo * 1e3,
-                hi * 1e3
+                lo[a] * 1e3,
+                hi[a] * 1e3
             ));
         }
     }

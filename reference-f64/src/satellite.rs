@@ -325,6 +325,20 @@ impl Satellite {
         Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
     }
 
+    /// The craft's envelope for CoM checks: the box of the thruster positions (they sit on the
+    /// hull), low and high corner, m from the geometric centre.
+    pub fn thruster_box_m(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.thruster_pos_m {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        (lo, hi)
+    }
+
     /// CoM offset from the geometric centre, m.
     pub fn com_m(&self) -> Vector3<f64> {
         Vector3::from(self.com_offset_mm) * 1e-3

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the tests need on a fresh machine: rustup targets, nightly rust-src for the
-# Hexagon DSP build, QEMU for the emulated Cortex-M runs, gcc for the C ABI test.
+# Hexagon DSP build, QEMU for the emulated Cortex-M runs, gcc for the C ABI test, Z3 for the
+# solver proofs.
 # Idempotent: skips what is already there.
 set -euo pipefail
 
@@ -11,6 +12,9 @@ command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 { command -v llvm-size >/dev/null && command -v llvm-objdump >/dev/null; } || need_apt+=(llvm)
 # plotters' font rendering (font-kit) links fontconfig and freetype.
 { command -v pkg-config >/dev/null && pkg-config --exists fontconfig freetype2; } || need_apt+=(pkg-config libfontconfig1-dev libfreetype-dev)
+# Z3 for proofs-solver (the z3 crate links Debian's libz3; its bindgen needs libclang 14).
+{ [ -e /usr/include/z3.h ] && ls /usr/lib/llvm-14/lib/libclang*.so* >/dev/null 2>&1 && [ -d /usr/lib/llvm-14/lib/clang ]; } || \
+  need_apt+=(libz3-dev libclang1-14 libclang-common-14-dev)
 if [ ${#need_apt[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq

@@ -8,11 +8,13 @@
 //! 0.01 count; the output is an integer in Q12 counts, so the Kalman filter's sums of it stay
 //! exact integers.
 
-use crate::scalar::widening_mul;
+use crate::int::mul::widening_mul;
+use crate::int::{Machine, MachineExt, Native};
 
 /// Fractional bits of the filtered counts.
 pub const COUNT_FRAC_BITS: u32 = 12;
-const COEF_FRAC_BITS: u32 = 30;
+/// Fractional bits of the filter coefficients.
+pub const COEF_FRAC_BITS: u32 = 30;
 
 /// Filter coefficients for one sample period (f64 at initialisation only).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -106,8 +108,9 @@ impl GyroLowPass {
             ) else {
                 continue;
             };
-            let u_new = section(p, g, *ua, xa, *xp);
-            let y_new = section(p, g, *ya, u_new, *ua);
+            let w = |v: i32| v as u32;
+            let u_new = section(&Native, &w(p), &w(g), &w(*ua), &w(xa), &w(*xp)) as i32;
+            let y_new = section(&Native, &w(p), &w(g), &w(*ya), &w(u_new), &w(*ua)) as i32;
             *xp = xa;
             *ua = u_new;
             *ya = y_new;
@@ -117,15 +120,20 @@ impl GyroLowPass {
     }
 }
 
-/// One first-order section `round(p y + g (x0 + x1))` with Q30 coefficients.
-#[inline]
-fn section(p: i32, g: i32, y: i32, x0: i32, x1: i32) -> i32 {
+/// One first-order section `round(p y + g (x0 + x1))` with Q30 coefficients, on the
+/// machine word ([`crate::int`]), so that `proofs/` bounds the very code that runs.
+#[inline(always)]
+pub fn section<M: Machine>(m: &M, p: &M::W, g: &M::W, y: &M::W, x0: &M::W, x1: &M::W) -> M::W {
     // |y|, |x| < 2^30 and |p|, |g| <= 2^30: products below 2^60 in magnitude, their sum
     // below 2^62 (no wrap); the result is a state, < 2^30 (see `GyroLowPass`).
-    let half = 1i64 << (COEF_FRAC_BITS - 1);
-    let acc = widening_mul(p, y)
-        .wrapping_add(widening_mul(g, x0))
-        .wrapping_add(widening_mul(g, x1))
-        .wrapping_add(half);
-    i32::try_from(acc >> COEF_FRAC_BITS).unwrap_or(0)
+    let half = m.d(1 << (COEF_FRAC_BITS - 1));
+    let acc = m.add_d(
+        &m.add_d(
+            &m.add_d(&widening_mul(m, p, y), &widening_mul(m, g, x0)),
+            &widening_mul(m, g, x1),
+        ),
+        &half,
+    );
+    let r = m.ashr_dk(&acc, COEF_FRAC_BITS);
+    m.select(&m.fits_w(&r), &m.lo(&r), &m.w(0))
 }

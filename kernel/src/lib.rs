@@ -55,6 +55,7 @@
 pub mod capi;
 pub mod fold;
 pub mod gyro_filter;
+pub mod int;
 pub mod lu;
 pub mod mixer;
 pub mod model;

@@ -24,6 +24,7 @@
 //! Implement this trait outside the crate for an interval/affine type to run the same
 //! generic code as a range analysis (task `proofs/`).
 
+use crate::int::{self, Native};
 use core::ops::{Add, Mul, Neg, Sub};
 use fixed::types::extra::LeEqU32;
 use fixed::FixedI32;
@@ -280,187 +281,73 @@ impl<Frac: LeEqU32> Sub for Fx<Frac> {
 }
 impl<Frac: LeEqU32> Mul for Fx<Frac> {
     type Output = Self;
-    /// Full 64-bit product rounded to nearest (ties toward plus infinity), saturated.
-    /// Nearest, not the shift's floor: long sums of products (the RLS information) would
-    /// otherwise drift by half a step per product (proofs finding 7).
+    /// Full 64-bit product rounded to nearest (ties toward plus infinity), saturated
+    /// ([`int::mul::round_product`]).
     #[inline]
     fn mul(self, rhs: Self) -> Self {
-        let p = widening_mul(self.0.to_bits(), rhs.0.to_bits());
-        let frac = Frac::U32.min(62);
-        let half = if frac == 0 {
-            0
-        } else {
-            1i64 << frac.saturating_sub(1)
-        };
-        // |p| <= 2^62: adding half cannot wrap
-        let r = p.wrapping_add(half) >> frac;
-        Fx(FixedI32::from_bits(i32::try_from(r).unwrap_or(if r > 0 {
-            i32::MAX
-        } else {
-            i32::MIN
-        })))
+        let (a, b) = (self.0.to_bits() as u32, rhs.0.to_bits() as u32);
+        let p = int::mul::widening_mul(&Native, &a, &b);
+        Fx(FixedI32::from_bits(
+            int::mul::round_product(&Native, &p, Frac::U32) as i32,
+        ))
     }
 }
 
-/// `a * b` as i64 from four 16 x 16 -> 32 bit products: exact, and on cores without a
-/// 32 x 32 -> 64 multiply (Cortex-M0) much cheaper than the generic 64-bit multiply routine.
+/// `a * b` as i64 from four 16 x 16 -> 32 bit products ([`int::mul::widening_mul_by_halves`]).
 #[inline]
 pub fn mul_32x32_by_halves(a: i32, b: i32) -> i64 {
-    let negative = (a < 0) != (b < 0);
-    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
-    let (a_lo, a_hi) = (ua & 0xffff, ua >> 16);
-    let (b_lo, b_hi) = (ub & 0xffff, ub >> 16);
-    // each partial product of two 16-bit halves fits in u32
-    let lo = u64::from(a_lo.wrapping_mul(b_lo));
-    let mid = u64::from(a_hi.wrapping_mul(b_lo)).wrapping_add(u64::from(a_lo.wrapping_mul(b_hi)));
-    let hi = u64::from(a_hi.wrapping_mul(b_hi));
-    // |a b| <= 2^62: the sum cannot wrap
-    let mag = (hi << 32).wrapping_add(mid << 16).wrapping_add(lo);
-    let v = mag as i64; // < 2^63
-    if negative {
-        v.wrapping_neg()
-    } else {
-        v
-    }
+    int::mul::widening_mul_by_halves(&Native, &(a as u32), &(b as u32)) as i64
 }
 
-// ARM soft-float ABI targets (thumbv6m: Cortex-M0/M0+ have no 32 x 32 -> 64 multiply; the
-// ARM core features are not stable `cfg`s, so the soft-float ABI stands in for them; a
-// Cortex-M3/M4 built for the soft-float ABI takes this exact path too, just not its SMULL).
-#[cfg(all(target_arch = "arm", target_abi = "eabi"))]
-#[inline]
-pub(crate) fn widening_mul(a: i32, b: i32) -> i64 {
-    mul_32x32_by_halves(a, b)
+/// A `(fits, bits)` pair of the word primitives as an `Option<i32>`.
+#[inline(always)]
+fn fitting((fits, q): (bool, u32)) -> Option<i32> {
+    fits.then_some(q as i32)
 }
 
-#[cfg(not(all(target_arch = "arm", target_abi = "eabi")))]
-#[inline]
-pub(crate) fn widening_mul(a: i32, b: i32) -> i64 {
-    // 32 x 32 bits always fits 64: cannot wrap.
-    i64::from(a).wrapping_mul(i64::from(b))
-}
 /// `trunc(a 2^frac / b)` as the `fixed` crate's `checked_div` defines it (`None` for a zero
-/// divisor or a quotient outside `i32`), by restoring long division in 32-bit words: one
-/// 32-bit divide for the integer part, then one shift-compare-subtract per fractional bit.
-/// Cores without a hardware divide (Cortex-M0) otherwise call the 64-bit division routine,
-/// several hundred instructions per quotient.
+/// divisor or a quotient outside `i32`), by restoring long division in 32-bit words
+/// ([`int::div::div_by_words`]): for cores without a hardware divide (Cortex-M0), which
+/// otherwise call the 64-bit division routine, several hundred instructions per quotient.
 #[inline]
 pub fn fixed_div_by_words(a: i32, b: i32, frac: u32) -> Option<i32> {
     if frac > 31 {
         return fixed_div_by_i64(a, b, frac);
     }
-    let (negative, ua, ub, q_int) = quotient_parts(a, b, frac)?;
-    let mut r = ua.checked_rem(ub)?;
-    let mut q = q_int.checked_shl(frac).unwrap_or(0); // <= 2^31: fits u32
-    let mut bit = frac;
-    while bit > 0 {
-        bit = bit.saturating_sub(1);
-        // r < ub <= 2^31, so 2 r < 2^32
-        r = r.wrapping_shl(1);
-        if r >= ub {
-            r = r.wrapping_sub(ub);
-            q |= 1u32.wrapping_shl(bit);
-        }
-    }
-    signed_quotient(q, negative)
+    fitting(int::div::div_by_words(
+        &Native,
+        &(a as u32),
+        &(b as u32),
+        frac,
+    ))
 }
 
-/// Sign, magnitudes and integer part of `a 2^frac / b` (`frac <= 31`); `None` for a zero
-/// divisor or an integer part that already puts `|quotient|` above 2^31.
-#[inline]
-fn quotient_parts(a: i32, b: i32, frac: u32) -> Option<(bool, u32, u32, u32)> {
-    let (ua, ub) = (a.unsigned_abs(), b.unsigned_abs());
-    let q_int = ua.checked_div(ub)?;
-    // |quotient| <= 2^31 needs q_int <= 2^(31 - frac)
-    if u64::from(q_int) > (1u64 << 31u32.saturating_sub(frac)) {
-        return None;
-    }
-    Some(((a < 0) != (b < 0), ua, ub, q_int))
-}
-
-/// The quotient with magnitude `q` and the given sign, if it fits `i32` (2^31 only negative).
-#[inline]
-fn signed_quotient(q: u32, negative: bool) -> Option<i32> {
-    if !negative {
-        i32::try_from(q).ok()
-    } else if q > 1u32 << 31 {
-        None
-    } else {
-        // magnitude 2^31 is i32::MIN itself
-        Some((q as i32).wrapping_neg())
-    }
-}
-
-/// `trunc(a 2^frac / b)` by one 64-bit division (where the core divides in hardware, or the
-/// runtime's routine is cheap enough).
+/// `trunc(a 2^frac / b)` by one 64-bit division ([`int::div::div_by_i64`]), where the core
+/// divides in hardware or the runtime's routine is cheap enough.
 #[inline]
 pub fn fixed_div_by_i64(a: i32, b: i32, frac: u32) -> Option<i32> {
-    if frac > 32 {
-        return None;
-    }
-    let q = (i64::from(a) << frac).checked_div(i64::from(b))?;
-    i32::try_from(q).ok()
+    fitting(int::div::div_by_i64(
+        &Native,
+        &(a as u32),
+        &(b as u32),
+        frac,
+    ))
 }
 
-/// `trunc(a 2^frac / b)` with two 32 / 16-bit digit steps of long division (Knuth's
-/// algorithm D in base 2^16, as in Hacker's Delight `divlu`): two hardware 32-bit divides
-/// and at most four corrections, where the 64-bit division routine would take ~150
-/// instructions (Cortex-M4F).
+/// `trunc(a 2^frac / b)` with two 32 / 16-bit digit steps of long division
+/// ([`int::div::div_by_digits`]): two hardware 32-bit divides and at most four corrections,
+/// where the 64-bit division routine would take ~150 instructions (Cortex-M4F).
 #[inline]
 pub fn fixed_div_by_digits(a: i32, b: i32, frac: u32) -> Option<i32> {
     if frac > 31 {
         return fixed_div_by_i64(a, b, frac);
     }
-    // quotient_parts bounds the quotient by 2^31, so ua 2^frac / ub < 2^32 (divlu's condition).
-    let (negative, ua, ub, _) = quotient_parts(a, b, frac)?;
-    let num = u64::from(ua) << frac; // < 2^63
-    let q = divlu((num >> 32) as u32, num as u32, ub);
-    signed_quotient(q, negative)
-}
-
-/// `(u1 2^32 + u0) / v` for `u1 < v` (the quotient fits 32 bits), `v != 0`.
-#[inline]
-fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
-    const B: u32 = 1 << 16;
-    let s = v.leading_zeros(); // v != 0 (callers), so s < 32
-    let v = v.wrapping_shl(s); // top bit set
-    let (vn1, vn0) = (v >> 16, v & 0xffff); // vn1 >= 2^15
-    let un32 = if s == 0 {
-        u1
-    } else {
-        u1.wrapping_shl(s) | u0.wrapping_shr(32u32.wrapping_sub(s))
-    };
-    let un10 = u0.wrapping_shl(s);
-    let (un1, un0) = (un10 >> 16, un10 & 0xffff);
-    // First digit: estimate from the top two digits, correct at most twice.
-    let mut q1 = un32.checked_div(vn1).unwrap_or(0);
-    let mut rhat = un32.wrapping_sub(q1.wrapping_mul(vn1));
-    while q1 >= B
-        || u64::from(q1).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un1))
-    {
-        q1 = q1.wrapping_sub(1);
-        rhat = rhat.wrapping_add(vn1);
-        if rhat >= B {
-            break;
-        }
-    }
-    // The partial remainder (fits 32 bits after a correct first digit).
-    let un21 = un32
-        .wrapping_shl(16)
-        .wrapping_add(un1)
-        .wrapping_sub(q1.wrapping_mul(v));
-    let mut q0 = un21.checked_div(vn1).unwrap_or(0);
-    let mut rhat = un21.wrapping_sub(q0.wrapping_mul(vn1));
-    while q0 >= B
-        || u64::from(q0).wrapping_mul(u64::from(vn0)) > (u64::from(rhat) << 16 | u64::from(un0))
-    {
-        q0 = q0.wrapping_sub(1);
-        rhat = rhat.wrapping_add(vn1);
-        if rhat >= B {
-            break;
-        }
-    }
-    q1.wrapping_shl(16) | q0
+    fitting(int::div::div_by_digits(
+        &Native,
+        &(a as u32),
+        &(b as u32),
+        frac,
+    ))
 }
 
 // Soft-division ARM (Cortex-M0/M0+): shift-subtract, no divide instruction to build on.
@@ -499,7 +386,7 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     fn from_int_pow2(m: i32, e: i32) -> Self {
         // value = m * 2^e; bits = m * 2^(e + FRAC)
         let sh = e.saturating_add(Frac::I32);
-        Fx(FixedI32::from_bits(shift_sat_i64(i64::from(m), sh)))
+        Fx(FixedI32::from_bits(shift_sat_i32(m, sh)))
     }
     #[inline]
     fn from_f32(v: f32) -> Self {
@@ -540,13 +427,10 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     }
     #[inline]
     fn mul_pow2_nearest(self, e: i32) -> Self {
-        if e >= 0 {
-            return self.mul_pow2(e);
-        }
-        let r = e.unsigned_abs().min(40);
-        // |bits| < 2^31 and r <= 40: bits + 2^(r-1) fits i64, and the shifted value fits i32.
-        let v = i64::from(self.0.to_bits()).wrapping_add(1i64 << r.saturating_sub(1)) >> r;
-        Fx(FixedI32::from_bits(i32::try_from(v).unwrap_or(i32::MAX)))
+        let v = self.0.to_bits() as u32;
+        Fx(FixedI32::from_bits(
+            int::shift::shift_nearest(&Native, &v, &(e as u32)) as i32,
+        ))
     }
     #[inline]
     fn is_valid(self) -> bool {
@@ -564,95 +448,19 @@ impl<Frac: LeEqU32> Scalar for Fx<Frac> {
     }
     #[inline]
     fn split_pow2(self) -> (Self, i32) {
-        let frac = Frac::U32;
-        if frac > 29 {
+        if Frac::U32 > 29 {
             return split_pow2_by_steps(self);
         }
-        let b = self.0.to_bits();
-        let mag = b.unsigned_abs();
-        if mag == 0 {
-            return (self, 0);
-        }
-        // bit length of |b|: |b| in [2^(len-1), 2^len)
-        let len = 32u32.saturating_sub(mag.leading_zeros());
-        let two = 1u32 << frac.saturating_add(1); // frac <= 29: no overflow
-        if len > frac.saturating_add(1) {
-            // Down: the loop's floor halvings compose to one arithmetic shift by k; for a
-            // negative value the floor may leave |b >> k| = 2^(frac+1): one more step then.
-            let mut k = len.saturating_sub(frac.saturating_add(1)).min(31);
-            if (b >> k).unsigned_abs() >= two {
-                k = k.saturating_add(1).min(31);
-            }
-            (Fx(FixedI32::from_bits(b >> k)), k as i32)
-        } else if len <= frac {
-            // Up: exact doublings until |b| >= 2^frac (|b| < 2^frac, so no overflow).
-            let k = frac.saturating_add(1).saturating_sub(len);
-            (
-                Fx(FixedI32::from_bits(b.wrapping_shl(k))),
-                (k as i32).saturating_neg(),
-            )
-        } else {
-            (self, 0)
-        }
+        let b = self.0.to_bits() as u32;
+        let (m, k) = int::split::split_word(&Native, &b, Frac::U32);
+        (Fx(FixedI32::from_bits(m as i32)), k as i32)
     }
 }
 
-/// [`shift_sat_i64`] for an `i32` value, in 32-bit words (no 64-bit shift routine on the M0).
+/// `v * 2^sh` saturated to i32, flooring right shifts ([`int::shift::shift_saturating`]).
 #[inline]
 fn shift_sat_i32(v: i32, sh: i32) -> i32 {
-    if sh < 0 {
-        // arithmetic shift right (floor); 31 and beyond leave the sign
-        v >> sh.unsigned_abs().min(31)
-    } else if v == 0 {
-        0
-    } else {
-        let s = sh.unsigned_abs();
-        // v fits after the shift iff it has more than s redundant sign bits
-        let redundant = if v < 0 {
-            v.leading_ones()
-        } else {
-            v.leading_zeros()
-        };
-        if s < redundant {
-            v.wrapping_shl(s)
-        } else if v > 0 {
-            i32::MAX
-        } else {
-            i32::MIN
-        }
-    }
-}
-
-/// `v * 2^sh` saturated to i32 (arithmetic shift right for negative `sh`, rounding toward -inf).
-#[inline]
-fn shift_sat_i64(v: i64, sh: i32) -> i32 {
-    let shifted: i64 = if sh >= 0 {
-        if sh >= 62 {
-            if v == 0 {
-                0
-            } else if v > 0 {
-                i64::MAX
-            } else {
-                i64::MIN
-            }
-        } else {
-            v.checked_shl(sh as u32)
-                .filter(|r| r >> sh == v)
-                .unwrap_or(if v > 0 { i64::MAX } else { i64::MIN })
-        }
-    } else {
-        let r = sh.unsigned_abs();
-        if r >= 63 {
-            if v < 0 {
-                -1
-            } else {
-                0
-            }
-        } else {
-            v >> r
-        }
-    };
-    i32::try_from(shifted).unwrap_or(if shifted > 0 { i32::MAX } else { i32::MIN })
+    int::shift::shift_saturating(&Native, &(v as u32), &(sh as u32)) as i32
 }
 
 /// A block-floating-point value `m * 2^e`: an O(1) [`Scalar`] mantissa with an integer
@@ -690,18 +498,6 @@ impl<S: Scalar> Scaled<S> {
         }
         v
     }
-}
-
-/// Splits a non-negative or negative integer into `(mantissa, exponent)` with
-/// `|mantissa| < 2^bits` and `v ~= mantissa * 2^exponent` (truncating low bits).
-#[inline]
-pub fn split_i64(v: i64, bits: u32) -> (i32, i32) {
-    let mag = v.unsigned_abs();
-    let len = 64u32.saturating_sub(mag.leading_zeros());
-    let sh = len.saturating_sub(bits.min(31));
-    // sh <= 64 - bits, so the shifted value fits in `bits` bits.
-    let m = (v >> sh.min(63)) as i32;
-    (m, sh as i32)
 }
 
 impl<S: Scalar> Scaled<S> {
@@ -795,15 +591,14 @@ impl<S: Scalar> Scaled<S> {
 }
 
 impl<S: Scalar> Scaled<S> {
-    /// An exact-integer accumulator as block floating point: mantissa in [0.5, 1) in
-    /// magnitude carrying its top 30 bits.
+    /// An exact-integer accumulator as block floating point: mantissa in [0.5, 1] in
+    /// magnitude (1 only for a negative sum whose floor carries, `proofs-solver`'s
+    /// `top_bits_i64_30`) carrying its top 30 bits.
     pub fn from_i64(v: i64) -> Self {
-        let len = 64u32.saturating_sub(v.unsigned_abs().leading_zeros());
-        let sh = len.saturating_sub(30).min(63);
-        let m = (v >> sh) as i32; // |v >> sh| < 2^30
-        let len = len as i32;
+        let (m, sh, len) = int::split::top_bits(&Native, &(v as u64), 30);
+        let (m, sh, len) = (m as i32, sh as i32, len as i32); // |m| <= 2^30 (proved), sh, len <= 64
         Scaled {
-            m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)),
+            m: S::from_int_pow2(m, sh.saturating_sub(len)),
             e: len,
         }
     }
@@ -811,7 +606,7 @@ impl<S: Scalar> Scaled<S> {
     pub fn from_i128(v: i128) -> Self {
         let len = 128u32.saturating_sub(v.unsigned_abs().leading_zeros());
         let sh = len.saturating_sub(30).min(127);
-        let m = (v >> sh) as i32; // |v >> sh| < 2^30
+        let m = (v >> sh) as i32; // |v >> sh| <= 2^30
         let len = len as i32;
         Scaled {
             m: S::from_int_pow2(m, (sh as i32).saturating_sub(len)),

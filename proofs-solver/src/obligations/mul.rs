@@ -1,0 +1,123 @@
+//! The widening product and the Q-format rounding product.
+
+use crate::discharge::{Engine, Obligation};
+use crate::prover::{Prover, ProverExt};
+use massid_kernel::int::mul::{
+    round_product, unsigned_mul_by_halves, widening_mul_by_halves, widening_mul_direct,
+};
+use massid_kernel::int::MachineExt;
+
+/// Which widening product the code under proof uses.
+#[derive(Clone, Copy, Debug)]
+pub enum Widening {
+    /// One 64-bit multiply (host, M4F `SMULL`).
+    Direct,
+    /// Four 16 x 16 -> 32 bit products (Cortex-M0).
+    ByHalves,
+}
+
+fn widen<P: Prover>(p: &P, how: Widening, a: &P::W, b: &P::W) -> P::D {
+    match how {
+        Widening::Direct => widening_mul_direct(p, a, b),
+        Widening::ByHalves => widening_mul_by_halves(p, a, b),
+    }
+}
+
+/// `widening_mul_*(a, b)` is the exact product of two signed words, for all of them.
+pub struct WideningProduct(pub Widening);
+
+impl Obligation for WideningProduct {
+    fn name(&self) -> String {
+        format!("widening_mul_{:?}", self.0).to_lowercase()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["a", "b"]
+    }
+    fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
+        let (a, b) = (&x[0], &x[1]);
+        let got = p.under_test(|m| widen(m, self.0, a, b));
+        let exact = p.i_mul(&p.sw(a), &p.sw(b));
+        (p.b(true), p.i_eq(&p.int_d(&got, true), &exact))
+    }
+    fn engine(&self) -> Engine {
+        engine_for(self.0)
+    }
+}
+
+/// Bit-vectors for the 64-bit multiply (the property's own multiply has the same shape);
+/// integers for the product by halves (a multiplier built from four smaller ones).
+fn engine_for(how: Widening) -> Engine {
+    match how {
+        Widening::Direct => Engine::BitVector,
+        Widening::ByHalves => Engine::Integer,
+    }
+}
+
+/// The fixed-point product with `frac` fractional bits (what `Fx * Fx` runs): the exact
+/// product rounded to nearest, ties up, saturated to `i32`, for all pairs of words.
+pub struct RoundedProduct {
+    /// Fractional bits of the format.
+    pub frac: u32,
+    /// The widening product inside.
+    pub widening: Widening,
+}
+
+impl Obligation for RoundedProduct {
+    fn name(&self) -> String {
+        format!("q{}_{}_mul_{:?}", 32 - self.frac, self.frac, self.widening).to_lowercase()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["a", "b"]
+    }
+    fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
+        let (a, b) = (&x[0], &x[1]);
+        let f = self.frac;
+        let r = p.under_test(|m| {
+            let wide = widen(m, self.widening, a, b);
+            round_product(m, &wide, f)
+        });
+        let exact = p.i_mul(&p.sw(a), &p.sw(b));
+        let one = 1i128 << f;
+        let half = one >> 1;
+        let r = p.sw(&r);
+        let scaled = p.i_mul(&r, &p.int(one));
+        let nearest = p.all(
+            &p.i_le(&p.i_sub(&scaled, &p.int(half)), &exact),
+            &p.i_lt(&exact, &p.i_add(&scaled, &p.int(half))),
+        );
+        let above = p.i_le(&p.int((1i128 << 31) * one - half), &exact);
+        let below = p.i_lt(&exact, &p.int(-(1i128 << 31) * one - half));
+        let property = p.select_bool(
+            &above,
+            &p.i_eq(&r, &p.int(i128::from(i32::MAX))),
+            &p.select_bool(&below, &p.i_eq(&r, &p.int(i128::from(i32::MIN))), &nearest),
+        );
+        (p.b(true), property)
+    }
+    fn engine(&self) -> Engine {
+        engine_for(self.widening)
+    }
+}
+
+/// `unsigned_mul_by_halves(ua, ub)` is the exact product of two unsigned words, for all of
+/// them: the Cortex-M0 product's four partial products and their sum. (The signed wrapper
+/// around it, `widening_mul_by_halves`, is open: see `proofs/README.md`.)
+pub struct UnsignedByHalves;
+
+impl Obligation for UnsignedByHalves {
+    fn name(&self) -> String {
+        "unsigned_mul_by_halves".into()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["ua", "ub"]
+    }
+    fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
+        let (a, b) = (&x[0], &x[1]);
+        let got = p.under_test(|m| unsigned_mul_by_halves(m, a, b));
+        let exact = p.i_mul(&p.uw(a), &p.uw(b));
+        (p.b(true), p.i_eq(&p.int_d(&got, false), &exact))
+    }
+    fn engine(&self) -> Engine {
+        Engine::Integer
+    }
+}

@@ -38,6 +38,11 @@
 //!    reference (`reference-f64`), which is the oracle every kernel output is compared with;
 //!    the decisions (observability, validity, unresponsive firings) are the reference's,
 //!    written once in its docs and implemented in both.
+//! 8. **Integer primitives proved on their source.** Products, divisions, shifts and
+//!    block-float splits are written once in [`int`] over a machine model; the kernel runs
+//!    them on native words and `proofs-solver` runs the same functions on Z3 bit-vectors
+//!    and integers, so what is proved is what is compiled (`proofs/README.md` lists what is
+//!    proved and what is only tested).
 #![no_std]
 #![deny(
     clippy::unwrap_used,

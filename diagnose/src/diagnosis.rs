@@ -219,9 +219,11 @@ pub fn diagnose(
     let w0 = fit_nuisance(&prob0, &start)
         .map(|f| f.theta)
         .unwrap_or(start);
+    // no prediction (an extreme model can make it non-finite): a zero residual, one per
+    // sample, as for residual_before below (an empty one was indexed by noise::estimate)
     let r0 = prob0
         .residual(&select::nuisance_params(&w0))
-        .unwrap_or_default();
+        .unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
     let noise = noise::estimate(series, &r0);
     let mut prob = Problem::new(plant, series, &noise);
     prob.stride = (series.sample_rate_hz / 200.0).round().max(1.0) as usize;

@@ -15,6 +15,7 @@ pub mod numfmt;
 pub mod output;
 pub mod report;
 pub mod ringing;
+pub mod rows;
 pub mod select;
 pub mod series;
 pub mod spectrum;
@@ -35,6 +36,39 @@ pub enum DiagnoseError {
     Empty(String),
     #[error("{0}: no usable gyro sample (every sample is at a rail or stuck on every axis)")]
     NoUsableSamples(String),
+    /// Sample index (0-based), its `time_ms` and the previous sample's. The reader
+    /// guarantees increasing times; a `Recording` built by hand may not.
+    #[error("{0}: sample {1}: time_ms {2} does not increase (previous sample at {3}); the diagnosis needs strictly increasing times")]
+    TimeNotIncreasing(String, usize, u64, u64),
+    /// Sample index (0-based) and its `time_ms`.
+    #[error("{0}: sample {1}: time_ms {2} is past {max} ms (2^53, about 285,000 years), the latest time the diagnosis can represent exactly", max = MAX_TIME_MS)]
+    TimeTooLate(String, usize, u64),
+}
+
+/// The latest `time_ms` the diagnosis accepts: 2^53 ms, so that every time (and the
+/// difference of any two) is exact in the f64 times of the report and no integer
+/// arithmetic on times (model clock, lags of the noise estimate) can overflow.
+pub const MAX_TIME_MS: u64 = 1 << 53;
+
+/// The time axis checks the diagnosis relies on and a hand-built `Recording` may break:
+/// strictly increasing `time_ms`, none past [`MAX_TIME_MS`].
+fn check_times(rec: &Recording) -> Result<(), DiagnoseError> {
+    let mut previous: Option<u64> = None;
+    for (i, s) in rec.samples.iter().enumerate() {
+        if s.time_ms > MAX_TIME_MS {
+            return Err(DiagnoseError::TimeTooLate(rec.source.clone(), i, s.time_ms));
+        }
+        if let Some(p) = previous.filter(|&p| s.time_ms <= p) {
+            return Err(DiagnoseError::TimeNotIncreasing(
+                rec.source.clone(),
+                i,
+                s.time_ms,
+                p,
+            ));
+        }
+        previous = Some(s.time_ms);
+    }
+    Ok(())
 }
 
 /// Diagnoses `rec` against the nominal model `sat`: the library entry point behind
@@ -44,6 +78,7 @@ pub fn diagnose_recording(
     sat: &Satellite,
     settings: &Settings,
 ) -> Result<Analysis, DiagnoseError> {
+    check_times(rec)?;
     let series = series::Series::from_recording(rec, sat)
         .ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
     if series.usable() == 0 {

@@ -356,7 +356,10 @@ impl StepHistogram {
         for (&step, &c) in &self.counts {
             if step as f64 > 1.5 * period_ms {
                 gaps += c;
-                missing += c * ((step as f64 / period_ms).round() as usize).saturating_sub(1);
+                // saturating: a tiny declared period (sample_rate_hz = 1e12) and a long gap
+                // make more "missing samples" than a usize holds (overflowed before)
+                let per_gap = ((step as f64 / period_ms).round() as usize).saturating_sub(1);
+                missing = c.saturating_mul(per_gap).saturating_add(missing);
             }
         }
         (gaps, missing)

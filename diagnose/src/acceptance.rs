@@ -15,9 +15,9 @@
 
 use std::rc::Rc;
 
-use crate::effects::Kind;
+use crate::effects::{Context, Kind};
 use crate::fit::Problem;
-use crate::model::{Plant, NT};
+use crate::model::NT;
 use crate::select;
 use crate::stats::ResidualTests;
 
@@ -57,7 +57,7 @@ pub const WHITE_BELOW: f64 = 45.31;
 pub fn implausible(
     kind: Kind,
     theta: &[f64],
-    plant: &Plant,
+    cx: &Context,
     lo: &[f64],
     hi: &[f64],
 ) -> Option<String> {
@@ -66,74 +66,7 @@ pub fn implausible(
         let w = (hi[i] - lo[i]).abs().max(1e-300);
         (theta[i] - lo[i]).abs() < 1e-6 * w || (hi[i] - theta[i]).abs() < 1e-6 * w
     };
-    let nominal = plant.nominal_inertia();
-    let inertia_ok = |i: &[f64]| -> Option<String> {
-        let m = nalgebra::Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2]);
-        let eig = m.symmetric_eigenvalues();
-        if eig.iter().any(|&e| e <= 0.0) {
-            return Some("inertia not positive definite".into());
-        }
-        let (a, b, c) = (eig[0], eig[1], eig[2]);
-        if a + b < c || a + c < b || b + c < a {
-            return Some("principal inertias break the triangle inequality".into());
-        }
-        None
-    };
-    match kind {
-        // valves open/close within 0..50 ms (seed ch. 2 measures ~6 ms)
-        Kind::ThrusterLatency if at_bound(0) && theta[0] > 0.0 || at_bound(1) && theta[1] > 0.0 => {
-            Some("latency at the 50 ms search bound".into())
-        }
-        // a tank cannot lose more than half a thruster's force per other open valve
-        Kind::PressureDrop
-            if theta[0] >= 0.5 * (0..NT).map(|i| plant.thrust_n(i)).fold(f64::MAX, f64::min) =>
-        {
-            Some("pressure drop above half a thruster's force".into())
-        }
-        // blowdown: a time constant between 1 s and 10^4 s
-        Kind::Blowdown if theta[1] > 1.0 || theta[1] < 1e-4 => {
-            Some("blowdown time constant outside 1 s .. 10^4 s".into())
-        }
-        // thrust scale within 0 .. 1.5 of nominal, not at the search bound 2
-        Kind::ThrustScale if theta.iter().any(|&s| !(0.0..=1.5).contains(&s)) => {
-            Some("thrust scale outside 0 .. 1.5".into())
-        }
-        // a CoM more than 50 mm from the model's is outside a 0.2 m craft's tolerance
-        Kind::ComOffset if theta.iter().any(|&x| x.abs() > 45.0) => {
-            Some("CoM offset beyond 45 mm".into())
-        }
-        Kind::Inertia => inertia_ok(theta).or_else(|| {
-            (0..3)
-                .any(|i| theta[i] < 0.5 * nominal[i] || theta[i] > 2.0 * nominal[i])
-                .then(|| "principal inertia outside 0.5 .. 2 x the model's".into())
-        }),
-        Kind::MassPropertyChange => inertia_ok(&theta[4..10]).or_else(|| {
-            theta[1..4]
-                .iter()
-                .any(|x| x.abs() > 45.0)
-                .then(|| "CoM offset beyond 45 mm".into())
-        }),
-        // slosh: a mode between 0.02 and 20 Hz, damping below 0.4, some liquid on some axis,
-        // fractions below a third of the craft's inertia
-        Kind::FuelSlosh if theta[1] > 0.4 || at_bound(0) => {
-            Some("slosh frequency or damping at its search bound".into())
-        }
-        Kind::FuelSlosh if theta[2..5].iter().any(|&f| f > 0.34) => {
-            Some("fluid inertia fraction above 1/3".into())
-        }
-        // gyro: a bias within 200 counts, a scale within 20 %
-        Kind::GyroBias if theta.iter().any(|x| x.abs() > 200.0) => {
-            Some("gyro bias beyond 200 counts".into())
-        }
-        Kind::GyroScale if theta.iter().any(|x| (x - 1.0).abs() > 0.2) => {
-            Some("gyro scale beyond 20 %".into())
-        }
-        // an external torque above 1e-3 N m would be a thruster, not a disturbance
-        Kind::DisturbanceTorque if theta.iter().any(|x| x.abs() > 1e-3) => {
-            Some("disturbance above 1e-3 N m".into())
-        }
-        _ => None,
-    }
+    kind.effect().implausible(theta, &at_bound, cx)
 }
 
 /// Gyro ringing's bounds: a tuning-fork tone decays within 1..100 ms (seed App. A ~30 ms).

@@ -1,15 +1,13 @@
 //! The whole diagnosis: nominal prediction, noise, localisation, forward selection of
 //! mechanisms by BIC, and the contract output.
 
-use serde_json::Map;
-
 use crate::acceptance;
 use crate::effects::{self, Kind};
 use crate::fit::{self, Family, Problem};
 use crate::locate;
 use crate::model::{Plant, NT};
 use crate::noise::{self, NoiseModel};
-use crate::output::{num, nums, DataIssues, DiagnosisOutput, EffectReport, FORMAT};
+use crate::output::{DataIssues, DiagnosisOutput, EffectReport, FORMAT};
 use crate::ringing::{self, RingingFit};
 use crate::select::{self, Settings};
 use crate::series::Series;
@@ -153,33 +151,15 @@ fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
         series.real_ms(series.word_ms.iter().position(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
     let last =
         series.real_ms(series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
-    match kind {
-        Kind::MassPropertyChange => theta[0] > first + 0.5 && theta[0] < last - 0.5,
-        Kind::Blowdown => theta[0] < last - 0.5,
-        _ => true,
-    }
+    kind.effect().observable(theta, first, last)
 }
 
 /// Wald statistic of an effect's parameters against their "no effect" values.
 fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
-    let nominal_i = prob.plant.nominal_inertia();
-    let null: Vec<(usize, f64)> = match kind {
-        Kind::ThrusterLatency
-        | Kind::PressureDrop
-        | Kind::ComOffset
-        | Kind::GyroBias
-        | Kind::DisturbanceTorque => (0..theta.len()).map(|i| (i, 0.0)).collect(),
-        Kind::ThrustScale | Kind::GyroScale => (0..theta.len()).map(|i| (i, 1.0)).collect(),
-        Kind::Blowdown => vec![(1, 0.0)],
-        Kind::Inertia => (0..6).map(|i| (i, nominal_i[i])).collect(),
-        Kind::MassPropertyChange => {
-            let mut v: Vec<(usize, f64)> = (1..4).map(|i| (i, 0.0)).collect();
-            v.extend((0..6).map(|i| (4 + i, nominal_i[i])));
-            v
-        }
-        Kind::FuelSlosh => vec![(2, 0.0), (3, 0.0), (4, 0.0)],
-        Kind::GyroRinging => vec![],
-    };
+    let fired = effects::fired_thrusters(prob.series);
+    let null = kind
+        .effect()
+        .no_effect(theta, &select::context(prob, &fired, &[]));
     null.iter()
         .map(|&(i, v)| {
             let e = se.get(i).copied().unwrap_or(f64::INFINITY);
@@ -293,7 +273,7 @@ pub fn diagnose(
             let screen_iter = settings.max_iter.min(3);
             let t_cand = std::time::Instant::now();
             let _timing = Timing(kind.name(), t_cand);
-            if kind == Kind::GyroRinging {
+            if kind.effect().on_residual() {
                 if ringing_cache.is_none() {
                     let rf = ringing::fit(
                         series,
@@ -351,7 +331,7 @@ pub fn diagnose(
         screened.sort_by(|a, b| a.0.total_cmp(&b.0));
         for (i, (dbic, kind, theta, chi2, note, rf, se)) in screened.into_iter().enumerate() {
             let k_new = effects::n_params(kind, &fired);
-            let (dbic, theta, se) = if i < 3 && dbic < 0.0 && kind != Kind::GyroRinging {
+            let (dbic, theta, se) = if i < 3 && dbic < 0.0 && !kind.effect().on_residual() {
                 match select::fit_from(
                     &prob,
                     &fired,
@@ -383,7 +363,7 @@ pub fn diagnose(
             // backing test: the effect's own parameters must differ from "no effect" by
             // more than the BIC penalty in their own (colour-corrected) uncertainty, so a
             // candidate that only helps the others converge is not taken for physics
-            let w = if kind == Kind::GyroRinging {
+            let w = if kind.effect().on_residual() {
                 f64::INFINITY
             } else {
                 wald(kind, &theta, &se, &prob)
@@ -456,7 +436,7 @@ pub fn diagnose(
         let tests_prev = stats::residual_tests(series, &residual_cur);
         let rigid_acc: Vec<(Kind, Vec<f64>)> = acc_pairs
             .iter()
-            .filter(|p| p.0 != Kind::GyroRinging)
+            .filter(|p| !p.0.effect().on_residual())
             .cloned()
             .collect();
         let mut taken = None;
@@ -495,7 +475,7 @@ pub fn diagnose(
                 if let Some(why) = acceptance::axis_worse(rms_prev, rms_new, &tests_prev, &tests_new) {
                     return Err(why);
                 }
-                if kind != Kind::GyroRinging {
+                if !kind.effect().on_residual() {
                     match acceptance::holdout(&prob, &fired, &rigid_acc, (kind, &theta), &omega0, &slosh_hint, settings.max_iter) {
                         Some(h) => {
                             if let Some(why) = h.failure() {
@@ -524,7 +504,7 @@ pub fn diagnose(
             break;
         };
         let residual_prev = residual_cur.clone();
-        if kind == Kind::GyroRinging {
+        if kind.effect().on_residual() {
             if let Some(rf) = &t.ringing {
                 alias_marks = (
                     rf.apparent_hz,
@@ -560,11 +540,7 @@ pub fn diagnose(
         k_cur += effects::n_params(kind, &fired);
         let chi2_total = chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let delta_bic_total = chi2_total - chi2_nominal + k_cur as f64 * ln_n;
-        let width = match kind {
-            Kind::ThrusterLatency | Kind::GyroRinging => 20,
-            Kind::PressureDrop | Kind::ThrustScale => 200,
-            _ => 1000,
-        };
+        let width = kind.effect().window_ms();
         let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3)
             .into_iter()
             .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
@@ -594,7 +570,7 @@ pub fn diagnose(
     // standard errors of the rigid effects come from the last joint fit
     let mut off = 0;
     let rigid_idx: Vec<usize> = (0..accepted.len())
-        .filter(|&i| accepted[i].kind != Kind::GyroRinging)
+        .filter(|&i| !accepted[i].kind.effect().on_residual())
         .collect();
     for (j, &i) in rigid_idx.iter().enumerate() {
         let n = sizes.get(j).copied().unwrap_or(0);
@@ -604,7 +580,10 @@ pub fn diagnose(
             .unwrap_or_default();
         off += n;
     }
-    for a in accepted.iter_mut().filter(|a| a.kind == Kind::GyroRinging) {
+    for a in accepted
+        .iter_mut()
+        .filter(|a| a.kind.effect().on_residual())
+    {
         if let Some(rf) = &ringing_fit {
             a.theta = vec![
                 rf.freq_hz,
@@ -637,7 +616,7 @@ pub fn diagnose(
     }
     let effects_out: Vec<EffectReport> = accepted
         .iter()
-        .map(|a| report_effect(a, &fired, series))
+        .map(|a| report_effect(a, &select::context(&prob, &fired, &[])))
         .collect();
     // a named ringing accounts for its post-edge windows as a random tone
     let mut ringing_windows = vec![false; series.len()];
@@ -729,7 +708,7 @@ fn try_candidate(
     ringing_on: bool,
 ) -> Result<Tried, String> {
     let series = prob.series;
-    if kind == Kind::GyroRinging {
+    if kind.effect().on_residual() {
         let rf = rf.ok_or("no ringing fit")?;
         let latency = latency_of(rigid_acc);
         let residual = ringing::remove(series, rigid_residual, whitening, &rf, latency);
@@ -792,7 +771,8 @@ fn try_candidate(
         .map(|p| p.1.clone())
         .unwrap_or_default();
     let sp = select::spec(kind, prob, fired, hint);
-    let implausible = acceptance::implausible(kind, &th, prob.plant, &sp.lo, &sp.hi);
+    let cx = select::context(prob, fired, hint);
+    let implausible = acceptance::implausible(kind, &th, &cx, &sp.lo, &sp.hi);
     Ok(Tried {
         pairs,
         nuis: w,
@@ -888,30 +868,7 @@ fn describe(
         }
     }
     let alt = alternatives(kind.name(), dbic, scores, rejections, round);
-    let what = match kind {
-        Kind::ThrusterLatency => {
-            "residual concentrates at valve edges: torque arrives later than commanded"
-        }
-        Kind::PressureDrop => "torque deficit grows with the number of valves open together",
-        Kind::Blowdown => {
-            "torque deficit grows with time in the run after a start time, for every thruster"
-        }
-        Kind::ThrustScale => "torque error tied to the firings of particular thrusters",
-        Kind::ComOffset => {
-            "torque error on translation firings (opposed pairs) consistent with a moved CoM"
-        }
-        Kind::Inertia => {
-            "rate response to all torques scaled consistently with a different inertia"
-        }
-        Kind::MassPropertyChange => "torque response changes at one time in the run",
-        Kind::FuelSlosh => {
-            "lightly damped low-frequency oscillation excited by firings, continuing while coasting"
-        }
-        Kind::GyroBias => "constant offset of the measured rate",
-        Kind::GyroScale => "rate error proportional to the rate itself",
-        Kind::GyroRinging => "decaying tone after valve edges",
-        Kind::DisturbanceTorque => "rate drifts steadily even while coasting",
-    };
+    let what = kind.effect().signature();
     let mut s = format!(
         "{what}; the explained error arises on {}, most per sample {}; delta BIC {:.0} when added{alt}",
         axes_label(gain_axis),
@@ -975,106 +932,9 @@ fn alternatives(
     alt
 }
 
-fn report_effect(a: &Accepted, fired: &[bool; NT], series: &Series) -> EffectReport {
-    let th = &a.theta;
+fn report_effect(a: &Accepted, cx: &effects::Context) -> EffectReport {
     let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
-    let mut p = Map::new();
-    let mut s = Map::new();
-    match a.kind {
-        Kind::ThrusterLatency => {
-            p.insert("open_ms".into(), num(th[0]));
-            p.insert("close_ms".into(), num(th[1]));
-            s.insert("open_ms".into(), num(se(0)));
-            s.insert("close_ms".into(), num(se(1)));
-        }
-        Kind::PressureDrop => {
-            p.insert("newton_per_extra_thruster".into(), num(th[0]));
-            s.insert("newton_per_extra_thruster".into(), num(se(0)));
-        }
-        Kind::Blowdown => {
-            let tau = 1.0 / th[1].max(1e-12);
-            p.insert("start_s".into(), num(th[0]));
-            p.insert("tau_s".into(), num(tau));
-            s.insert("start_s".into(), num(se(0)));
-            s.insert("tau_s".into(), num(se(1) * tau * tau));
-        }
-        Kind::ThrustScale => {
-            let mut v = [1.0; NT];
-            let mut e = [0.0; NT];
-            let mut j = 0;
-            for i in 0..NT {
-                if fired[i] {
-                    v[i] = th[j];
-                    e[i] = se(j);
-                    j += 1;
-                } else {
-                    e[i] = f64::INFINITY;
-                }
-            }
-            p.insert("scale".into(), nums(&v));
-            s.insert("scale".into(), nums(&e));
-        }
-        Kind::ComOffset => {
-            p.insert("offset_mm".into(), nums(&th[..3]));
-            s.insert("offset_mm".into(), nums(&[se(0), se(1), se(2)]));
-        }
-        Kind::Inertia => {
-            p.insert("inertia_kgm2".into(), nums(&th[..6]));
-            s.insert(
-                "inertia_kgm2".into(),
-                nums(&(0..6).map(se).collect::<Vec<_>>()),
-            );
-        }
-        Kind::MassPropertyChange => {
-            p.insert("at_s".into(), num(th[0]));
-            p.insert("offset_mm".into(), nums(&th[1..4]));
-            p.insert("inertia_kgm2".into(), nums(&th[4..10]));
-            s.insert("at_s".into(), num(se(0)));
-            s.insert(
-                "offset_mm".into(),
-                nums(&(1..4).map(se).collect::<Vec<_>>()),
-            );
-            s.insert(
-                "inertia_kgm2".into(),
-                nums(&(4..10).map(se).collect::<Vec<_>>()),
-            );
-        }
-        Kind::FuelSlosh => {
-            p.insert("freq_hz".into(), num(th[0]));
-            p.insert("damping_ratio".into(), num(th[1]));
-            p.insert("fluid_inertia_fraction".into(), nums(&th[2..5]));
-            s.insert("freq_hz".into(), num(se(0)));
-            s.insert("damping_ratio".into(), num(se(1)));
-            s.insert(
-                "fluid_inertia_fraction".into(),
-                nums(&[se(2), se(3), se(4)]),
-            );
-        }
-        Kind::GyroBias => {
-            p.insert("counts".into(), nums(&th[..3]));
-            s.insert("counts".into(), nums(&[se(0), se(1), se(2)]));
-        }
-        Kind::GyroScale => {
-            p.insert("scale".into(), nums(&th[..3]));
-            s.insert("scale".into(), nums(&[se(0), se(1), se(2)]));
-        }
-        Kind::DisturbanceTorque => {
-            p.insert("torque_nm".into(), nums(&th[..3]));
-            s.insert("torque_nm".into(), nums(&[se(0), se(1), se(2)]));
-        }
-        Kind::GyroRinging => {
-            p.insert("freq_hz".into(), num(th[0]));
-            p.insert("decay_ms".into(), num(th[1]));
-            p.insert(
-                "apparent_hz".into(),
-                num(crate::alias::apparent(th[0], series.sample_rate_hz)),
-            );
-            p.insert("amplitude_rad_s".into(), nums(&th[2..5]));
-            s.insert("freq_hz".into(), num(se(0)));
-            s.insert("decay_ms".into(), num(se(1)));
-            s.insert("apparent_hz".into(), num(se(0)));
-        }
-    }
+    let (p, s) = a.kind.effect().report(&a.theta, &se, cx);
     EffectReport {
         effect: a.kind.name().into(),
         params: p,

@@ -3,7 +3,7 @@
 //! BIC, refit all accepted jointly, and stop when no candidate lowers BIC by more than
 //! the acceptance margin.
 
-use crate::effects::{self, Kind};
+use crate::effects::{self, Context, Kind};
 use crate::fit::{self, Family, FitResult, Problem};
 use crate::model::{Params, NT};
 
@@ -44,8 +44,6 @@ impl Default for Settings {
     }
 }
 
-/// Starting change times of a mass-property change, spread evenly over the run.
-const MASS_CHANGE_STARTS: usize = 16;
 /// Points of the change-time scan around a fitted mass-property change.
 const CHANGE_SCAN_POINTS: usize = 40;
 /// LM iterations that rank starts which all predict the same (a new effect at "no effect").
@@ -57,7 +55,7 @@ pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], nuis: &[f64]) ->
     let mut p = nuisance_params(nuis);
     for (k, th) in accepted {
         // ringing is additive with a random phase per edge: handled on the residual
-        if *k != Kind::GyroRinging {
+        if !k.effect().on_residual() {
             effects::apply(*k, th, fired, &mut p);
         }
     }
@@ -73,154 +71,26 @@ pub fn nuisance_params(nuis: &[f64]) -> Params {
     }
 }
 
-/// Bounds, steps and starting points of one effect's parameters.
-pub struct Spec {
-    pub lo: Vec<f64>,
-    pub hi: Vec<f64>,
-    pub step: Vec<f64>,
-    pub starts: Vec<Vec<f64>>,
+pub use crate::effects::Spec;
+
+/// What the effects may look at about this recording and its model.
+pub fn context<'a>(prob: &Problem, fired: &'a [bool; NT], slosh_hint_hz: &'a [f64]) -> Context<'a> {
+    Context {
+        // times of a change are on the recording's clock
+        duration_s: prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3,
+        nominal_inertia: prob.plant.nominal_inertia(),
+        min_thrust_n: (0..NT)
+            .map(|i| prob.plant.thrust_n(i))
+            .fold(f64::MAX, f64::min),
+        fired,
+        slosh_hint_hz,
+        sample_rate_hz: prob.series.sample_rate_hz,
+    }
 }
 
 /// Parameter space of `kind` for this recording.
 pub fn spec(kind: Kind, prob: &Problem, fired: &[bool; NT], slosh_hint_hz: &[f64]) -> Spec {
-    // times of a change are on the recording's clock
-    let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
-    let nominal_i = prob.plant.nominal_inertia();
-    match kind {
-        Kind::ThrusterLatency => Spec {
-            lo: vec![0.0, 0.0],
-            hi: vec![50.0, 50.0],
-            step: vec![0.05, 0.05],
-            starts: vec![vec![2.0, 2.0]],
-        },
-        Kind::PressureDrop => Spec {
-            lo: vec![0.0],
-            hi: vec![0.05],
-            step: vec![1e-5],
-            starts: vec![vec![0.002]],
-        },
-        Kind::Blowdown => Spec {
-            lo: vec![0.0, 0.0],
-            hi: vec![dur, 20.0 / dur.max(1.0)],
-            step: vec![0.01 * dur, 0.02 / dur.max(1.0)],
-            starts: [0.2, 0.45, 0.7]
-                .iter()
-                .map(|f| vec![f * dur, 1.0 / dur.max(1.0)])
-                .collect(),
-        },
-        Kind::ThrustScale => {
-            let n = effects::n_params(kind, fired);
-            Spec {
-                lo: vec![0.0; n],
-                hi: vec![2.0; n],
-                step: vec![1e-3; n],
-                starts: vec![vec![1.0; n]],
-            }
-        }
-        Kind::ComOffset => Spec {
-            lo: vec![-50.0; 3],
-            hi: vec![50.0; 3],
-            step: vec![0.05; 3],
-            starts: vec![vec![0.0; 3]],
-        },
-        Kind::Inertia => {
-            let mut lo = vec![0.0; 6];
-            let mut hi = vec![0.0; 6];
-            for i in 0..3 {
-                lo[i] = nominal_i[i] * 0.3;
-                hi[i] = nominal_i[i] * 3.0;
-                lo[3 + i] = -0.02;
-                hi[3 + i] = 0.02;
-            }
-            Spec {
-                lo,
-                hi,
-                step: vec![2e-5; 6],
-                starts: vec![nominal_i.to_vec()],
-            }
-        }
-        Kind::MassPropertyChange => {
-            let mut lo = vec![0.0; 10];
-            let mut hi = vec![0.0; 10];
-            lo[0] = 0.0;
-            hi[0] = dur;
-            for i in 0..3 {
-                lo[1 + i] = -50.0;
-                hi[1 + i] = 50.0;
-            }
-            for i in 0..3 {
-                lo[4 + i] = nominal_i[i] * 0.3;
-                hi[4 + i] = nominal_i[i] * 3.0;
-                lo[7 + i] = -0.02;
-                hi[7 + i] = 0.02;
-            }
-            let mut step = vec![0.05; 10];
-            step[0] = 0.01;
-            for s in step.iter_mut().skip(4) {
-                *s = 2e-5;
-            }
-            // the change time barely has a gradient (the fit only sees it move across a
-            // firing), so it is started on a grid of the whole run
-            let starts = (0..MASS_CHANGE_STARTS)
-                .map(|k| (k as f64 + 0.5) / MASS_CHANGE_STARTS as f64)
-                .map(|f| {
-                    let mut s = vec![f * dur, 0.0, 0.0, 0.0];
-                    s.extend_from_slice(&nominal_i);
-                    s
-                })
-                .collect();
-            Spec {
-                lo,
-                hi,
-                step,
-                starts,
-            }
-        }
-        Kind::FuelSlosh => {
-            // a frequency grid plus the residual's own low-frequency peaks; small liquid
-            // fraction so every start is close to the current model
-            // (freq, damping, fluid fraction x, y, z): a fraction per axis, since a liquid
-            // can move about some axes only
-            let mut starts: Vec<Vec<f64>> = [0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0]
-                .iter()
-                .map(|&f| vec![f, 0.01, 0.01, 0.01, 0.01])
-                .collect();
-            for &f in slosh_hint_hz {
-                starts.push(vec![f, 0.01, 0.01, 0.01, 0.01]);
-                starts.push(vec![f, 0.005, 0.03, 0.03, 0.03]);
-            }
-            Spec {
-                lo: vec![0.02, 0.0, 0.0, 0.0, 0.0],
-                hi: vec![20.0, 0.5, 0.5, 0.5, 0.5],
-                step: vec![1e-3, 2e-4, 1e-3, 1e-3, 1e-3],
-                starts,
-            }
-        }
-        Kind::GyroBias => Spec {
-            lo: vec![-300.0; 3],
-            hi: vec![300.0; 3],
-            step: vec![0.05; 3],
-            starts: vec![vec![0.0; 3]],
-        },
-        Kind::GyroScale => Spec {
-            lo: vec![0.5; 3],
-            hi: vec![1.5; 3],
-            step: vec![1e-4; 3],
-            starts: vec![vec![1.0; 3]],
-        },
-        Kind::DisturbanceTorque => Spec {
-            lo: vec![-0.01; 3],
-            hi: vec![0.01; 3],
-            step: vec![1e-7; 3],
-            starts: vec![vec![0.0; 3]],
-        },
-        Kind::GyroRinging => Spec {
-            lo: vec![],
-            hi: vec![],
-            step: vec![],
-            starts: vec![],
-        },
-    }
+    kind.effect().spec(&context(prob, fired, slosh_hint_hz))
 }
 
 /// Fits the effects `kinds` (new one last) jointly with the initial rate, starting from
@@ -277,7 +147,7 @@ fn fit_with_starts(
     if let Some(k) = new {
         kinds.push(k);
     }
-    kinds.retain(|k| *k != Kind::GyroRinging);
+    kinds.retain(|k| !k.effect().on_residual());
     let mut lo = vec![];
     let mut hi = vec![];
     let mut step = vec![];
@@ -371,7 +241,7 @@ fn fit_with_starts(
     if let (Some(Kind::MassPropertyChange), Some(b)) = (new, best.as_ref()) {
         let i = base.len();
         let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
-        let half = dur / MASS_CHANGE_STARTS as f64;
+        let half = dur / effects::MASS_CHANGE_STARTS as f64;
         let mut top = (b.chi2, b.theta.clone());
         for k in 0..=CHANGE_SCAN_POINTS {
             let mut th = b.theta.clone();

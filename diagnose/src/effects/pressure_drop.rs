@@ -1,0 +1,45 @@
+//! Thrust lost per additional open valve (a shared tank's pressure drop).
+
+use super::{all_at, scalar, Context, Effect, Reported, Spec};
+use crate::model::{Params, NT};
+
+pub struct PressureDrop;
+
+impl Effect for PressureDrop {
+    fn name(&self) -> &'static str {
+        "pressure_drop"
+    }
+    fn n_params(&self, _: &[bool; NT]) -> usize {
+        1
+    }
+    fn apply(&self, th: &[f64], _: &[bool; NT], p: &mut Params) {
+        p.pressure_drop = th[0];
+    }
+    fn spec(&self, _: &Context) -> Spec {
+        Spec {
+            lo: vec![0.0],
+            hi: vec![0.05],
+            step: vec![1e-5],
+            starts: vec![vec![0.002]],
+        }
+    }
+    fn no_effect(&self, theta: &[f64], _: &Context) -> Vec<(usize, f64)> {
+        all_at(theta, 0.0)
+    }
+    // a tank cannot lose more than half a thruster's force per other open valve
+    fn implausible(&self, th: &[f64], _: &dyn Fn(usize) -> bool, cx: &Context) -> Option<String> {
+        (th[0] >= 0.5 * cx.min_thrust_n)
+            .then(|| "pressure drop above half a thruster's force".into())
+    }
+    fn signature(&self) -> &'static str {
+        "torque deficit grows with the number of valves open together"
+    }
+    fn window_ms(&self) -> i64 {
+        200
+    }
+    fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
+        let mut r = Reported::default();
+        scalar(&mut r, "newton_per_extra_thruster", th[0], se(0));
+        r
+    }
+}

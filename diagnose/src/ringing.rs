@@ -106,9 +106,31 @@ fn projections(
         let (s, c) = (w * dt).sin_cos();
         (env * c, env * s)
     };
+    // the longest whitening filter of the three axes: how far a window reaches back
+    let reach_back = wh
+        .map(|w| w.iter().map(|x| x.0.len()).max().unwrap_or(0))
+        .unwrap_or(0);
     windows
         .iter()
         .map(|(te, idx)| {
+            // the basis at every sample the window and its whitening reach, computed once
+            // for the three axes and every filter tap (the exp and sin/cos are most of a scan)
+            let first = idx
+                .iter()
+                .copied()
+                .min()
+                .unwrap_or(0)
+                .saturating_sub(reach_back);
+            let last = idx.iter().copied().max().unwrap_or(0);
+            let cached: Vec<(f64, f64)> = (first..=last.max(first))
+                .map(|j| basis(series.t_ms[j] as f64 - te))
+                .collect();
+            let at = |j: usize| {
+                cached
+                    .get(j.wrapping_sub(first))
+                    .copied()
+                    .unwrap_or((0.0, 0.0))
+            };
             std::array::from_fn(|a| {
                 let phi: &[f64] = wh.map(|w| w[a].0.as_slice()).unwrap_or(&[]);
                 let n = idx.len();
@@ -121,7 +143,7 @@ fn projections(
                         continue;
                     }
                     let dt = series.t_ms[i] as f64 - te;
-                    let (mut c, mut sn) = basis(dt);
+                    let (mut c, mut sn) = at(i);
                     let mut rv = r[i][a];
                     for (k, ph) in phi.iter().enumerate() {
                         let j = i as i64 - 1 - k as i64;
@@ -129,7 +151,7 @@ fn projections(
                             break;
                         }
                         let j = j as usize;
-                        let (cj, sj) = basis(series.t_ms[j] as f64 - te);
+                        let (cj, sj) = at(j);
                         c -= ph * cj;
                         sn -= ph * sj;
                         rv -= ph * r[j][a];

@@ -79,12 +79,12 @@ impl Obligation for IntegerPart {
 /// `2 r = r' + ub` with `q' = q + 2^bit`.
 ///
 /// Induction: `|a| = q_int |b| + r_0` with `r_0 < |b|` ([`IntegerPart`], the divide's
-/// definition). If `r_i 2^(frac-i) ...`: write `N_i = |a| 2^i` and `Q_i` for the quotient
-/// after `i` steps; `N_i = Q_i |b| + r_i`, `r_i < |b|` holds at `i = 0`, and one step maps
-/// it to `N_{i+1} = 2 N_i = (2 Q_i + c) |b| + r_{i+1}` with `r_{i+1} < |b|`, which is this
-/// obligation (`q` accumulates `2^bit` for the digit `c = 1`, as `2 Q_i + c` at the
-/// digit's weight). After `frac` steps `|a| 2^frac = q |b| + r`, `r < |b|`: `q` is the
-/// truncated quotient's magnitude.
+/// definition). Write `N_i = |a| 2^i` and `Q_i = q_int 2^i + (digits so far)` for the
+/// quotient after `i` steps; `N_i = Q_i |b| + r_i` with `r_i < |b|` holds at `i = 0`, and
+/// one step maps it to `N_{i+1} = 2 N_i = (2 Q_i + c) |b| + r_{i+1}` with `r_{i+1} < |b|`,
+/// which is this obligation (the word `q` holds `Q_i` scaled to its final weight: the step
+/// adds `2^bit` for the digit `c = 1`). After `frac` steps `|a| 2^frac = q |b| + r`,
+/// `r < |b|`: `q` is the truncated quotient's magnitude.
 pub struct RestoringStep {
     /// The quotient bit this step decides.
     pub bit: u32,

@@ -181,7 +181,8 @@ fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
         .unwrap_or((0.0, 0.0))
 }
 
-/// Runs the diagnosis of `series` against the satellite `plant`.
+/// Runs the diagnosis of `series` against the satellite `plant`; `None` when the nominal
+/// model does not predict the recording (a non-finite prediction).
 pub fn diagnose(
     series: &Series,
     plant: &Plant,
@@ -189,7 +190,7 @@ pub fn diagnose(
     model: &str,
     issues: DataIssues,
     settings: &Settings,
-) -> Analysis {
+) -> Option<Analysis> {
     let fired = effects::fired_thrusters(series);
     // 1. nominal prediction with the initial rate fitted, noise from its residual
     let provisional = NoiseModel::white([1e-6; 3]);
@@ -199,20 +200,16 @@ pub fn diagnose(
     let w0 = fit_nuisance(&prob0, &start)
         .map(|f| f.theta)
         .unwrap_or(start);
-    // no prediction (an extreme model can make it non-finite): a zero residual, one per
-    // sample, as for residual_before below (an empty one was indexed by noise::estimate)
-    let r0 = prob0
-        .residual(&select::nuisance_params(&w0))
-        .unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
+    // no prediction (an extreme model can make it non-finite): nothing to diagnose
+    // against, which the caller reports as an error rather than a residual of zero
+    let r0 = prob0.residual(&select::nuisance_params(&w0))?;
     let noise = noise::estimate(series, &r0);
     let mut prob = Problem::new(plant, series, &noise);
     prob.stride = (series.sample_rate_hz / 200.0).round().max(1.0) as usize;
     let nominal = fit_nuisance(&prob, &w0);
     let mut omega0: Vec<f64> = nominal.as_ref().map(|f| f.theta.clone()).unwrap_or(w0);
     let nominal_params = select::nuisance_params(&omega0);
-    let residual_before = prob
-        .residual(&nominal_params)
-        .unwrap_or_else(|| vec![[0.0; 3]; series.len()]);
+    let residual_before = prob.residual(&nominal_params)?;
     let chi2_nominal = prob.chi2(&nominal_params).unwrap_or(f64::INFINITY);
     let n_obs = prob.n_obs() as f64;
     let ln_n = n_obs.max(2.0).ln();
@@ -645,7 +642,7 @@ pub fn diagnose(
         unexplained,
         data_issues: issues,
     };
-    Analysis {
+    Some(Analysis {
         output,
         series: series.clone(),
         tests_before: stats::residual_tests(series, &residual_before),
@@ -659,7 +656,7 @@ pub fn diagnose(
         alias_marks,
         scores,
         rejections,
-    }
+    })
 }
 
 /// How many of a round's strongest candidates are tried against the acceptance checks.

@@ -43,6 +43,9 @@ pub enum DiagnoseError {
     /// Sample index (0-based) and its `time_ms`.
     #[error("{0}: sample {1}: time_ms {2} is past {max} ms (2^53, about 285,000 years), the latest time the diagnosis can represent exactly", max = MAX_TIME_MS)]
     TimeTooLate(String, usize, u64),
+    /// Recording and model names.
+    #[error("{0}: the nominal model {1} does not give a finite prediction of this recording (check its inertia, thrusts and thruster positions); nothing can be diagnosed against it")]
+    NoPrediction(String, String),
 }
 
 /// The latest `time_ms` the diagnosis accepts: 2^53 ms, so that every time (and the
@@ -97,9 +100,8 @@ pub fn diagnose_recording(
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())
         .unwrap_or_else(|| rec.source.clone());
-    Ok(diagnose(
-        &series, &plant, &name, &sat.name, issues, settings,
-    ))
+    diagnose(&series, &plant, &name, &sat.name, issues, settings)
+        .ok_or_else(|| DiagnoseError::NoPrediction(rec.source.clone(), sat.name.clone()))
 }
 pub mod score;
 pub mod synth;

@@ -640,6 +640,11 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
                     prop_assert!(t > MAX_TIME_MS && rec.samples[i].time_ms == t, "{msg}");
                     record("Err: time_ms past 2^53 ms");
                 }
+                DiagnoseError::NoPrediction(..) => {
+                    // only a model the case made extreme can fail to predict
+                    prop_assert!(c.model.is_some(), "{msg}");
+                    record("Err: the model does not predict the recording");
+                }
                 #[allow(unreachable_patterns)]
                 other => record(&format!("Err: {other}")),
             }
@@ -770,7 +775,9 @@ fn tiny_declared_period_and_a_long_gap() {
 /// A valid but extreme model (sph1 with every thrust and every thruster position 1000
 /// times larger) whose nominal prediction of a 2-sample recording is not finite: the
 /// first residual was empty and the noise estimate indexed it (`diagnose/src/noise.rs`,
-/// "index out of bounds: the len is 0 but the index is 1").
+/// "index out of bounds: the len is 0 but the index is 1"); then it was diagnosed against a
+/// zero residual and said nothing was unexplained. Now: a clear error naming the recording
+/// and the model.
 #[test]
 fn model_whose_prediction_is_not_finite() {
     let mut sat = Satellite::builtin("sph1").expect("sph1");
@@ -783,8 +790,13 @@ fn model_whose_prediction_is_not_finite() {
     sat.validate().expect("a valid model");
     let text = csv_text(Some("sph1"), Some(500.0), &quiet(&[0, 2], 20));
     let rec = Recording::from_reader(text.as_bytes(), "m.csv").expect("a valid recording");
-    let a = diagnose_recording(&rec, &sat, &cheap()).expect("diagnosed");
-    assert_eq!(a.output.samples, 2);
+    let e = diagnose_recording(&rec, &sat, &cheap()).expect_err("no prediction");
+    assert!(matches!(e, DiagnoseError::NoPrediction(..)), "{e}");
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with("m.csv: ") && msg.contains("sph1") && msg.contains("finite"),
+        "{msg}"
+    );
 }
 
 /// time_ms near 2^62 (the reader takes any u64): the noise estimate's lag arithmetic

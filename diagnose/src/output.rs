@@ -47,15 +47,4 @@ pub struct DiagnosisOutput {
     pub data_issues: DataIssues,
 }
 
-/// A number JSON can carry: non-finite uncertainties become 1e9 ("unbounded").
-pub fn num(x: f64) -> Value {
-    let x = if x.is_finite() { x } else { 1e9 };
-    serde_json::Number::from_f64(x)
-        .map(Value::Number)
-        .unwrap_or(Value::Null)
-}
-
-/// A JSON array of numbers.
-pub fn nums(xs: &[f64]) -> Value {
-    Value::Array(xs.iter().map(|&x| num(x)).collect())
-}
+pub use crate::json_number::{num, nums};

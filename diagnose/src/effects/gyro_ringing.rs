@@ -4,8 +4,8 @@
 //! `acceptance::implausible_ringing`.
 
 use super::{Context, Effect, Reported, Spec};
+use crate::json_number::{num, nums};
 use crate::model::{Params, NT};
-use crate::output::{num, nums};
 
 pub struct GyroRinging;
 

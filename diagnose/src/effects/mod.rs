@@ -20,8 +20,8 @@ mod thruster_latency;
 
 pub use mass_property_change::MASS_CHANGE_STARTS;
 
+use crate::json_number::{num, nums};
 use crate::model::{Params, NT};
-use crate::output::{num, nums};
 use crate::series::Series;
 use serde_json::{Map, Value};
 

@@ -1,8 +1,8 @@
 //! A thrust scale per thruster (one per thruster that fires in the recording).
 
 use super::{all_at, Context, Effect, Reported, Spec};
+use crate::json_number::nums;
 use crate::model::{Params, NT};
-use crate::output::nums;
 
 pub struct ThrustScale;
 

@@ -4,6 +4,8 @@
 
 use massid_kernel::int::MachineExt;
 use massid_proofs_solver::discharge::{mutants, Discharge, Obligation, Verdict};
+use massid_proofs_solver::obligations::div::is_restoring_step;
+use massid_proofs_solver::obligations::mul::is_rounded_product;
 use massid_proofs_solver::obligations::{self, FRAC};
 use massid_proofs_solver::prover::{Prover, ProverExt};
 use std::time::Duration;
@@ -49,26 +51,12 @@ impl Obligation for TruncatingProduct {
         &["a", "b"]
     }
     fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
-        let wrong = |m: &P| {
+        let r = p.under_test(|m| {
             let wide = m.mul_d(&m.sext(&x[0]), &m.sext(&x[1]));
             m.saturate_to_w(&m.ashr_dk(&wide, FRAC))
-        };
-        // the same property as the kernel's product (obligations::mul::RoundedProduct)
-        let right = obligations::mul::RoundedProduct {
-            frac: FRAC,
-            widening: obligations::mul::Widening::Direct,
-        };
-        let (env, _) = right.check(p, x);
-        let r = p.sw(&p.under_test(wrong));
-        let exact = p.i_mul(&p.sw(&x[0]), &p.sw(&x[1]));
-        let half = p.int(1 << (FRAC - 1));
-        let scaled = p.i_mul(&r, &p.int(1 << FRAC));
-        let nearest = p.all(
-            &p.i_le(&p.i_sub(&scaled, &half), &exact),
-            &p.i_lt(&exact, &p.i_add(&scaled, &half)),
-        );
-        let small = p.i_within(&exact, -(1i128 << 50), 1i128 << 50);
-        (env, p.implies(&small, &nearest))
+        });
+        // the kernel's product's own property
+        (p.b(true), is_rounded_product(p, &x[0], &x[1], &r, FRAC))
     }
 }
 
@@ -85,10 +73,6 @@ impl Obligation for OffByOneStep {
     }
     fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
         let (r, q, ub) = (&x[0], &x[1], &x[2]);
-        let envelope = p.all(
-            &p.all(&p.not(&p.eq(ub, &p.w(0))), &p.ule(ub, &p.w(1 << 31))),
-            &p.all(&p.ult(r, ub), &p.eq(&p.and(q, &p.w(1)), &p.w(0))),
-        );
         let (r2, q2) = p.under_test(|m| {
             let r = m.shl_k(r, 1);
             let take = m.ult(ub, &r);
@@ -97,14 +81,8 @@ impl Obligation for OffByOneStep {
                 m.select(&take, &m.or(q, &m.w(1)), q),
             )
         });
-        let (ri, qi, ubi, r2i, q2i) = (p.uw(r), p.uw(q), p.uw(ub), p.uw(&r2), p.uw(&q2));
-        let twice = p.i_add(&ri, &ri);
-        let kept = p.all(&p.i_eq(&q2i, &qi), &p.i_eq(&twice, &r2i));
-        let taken = p.all(
-            &p.i_eq(&q2i, &p.i_add(&qi, &p.int(1))),
-            &p.i_eq(&twice, &p.i_add(&r2i, &ubi)),
-        );
-        (envelope, p.all(&p.any(&kept, &taken), &p.i_lt(&r2i, &ubi)))
+        // the kernel's step's own property, at bit 0
+        is_restoring_step(p, (r, q, ub), (&r2, &q2), 0)
     }
 }
 

@@ -99,21 +99,32 @@ impl Obligation for RestoringStep {
     }
     fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
         let (r, q, ub) = (&x[0], &x[1], &x[2]);
-        let weight = 1u32 << self.bit;
-        let envelope = p.all(
-            &p.all(&p.not(&p.eq(ub, &p.w(0))), &p.ule(ub, &p.w(1 << 31))),
-            &p.all(&p.ult(r, ub), &p.eq(&p.and(q, &p.w(weight)), &p.w(0))),
-        );
         let (r2, q2) = p.under_test(|m| restoring_step(m, r, q, ub, self.bit));
-        let (ri, qi, ubi, r2i, q2i) = (p.uw(r), p.uw(q), p.uw(ub), p.uw(&r2), p.uw(&q2));
-        let twice = p.i_add(&ri, &ri);
-        let kept = p.all(&p.i_eq(&q2i, &qi), &p.i_eq(&twice, &r2i));
-        let taken = p.all(
-            &p.i_eq(&q2i, &p.i_add(&qi, &p.int(i128::from(weight)))),
-            &p.i_eq(&twice, &p.i_add(&r2i, &ubi)),
-        );
-        (envelope, p.all(&p.any(&kept, &taken), &p.i_lt(&r2i, &ubi)))
+        is_restoring_step(p, (r, q, ub), (&r2, &q2), self.bit)
     }
+}
+
+/// `(envelope, property)` of one restoring step from `(r, q, ub)` to `(r2, q2)` deciding
+/// quotient bit `bit` (see [`RestoringStep`]).
+pub fn is_restoring_step<P: Prover>(
+    p: &P,
+    (r, q, ub): (&P::W, &P::W, &P::W),
+    (r2, q2): (&P::W, &P::W),
+    bit: u32,
+) -> (P::Bool, P::Bool) {
+    let weight = 1u32 << bit;
+    let envelope = p.all(
+        &p.all(&p.not(&p.eq(ub, &p.w(0))), &p.ule(ub, &p.w(1 << 31))),
+        &p.all(&p.ult(r, ub), &p.eq(&p.and(q, &p.w(weight)), &p.w(0))),
+    );
+    let (ri, qi, ubi, r2i, q2i) = (p.uw(r), p.uw(q), p.uw(ub), p.uw(r2), p.uw(q2));
+    let twice = p.i_add(&ri, &ri);
+    let kept = p.all(&p.i_eq(&q2i, &qi), &p.i_eq(&twice, &r2i));
+    let taken = p.all(
+        &p.i_eq(&q2i, &p.i_add(&qi, &p.int(i128::from(weight)))),
+        &p.i_eq(&twice, &p.i_add(&r2i, &ubi)),
+    );
+    (envelope, p.all(&p.any(&kept, &taken), &p.i_lt(&r2i, &ubi)))
 }
 
 /// `signed_quotient(q, negative)`: `fits` exactly when `±q` is an `i32`, and then the word

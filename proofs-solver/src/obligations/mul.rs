@@ -53,6 +53,27 @@ fn engine_for(how: Widening) -> Engine {
     }
 }
 
+/// `r` is the product of the words `a` and `b` with `frac` fractional bits, rounded to
+/// nearest (ties up) and saturated to `i32`: the property of `Fx * Fx`.
+pub fn is_rounded_product<P: Prover>(p: &P, a: &P::W, b: &P::W, r: &P::W, frac: u32) -> P::Bool {
+    let exact = p.i_mul(&p.sw(a), &p.sw(b));
+    let one = 1i128 << frac;
+    let half = one >> 1;
+    let r = p.sw(r);
+    let scaled = p.i_mul(&r, &p.int(one));
+    let nearest = p.all(
+        &p.i_le(&p.i_sub(&scaled, &p.int(half)), &exact),
+        &p.i_lt(&exact, &p.i_add(&scaled, &p.int(half))),
+    );
+    let above = p.i_le(&p.int((1i128 << 31) * one - half), &exact);
+    let below = p.i_lt(&exact, &p.int(-(1i128 << 31) * one - half));
+    p.select_bool(
+        &above,
+        &p.i_eq(&r, &p.int(i128::from(i32::MAX))),
+        &p.select_bool(&below, &p.i_eq(&r, &p.int(i128::from(i32::MIN))), &nearest),
+    )
+}
+
 /// The fixed-point product with `frac` fractional bits (what `Fx * Fx` runs): the exact
 /// product rounded to nearest, ties up, saturated to `i32`, for all pairs of words.
 pub struct RoundedProduct {
@@ -76,22 +97,7 @@ impl Obligation for RoundedProduct {
             let wide = widen(m, self.widening, a, b);
             round_product(m, &wide, f)
         });
-        let exact = p.i_mul(&p.sw(a), &p.sw(b));
-        let one = 1i128 << f;
-        let half = one >> 1;
-        let r = p.sw(&r);
-        let scaled = p.i_mul(&r, &p.int(one));
-        let nearest = p.all(
-            &p.i_le(&p.i_sub(&scaled, &p.int(half)), &exact),
-            &p.i_lt(&exact, &p.i_add(&scaled, &p.int(half))),
-        );
-        let above = p.i_le(&p.int((1i128 << 31) * one - half), &exact);
-        let below = p.i_lt(&exact, &p.int(-(1i128 << 31) * one - half));
-        let property = p.select_bool(
-            &above,
-            &p.i_eq(&r, &p.int(i128::from(i32::MAX))),
-            &p.select_bool(&below, &p.i_eq(&r, &p.int(i128::from(i32::MIN))), &nearest),
-        );
+        let property = is_rounded_product(p, a, b, &r, f);
         (p.b(true), property)
     }
     fn engine(&self) -> Engine {

@@ -55,7 +55,7 @@ fn run(seconds: u32, effects: &[&str]) -> Row {
     let s = synth::make("sph2", Maneuver::Combo { seconds }, 1000, eff, 60);
     let series = Series::from_recording(&s.recording, &s.satellite).expect("samples");
     let plant = model::Plant::new(&s.satellite);
-    let duty = model::duty_grid(&series, 0.0, 0.0);
+    let duty = model::duty_grid(&series, 0.0, 0.0, 0.0);
     let p = model::Params::default();
     let t = Instant::now();
     let reps = 10;

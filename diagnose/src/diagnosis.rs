@@ -52,6 +52,9 @@ pub struct Analysis {
     pub rejections: Vec<Rejection>,
     pub by_condition_before: Vec<(locate::Condition, usize, [f64; 3])>,
     pub by_condition_after: Vec<(locate::Condition, usize, [f64; 3])>,
+    /// The named effects' parameters in the model's layout, in acceptance order (what
+    /// a held-out prediction runs with, `holdout.rs`).
+    pub fitted: Vec<(Kind, Vec<f64>)>,
 }
 
 struct Accepted {
@@ -66,9 +69,20 @@ struct Accepted {
 
 /// Fits the nuisances (initial rate, rate jumps at gaps) of the nominal model.
 fn fit_nuisance(prob: &Problem, nuis: &[f64]) -> Option<fit::FitResult> {
+    fit_nuisance_with(prob, &[], nuis)
+}
+
+/// Fits the nuisances (initial rate, rate jumps at gaps) of the model with `effects` held
+/// at the given parameters.
+pub(crate) fn fit_nuisance_with(
+    prob: &Problem,
+    effects: &[(Kind, Vec<f64>)],
+    nuis: &[f64],
+) -> Option<fit::FitResult> {
     let n = nuis.len();
+    let fired = effects::fired_thrusters(prob.series);
     let fam = Family {
-        apply: Box::new(|th: &[f64]| Some(select::nuisance_params(th))),
+        apply: Box::new(move |th: &[f64]| Some(select::build(&fired, effects, th))),
         step: vec![1e-5; n],
         lo: vec![-3.0; n],
         hi: vec![3.0; n],
@@ -78,7 +92,7 @@ fn fit_nuisance(prob: &Problem, nuis: &[f64]) -> Option<fit::FitResult> {
 }
 
 /// Mean of the first usable samples per axis as the starting initial rate.
-fn initial_rate(series: &Series) -> [f64; 3] {
+pub(crate) fn initial_rate(series: &Series) -> [f64; 3] {
     std::array::from_fn(|a| {
         let first: Vec<f64> = (0..series.len())
             .filter(|&i| series.valid[i][a])
@@ -643,6 +657,7 @@ pub fn diagnose(
         data_issues: issues,
     };
     Some(Analysis {
+        fitted: accepted.iter().map(|a| (a.kind, a.theta.clone())).collect(),
         output,
         series: series.clone(),
         tests_before: stats::residual_tests(series, &residual_before),

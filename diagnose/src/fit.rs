@@ -19,7 +19,7 @@ pub struct Problem<'a> {
     pub stride: usize,
     /// Samples the fit may use (None: all): the training blocks of an out-of-sample check.
     pub train: Option<std::rc::Rc<Vec<bool>>>,
-    duty_cache: std::cell::RefCell<Option<((f64, f64), std::rc::Rc<Vec<[f32; NT]>>)>>,
+    duty_cache: std::cell::RefCell<Option<((f64, f64, f64), std::rc::Rc<Vec<[f32; NT]>>)>>,
 }
 
 impl<'a> Problem<'a> {
@@ -35,21 +35,21 @@ impl<'a> Problem<'a> {
         }
     }
 
-    fn duty(&self, open: f64, close: f64) -> std::rc::Rc<Vec<[f32; NT]>> {
+    fn duty(&self, open: f64, close: f64, rise: f64) -> std::rc::Rc<Vec<[f32; NT]>> {
         let mut c = self.duty_cache.borrow_mut();
         if let Some((key, d)) = c.as_ref() {
-            if *key == (open, close) {
+            if *key == (open, close, rise) {
                 return d.clone();
             }
         }
-        let d = std::rc::Rc::new(model::duty_grid(self.series, open, close));
-        *c = Some(((open, close), d.clone()));
+        let d = std::rc::Rc::new(model::duty_grid(self.series, open, close, rise));
+        *c = Some(((open, close, rise), d.clone()));
         d
     }
 
     /// Predicted gyro output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
-        let d = self.duty(p.open_ms, p.close_ms);
+        let d = self.duty(p.open_ms, p.close_ms, p.rise_ms);
         model::predict(self.plant, self.series, &d, p)
     }
 
@@ -185,6 +185,9 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     let mut it = 0;
     let mut jac = DMatrix::zeros(r.len(), k);
     let mut have_jac = false;
+    // Parameters no usable sample depends on (an axis the craft cannot turn about, a
+    // masked gyro): held where they start and reported with an unknown (NaN) error.
+    let mut dead = vec![false; k];
     while it < max_iter {
         it += 1;
         if !have_jac {
@@ -198,6 +201,9 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
             )?;
             if first {
                 jac = new;
+                for (j, d) in dead.iter_mut().enumerate() {
+                    *d = jac.column(j).iter().all(|&v| v == 0.0);
+                }
             } else {
                 let cols = fam.frozen_from.min(k);
                 for j in 0..cols {
@@ -206,8 +212,11 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
             }
             have_jac = true;
         }
-        let jtj = jac.transpose() * &jac;
-        let jtr = jac.transpose() * &r;
+        let jtj = pin_dead(jac.transpose() * &jac, &dead);
+        let mut jtr = jac.transpose() * &r;
+        for (j, _) in dead.iter().enumerate().filter(|d| *d.1) {
+            jtr[j] = 0.0;
+        }
         let mut improved = false;
         for _ in 0..8 {
             let mut a = jtj.clone();
@@ -249,7 +258,7 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
             jac.set_column(j, &new.column(j));
         }
     }
-    let jtj = jac.transpose() * &jac;
+    let jtj = pin_dead(jac.transpose() * &jac, &dead);
     let cov = jtj
         .clone()
         .try_inverse()
@@ -260,7 +269,13 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     let excess = (cost / dof).max(1.0);
     let scale = excess / prob.stride as f64;
     let stderr = (0..k)
-        .map(|j| (cov[(j, j)] * scale).max(0.0).sqrt())
+        .map(|j| {
+            if dead[j] {
+                f64::NAN
+            } else {
+                (cov[(j, j)] * scale).max(0.0).sqrt()
+            }
+        })
         .collect();
     let params = (fam.apply)(&theta)?;
     let chi2 = prob.chi2(&params)?;
@@ -271,6 +286,17 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         chi2,
         iterations: it,
     })
+}
+
+/// The normal matrix with every dead parameter's row and column replaced by the identity's,
+/// so the step leaves it where it is and the others' covariance is that of the live ones.
+fn pin_dead(mut jtj: DMatrix<f64>, dead: &[bool]) -> DMatrix<f64> {
+    for (j, _) in dead.iter().enumerate().filter(|d| *d.1) {
+        jtj.row_mut(j).fill(0.0);
+        jtj.column_mut(j).fill(0.0);
+        jtj[(j, j)] = 1.0;
+    }
+    jtj
 }
 
 /// Forward-difference Jacobian of the columns before `upto` (others left zero).

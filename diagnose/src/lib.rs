@@ -8,6 +8,7 @@ pub mod alias;
 pub mod diagnosis;
 pub mod effects;
 pub mod fit;
+pub mod holdout;
 pub mod json_number;
 pub mod locate;
 pub mod model;

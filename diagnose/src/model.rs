@@ -12,8 +12,9 @@ use crate::series::Series;
 /// How many predictions ran in this process (for the benchmark and profiling).
 pub static PREDICTIONS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
-/// Number of thrusters.
-pub const NT: usize = 12;
+/// Most thrusters a model may have (a thruster word is 16 bits); a model with fewer has
+/// zero force on the rest, and the rest never fire (the reader checks the words).
+pub const NT: usize = reference_f64::satellite::MAX_THRUSTERS;
 
 /// Every parameter of the rigid-body and gyro model. `Default` is "no effect" (the
 /// nominal model). Gyro ringing is not here: it is incoherent from edge to edge and is
@@ -40,6 +41,11 @@ pub struct Params {
     pub gyro_bias_counts: [f64; 3],
     pub gyro_scale: [f64; 3],
     pub disturbance_nm: [f64; 3],
+    /// Rate damping per axis (air bearing, drag): a torque `-damping * omega`, N m s/rad.
+    pub damping_nms: [f64; 3],
+    /// First-order thrust rise and decay time constant at every valve edge, ms (0: the
+    /// valve's force steps).
+    pub rise_ms: f64,
     /// Body rate at the first sample, rad/s (a nuisance parameter, always fitted).
     pub omega0: [f64; 3],
     /// Rate jumps (rad/s) at the first sample after each telemetry gap: the commands
@@ -63,17 +69,22 @@ impl Default for Params {
             gyro_bias_counts: [0.0; 3],
             gyro_scale: [1.0; 3],
             disturbance_nm: [0.0; 3],
+            damping_nms: [0.0; 3],
+            rise_ms: 0.0,
             omega0: [0.0; 3],
             resets: Vec::new(),
         }
     }
 }
 
-/// Per-step open fraction of every valve on a 1 ms grid, for given latencies.
-pub fn duty_grid(series: &Series, open_ms: f64, close_ms: f64) -> Vec<[f32; NT]> {
+/// Per-step mean force fraction of every valve on a 1 ms grid, for given latencies and
+/// thrust-rise time constant (0: the open fraction of each step).
+pub fn duty_grid(series: &Series, open_ms: f64, close_ms: f64, rise_ms: f64) -> Vec<[f32; NT]> {
     let n = series.word_ms.len();
     let mut duty = vec![[0f32; NT]; n];
-    for th in 0..NT {
+    let used = series.word_ms.iter().fold(0u16, |a, &w| a | w);
+    let top = NT - used.leading_zeros() as usize;
+    for th in 0..top {
         let bit = 1u16 << th;
         let mut on_start: Option<f64> = None;
         let mut prev = false;
@@ -92,7 +103,26 @@ pub fn duty_grid(series: &Series, open_ms: f64, close_ms: f64) -> Vec<[f32; NT]>
             add_interval(&mut duty, th, s, n as f64 + close_ms);
         }
     }
+    if rise_ms > 0.0 {
+        lag_in_place(&mut duty, top, rise_ms);
+    }
     duty
+}
+
+/// Passes each valve's open fraction through a first-order lag of `tau_ms`: with the input
+/// held over a 1 ms step, the force starts at `x`, ends at `u + (x - u) e^(-1/tau)` and
+/// averages `u + (x - u) tau (1 - e^(-1/tau))` over the step (exact for a held input).
+fn lag_in_place(duty: &mut [[f32; NT]], top: usize, tau_ms: f64) {
+    let decay = (-1.0 / tau_ms).exp();
+    let mean = tau_ms * (1.0 - decay);
+    for th in 0..top {
+        let mut x = 0.0f64;
+        for d in duty.iter_mut() {
+            let u = d[th] as f64;
+            d[th] = (u + (x - u) * mean) as f32;
+            x = u + (x - u) * decay;
+        }
+    }
 }
 
 fn add_interval(duty: &mut [[f32; NT]], th: usize, a: f64, b: f64) {
@@ -122,17 +152,24 @@ pub struct Plant {
     inertia: [f64; 6],
     base_pressure_drop: f64,
     pub counts_per_rad_s: [f64; 3],
+    /// A planar craft turns about z only (the bearing holds x and y).
+    pub planar: bool,
+    /// Thrusters the model has.
+    pub n_thrusters: usize,
 }
 
 impl Plant {
     pub fn new(sat: &Satellite) -> Plant {
+        let n = sat.n_thrusters();
         Plant {
-            pos: std::array::from_fn(|i| sat.pos_m(i)),
-            force: std::array::from_fn(|i| sat.force_n(i)),
+            pos: std::array::from_fn(|i| if i < n { sat.pos_m(i) } else { Vector3::zeros() }),
+            force: std::array::from_fn(|i| if i < n { sat.force_n(i) } else { Vector3::zeros() }),
             com: sat.com_m(),
             inertia: sat.inertia_kgm2,
             base_pressure_drop: sat.pressure_drop_n_per_extra,
             counts_per_rad_s: sat.gyro_counts_per_rad_s,
+            planar: sat.planar,
+            n_thrusters: n,
         }
     }
 
@@ -231,6 +268,8 @@ pub fn predict(
         .unwrap_or(f64::INFINITY);
     let slosh_on = p.slosh.is_some();
     let dist = Vector3::from(p.disturbance_nm);
+    let damping = Vector3::from(p.damping_nms);
+    let planar = plant.planar;
     let pd = plant.base_pressure_drop + p.pressure_drop;
 
     // state: omega (3), slosh q (3), slosh qdot (3)
@@ -300,8 +339,13 @@ pub fn predict(
                         }
                     }
                     (wd, *qd, qdd)
+                } else if planar {
+                    // the bearing holds x and y: only the yaw equation moves
+                    let tz = tau_c.z - damping.z * w.z;
+                    (Vector3::new(0.0, 0.0, tz / props.inertia[(2, 2)]), Vector3::zeros(), Vector3::zeros())
                 } else {
-                    let wd = props.inv_rigid * (tau_c - w.cross(&(props.inertia * w)));
+                    let tau = tau_c - damping.component_mul(w);
+                    let wd = props.inv_rigid * (tau - w.cross(&(props.inertia * w)));
                     (wd, Vector3::zeros(), Vector3::zeros())
                 }
             };
@@ -361,7 +405,7 @@ mod tests {
             Some(1000.0),
         )
         .unwrap();
-        let duty = duty_grid(&series, 0.0, 0.0);
+        let duty = duty_grid(&series, 0.0, 0.0, 0.0);
         let p = Params {
             omega0: [0.6, -0.3, 0.9],
             ..Params::default()
@@ -398,7 +442,7 @@ mod tests {
             None,
         )
         .unwrap();
-        let d = duty_grid(&series, 0.25, 0.5);
+        let d = duty_grid(&series, 0.25, 0.5, 0.0);
         let on: Vec<f32> = d.iter().map(|x| x[0]).collect();
         assert_eq!(on, vec![0.0, 0.0, 0.0, 0.75, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0]);
     }

@@ -79,9 +79,10 @@ pub fn context<'a>(prob: &Problem, fired: &'a [bool; NT], slosh_hint_hz: &'a [f6
         // times of a change are on the recording's clock
         duration_s: prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3,
         nominal_inertia: prob.plant.nominal_inertia(),
-        min_thrust_n: (0..NT)
+        min_thrust_n: (0..prob.plant.n_thrusters)
             .map(|i| prob.plant.thrust_n(i))
             .fold(f64::MAX, f64::min),
+        n_thrusters: prob.plant.n_thrusters,
         fired,
         slosh_hint_hz,
         sample_rate_hz: prob.series.sample_rate_hz,

@@ -134,6 +134,46 @@ impl Series {
             rate.push(r);
             valid.push(v);
         }
+        // recording format v1: the thruster word has 12 bits
+        Self::assemble(t_ms, rate, valid, railed, words, 0x0fff, declared_rate_hz)
+    }
+
+    /// Builds the series from rates already in rad/s (recording format v2, e.g. motion
+    /// capture): a NaN rate is a sample that axis did not measure (an axis the recording
+    /// does not have, or a missing field), masked like a railed gyro sample but not
+    /// counted as railed. `word_mask` holds the bits that are thrusters of the model.
+    /// Returns None when there are no samples or times are not increasing.
+    pub fn from_rates(
+        t_ms: &[i64],
+        rates: &[[f64; 3]],
+        words: &[u16],
+        word_mask: u16,
+        declared_rate_hz: Option<f64>,
+    ) -> Option<Series> {
+        let n = t_ms.len();
+        if n == 0 || rates.len() != n || words.len() != n {
+            return None;
+        }
+        if t_ms.windows(2).any(|w| w[1] <= w[0]) || t_ms[0] < 0 {
+            return None;
+        }
+        let valid: Vec<[bool; 3]> = rates.iter().map(|r| r.map(f64::is_finite)).collect();
+        let rate = rates.iter().map(|r| r.map(|v| if v.is_finite() { v } else { 0.0 })).collect();
+        Self::assemble(t_ms, rate, valid, [0; 3], words, word_mask, declared_rate_hz)
+    }
+
+    /// The part common to every source: the sample rate (declared vs time steps), the
+    /// model's clock with long gaps shortened, the command grid, and the gap resets.
+    fn assemble(
+        t_ms: &[i64],
+        rate: Vec<[f64; 3]>,
+        valid: Vec<[bool; 3]>,
+        railed: [u64; 3],
+        words: &[u16],
+        word_mask: u16,
+        declared_rate_hz: Option<f64>,
+    ) -> Option<Series> {
+        let n = t_ms.len();
         let sample_rate_hz = infer_rate(t_ms);
         let mut warnings = vec![];
         if let Some(d) = declared_rate_hz {
@@ -166,7 +206,7 @@ impl Series {
         let mut current = 0u16;
         for (tick, w) in word_ms.iter_mut().enumerate() {
             while k < n && model_t[k] as usize <= tick {
-                current = words[k] & 0x0fff;
+                current = words[k] & word_mask;
                 k += 1;
             }
             *w = current;
@@ -206,6 +246,29 @@ impl Series {
             gaps: n_gaps,
             missing_samples,
         })
+    }
+
+    /// The samples `range` only, on the same clock and with the same command history up
+    /// to the last of them (a prediction of them starts at their first sample): the two
+    /// halves of a fit-here, predict-there check. None for an empty range.
+    pub fn select(&self, range: std::ops::Range<usize>) -> Option<Series> {
+        let range = range.start.min(self.len())..range.end.min(self.len());
+        if range.is_empty() {
+            return None;
+        }
+        let last = *self.t_ms.get(range.end - 1)? as usize;
+        let mut part = self.clone();
+        part.t_ms = self.t_ms[range.clone()].to_vec();
+        part.rate = self.rate[range.clone()].to_vec();
+        part.valid = self.valid[range.clone()].to_vec();
+        part.word_ms.truncate(last + 1);
+        part.gap_resets = self
+            .gap_resets
+            .iter()
+            .filter(|&&i| range.contains(&i) && i > range.start)
+            .map(|&i| i - range.start)
+            .collect();
+        Some(part)
     }
 
     /// Number of samples.

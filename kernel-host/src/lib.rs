@@ -29,17 +29,39 @@ pub enum HostError {
     },
 }
 
-/// The kernel's plain-array parameters (f32) from a ground model.
-pub fn params(sat: &Satellite) -> SatelliteParams {
-    SatelliteParams {
-        thruster_pos_m: sat.thruster_pos_m.map(|p| p.map(|v| v as f32)),
-        thrust_dir: sat.thrust_dir.map(|p| p.map(|v| v as f32)),
-        thrust_n: sat.thrust_n.map(|v| v as f32),
+/// The kernel's plain-array parameters (f32) from a ground model. The kernel flies the
+/// 3-D, 12-thruster SPHERES layout: any other model is refused here, rather than padded
+/// or truncated, and a planar craft is refused because the kernel's 3-D RLS would report
+/// terms a planar craft cannot identify.
+pub fn params(sat: &Satellite) -> Result<SatelliteParams, HostError> {
+    let refuse = |why: String| HostError::Model {
+        name: sat.name.clone(),
+        why,
+    };
+    if sat.planar {
+        return Err(refuse(
+            "a planar craft: the kernel identifies 3-D mass properties only".into(),
+        ));
+    }
+    let n = sat.n_thrusters();
+    let twelve = |v: &[[f64; 3]]| -> Result<[[f32; 3]; 12], HostError> {
+        let a: &[[f64; 3]; 12] = v.try_into().map_err(|_| {
+            refuse(format!("{n} thrusters: the kernel is built for 12 (model.rs N_THRUSTERS)"))
+        })?;
+        Ok(a.map(|p| p.map(|v| v as f32)))
+    };
+    let thrust_n: &[f64; 12] = sat.thrust_n.as_slice().try_into().map_err(|_| {
+        refuse(format!("{n} thrusters: the kernel is built for 12 (model.rs N_THRUSTERS)"))
+    })?;
+    Ok(SatelliteParams {
+        thruster_pos_m: twelve(&sat.thruster_pos_m)?,
+        thrust_dir: twelve(&sat.thrust_dir)?,
+        thrust_n: thrust_n.map(|v| v as f32),
         inertia_kgm2: sat.inertia_kgm2.map(|v| v as f32),
         com_offset_mm: sat.com_offset_mm.map(|v| v as f32),
         gyro_counts_per_rad_s: sat.gyro_counts_per_rad_s.map(|v| v as f32),
         pressure_drop_n_per_extra: sat.pressure_drop_n_per_extra as f32,
-    }
+    })
 }
 
 /// The configuration the reference's online form corresponds to: the seed's settings at
@@ -54,7 +76,7 @@ pub fn pipeline<S: Scalar>(
     sat: &Satellite,
     cfg: PipelineConfig<S>,
 ) -> Result<Pipeline<S>, HostError> {
-    Pipeline::new(&params(sat), cfg).map_err(|e| HostError::Model {
+    Pipeline::new(&params(sat)?, cfg).map_err(|e| HostError::Model {
         name: sat.name.clone(),
         why: format!("{e:?}"),
     })
@@ -242,7 +264,7 @@ mod tests {
         // The kernel carries its own SPHERES tables (no allocation, no parsing onboard):
         // they must be the reference's to f32 precision.
         let k = massid_kernel::model::SPH2;
-        let r = params(&Satellite::builtin("sph2").expect("sph2"));
+        let r = params(&Satellite::builtin("sph2").expect("sph2")).expect("sph2 flies");
         let close = |a: f32, b: f32| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0);
         for i in 0..massid_kernel::model::N_THRUSTERS {
             for a in 0..3 {

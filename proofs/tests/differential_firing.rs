@@ -17,18 +17,18 @@ use reference_f64::satellite::Satellite;
 fn pair(mut sat: Satellite) -> (Satellite, SatelliteParams) {
     let r = |v: f64| v as f32;
     let p = SatelliteParams {
-        thruster_pos_m: sat.thruster_pos_m.map(|a| a.map(r)),
-        thrust_dir: sat.thrust_dir.map(|a| a.map(r)),
-        thrust_n: sat.thrust_n.map(r),
+        thruster_pos_m: std::array::from_fn(|i| sat.thruster_pos_m[i].map(r)),
+        thrust_dir: std::array::from_fn(|i| sat.thrust_dir[i].map(r)),
+        thrust_n: std::array::from_fn(|i| r(sat.thrust_n[i])),
         inertia_kgm2: sat.inertia_kgm2.map(r),
         com_offset_mm: sat.com_offset_mm.map(r),
         gyro_counts_per_rad_s: sat.gyro_counts_per_rad_s.map(r),
         pressure_drop_n_per_extra: r(sat.pressure_drop_n_per_extra),
     };
     let b = |v: f32| v as f64;
-    sat.thruster_pos_m = p.thruster_pos_m.map(|a| a.map(b));
-    sat.thrust_dir = p.thrust_dir.map(|a| a.map(b));
-    sat.thrust_n = p.thrust_n.map(b);
+    sat.thruster_pos_m = p.thruster_pos_m.map(|a| a.map(b)).to_vec();
+    sat.thrust_dir = p.thrust_dir.map(|a| a.map(b)).to_vec();
+    sat.thrust_n = p.thrust_n.map(b).to_vec();
     sat.inertia_kgm2 = p.inertia_kgm2.map(b);
     sat.com_offset_mm = p.com_offset_mm.map(b);
     sat.pressure_drop_n_per_extra = b(p.pressure_drop_n_per_extra);
@@ -143,7 +143,7 @@ fn envelope_satellite() -> impl Strategy<Value = Satellite> {
     )
         .prop_map(|(thrust, pr, prod, com, drop, tilt)| {
             let mut s = Satellite::builtin("sph2").expect("built-in");
-            s.thrust_n = thrust;
+            s.thrust_n = thrust.to_vec();
             s.inertia_kgm2 = [pr[0], pr[1], pr[2], prod[0], prod[1], prod[2]];
             s.com_offset_mm = com.map(|v| v * 1e3);
             s.pressure_drop_n_per_extra = drop;

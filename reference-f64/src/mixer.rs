@@ -62,6 +62,8 @@ pub type MixingPinv = SMatrix<f64, N_THRUSTERS, 6>;
 pub enum MixerError {
     #[error("control period must be at least twice the minimum pulse ({min_pulse_ms} ms), got {period_ms} ms")]
     BadPeriod { period_ms: u32, min_pulse_ms: u32 },
+    #[error("the PWM mixer's opposing-pair logic is that of a {N_THRUSTERS}-thruster SPHERES satellite; this model has {0} thrusters")]
+    NotTwelveThrusters(usize),
     #[error("thruster {thruster}: {reason}")]
     BadThruster { thruster: usize, reason: String },
     #[error("pressure drop per extra open thruster must be finite and >= 0, got {0}")]
@@ -171,6 +173,9 @@ pub struct ThrusterGeometry {
     pub force_n: [Vector3<f64>; N_THRUSTERS],
     pub lever_arm_m: [Vector3<f64>; N_THRUSTERS],
     pub thrust_n: [f64; N_THRUSTERS],
+    /// How many thrusters the model described: the mixer refuses anything but
+    /// [`N_THRUSTERS`] rather than mix for thrusters that are not there.
+    pub described: usize,
 }
 
 impl ThrusterGeometry {
@@ -181,10 +186,18 @@ impl ThrusterGeometry {
         com_estimate_m: Option<Vector3<f64>>,
     ) -> ThrusterGeometry {
         let com = com_estimate_m.unwrap_or_else(|| sat.com_m());
+        let n = sat.n_thrusters();
         ThrusterGeometry {
-            force_n: std::array::from_fn(|i| sat.force_n(i)),
-            lever_arm_m: std::array::from_fn(|i| sat.pos_m(i) - com),
-            thrust_n: sat.thrust_n,
+            force_n: std::array::from_fn(|i| {
+                if i < n {
+                    sat.force_n(i)
+                } else {
+                    Vector3::zeros()
+                }
+            }),
+            lever_arm_m: std::array::from_fn(|i| if i < n { sat.pos_m(i) - com } else { -com }),
+            thrust_n: std::array::from_fn(|i| sat.thrust_n.get(i).copied().unwrap_or(0.0)),
+            described: n,
         }
     }
 
@@ -194,6 +207,9 @@ impl ThrusterGeometry {
     }
 
     fn validate(&self) -> Result<(), MixerError> {
+        if self.described != N_THRUSTERS {
+            return Err(MixerError::NotTwelveThrusters(self.described));
+        }
         for i in 0..N_THRUSTERS {
             let finite = self.force_n[i]
                 .iter()

@@ -11,8 +11,11 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Number of thrusters on a SPHERES satellite.
+/// Number of thrusters on a SPHERES satellite (the built-in models and the PWM mixer, whose
+/// opposing-pair logic is SPHERES-specific).
 pub const N_THRUSTERS: usize = 12;
+/// Most thrusters a model may describe: a thruster word is 16 bits wide.
+pub const MAX_THRUSTERS: usize = 16;
 
 /// Opposing thruster pairs (same line of action, opposite force), 0-based indices:
 /// thrusters (1,7) (2,8) (3,9) (4,10) (5,11) (6,12) in the seed's 1-based numbering.
@@ -56,12 +59,19 @@ pub const THRUSTER_POS_M: [[f64; 3]; N_THRUSTERS] = [
 pub struct Satellite {
     /// Name used in recordings' `satellite` metadata (e.g. "sph2").
     pub name: String,
-    /// Thruster positions from the geometric centre, m.
-    pub thruster_pos_m: [[f64; 3]; N_THRUSTERS],
-    /// Thrust force directions (body axes), used as given.
-    pub thrust_dir: [[f64; 3]; N_THRUSTERS],
-    /// Thrust magnitude of each thruster when it fires alone, N.
-    pub thrust_n: [f64; N_THRUSTERS],
+    /// Thruster positions from the geometric centre, m; one entry per thruster (1 to
+    /// [`MAX_THRUSTERS`]; thruster i is bit i-1 of a thruster word).
+    pub thruster_pos_m: Vec<[f64; 3]>,
+    /// Thrust force directions (body axes), used as given; as many as positions.
+    pub thrust_dir: Vec<[f64; 3]>,
+    /// Thrust magnitude of each thruster when it fires alone, N; as many as positions.
+    pub thrust_n: Vec<f64>,
+    /// A planar craft (an air-bearing table): it turns about body z only, its gyro (or
+    /// motion capture) measures z only, and only Izz and the CoM's x and y are
+    /// identifiable; every other inertia and CoM term is held at the model and reported
+    /// unidentifiable. Absent in a model file means a 3-D craft.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub planar: bool,
     /// Inertia about the CoM, kg m^2, in contract order xx yy zz xy xz yz.
     pub inertia_kgm2: [f64; 6],
     /// Centre of mass minus geometric centre, mm.
@@ -232,15 +242,15 @@ impl Satellite {
         let t = BUILTINS
             .iter()
             .find(|t| t.name.eq_ignore_ascii_case(name))?;
-        let mut thrust_dir = [[0.0; 3]; N_THRUSTERS];
-        for (i, d) in thrust_dir.iter_mut().enumerate() {
-            *d = [t.dx[i], t.dy[i], t.dz[i]];
-        }
+        let thrust_dir = (0..N_THRUSTERS)
+            .map(|i| [t.dx[i], t.dy[i], t.dz[i]])
+            .collect();
         Some(Satellite {
             name: t.name.to_string(),
-            thruster_pos_m: THRUSTER_POS_M,
+            thruster_pos_m: THRUSTER_POS_M.to_vec(),
             thrust_dir,
-            thrust_n: t.thrust_n,
+            thrust_n: t.thrust_n.to_vec(),
+            planar: false,
             inertia_kgm2: t.inertia,
             com_offset_mm: t.com_mm,
             mass_kg: MASS_KG,
@@ -294,6 +304,31 @@ impl Satellite {
         if self.name.trim().is_empty() {
             return Err("name must not be empty".into());
         }
+        let n = self.thruster_pos_m.len();
+        if n == 0 || n > MAX_THRUSTERS {
+            return Err(format!(
+                "thruster_pos_m has {n} thrusters; a model has 1 to {MAX_THRUSTERS}"
+            ));
+        }
+        if self.thrust_dir.len() != n || self.thrust_n.len() != n {
+            return Err(format!(
+                "thruster_pos_m, thrust_dir and thrust_n must have one entry per thruster \
+                 ({n}, {}, {})",
+                self.thrust_dir.len(),
+                self.thrust_n.len()
+            ));
+        }
+        if self.planar {
+            if let Some(i) = (0..n)
+                .find(|&i| self.thrust_dir[i][2].abs() > 1e-9 || self.thruster_pos_m[i][2].abs() > 1e-9)
+            {
+                return Err(format!(
+                    "planar craft: thruster {} must lie in the x-y plane and push in it \
+                     (z of position and direction 0)",
+                    i + 1
+                ));
+            }
+        }
         if let Some(i) = self.thrust_n.iter().position(|&f| f < 0.0) {
             return Err(format!("thrust_n[{i}] is negative"));
         }
@@ -337,6 +372,20 @@ impl Satellite {
             }
         }
         (lo, hi)
+    }
+
+    /// Number of thrusters the model describes.
+    pub fn n_thrusters(&self) -> usize {
+        self.thruster_pos_m.len()
+    }
+
+    /// The thruster-word bits that name a thruster of this model.
+    pub fn word_mask(&self) -> u16 {
+        if self.n_thrusters() >= 16 {
+            u16::MAX
+        } else {
+            (1u16 << self.n_thrusters()) - 1
+        }
     }
 
     /// CoM offset from the geometric centre, m.
@@ -387,10 +436,11 @@ impl Satellite {
 
     /// Thrust magnitude of each open thruster when `word` (bit i = thruster i+1) is commanded:
     /// `thrust_n[i] - (n_open - 1) * pressure_drop` (seed flight code), 0 when closed.
-    pub fn thrusts_for_word(&self, word: u16) -> [f64; N_THRUSTERS] {
-        let n_open = (word & 0x0fff).count_ones() as f64;
-        let mut f = [0.0; N_THRUSTERS];
-        for (i, fi) in f.iter_mut().enumerate() {
+    /// Entries past [`Satellite::n_thrusters`] are 0.
+    pub fn thrusts_for_word(&self, word: u16) -> [f64; MAX_THRUSTERS] {
+        let n_open = (word & self.word_mask()).count_ones() as f64;
+        let mut f = [0.0; MAX_THRUSTERS];
+        for (i, fi) in f.iter_mut().enumerate().take(self.n_thrusters()) {
             if word & (1 << i) != 0 {
                 *fi = (self.thrust_n[i] - (n_open - 1.0) * self.pressure_drop_n_per_extra).max(0.0);
             }

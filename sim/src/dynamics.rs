@@ -9,7 +9,7 @@
 //! every valve edge so edges fall exactly on step boundaries.
 use crate::effects::PlantConfig;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
-use reference_f64::satellite::{Satellite, N_THRUSTERS};
+use reference_f64::satellite::{Satellite, MAX_THRUSTERS};
 
 /// The simulated state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,6 +72,10 @@ pub struct Segment {
     pub rise_force: Vector3<f64>,
     pub rise_t0_ms: f64,
     pub rise_tau_ms: f64,
+    /// Torque against the rate per axis, N m s/rad (`effects/rate_damping.rs`).
+    pub damping: Vector3<f64>,
+    /// A planar craft: the bearing holds x and y, only the yaw equation moves.
+    pub planar: bool,
 }
 
 /// The satellite with its effects, ready to produce [`Segment`]s.
@@ -81,27 +85,34 @@ pub struct Plant {
     pub mass_kg: f64,
     /// Nominal CoM from the geometric centre, m.
     com_nominal: Vector3<f64>,
-    pos: [Vector3<f64>; N_THRUSTERS],
-    dir: [Vector3<f64>; N_THRUSTERS],
-    thrust_n: [f64; N_THRUSTERS],
+    pos: [Vector3<f64>; MAX_THRUSTERS],
+    dir: [Vector3<f64>; MAX_THRUSTERS],
+    thrust_n: [f64; MAX_THRUSTERS],
+    /// The word bits that are thrusters of this satellite (others never fire).
+    word_mask: u16,
+    planar: bool,
 }
 
 impl Plant {
     pub fn new(sat: &Satellite, cfg: PlantConfig) -> Self {
+        let n = sat.n_thrusters();
         Plant {
             cfg,
             mass_kg: sat.mass_kg,
             com_nominal: sat.com_m(),
-            pos: std::array::from_fn(|i| sat.pos_m(i)),
-            dir: std::array::from_fn(|i| sat.dir(i)),
-            thrust_n: sat.thrust_n,
+            pos: std::array::from_fn(|i| if i < n { sat.pos_m(i) } else { Vector3::zeros() }),
+            dir: std::array::from_fn(|i| if i < n { sat.dir(i) } else { Vector3::zeros() }),
+            thrust_n: std::array::from_fn(|i| sat.thrust_n.get(i).copied().unwrap_or(0.0)),
+            word_mask: sat.word_mask(),
+            planar: sat.planar,
         }
     }
 
     /// Force magnitude of each thruster for the actual valve state `valves` (before
     /// blowdown): scale_i * max(0, F_i - pressure_drop * (n_open - 1)).
-    pub fn thrusts(&self, valves: u16) -> [f64; N_THRUSTERS] {
-        let n_open = (valves & 0x0fff).count_ones() as f64;
+    pub fn thrusts(&self, valves: u16) -> [f64; MAX_THRUSTERS] {
+        let valves = valves & self.word_mask;
+        let n_open = valves.count_ones() as f64;
         let drop = self.cfg.pressure_drop_n * (n_open - 1.0).max(0.0);
         std::array::from_fn(|i| {
             if valves & (1 << i) != 0 {
@@ -121,7 +132,7 @@ impl Plant {
         let f = self.thrusts(valves);
         let mut torque0 = Vector3::zeros();
         let mut force0 = Vector3::zeros();
-        for i in 0..N_THRUSTERS {
+        for i in 0..MAX_THRUSTERS {
             if f[i] != 0.0 {
                 let fv = self.dir[i] * f[i];
                 force0 += fv;
@@ -163,6 +174,8 @@ impl Plant {
             rise_force: Vector3::zeros(),
             rise_t0_ms: 0.0,
             rise_tau_ms: 0.0,
+            damping: Vector3::from(self.cfg.rate_damping_nms),
+            planar: self.planar,
         }
     }
 
@@ -173,14 +186,14 @@ impl Plant {
         &self,
         valves: u16,
         t_ms: f64,
-        excess_n: &[f64; N_THRUSTERS],
+        excess_n: &[f64; MAX_THRUSTERS],
         t0_ms: f64,
     ) -> Segment {
         let mut s = self.segment(valves, t_ms);
         let tau = self.cfg.thrust_rise_tau_ms;
         if tau > 0.0 && excess_n.iter().any(|&x| x != 0.0) {
             let com = self.com_nominal + Vector3::from(self.cfg.mass_at(t_ms * 1e-3).com_offset_m);
-            for i in 0..N_THRUSTERS {
+            for i in 0..MAX_THRUSTERS {
                 if excess_n[i] != 0.0 {
                     let fv = self.dir[i] * excess_n[i];
                     s.rise_force += fv;
@@ -231,9 +244,16 @@ pub fn derivative(
         (seg.torque0, seg.force0)
     };
     let mut tau = torque0 * b + seg.disturbance - x.w.cross(&(seg.i_body * x.w));
+    if seg.damping != Vector3::zeros() {
+        tau -= seg.damping.component_mul(&x.w);
+    }
     let mut phi_ddot = Vector3::zeros();
     let w_dot;
-    if seg.has_slosh {
+    if seg.planar {
+        // the bearing supplies whatever x/y torque keeps the craft level: yaw only
+        // (the table's slosh, if any, is not modelled for a planar craft)
+        w_dot = Vector3::new(0.0, 0.0, tau.z / seg.i_body[(2, 2)]);
+    } else if seg.has_slosh {
         let spring = seg.slosh_k.component_mul(&x.phi) + seg.slosh_c.component_mul(&x.dphi);
         // The gyroscopic term carries the liquid's angular momentum too (see fuel_slosh.rs).
         let liquid_momentum = seg.slosh_j.component_mul(&(x.w + x.dphi));

@@ -11,7 +11,7 @@
 //! an edge so RK4 resolves the exponential for any tau (1 ms steps stay exact for slow rises).
 use crate::dynamics::{derivative, rk4_step, Derivative, Plant, Segment, State};
 use crate::valves::ValveEdge;
-use reference_f64::satellite::N_THRUSTERS;
+use reference_f64::satellite::MAX_THRUSTERS;
 
 /// Time comparisons in ms are made with this slack (edges come from integer ms plus delays).
 const EPS_MS: f64 = 1e-9;
@@ -70,7 +70,7 @@ pub struct Propagator<'a> {
     cache: Option<(u16, usize, Segment)>,
     /// Thrust rise: each thruster's force (N, before blowdown) at `rise_t0_ms`, the last
     /// valve edge; `rise_live` = some force still differs from its steady value there.
-    rise_level: [f64; N_THRUSTERS],
+    rise_level: [f64; MAX_THRUSTERS],
     rise_t0_ms: f64,
     rise_live: bool,
 }
@@ -101,7 +101,7 @@ impl<'a> Propagator<'a> {
             breaks,
             next_break: 0,
             cache: None,
-            rise_level: [0.0; N_THRUSTERS],
+            rise_level: [0.0; MAX_THRUSTERS],
             rise_t0_ms: t0_ms,
             rise_live: false,
         }
@@ -132,7 +132,7 @@ impl<'a> Propagator<'a> {
         let changed = (word ^ self.command) & 0x0fff;
         if changed != 0 {
             let cfg = &self.plant.cfg;
-            for th in 0..N_THRUSTERS {
+            for th in 0..MAX_THRUSTERS {
                 let bit = 1u16 << th;
                 if changed & bit == 0 {
                     continue;
@@ -197,11 +197,11 @@ impl<'a> Propagator<'a> {
         let old = self.plant.thrusts(before);
         let new = self.plant.thrusts(self.valves);
         let decay = (-(self.t_ms - self.rise_t0_ms) / tau).exp();
-        for i in 0..N_THRUSTERS {
+        for i in 0..MAX_THRUSTERS {
             self.rise_level[i] = old[i] + (self.rise_level[i] - old[i]) * decay;
         }
         self.rise_t0_ms = self.t_ms;
-        self.rise_live = (0..N_THRUSTERS).any(|i| self.rise_level[i] != new[i]);
+        self.rise_live = (0..MAX_THRUSTERS).any(|i| self.rise_level[i] != new[i]);
         self.cache = None;
     }
 

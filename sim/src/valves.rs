@@ -2,7 +2,7 @@
 //! sample k+1 (1 ms resolution at 1 kHz); a valve opens `open_delay_ms` after a commanded
 //! rising edge and closes `close_delay_ms` after a falling one (seed ch. 3.6). Delays may put
 //! edges between samples; a pulse that would close before it opens never opens.
-use reference_f64::satellite::N_THRUSTERS;
+use reference_f64::satellite::MAX_THRUSTERS;
 
 /// One actual valve edge.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,7 +25,7 @@ pub fn valve_edges(
 ) -> Vec<ValveEdge> {
     let mut edges = Vec::new();
     let n = times_ms.len().min(words.len());
-    for th in 0..N_THRUSTERS {
+    for th in 0..MAX_THRUSTERS {
         let bit = 1u16 << th;
         let mut on_since: Option<f64> = None;
         let mut prev = false;

@@ -158,7 +158,7 @@ fn all_thrusters_on_and_no_firings_excite_nothing() {
 fn a_model_without_thrust_identifies_nothing() {
     let rec = flight(Maneuver::Rga12, None, 5);
     let mut sat = sph2();
-    sat.thrust_n = [0.0; 12];
+    sat.thrust_n = vec![0.0; 12];
     let r = all_three(&rec, &sat);
     assert_same_unobservable("zero thrust", &r);
     assert_not_ok("zero thrust", &r);

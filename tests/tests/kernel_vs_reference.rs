@@ -116,7 +116,7 @@ mod mixer {
             pressure_drop_n: S::from_f32(drop as f32),
         };
         Mixer::new(
-            &params(sat),
+            &params(sat).expect("a built-in satellite flies on the kernel"),
             com_delta_m.map(|v| S::from_f32(v as f32)),
             cfg,
         )
@@ -132,10 +132,10 @@ mod mixer {
         let mut sat = sat.clone();
         sat.pressure_drop_n_per_extra = drop;
         // The kernel's parameters are f32: give the reference the same rounded geometry.
-        let p = params(&sat);
-        sat.thruster_pos_m = p.thruster_pos_m.map(|r| r.map(f64::from));
-        sat.thrust_dir = p.thrust_dir.map(|r| r.map(f64::from));
-        sat.thrust_n = p.thrust_n.map(f64::from);
+        let p = params(&sat).expect("a built-in satellite flies on the kernel");
+        sat.thruster_pos_m = p.thruster_pos_m.map(|r| r.map(f64::from)).to_vec();
+        sat.thrust_dir = p.thrust_dir.map(|r| r.map(f64::from)).to_vec();
+        sat.thrust_n = p.thrust_n.map(f64::from).to_vec();
         sat.com_offset_mm = p.com_offset_mm.map(f64::from);
         let com = sat.com_m() + nalgebra::Vector3::from(com_delta_m);
         rm::Mixer::from_satellite(&sat, Some(com), period).expect("reference mixer")

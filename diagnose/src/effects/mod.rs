@@ -15,6 +15,8 @@ mod gyro_scale;
 mod inertia;
 mod mass_property_change;
 mod pressure_drop;
+mod rate_damping;
+mod thrust_rise;
 mod thrust_scale;
 mod thruster_latency;
 
@@ -40,10 +42,14 @@ pub enum Kind {
     GyroScale,
     GyroRinging,
     DisturbanceTorque,
+    /// Extra (beyond the contract's list): torque against the body rate.
+    RateDamping,
+    /// Extra (beyond the contract's list): first-order thrust rise at valve edges.
+    ThrustRise,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 12] = [
+    pub const ALL: [Kind; 14] = [
         Kind::ThrusterLatency,
         Kind::PressureDrop,
         Kind::Blowdown,
@@ -56,6 +62,8 @@ impl Kind {
         Kind::GyroScale,
         Kind::GyroRinging,
         Kind::DisturbanceTorque,
+        Kind::RateDamping,
+        Kind::ThrustRise,
     ];
 
     /// The effect's description: the one registry of the vocabulary.
@@ -73,6 +81,8 @@ impl Kind {
             Kind::GyroScale => &gyro_scale::GyroScale,
             Kind::GyroRinging => &gyro_ringing::GyroRinging,
             Kind::DisturbanceTorque => &disturbance_torque::DisturbanceTorque,
+            Kind::RateDamping => &rate_damping::RateDamping,
+            Kind::ThrustRise => &thrust_rise::ThrustRise,
         }
     }
 
@@ -102,6 +112,8 @@ pub struct Context<'a> {
     pub nominal_inertia: [f64; 6],
     /// The smallest thrust of the model's thrusters, N.
     pub min_thrust_n: f64,
+    /// How many thrusters the model has (per-thruster arrays are reported this long).
+    pub n_thrusters: usize,
     /// Which thrusters are ever commanded open.
     pub fired: &'a [bool; NT],
     /// Low-frequency peaks of the current residual, Hz (slosh starting points).
@@ -208,6 +220,7 @@ mod tests {
             duration_s: 60.0,
             nominal_inertia: [0.023, 0.024, 0.021, 1e-4, -2e-4, 3e-4],
             min_thrust_n: 0.1,
+            n_thrusters: 12,
             fired,
             slosh_hint_hz: hint,
             sample_rate_hz: 1000.0,

@@ -48,10 +48,11 @@ impl Effect for ThrustScale {
     }
     // every thruster: unfired ones at 1 with an unbounded uncertainty
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, cx: &Context) -> Reported {
-        let mut v = [1.0; NT];
-        let mut e = [0.0; NT];
+        let n = cx.n_thrusters.min(NT);
+        let mut v = vec![1.0; n];
+        let mut e = vec![0.0; n];
         let mut j = 0;
-        for i in 0..NT {
+        for i in 0..n {
             if cx.fired[i] {
                 v[i] = th[j];
                 e[i] = se(j);

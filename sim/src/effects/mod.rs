@@ -6,9 +6,10 @@
 //! [`Effect`] (de)serialises exactly as the contract:
 //! `{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}`.
 //!
-//! One variant is deliberately outside the contract's vocabulary: [`ThrustRise`]
-//! (`thrust_rise`), physics the diagnosis cannot name, for testing that it reports a
-//! mismatch it has no word for. It is not in [`EFFECT_NAMES`].
+//! Two variants are outside the contract's vocabulary, effects that craft other than
+//! SPHERES have: [`ThrustRise`] (`thrust_rise`, a first-order valve lag) and
+//! [`RateDamping`] (`rate_damping`, an air bearing's or drag's torque against the rate).
+//! The diagnosis names both as extra effects; they are not in [`EFFECT_NAMES`].
 
 mod blowdown;
 mod com_offset;
@@ -20,6 +21,7 @@ mod gyro_scale;
 mod inertia;
 mod mass_property_change;
 mod pressure_drop;
+mod rate_damping;
 mod thrust_rise;
 mod thrust_scale;
 mod thruster_latency;
@@ -34,11 +36,12 @@ pub use gyro_scale::GyroScale;
 pub use inertia::Inertia;
 pub use mass_property_change::MassPropertyChange;
 pub use pressure_drop::PressureDrop;
+pub use rate_damping::RateDamping;
 pub use thrust_rise::ThrustRise;
 pub use thrust_scale::ThrustScale;
 pub use thruster_latency::ThrusterLatency;
 
-use reference_f64::satellite::{Satellite, N_THRUSTERS};
+use reference_f64::satellite::{Satellite, MAX_THRUSTERS};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -64,7 +67,7 @@ pub struct PlantConfig {
     pub close_delay_ms: f64,
     pub pressure_drop_n: f64,
     pub blowdowns: Vec<Blowdown>,
-    pub thrust_scale: [f64; N_THRUSTERS],
+    pub thrust_scale: [f64; MAX_THRUSTERS],
     /// Mass properties from t = 0.
     pub initial: MassPhase,
     /// Step changes (time s, values after), sorted by time.
@@ -79,6 +82,9 @@ pub struct PlantConfig {
     /// First-order thrust rise/decay time constant at the valve edges, ms (0 = instantaneous;
     /// outside the vocabulary, see `thrust_rise.rs`).
     pub thrust_rise_tau_ms: f64,
+    /// Torque against the body rate per axis, N m s/rad (outside the vocabulary, see
+    /// `rate_damping.rs`).
+    pub rate_damping_nms: [f64; 3],
 }
 
 impl PlantConfig {
@@ -90,7 +96,7 @@ impl PlantConfig {
             close_delay_ms: 0.0,
             pressure_drop_n: sat.pressure_drop_n_per_extra,
             blowdowns: Vec::new(),
-            thrust_scale: [1.0; N_THRUSTERS],
+            thrust_scale: [1.0; MAX_THRUSTERS],
             initial: MassPhase {
                 com_offset_m: [0.0; 3],
                 inertia_kgm2: sat.inertia_kgm2,
@@ -102,6 +108,7 @@ impl PlantConfig {
             ringing: Vec::new(),
             disturbance_torque_nm: [0.0; 3],
             thrust_rise_tau_ms: 0.0,
+            rate_damping_nms: [0.0; 3],
         }
     }
 
@@ -149,9 +156,12 @@ pub enum Effect {
     DisturbanceTorque(DisturbanceTorque),
     /// Not in the contract's vocabulary (see the module doc): `thrust_rise`, `tau_ms`.
     ThrustRise(ThrustRise),
+    /// Not in the contract's vocabulary: `rate_damping`, `nms_per_rad` (3).
+    RateDamping(RateDamping),
 }
 
-/// The contract's effect names, in the table's order (without `thrust_rise`, which is not one).
+/// The contract's effect names, in the table's order (without the extra `thrust_rise` and
+/// `rate_damping`).
 pub const EFFECT_NAMES: [&str; 12] = [
     "thruster_latency",
     "pressure_drop",
@@ -184,6 +194,7 @@ impl Effect {
             Effect::GyroRinging(e) => e,
             Effect::DisturbanceTorque(e) => e,
             Effect::ThrustRise(e) => e,
+            Effect::RateDamping(e) => e,
         }
     }
 
@@ -203,6 +214,7 @@ impl Effect {
             Effect::GyroRinging(_) => "gyro_ringing",
             Effect::DisturbanceTorque(_) => "disturbance_torque",
             Effect::ThrustRise(_) => "thrust_rise",
+            Effect::RateDamping(_) => "rate_damping",
         }
     }
 
@@ -313,6 +325,10 @@ impl Effect {
                 positive("decay_ms", e.decay_ms)
             }
             Effect::ThrustRise(e) => non_negative("tau_ms", e.tau_ms),
+            Effect::RateDamping(e) => e
+                .nms_per_rad
+                .iter()
+                .try_for_each(|v| non_negative("nms_per_rad", *v)),
             _ => Ok(()),
         }
     }

@@ -11,6 +11,7 @@ pub mod mixer_check;
 pub mod omega_dot;
 pub mod pipeline;
 pub mod preprocess;
+pub mod rate_recording;
 pub mod recording;
 pub mod satellite;
 pub mod slosh;

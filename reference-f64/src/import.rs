@@ -776,6 +776,9 @@ pub fn import_reader<R: Read>(
             .map_err(|r| bad(cols.time, r))?;
     }
 
+    if rows.is_empty() {
+        return Err(err(1, "the log has a header but no data rows".to_string()));
+    }
     let axes = mapping.axes();
     let file_name = |p: &str| {
         Path::new(p)

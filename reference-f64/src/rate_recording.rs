@@ -143,6 +143,11 @@ impl RowCollector {
         }
     }
 
+    /// True before the first kept row.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.time_ms.is_empty()
+    }
+
     /// Adds a row; Ok(false) when it repeats the last time (dropped), Err(reason) when
     /// time goes backwards.
     pub(crate) fn push(&mut self, t: u64, rate: [f64; 3], c: Command) -> Result<bool, String> {

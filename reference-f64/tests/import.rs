@@ -377,6 +377,7 @@ fn every_data_error_names_the_log_and_line() {
     let h = "t,w,v";
     let cases: Vec<(String, usize, &str)> = vec![
         (String::new(), 1, "empty file"),
+        (format!("{h}\n"), 1, "a header but no data rows"),
         (
             "t,v\n0,1\n".to_string(),
             1,

@@ -830,6 +830,17 @@ mod tests {
     }
 
     #[test]
+    fn crlf_a_byte_order_mark_comments_and_blank_lines_read_as_in_v1() {
+        let text = format!("\u{feff}{}", GOOD.replace('\n', "\r\n")).replace(
+            "# custom",
+            "# a comment without an equals sign\r\n\r\n# custom",
+        );
+        let r = read(&text).unwrap();
+        assert_eq!(r.time_ms, vec![0, 60]);
+        assert_eq!(write(&r), GOOD);
+    }
+
+    #[test]
     fn empty_rate_fields_are_missing_samples_and_survive_a_round_trip() {
         let text = "# format = massid-recording/2\n# axes = x,y,z\n# thrusters = 16\ntime_ms,rate_x,rate_y,rate_z,thrusters\n0,1,,3,65535\n10,,-0,1e-300,0\n";
         let r = read(text).unwrap();

@@ -1,4 +1,4 @@
-//! `massid`: one binary for demo, simulate, estimate, diagnose, mix, characterize.
+//! `massid`: one binary for demo, simulate, estimate, diagnose, import, mix, characterize.
 //! One module per subcommand in `cmd/`; each owns its clap `Args` and a `run`.
 use clap::{Parser, Subcommand};
 
@@ -26,6 +26,9 @@ enum Command {
     Estimate(cmd::estimate::Args),
     /// Explain why a recording and the nominal model disagree.
     Diagnose(cmd::diagnose::Args),
+    /// Convert a CSV log from another system into a recording (format v2), driven by a
+    /// TOML mapping of its columns and units.
+    Import(cmd::import::Args),
     /// Turn a force/torque command into per-thruster PWM on/off times.
     Mix(cmd::mix::Args),
     /// Ground characterization tools (trifilar pendulum, torsion spring, damping, ...).
@@ -42,6 +45,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Estimate(a) => cmd::estimate::run(a),
         Command::Diagnose(a) => cmd::diagnose::run(a),
+        Command::Import(a) => cmd::import::run(a),
         Command::Mix(a) => cmd::mix::run(a),
         Command::Characterize(a) => cmd::characterize::run(a),
         Command::Model(a) => cmd::model::run(a),

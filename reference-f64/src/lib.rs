@@ -5,12 +5,14 @@
 //! Modules mirror the seed's chapters.
 
 pub mod characterize;
+pub mod import;
 pub mod mass_id;
 pub mod mixer;
 pub mod mixer_check;
 pub mod omega_dot;
 pub mod pipeline;
 pub mod preprocess;
+pub mod rate_recording;
 pub mod recording;
 pub mod satellite;
 pub mod slosh;

@@ -306,7 +306,7 @@ impl Recording {
 }
 
 /// A field as quoted in an error: at most 40 characters, then how long it really was.
-fn clip(f: &str) -> String {
+pub(crate) fn clip(f: &str) -> String {
     const SHOWN: usize = 40;
     match f.char_indices().nth(SHOWN) {
         None => f.to_string(),
@@ -314,7 +314,7 @@ fn clip(f: &str) -> String {
     }
 }
 
-fn format_rate(r: f64) -> String {
+pub(crate) fn format_rate(r: f64) -> String {
     if r.fract() == 0.0 && r.abs() < 1e15 {
         format!("{}", r as i64)
     } else {
@@ -325,16 +325,16 @@ fn format_rate(r: f64) -> String {
 /// Counts of each time step between kept samples; enough to find the nominal period
 /// (median) and the gaps after a streaming read without keeping the samples.
 #[derive(Clone, Debug, Default)]
-struct StepHistogram {
+pub(crate) struct StepHistogram {
     counts: BTreeMap<u64, usize>,
 }
 
 impl StepHistogram {
-    fn add(&mut self, step: u64) {
+    pub(crate) fn add(&mut self, step: u64) {
         *self.counts.entry(step).or_insert(0) += 1;
     }
 
-    fn median(&self) -> Option<f64> {
+    pub(crate) fn median(&self) -> Option<f64> {
         let n: usize = self.counts.values().sum();
         if n == 0 {
             return None;
@@ -350,7 +350,7 @@ impl StepHistogram {
     }
 
     /// (gaps, missing samples) for a nominal period in ms.
-    fn gaps(&self, period_ms: f64) -> (usize, usize) {
+    pub(crate) fn gaps(&self, period_ms: f64) -> (usize, usize) {
         let mut gaps = 0;
         let mut missing = 0;
         for (&step, &c) in &self.counts {
@@ -363,6 +363,46 @@ impl StepHistogram {
             }
         }
         (gaps, missing)
+    }
+}
+
+/// The next physical line of `input` without its line end (`\n` or `\r\n`), or None at end
+/// of input; `line_no` counts lines read (1-based after the call). A UTF-8 byte-order mark
+/// on line 1 is dropped (spreadsheet exports write one). Shared by the v1 and v2 readers.
+pub(crate) fn read_text_line<R: BufRead>(
+    input: &mut R,
+    buf: &mut Vec<u8>,
+    line_no: &mut usize,
+    source: &str,
+) -> Result<Option<String>, RecordingError> {
+    let err = |line: usize, reason: String| RecordingError {
+        file: source.to_string(),
+        line,
+        reason,
+    };
+    buf.clear();
+    let n = input
+        .read_until(b'\n', buf)
+        .map_err(|e| err(*line_no + 1, format!("read error: {e}")))?;
+    if n == 0 {
+        return Ok(None);
+    }
+    *line_no += 1;
+    if buf.last() == Some(&b'\n') {
+        buf.pop();
+    }
+    if buf.last() == Some(&b'\r') {
+        buf.pop();
+    }
+    // A UTF-8 byte-order mark (spreadsheet exports write one) is not part of the text.
+    let text = if *line_no == 1 {
+        buf.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(buf)
+    } else {
+        &buf[..]
+    };
+    match std::str::from_utf8(text) {
+        Ok(s) => Ok(Some(s.to_string())),
+        Err(_) => Err(err(*line_no, "line is not valid UTF-8".to_string())),
     }
 }
 
@@ -543,31 +583,12 @@ impl<R: BufRead> RecordingReader<R> {
 
     /// The next physical line without its line end, or None at end of input.
     fn next_line(&mut self) -> Result<Option<String>, RecordingError> {
-        self.buf.clear();
-        let n = self
-            .input
-            .read_until(b'\n', &mut self.buf)
-            .map_err(|e| self.error_at(self.line_no + 1, format!("read error: {e}")))?;
-        if n == 0 {
-            return Ok(None);
-        }
-        self.line_no += 1;
-        if self.buf.last() == Some(&b'\n') {
-            self.buf.pop();
-        }
-        if self.buf.last() == Some(&b'\r') {
-            self.buf.pop();
-        }
-        // A UTF-8 byte-order mark (spreadsheet exports write one) is not part of the text.
-        let text = if self.line_no == 1 {
-            self.buf.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&self.buf)
-        } else {
-            &self.buf[..]
-        };
-        match std::str::from_utf8(text) {
-            Ok(s) => Ok(Some(s.to_string())),
-            Err(_) => Err(self.error("line is not valid UTF-8")),
-        }
+        read_text_line(
+            &mut self.input,
+            &mut self.buf,
+            &mut self.line_no,
+            &self.source,
+        )
     }
 
     fn parse_row(&self, line: &str) -> Result<Sample, RecordingError> {

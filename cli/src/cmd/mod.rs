@@ -3,6 +3,7 @@ pub mod characterize;
 pub mod demo;
 pub mod diagnose;
 pub mod estimate;
+pub mod import;
 pub mod mix;
 pub mod model;
 pub mod simulate;

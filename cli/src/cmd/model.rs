@@ -25,22 +25,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         Args::Check { file } => {
             let m = ModelFile::read(&file)?;
-            // The mixer needs thrusters that reach every axis: build it too.
-            reference_f64::mixer::Mixer::from_satellite(
-                &m.satellite,
-                None,
-                reference_f64::mixer::DEFAULT_PERIOD_MS,
-            )
-            .map_err(|e| {
-                anyhow::anyhow!(
-                    "{}: the mixer cannot use this satellite: {e}",
-                    file.display()
+            let sat = &m.satellite;
+            // A 3-D SPHERES-layout model is mixed by the PWM mixer: it needs thrusters that
+            // reach every axis, so build it too. Other craft are not mixed (said below).
+            let spheres = !sat.planar && sat.n_thrusters() == reference_f64::satellite::N_THRUSTERS;
+            if spheres {
+                reference_f64::mixer::Mixer::from_satellite(
+                    sat,
+                    None,
+                    reference_f64::mixer::DEFAULT_PERIOD_MS,
                 )
-            })?;
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "{}: the mixer cannot use this satellite: {e}",
+                        file.display()
+                    )
+                })?;
+            }
+            let kind = if sat.planar {
+                "planar (yaw only: Izz and CoM x, y identifiable)"
+            } else {
+                "3-D"
+            };
+            let mixer = if spheres {
+                ""
+            } else {
+                "; not a 12-thruster 3-D craft: no PWM mixer, no onboard kernel"
+            };
             super::mix::emit(&format!(
-                "{}: ok: satellite {}, {} effect(s) for the simulator\n",
+                "{}: ok: satellite {}, {kind}, {} thrusters, {} effect(s) for the simulator{mixer}\n",
                 file.display(),
-                m.satellite.name,
+                sat.name,
+                sat.n_thrusters(),
                 m.effects.len()
             ))
         }

@@ -10,6 +10,7 @@ pub mod mixer;
 pub mod mixer_check;
 pub mod omega_dot;
 pub mod pipeline;
+pub mod planar_id;
 pub mod preprocess;
 pub mod recording;
 pub mod satellite;

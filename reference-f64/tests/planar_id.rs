@@ -43,6 +43,8 @@ struct Truth {
     com: [f64; 2],
     b: f64,
     d: f64,
+    /// Command delay, ms (a word acts from its sample time plus this).
+    delay_ms: u64,
 }
 
 const TRUTH: Truth = Truth {
@@ -50,6 +52,7 @@ const TRUTH: Truth = Truth {
     com: [0.008, -0.005],
     b: 0.03,
     d: 0.001,
+    delay_ms: 0,
 };
 
 #[derive(Clone, Copy)]
@@ -110,14 +113,22 @@ fn simulate(
         rec.time_ms.push(k as u64 * PERIOD_MS);
         rec.rate.push(omega + ar + noise.white * w);
         rec.words.push(word);
-        let mut torque = 0.0;
-        for (i, &(p, dir, f)) in TABLE.iter().enumerate() {
-            if word >> i & 1 == 1 {
-                let r = [p[0] - truth.com[0], p[1] - truth.com[1]];
-                torque += f * (r[0] * dir[1] - r[1] * dir[0]);
+        let torque_of = |word: u16| {
+            let mut torque = 0.0;
+            for (i, &(p, dir, f)) in TABLE.iter().enumerate() {
+                if word >> i & 1 == 1 {
+                    let r = [p[0] - truth.com[0], p[1] - truth.com[1]];
+                    torque += f * (r[0] * dir[1] - r[1] * dir[0]);
+                }
             }
-        }
-        for _ in 0..PERIOD_MS {
+            torque
+        };
+        for ms in 0..PERIOD_MS {
+            let t = k as u64 * PERIOD_MS + ms;
+            let torque = match t.checked_sub(truth.delay_ms) {
+                Some(td) => torque_of(rec.words[(td / PERIOD_MS) as usize]),
+                None => 0.0,
+            };
             if noise.dist > 0.0 {
                 let e: f64 = StandardNormal.sample(&mut rng);
                 dist = phi_d * dist + (1.0 - phi_d * phi_d).sqrt() * noise.dist * e;
@@ -431,4 +442,25 @@ fn missing_samples_break_the_chain_and_prediction_beats_the_model() {
     };
     let sim_true = predict(&model(), &truth, &o, t, w, r[0]).expect("valid");
     assert!(err(&sim_true) < 0.02, "{}", err(&sim_true));
+}
+
+#[test]
+fn a_known_command_delay_is_taken_into_account() {
+    let delayed = Truth {
+        delay_ms: 40,
+        ..TRUTH
+    };
+    let rec = simulate(12, 1000, delayed, MEAS, random_words);
+    let with = run(
+        &rec,
+        &PlanarOptions {
+            delay_ms: 40.0,
+            ..PlanarOptions::default()
+        },
+    )
+    .expect("identifies");
+    let without = run(&rec, &PlanarOptions::default()).expect("identifies");
+    println!("delay 40: {with:?}\ndelay 0: {without:?}");
+    assert!((with.izz_kgm2 - TRUTH.izz).abs() < 3.0 * with.izz_stderr);
+    assert!(with.residual_rms_rad_s < 0.9 * without.residual_rms_rad_s);
 }

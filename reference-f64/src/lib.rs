@@ -11,6 +11,7 @@ pub mod mixer;
 pub mod mixer_check;
 pub mod omega_dot;
 pub mod pipeline;
+pub mod planar_id;
 pub mod preprocess;
 pub mod rate_recording;
 pub mod recording;

@@ -87,6 +87,7 @@ pub(crate) fn fit_nuisance_with(
         lo: vec![-3.0; n],
         hi: vec![3.0; n],
         frozen_from: n,
+        nuisance_from: 0,
     };
     fit::fit(prob, &fam, nuis, 10)
 }

@@ -156,6 +156,10 @@ pub struct Family<'f> {
     /// Parameters from this index on are nuisances whose Jacobian columns are computed
     /// once per fit (their effect hardly depends on the others): saves predictions.
     pub frozen_from: usize,
+    /// Parameters from this index on are the state nuisances, three per reset (x, y, z
+    /// rate). On a planar craft the x and y ones move nothing (the bearing holds those
+    /// axes), so their columns are known to be zero without a prediction.
+    pub nuisance_from: usize,
 }
 
 /// Result of a fit.
@@ -310,6 +314,9 @@ fn jacobian(
     let k = theta.len();
     let mut jac = DMatrix::zeros(r0.len(), k);
     for j in 0..k.min(upto) {
+        if prob.plant.planar && j >= fam.nuisance_from && (j - fam.nuisance_from) % 3 != 2 {
+            continue;
+        }
         let mut t = theta.to_vec();
         let mut h = fam.step[j];
         if t[j] + h > fam.hi[j] {

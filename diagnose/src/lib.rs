@@ -28,6 +28,7 @@ pub use diagnosis::{diagnose, Analysis};
 pub use output::{DataIssues, DiagnosisOutput, EffectReport};
 pub use select::Settings;
 
+use reference_f64::rate_recording::{Commands, RateRecording};
 use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 
@@ -48,6 +49,15 @@ pub enum DiagnoseError {
     /// Recording and model names.
     #[error("{0}: the nominal model {1} does not give a finite prediction of this recording (check its inertia, thrusts and thruster positions); nothing can be diagnosed against it")]
     NoPrediction(String, String),
+    /// Recording, its thruster count, model, the model's.
+    #[error("{0}: the recording has {1} thrusters but the model {2} has {3}; the diagnosis needs the model of the craft that flew")]
+    ThrusterCount(String, usize, String, usize),
+    /// A recording of commanded body force/torque instead of thruster states.
+    #[error("{0}: the commands are a body wrench, not thruster states; the diagnosis predicts from thruster states (valve timing, per-thruster force) and cannot use it")]
+    WrenchCommands(String),
+    /// A planar recording against a 3-D model or the other way round.
+    #[error("{0}: {1}")]
+    Geometry(String, String),
 }
 
 /// The latest `time_ms` the diagnosis accepts: 2^53 ms, so that every time (and the
@@ -76,6 +86,120 @@ fn check_times(rec: &Recording) -> Result<(), DiagnoseError> {
     Ok(())
 }
 
+/// The series of a recording in format v2 (rates in rad/s), checked against the model:
+/// same thruster count, thruster states (not a wrench), a planar model for a recording
+/// that measures z only and the other way round.
+pub fn rate_series(rec: &RateRecording, sat: &Satellite) -> Result<series::Series, DiagnoseError> {
+    let Commands::Thrusters { n, words } = &rec.commands else {
+        return Err(DiagnoseError::WrenchCommands(rec.source.clone()));
+    };
+    if *n != sat.n_thrusters() {
+        return Err(DiagnoseError::ThrusterCount(
+            rec.source.clone(),
+            *n,
+            sat.name.clone(),
+            sat.n_thrusters(),
+        ));
+    }
+    let z_only = rec.axes == [false, false, true];
+    if sat.planar && !rec.axes[2] {
+        return Err(DiagnoseError::Geometry(
+            rec.source.clone(),
+            format!(
+                "the model {} is planar (yaw only) but the recording has no z rate",
+                sat.name
+            ),
+        ));
+    }
+    if !sat.planar && z_only {
+        return Err(DiagnoseError::Geometry(
+            rec.source.clone(),
+            format!(
+                "the recording measures z only but the model {} is 3-D: x and y would be \
+                 unconstrained; give a planar model (`planar = true`)",
+                sat.name
+            ),
+        ));
+    }
+    let mut t = Vec::with_capacity(rec.time_ms.len());
+    for (i, &ms) in rec.time_ms.iter().enumerate() {
+        if ms > MAX_TIME_MS {
+            return Err(DiagnoseError::TimeTooLate(rec.source.clone(), i, ms));
+        }
+        if let Some(&p) = t.last() {
+            if ms as i64 <= p {
+                return Err(DiagnoseError::TimeNotIncreasing(
+                    rec.source.clone(),
+                    i,
+                    ms,
+                    p as u64,
+                ));
+            }
+        }
+        t.push(ms as i64);
+    }
+    // a planar craft's bearing holds x and y: whatever the file says about them, they
+    // carry no information about the model
+    let rates: Vec<[f64; 3]> = rec
+        .rate
+        .iter()
+        .map(|r| {
+            if sat.planar {
+                [f64::NAN, f64::NAN, r[2]]
+            } else {
+                *r
+            }
+        })
+        .collect();
+    let declared = rec
+        .meta("sample_rate_hz")
+        .and_then(|v| v.trim().parse::<f64>().ok());
+    let s = series::Series::from_rates(&t, &rates, words, sat.word_mask(), declared)
+        .ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
+    if s.usable() == 0 {
+        return Err(DiagnoseError::NoUsableSamples(rec.source.clone()));
+    }
+    Ok(s)
+}
+
+/// Diagnoses a recording in format v2 (rates in rad/s, any thruster count up to 16, a
+/// planar craft measuring z only) against the nominal model `sat`.
+pub fn diagnose_rate_recording(
+    rec: &RateRecording,
+    sat: &Satellite,
+    settings: &Settings,
+) -> Result<Analysis, DiagnoseError> {
+    let mut series = rate_series(rec, sat)?;
+    if let Some(h) = settings.horizon_s {
+        series.reset_every(h);
+    }
+    let plant = model::Plant::new(sat);
+    let issues = DataIssues {
+        gaps: series.gaps,
+        missing_samples: series.missing_samples,
+        duplicates: rec.issues.duplicates as u64,
+        saturated: 0,
+        railed: series.railed,
+    };
+    diagnose(
+        &series,
+        &plant,
+        &file_name(&rec.source),
+        &sat.name,
+        issues,
+        settings,
+    )
+    .ok_or_else(|| DiagnoseError::NoPrediction(rec.source.clone(), sat.name.clone()))
+}
+
+/// The recording's file name, as the report names it.
+fn file_name(source: &str) -> String {
+    std::path::Path::new(source)
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| source.to_string())
+}
+
 /// Diagnoses `rec` against the nominal model `sat`: the library entry point behind
 /// `massid diagnose`.
 pub fn diagnose_recording(
@@ -84,8 +208,11 @@ pub fn diagnose_recording(
     settings: &Settings,
 ) -> Result<Analysis, DiagnoseError> {
     check_times(rec)?;
-    let series = series::Series::from_recording(rec, sat)
+    let mut series = series::Series::from_recording(rec, sat)
         .ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
+    if let Some(h) = settings.horizon_s {
+        series.reset_every(h);
+    }
     if series.usable() == 0 {
         return Err(DiagnoseError::NoUsableSamples(rec.source.clone()));
     }
@@ -98,12 +225,15 @@ pub fn diagnose_recording(
         saturated: rec.issues.saturated as u64,
         railed: series.railed,
     };
-    let name = std::path::Path::new(&rec.source)
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_else(|| rec.source.clone());
-    diagnose(&series, &plant, &name, &sat.name, issues, settings)
-        .ok_or_else(|| DiagnoseError::NoPrediction(rec.source.clone(), sat.name.clone()))
+    diagnose(
+        &series,
+        &plant,
+        &file_name(&rec.source),
+        &sat.name,
+        issues,
+        settings,
+    )
+    .ok_or_else(|| DiagnoseError::NoPrediction(rec.source.clone(), sat.name.clone()))
 }
 pub mod score;
 pub mod synth;

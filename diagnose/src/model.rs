@@ -162,8 +162,20 @@ impl Plant {
     pub fn new(sat: &Satellite) -> Plant {
         let n = sat.n_thrusters();
         Plant {
-            pos: std::array::from_fn(|i| if i < n { sat.pos_m(i) } else { Vector3::zeros() }),
-            force: std::array::from_fn(|i| if i < n { sat.force_n(i) } else { Vector3::zeros() }),
+            pos: std::array::from_fn(|i| {
+                if i < n {
+                    sat.pos_m(i)
+                } else {
+                    Vector3::zeros()
+                }
+            }),
+            force: std::array::from_fn(|i| {
+                if i < n {
+                    sat.force_n(i)
+                } else {
+                    Vector3::zeros()
+                }
+            }),
             com: sat.com_m(),
             inertia: sat.inertia_kgm2,
             base_pressure_drop: sat.pressure_drop_n_per_extra,
@@ -342,7 +354,11 @@ pub fn predict(
                 } else if planar {
                     // the bearing holds x and y: only the yaw equation moves
                     let tz = tau_c.z - damping.z * w.z;
-                    (Vector3::new(0.0, 0.0, tz / props.inertia[(2, 2)]), Vector3::zeros(), Vector3::zeros())
+                    (
+                        Vector3::new(0.0, 0.0, tz / props.inertia[(2, 2)]),
+                        Vector3::zeros(),
+                        Vector3::zeros(),
+                    )
                 } else {
                     let tau = tau_c - damping.component_mul(w);
                     let wd = props.inv_rigid * (tau - w.cross(&(props.inertia * w)));

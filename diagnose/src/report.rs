@@ -54,6 +54,40 @@ fn windows_text(w: &[[i64; 2]]) -> String {
         .join(", ")
 }
 
+/// Terminal summary of a fit-then-predict check (`holdout.rs`).
+pub fn holdout_summary(h: &crate::holdout::Holdout) -> String {
+    let f = numfmt::rates;
+    let names: Vec<&str> = h.analysis.fitted.iter().map(|(k, _)| k.name()).collect();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "held-out check: diagnosed the first {} samples (to {:.3} s), predicted the other {}",
+        h.fitted_samples,
+        h.split_ms * 1e-3,
+        h.held_out_samples
+    );
+    let _ = writeln!(
+        s,
+        "     effects named on the fitted part: {}",
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        }
+    );
+    let _ = writeln!(
+        s,
+        "     held-out residual RMS, nominal model (rad/s, x y z): {}",
+        f(h.rms_nominal)
+    );
+    let _ = writeln!(
+        s,
+        "     held-out residual RMS, fitted model  (rad/s, x y z): {}",
+        f(h.rms_fitted)
+    );
+    s
+}
+
 /// Terminal summary.
 pub fn summary(a: &Analysis) -> String {
     let o = &a.output;

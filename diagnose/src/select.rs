@@ -31,6 +31,11 @@ pub struct Settings {
     pub max_iter: usize,
     /// Prior for the true gyro ringing frequency, Hz (seed App. A: 338 Hz).
     pub ringing_prior_hz: f64,
+    /// Re-estimate the body rate every this many seconds (None: only after telemetry
+    /// gaps). A long closed-loop recording of a craft whose model is off is not predicted
+    /// open loop from its first sample (every torque error integrates for minutes);
+    /// re-anchoring the rate compares the model with the craft over this horizon instead.
+    pub horizon_s: Option<f64>,
 }
 
 impl Default for Settings {
@@ -40,6 +45,7 @@ impl Default for Settings {
             max_effects: 3,
             max_iter: 12,
             ringing_prior_hz: 338.0,
+            horizon_s: None,
         }
     }
 }
@@ -190,6 +196,7 @@ fn fit_with_starts(
         lo,
         hi,
         frozen_from,
+        nuisance_from: frozen_from,
     };
     // many starts: keep the two with the lowest chi-square before iterating; when every
     // start predicts the same (the new effect starts at "no effect"), after a short fit

@@ -46,6 +46,8 @@ pub struct Series {
 
 /// At most this many gaps get their own state re-estimate (the longest ones).
 pub const MAX_GAP_RESETS: usize = 24;
+/// At most this many periodic state re-estimates ([`Series::reset_every`]).
+pub const MAX_HORIZON_RESETS: usize = 100;
 /// Gaps (and a late first sample) longer than this are shortened to it on the model's
 /// clock, ms.
 pub const MAX_GAP_MS: i64 = 2000;
@@ -158,8 +160,19 @@ impl Series {
             return None;
         }
         let valid: Vec<[bool; 3]> = rates.iter().map(|r| r.map(f64::is_finite)).collect();
-        let rate = rates.iter().map(|r| r.map(|v| if v.is_finite() { v } else { 0.0 })).collect();
-        Self::assemble(t_ms, rate, valid, [0; 3], words, word_mask, declared_rate_hz)
+        let rate = rates
+            .iter()
+            .map(|r| r.map(|v| if v.is_finite() { v } else { 0.0 }))
+            .collect();
+        Self::assemble(
+            t_ms,
+            rate,
+            valid,
+            [0; 3],
+            words,
+            word_mask,
+            declared_rate_hz,
+        )
     }
 
     /// The part common to every source: the sample rate (declared vs time steps), the
@@ -269,6 +282,37 @@ impl Series {
             .map(|&i| i - range.start)
             .collect();
         Some(part)
+    }
+
+    /// Adds a state re-estimate at the first sample of every `horizon_s` stretch (on the
+    /// model's clock), on top of the gap resets: the model is then compared with the craft
+    /// over that horizon, not open loop over the whole recording. At most
+    /// [`MAX_HORIZON_RESETS`] (the horizon widens to fit).
+    pub fn reset_every(&mut self, horizon_s: f64) {
+        let (Some(&t0), Some(&t1)) = (self.t_ms.first(), self.t_ms.last()) else {
+            return;
+        };
+        if !(horizon_s.is_finite() && horizon_s > 0.0) {
+            return;
+        }
+        let span = (t1 - t0) as f64;
+        let h = (horizon_s * 1e3)
+            .max(span / MAX_HORIZON_RESETS as f64)
+            .max(1.0);
+        let mut at = vec![];
+        let mut next = t0 as f64 + h;
+        for (i, &t) in self.t_ms.iter().enumerate() {
+            if t as f64 >= next {
+                at.push(i);
+                while next <= t as f64 {
+                    next += h;
+                }
+            }
+        }
+        at.extend_from_slice(&self.gap_resets);
+        at.sort_unstable();
+        at.dedup();
+        self.gap_resets = at;
     }
 
     /// Number of samples.

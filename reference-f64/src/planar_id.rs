@@ -803,6 +803,34 @@ pub fn predict(
     Ok(out)
 }
 
+impl PlanarModel {
+    /// The planar part of a ground model: thruster x/y positions, directions and forces,
+    /// Izz and the CoM's x/y. None for a 3-D model (its other terms matter) or one whose
+    /// thrusters leave the plane.
+    pub fn from_satellite(sat: &crate::satellite::Satellite) -> Option<PlanarModel> {
+        if !sat.planar {
+            return None;
+        }
+        let thrusters = (0..sat.n_thrusters())
+            .map(|i| PlanarThruster {
+                pos_m: [sat.thruster_pos_m[i][0], sat.thruster_pos_m[i][1]],
+                dir: [sat.thrust_dir[i][0], sat.thrust_dir[i][1]],
+                force_n: sat.thrust_n[i],
+            })
+            .collect();
+        let com = sat.com_m();
+        Some(PlanarModel {
+            thrusters,
+            izz_kgm2: sat.inertia_kgm2[2],
+            com_m: [com.x, com.y],
+        })
+    }
+}
+
+/// Terms of the 3-D estimate contract a planar craft cannot identify: reported
+/// unobservable (held at the model), never estimated.
+pub const NOT_PLANAR_TERMS: [&str; 6] = ["Ixx", "Iyy", "Ixy", "Ixz", "Iyz", "cm_z"];
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -319,9 +319,9 @@ impl Satellite {
             ));
         }
         if self.planar {
-            if let Some(i) = (0..n)
-                .find(|&i| self.thrust_dir[i][2].abs() > 1e-9 || self.thruster_pos_m[i][2].abs() > 1e-9)
-            {
+            if let Some(i) = (0..n).find(|&i| {
+                self.thrust_dir[i][2].abs() > 1e-9 || self.thruster_pos_m[i][2].abs() > 1e-9
+            }) {
                 return Err(format!(
                     "planar craft: thruster {} must lie in the x-y plane and push in it \
                      (z of position and direction 0)",

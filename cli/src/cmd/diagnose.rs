@@ -2,13 +2,16 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use massid_diagnose::{diagnose_recording, report, Settings};
+use massid_diagnose::{
+    diagnose_rate_recording, diagnose_recording, holdout, model, report, Settings,
+};
+use reference_f64::rate_recording::{format_version, RateRecording};
 use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The recording (massid-recording/1 CSV).
+    /// The recording (massid-recording/1 or /2 CSV; `massid import` makes /2 from other logs).
     pub recording: PathBuf,
     /// Built-in satellite model (sph1..sph5); default: the recording's `satellite` metadata.
     #[arg(long, conflicts_with = "model")]
@@ -22,10 +25,57 @@ pub struct Args {
     /// Write an HTML report with SVG plots into this directory.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Also validate without truth: diagnose only the first FRACTION of the samples (e.g.
+    /// 0.5), predict the rest with the nominal and with the fitted model, and print both
+    /// residuals on the part the fit never saw.
+    #[arg(long, value_name = "FRACTION")]
+    pub holdout: Option<f64>,
+    /// Compare the model with the craft over this many seconds: the body rate is
+    /// re-estimated at the start of every stretch (default: open loop over the whole
+    /// recording, re-anchored only after telemetry gaps). For long closed-loop flights of a
+    /// craft whose model is off, e.g. 10.
+    #[arg(long, value_name = "SECONDS")]
+    pub horizon: Option<f64>,
+}
+
+/// The recording in either format, as the diagnosis reads it.
+enum Input {
+    Counts(Recording),
+    Rates(RateRecording),
+}
+
+impl Input {
+    fn satellite(&self) -> Option<&str> {
+        match self {
+            Input::Counts(r) => r.satellite(),
+            Input::Rates(r) => r.satellite(),
+        }
+    }
+    fn len(&self) -> usize {
+        match self {
+            Input::Counts(r) => r.samples.len(),
+            Input::Rates(r) => r.time_ms.len(),
+        }
+    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let rec = Recording::read(&args.recording)?;
+    if let Some(h) = args.horizon {
+        anyhow::ensure!(
+            h.is_finite() && h > 0.0,
+            "--horizon {h}: must be a positive number of seconds"
+        );
+    }
+    if let Some(f) = args.holdout {
+        anyhow::ensure!(
+            f > 0.0 && f < 1.0,
+            "--holdout {f}: the fraction fitted must be strictly between 0 and 1"
+        );
+    }
+    let rec = match format_version(&args.recording)? {
+        2 => Input::Rates(RateRecording::read(&args.recording)?),
+        _ => Input::Counts(Recording::read(&args.recording)?),
+    };
     let sat = if let Some(m) = &args.model {
         // The one model format (either layout): the nominal model is its satellite.
         massid_sim::model_file::ModelFile::read(m)?.satellite
@@ -57,13 +107,47 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     spinner.set_message(format!(
         "diagnosing {} ({} samples): locating, fitting and checking candidate effects",
         args.recording.display(),
-        rec.samples.len()
+        rec.len()
     ));
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
-    let analysis = diagnose_recording(&rec, &sat, &Settings::default());
+    let settings = Settings {
+        horizon_s: args.horizon,
+        ..Settings::default()
+    };
+    let analysis = match &rec {
+        Input::Counts(r) => diagnose_recording(r, &sat, &settings),
+        Input::Rates(r) => diagnose_rate_recording(r, &sat, &settings),
+    };
+    let holdout = match (args.holdout, &analysis) {
+        (Some(fraction), Ok(a)) => {
+            spinner.set_message(format!(
+                "held-out check: diagnosing the first {:.0} % and predicting the rest",
+                fraction * 100.0
+            ));
+            let plant = model::Plant::new(&sat);
+            holdout::fit_then_predict(
+                &a.series,
+                &plant,
+                &a.output.recording,
+                &sat.name,
+                &settings,
+                fraction,
+            )
+        }
+        _ => None,
+    };
     spinner.finish_and_clear();
     let analysis = analysis?;
     print!("{}", report::summary(&analysis));
+    if let Some(f) = args.holdout {
+        match &holdout {
+            Some(h) => print!("{}", report::holdout_summary(h)),
+            None => println!(
+                "held-out check ({:.0} % fitted): not possible (a part is empty or cannot be predicted)",
+                f * 100.0
+            ),
+        }
+    }
     if let Some(out) = &args.json {
         let text = serde_json::to_string_pretty(&analysis.output)?;
         std::fs::write(out, text + "\n")
@@ -97,6 +181,8 @@ mod tests {
             model: None,
             json: Some(json.clone()),
             report: Some(dir.clone()),
+            holdout: None,
+            horizon: None,
         };
         let e = run(args).expect_err("overwriting the input is refused");
         assert!(e.to_string().contains("refusing to overwrite"), "{e}");

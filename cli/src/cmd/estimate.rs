@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Recording to identify (massid-recording/1 CSV).
+    /// Recording to identify (massid-recording/1 CSV, or /2 of a planar craft with --model).
     recording: PathBuf,
     /// Built-in satellite model (sph1..sph5); default: the recording's `satellite` metadata.
     #[arg(long, conflicts_with = "model")]
@@ -215,8 +215,128 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
     }
 }
 
+/// A recording in format v2 of a planar craft: yaw-rate identification of Izz, the CoM's
+/// x/y, rate damping and a disturbance torque (`reference_f64::planar_id`), reported in the
+/// contract's layout with every term a planar craft cannot identify listed unobservable.
+fn run_planar(args: &Args, kernels: &[Kernel]) -> anyhow::Result<()> {
+    use reference_f64::planar_id::{self, PlanarModel, PlanarOptions, NOT_PLANAR_TERMS};
+    use reference_f64::rate_recording::{Commands, RateRecording};
+    if kernels != [Kernel::F64] {
+        bail!(
+            "--kernel {}: the onboard kernels fly the 12-thruster 3-D SPHERES layout; a planar \
+             recording (format v2) is identified by the f64 reference only (--kernel f64)",
+            args.kernel
+        );
+    }
+    let rec = RateRecording::read(&args.recording)?;
+    let sat = match (&args.model, &args.satellite) {
+        (Some(path), _) => massid_sim::model_file::ModelFile::read(path)?.satellite,
+        _ => bail!(
+            "{}: a recording in format v2 needs its craft's model: pass --model FILE",
+            args.recording.display()
+        ),
+    };
+    let model = PlanarModel::from_satellite(&sat).ok_or_else(|| {
+        anyhow!(
+            "{}: model {} is 3-D; recordings in format v2 are identified for planar craft \
+             only (`planar = true`)",
+            args.recording.display(),
+            sat.name
+        )
+    })?;
+    let Commands::Thrusters { n, words } = &rec.commands else {
+        bail!(
+            "{}: the commands are a body wrench; identification needs thruster states",
+            rec.source
+        );
+    };
+    if *n != sat.n_thrusters() {
+        bail!(
+            "{}: {n} thrusters in the recording, {} in model {}",
+            rec.source,
+            sat.n_thrusters(),
+            sat.name
+        );
+    }
+    if let Some(out) = &args.json {
+        let mut inputs: Vec<&Path> = vec![args.recording.as_path()];
+        if let Some(m) = &args.model {
+            inputs.push(m.as_path());
+        }
+        crate::cmd::check_output(out, &inputs)?;
+    }
+    let rate_z: Vec<f64> = rec.rate.iter().map(|r| r[2]).collect();
+    let e = planar_id::identify(
+        &model,
+        &rec.time_ms,
+        &rate_z,
+        words,
+        &PlanarOptions::default(),
+    )
+    .map_err(|e| anyhow!("{}: {e} (status {})", rec.source, e.status()))?;
+    let mm = |v: Option<f64>| v.map(|x| x * 1e3);
+    let mut unobservable: Vec<&str> = NOT_PLANAR_TERMS.to_vec();
+    unobservable.extend(e.unobservable.iter().filter(|t| t.starts_with("cm_")));
+    let i = sat.inertia_kgm2;
+    let result = json!({
+        "com_offset_mm": [mm(e.com_offset_m[0]), mm(e.com_offset_m[1]), Value::Null],
+        "com_offset_stderr_mm": [mm(e.com_stderr_m[0]), mm(e.com_stderr_m[1]), Value::Null],
+        "inertia_kgm2": [i[0], i[1], e.izz_kgm2, i[3], i[4], i[5]],
+        "inertia_stderr_kgm2": [Value::Null, Value::Null, e.izz_stderr, Value::Null, Value::Null, Value::Null],
+        "unobservable": unobservable,
+        "updates": e.intervals_used,
+        "status": "ok",
+    });
+    let se = |v: Option<f64>, s: Option<f64>, k: f64| match (v, s) {
+        (Some(v), Some(s)) => format!("{:+.4} ± {:.4}", v * k, s * k),
+        _ => "unobservable (held at the model)".to_string(),
+    };
+    println!(
+        "planar identification of {} against {} ({} intervals, rate noise RMS {:.4} rad/s)",
+        rec.source, sat.name, e.intervals_used, e.residual_rms_rad_s
+    );
+    println!(
+        "  Izz        {:.4} ± {:.4} kg m^2 (model {:.4})",
+        e.izz_kgm2, e.izz_stderr, model.izz_kgm2
+    );
+    println!(
+        "  cm_x - model {} mm",
+        se(e.com_offset_m[0], e.com_stderr_m[0], 1e3)
+    );
+    println!(
+        "  cm_y - model {} mm",
+        se(e.com_offset_m[1], e.com_stderr_m[1], 1e3)
+    );
+    println!(
+        "  damping    {} N m s/rad",
+        se(e.damping_nms, e.damping_stderr, 1.0)
+    );
+    println!(
+        "  disturbance {} mN m",
+        se(e.disturbance_nm, e.disturbance_stderr, 1e3)
+    );
+    println!(
+        "  not identifiable on a planar craft: {}",
+        NOT_PLANAR_TERMS.join(", ")
+    );
+    if let Some(out) = &args.json {
+        let doc = json!({
+            "format": "massid-estimate/1",
+            "recording": args.recording.file_name().map(|f| f.to_string_lossy().into_owned()),
+            "model": sat.name,
+            "results": { "f64": result },
+        });
+        std::fs::write(out, serde_json::to_string_pretty(&doc)? + "\n")
+            .with_context(|| format!("{}: cannot write", out.display()))?;
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     let kernels = parse_kernels(&args.kernel)?;
+    if reference_f64::rate_recording::format_version(&args.recording)? == 2 {
+        return run_planar(&args, &kernels);
+    }
     let rec = Recording::read(&args.recording)?;
     // A declared rate that contradicts the time steps is an error (file and line) for every
     // implementation: flight code counts time in ticks of the declared period.

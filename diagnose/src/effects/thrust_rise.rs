@@ -46,7 +46,8 @@ impl Effect for ThrustRise {
         at_bound: &dyn Fn(usize) -> bool,
         _: &Context,
     ) -> Option<String> {
-        (at_bound(0) && th[0] > 0.0).then(|| format!("rise time at the {MAX_TAU_MS} ms search bound"))
+        (at_bound(0) && th[0] > 0.0)
+            .then(|| format!("rise time at the {MAX_TAU_MS} ms search bound"))
     }
     fn signature(&self) -> &'static str {
         "residual at valve edges is a smeared step: force arrives gradually, not late"

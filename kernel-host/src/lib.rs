@@ -46,12 +46,16 @@ pub fn params(sat: &Satellite) -> Result<SatelliteParams, HostError> {
     let n = sat.n_thrusters();
     let twelve = |v: &[[f64; 3]]| -> Result<[[f32; 3]; 12], HostError> {
         let a: &[[f64; 3]; 12] = v.try_into().map_err(|_| {
-            refuse(format!("{n} thrusters: the kernel is built for 12 (model.rs N_THRUSTERS)"))
+            refuse(format!(
+                "{n} thrusters: the kernel is built for 12 (model.rs N_THRUSTERS)"
+            ))
         })?;
         Ok(a.map(|p| p.map(|v| v as f32)))
     };
     let thrust_n: &[f64; 12] = sat.thrust_n.as_slice().try_into().map_err(|_| {
-        refuse(format!("{n} thrusters: the kernel is built for 12 (model.rs N_THRUSTERS)"))
+        refuse(format!(
+            "{n} thrusters: the kernel is built for 12 (model.rs N_THRUSTERS)"
+        ))
     })?;
     Ok(SatelliteParams {
         thruster_pos_m: twelve(&sat.thruster_pos_m)?,

@@ -37,8 +37,8 @@ use std::path::Path;
 
 /// The format version this module reads and writes.
 pub const FORMAT_V2: &str = "massid-recording/2";
-/// Most thrusters a v2 word holds.
-pub const MAX_THRUSTERS: usize = 16;
+/// Most thrusters a v2 word holds: the models' limit.
+pub use crate::satellite::MAX_THRUSTERS;
 /// Axis names in storage order.
 pub const AXES: [&str; 3] = ["x", "y", "z"];
 /// Wrench columns in storage order (N for forces, N m for torques).

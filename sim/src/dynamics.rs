@@ -100,7 +100,13 @@ impl Plant {
             cfg,
             mass_kg: sat.mass_kg,
             com_nominal: sat.com_m(),
-            pos: std::array::from_fn(|i| if i < n { sat.pos_m(i) } else { Vector3::zeros() }),
+            pos: std::array::from_fn(|i| {
+                if i < n {
+                    sat.pos_m(i)
+                } else {
+                    Vector3::zeros()
+                }
+            }),
             dir: std::array::from_fn(|i| if i < n { sat.dir(i) } else { Vector3::zeros() }),
             thrust_n: std::array::from_fn(|i| sat.thrust_n.get(i).copied().unwrap_or(0.0)),
             word_mask: sat.word_mask(),

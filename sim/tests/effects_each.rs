@@ -81,7 +81,9 @@ fn thrust_scale_multiplies_each_thruster_and_zero_is_dead() {
     let mut scale = [1.0; 12];
     scale[5] = 0.7;
     scale[0] = 0.0;
-    let e = Effect::ThrustScale(ThrustScale { scale: scale.to_vec() });
+    let e = Effect::ThrustScale(ThrustScale {
+        scale: scale.to_vec(),
+    });
     let want = expected(&sat, sat.inertia_matrix(), sat.com_m(), WORD, |i| {
         sat.thrust_n[i] * scale[i]
     });

@@ -24,7 +24,11 @@ fn thrust_rise_is_named_as_a_rise_not_a_latency() {
     let out = diagnose(&[r#"{"effect":"thrust_rise","params":{"tau_ms":25.0}}"#], 7);
     let named: Vec<&str> = out.effects.iter().map(|e| e.effect.as_str()).collect();
     eprintln!("named {named:?}; unexplained {:?}", out.unexplained);
-    assert_eq!(named, vec!["thrust_rise"], "a rise is a rise, not a latency");
+    assert_eq!(
+        named,
+        vec!["thrust_rise"],
+        "a rise is a rise, not a latency"
+    );
     let e = &out.effects[0];
     let tau = e.params["tau_ms"].as_f64().unwrap();
     let se = e.stderr["tau_ms"].as_f64().unwrap();

@@ -67,21 +67,21 @@ pub const MAX_TIME_MS: u64 = 1 << 53;
 
 /// The time axis checks the diagnosis relies on and a hand-built `Recording` may break:
 /// strictly increasing `time_ms`, none past [`MAX_TIME_MS`].
-fn check_times(rec: &Recording) -> Result<(), DiagnoseError> {
+fn check_times(source: &str, times: impl Iterator<Item = u64>) -> Result<(), DiagnoseError> {
     let mut previous: Option<u64> = None;
-    for (i, s) in rec.samples.iter().enumerate() {
-        if s.time_ms > MAX_TIME_MS {
-            return Err(DiagnoseError::TimeTooLate(rec.source.clone(), i, s.time_ms));
+    for (i, t) in times.enumerate() {
+        if t > MAX_TIME_MS {
+            return Err(DiagnoseError::TimeTooLate(source.to_string(), i, t));
         }
-        if let Some(p) = previous.filter(|&p| s.time_ms <= p) {
+        if let Some(p) = previous.filter(|&p| t <= p) {
             return Err(DiagnoseError::TimeNotIncreasing(
-                rec.source.clone(),
+                source.to_string(),
                 i,
-                s.time_ms,
+                t,
                 p,
             ));
         }
-        previous = Some(s.time_ms);
+        previous = Some(t);
     }
     Ok(())
 }
@@ -121,23 +121,8 @@ pub fn rate_series(rec: &RateRecording, sat: &Satellite) -> Result<series::Serie
             ),
         ));
     }
-    let mut t = Vec::with_capacity(rec.time_ms.len());
-    for (i, &ms) in rec.time_ms.iter().enumerate() {
-        if ms > MAX_TIME_MS {
-            return Err(DiagnoseError::TimeTooLate(rec.source.clone(), i, ms));
-        }
-        if let Some(&p) = t.last() {
-            if ms as i64 <= p {
-                return Err(DiagnoseError::TimeNotIncreasing(
-                    rec.source.clone(),
-                    i,
-                    ms,
-                    p as u64,
-                ));
-            }
-        }
-        t.push(ms as i64);
-    }
+    check_times(&rec.source, rec.time_ms.iter().copied())?;
+    let t: Vec<i64> = rec.time_ms.iter().map(|&ms| ms as i64).collect();
     // a planar craft's bearing holds x and y: whatever the file says about them, they
     // carry no information about the model
     let rates: Vec<[f64; 3]> = rec
@@ -169,27 +154,50 @@ pub fn diagnose_rate_recording(
     sat: &Satellite,
     settings: &Settings,
 ) -> Result<Analysis, DiagnoseError> {
-    let mut series = rate_series(rec, sat)?;
+    let series = rate_series(rec, sat)?;
+    diagnose_series(
+        series,
+        sat,
+        &rec.source,
+        rec.issues.duplicates as u64,
+        0,
+        settings,
+    )
+}
+
+/// The part both formats share: the horizon's resets, the data issues and the run.
+fn diagnose_series(
+    mut series: series::Series,
+    sat: &Satellite,
+    source: &str,
+    duplicates: u64,
+    saturated: u64,
+    settings: &Settings,
+) -> Result<Analysis, DiagnoseError> {
     if let Some(h) = settings.horizon_s {
         series.reset_every(h);
     }
+    if series.usable() == 0 {
+        return Err(DiagnoseError::NoUsableSamples(source.to_string()));
+    }
     let plant = model::Plant::new(sat);
     let issues = DataIssues {
+        // from the time steps, which win over a contradicting declared rate
         gaps: series.gaps,
         missing_samples: series.missing_samples,
-        duplicates: rec.issues.duplicates as u64,
-        saturated: 0,
+        duplicates,
+        saturated,
         railed: series.railed,
     };
     diagnose(
         &series,
         &plant,
-        &file_name(&rec.source),
+        &file_name(source),
         &sat.name,
         issues,
         settings,
     )
-    .ok_or_else(|| DiagnoseError::NoPrediction(rec.source.clone(), sat.name.clone()))
+    .ok_or_else(|| DiagnoseError::NoPrediction(source.to_string(), sat.name.clone()))
 }
 
 /// The recording's file name, as the report names it.
@@ -207,33 +215,17 @@ pub fn diagnose_recording(
     sat: &Satellite,
     settings: &Settings,
 ) -> Result<Analysis, DiagnoseError> {
-    check_times(rec)?;
-    let mut series = series::Series::from_recording(rec, sat)
+    check_times(&rec.source, rec.samples.iter().map(|s| s.time_ms))?;
+    let series = series::Series::from_recording(rec, sat)
         .ok_or_else(|| DiagnoseError::Empty(rec.source.clone()))?;
-    if let Some(h) = settings.horizon_s {
-        series.reset_every(h);
-    }
-    if series.usable() == 0 {
-        return Err(DiagnoseError::NoUsableSamples(rec.source.clone()));
-    }
-    let plant = model::Plant::new(sat);
-    let issues = DataIssues {
-        // from the time steps, which win over a contradicting declared rate
-        gaps: series.gaps,
-        missing_samples: series.missing_samples,
-        duplicates: rec.issues.duplicates as u64,
-        saturated: rec.issues.saturated as u64,
-        railed: series.railed,
-    };
-    diagnose(
-        &series,
-        &plant,
-        &file_name(&rec.source),
-        &sat.name,
-        issues,
+    diagnose_series(
+        series,
+        sat,
+        &rec.source,
+        rec.issues.duplicates as u64,
+        rec.issues.saturated as u64,
         settings,
     )
-    .ok_or_else(|| DiagnoseError::NoPrediction(rec.source.clone(), sat.name.clone()))
 }
 pub mod score;
 pub mod synth;

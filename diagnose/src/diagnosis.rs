@@ -451,17 +451,13 @@ pub fn diagnose(
             .filter(|p| !p.0.effect().on_residual())
             .cloned()
             .collect();
-        let mut taken = None;
-        for (dbic, kind, theta, note, rf) in ranked.into_iter().take(MAX_TRIES) {
-            if dbic > -settings.accept_margin {
-                break;
-            }
-            let tried = try_candidate(
+        // one verdict for a single effect and for a set named together
+        let verdict = |new: &[(Kind, Vec<f64>)], rf: Option<RingingFit>| -> Result<Tried, String> {
+            let t = try_candidate(
                 &prob,
                 &fired,
                 &rigid_acc,
-                kind,
-                &theta,
+                new,
                 rf,
                 &omega0,
                 &slosh_hint,
@@ -469,39 +465,64 @@ pub fn diagnose(
                 &rigid_residual,
                 &whitening,
                 ringing_fit.is_some(),
-            );
-            let verdict = tried.and_then(|t| {
-                let material = acceptance::materiality(&t.contribution, &series.valid, sigma);
-                let rms_new = locate::rms(&t.residual, &series.valid);
-                let tests_new = stats::residual_tests(series, &t.residual);
-                if let Some(why) = t.implausible.clone() {
-                    return Err(format!("implausible: {why}"));
-                }
+            )?;
+            if let Some(why) = t.implausible.clone() {
+                return Err(format!("implausible: {why}"));
+            }
+            for (kind, d) in &t.contributions {
+                let material = acceptance::materiality(d, &series.valid, sigma);
                 if material.iter().all(|&m| m < acceptance::MATERIAL_FRACTION) {
+                    let who = if new.len() > 1 {
+                        format!("{} ", kind.name())
+                    } else {
+                        String::new()
+                    };
                     return Err(format!(
-                        "not material: it adds at most {:.2} of the gyro noise where it acts (needs {})",
+                        "not material: {who}adds at most {:.2} of the gyro noise where it acts (needs {})",
                         material.iter().cloned().fold(0.0, f64::max),
                         acceptance::MATERIAL_FRACTION
                     ));
                 }
-                if let Some(why) = acceptance::axis_worse(rms_prev, rms_new, &tests_prev, &tests_new) {
-                    return Err(why);
-                }
-                if !kind.effect().on_residual() {
-                    match acceptance::holdout(&prob, &fired, &rigid_acc, (kind, &theta), &omega0, &slosh_hint, settings.max_iter) {
-                        Some(h) => {
-                            if let Some(why) = h.failure() {
-                                return Err(why);
-                            }
+            }
+            let rms_new = locate::rms(&t.residual, &series.valid);
+            let tests_new = stats::residual_tests(series, &t.residual);
+            if let Some(why) = acceptance::axis_worse(rms_prev, rms_new, &tests_prev, &tests_new) {
+                return Err(why);
+            }
+            if !new[0].0.effect().on_residual() {
+                match acceptance::holdout(
+                    &prob,
+                    &fired,
+                    &rigid_acc,
+                    new,
+                    &omega0,
+                    &slosh_hint,
+                    settings.max_iter,
+                ) {
+                    Some(h) => {
+                        if let Some(why) = h.failure() {
+                            return Err(why);
                         }
-                        None => return Err("the out-of-sample fit failed".into()),
                     }
+                    None => return Err("the out-of-sample fit failed".into()),
                 }
-                Ok(t)
-            });
-            match verdict {
+            }
+            Ok(t)
+        };
+        let pool: Vec<(f64, Kind, Vec<f64>)> = ranked
+            .iter()
+            .filter(|r| r.0 <= -settings.accept_margin && !r.1.effect().on_residual())
+            .take(PAIR_POOL)
+            .map(|r| (r.0, r.1, r.2.clone()))
+            .collect();
+        let mut taken: Option<(Vec<(f64, Kind, String)>, Tried)> = None;
+        for (dbic, kind, theta, note, rf) in ranked.into_iter().take(MAX_TRIES) {
+            if dbic > -settings.accept_margin {
+                break;
+            }
+            match verdict(&[(kind, theta)], rf) {
                 Ok(t) => {
-                    taken = Some((dbic, kind, note, t));
+                    taken = Some((vec![(dbic, kind, note)], t));
                     break;
                 }
                 Err(reason) => rejections.push(Rejection {
@@ -512,11 +533,93 @@ pub fn diagnose(
                 }),
             }
         }
-        let Some((dbic, kind, note, t)) = taken else {
+        // no single effect generalises: two true effects can each fail alone (each fit
+        // alone is a compromise that predicts some held-out block worse), so the
+        // strongest pairs are fitted jointly and put through the same checks
+        if taken.is_none() && pool.len() >= 2 {
+            let _timing = Timing("pairs", std::time::Instant::now());
+            let mut pairs = vec![];
+            for a in 0..pool.len() {
+                for b in a + 1..pool.len() {
+                    let (ka, kb) = (pool[a].1, pool[b].1);
+                    if !combinable(ka, kb) {
+                        continue;
+                    }
+                    let new = [(ka, pool[a].2.clone()), (kb, pool[b].2.clone())];
+                    let mut start = rigid_acc.clone();
+                    start.extend_from_slice(&new);
+                    let Some((fr, sz)) = select::fit_joint(
+                        &prob,
+                        &fired,
+                        &start,
+                        None,
+                        &omega0,
+                        &slosh_hint,
+                        settings.max_iter * 2,
+                    ) else {
+                        continue;
+                    };
+                    let k_pair = sz[sz.len() - 2] + sz[sz.len() - 1];
+                    let dbic = fr.chi2 - ring_gain - chi2_cur + k_pair as f64 * ln_n;
+                    // each must earn its place beside the other
+                    if dbic > pool[a].0.min(pool[b].0) - settings.accept_margin {
+                        continue;
+                    }
+                    let off_a: usize = sz[..sz.len() - 2].iter().sum();
+                    let off_b = off_a + sz[sz.len() - 2];
+                    let own = |kind: Kind, off: usize, n: usize| {
+                        wald(
+                            kind,
+                            &fr.theta[off..off + n],
+                            &fr.stderr[off..off + n],
+                            &prob,
+                        ) >= n as f64 * ln_n
+                    };
+                    if !own(ka, off_a, sz[sz.len() - 2]) || !own(kb, off_b, sz[sz.len() - 1]) {
+                        continue;
+                    }
+                    let fitted = [
+                        (ka, fr.theta[off_a..off_b].to_vec()),
+                        (kb, fr.theta[off_b..off_b + sz[sz.len() - 1]].to_vec()),
+                    ];
+                    pairs.push((dbic, fitted));
+                }
+            }
+            pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+            for (dbic, new) in pairs.into_iter().take(MAX_TRIES) {
+                scores.push(Score {
+                    round,
+                    effect: new[0].0.name(),
+                    delta_bic: dbic,
+                });
+                match verdict(&new, None) {
+                    Ok(t) => {
+                        let together = |other: Kind| {
+                            format!("named together with {}: alone neither generalised, together they predict held-out blocks better (delta BIC {dbic:.0} for both)", other.name())
+                        };
+                        taken = Some((
+                            vec![
+                                (dbic, new[0].0, together(new[1].0)),
+                                (dbic, new[1].0, together(new[0].0)),
+                            ],
+                            t,
+                        ));
+                        break;
+                    }
+                    Err(reason) => rejections.push(Rejection {
+                        round,
+                        effect: new[0].0.name(),
+                        delta_bic: dbic,
+                        reason: format!("together with {}: {reason}", new[1].0.name()),
+                    }),
+                }
+            }
+        }
+        let Some((named, t)) = taken else {
             break;
         };
         let residual_prev = residual_cur.clone();
-        if kind.effect().on_residual() {
+        if named[0].1.effect().on_residual() {
             if let Some(rf) = &t.ringing {
                 alias_marks = (
                     rf.apparent_hz,
@@ -543,41 +646,46 @@ pub fn diagnose(
         }
         ringing_fit = t.ringing.clone();
         residual_cur = t.residual.clone();
-        let theta = t
-            .pairs
+        k_cur += named
             .iter()
-            .find(|p| p.0 == kind)
-            .map(|p| p.1.clone())
-            .unwrap_or_default();
-        k_cur += effects::n_params(kind, &fired);
+            .map(|n| effects::n_params(n.1, &fired))
+            .sum::<usize>();
         let chi2_total = chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let delta_bic_total = chi2_total - chi2_nominal + k_cur as f64 * ln_n;
-        let width = kind.effect().window_ms();
-        let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3)
-            .into_iter()
-            .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
-            .collect();
-        // thrust scale names its most-off thruster below, from the final fit
-        let evidence = describe(
-            kind,
-            series,
-            &residual_prev,
-            &residual_cur,
-            dbic,
-            &note,
-            &scores,
-            &rejections,
-            round,
-        );
-        accepted.push(Accepted {
-            kind,
-            theta,
-            stderr: vec![],
-            delta_bic: delta_bic_total,
-            rms_after: locate::rms(&residual_cur, &series.valid),
-            windows,
-            evidence,
-        });
+        for (dbic, kind, note) in named {
+            let theta = t
+                .pairs
+                .iter()
+                .find(|p| p.0 == kind)
+                .map(|p| p.1.clone())
+                .unwrap_or_default();
+            let width = kind.effect().window_ms();
+            let windows = locate::top_windows(series, &residual_prev, &residual_cur, width, 3)
+                .into_iter()
+                .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
+                .collect();
+            // thrust scale names its most-off thruster below, from the final fit
+            let evidence = describe(
+                kind,
+                series,
+                &residual_prev,
+                &residual_cur,
+                dbic,
+                &note,
+                &scores,
+                &rejections,
+                round,
+            );
+            accepted.push(Accepted {
+                kind,
+                theta,
+                stderr: vec![],
+                delta_bic: delta_bic_total,
+                rms_after: locate::rms(&residual_cur, &series.valid),
+                windows,
+                evidence,
+            });
+        }
     }
     // standard errors of the rigid effects come from the last joint fit
     let mut off = 0;
@@ -675,8 +783,22 @@ pub fn diagnose(
     })
 }
 
-/// How many of a round's strongest candidates are tried against the acceptance checks.
+/// How many of a round's strongest candidates (or pairs) are tried against the acceptance
+/// checks.
 const MAX_TRIES: usize = 3;
+/// When no single candidate passes, pairs are formed from this many of the strongest.
+const PAIR_POOL: usize = 5;
+
+/// Mechanisms that share parameters cannot be fitted together.
+fn combinable(a: Kind, b: Kind) -> bool {
+    let mass = |k: Kind| {
+        matches!(
+            k,
+            Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset
+        )
+    };
+    !(mass(a) && mass(b) && (a == Kind::MassPropertyChange || b == Kind::MassPropertyChange))
+}
 
 /// A candidate the diagnosis did not name, and why.
 #[derive(Clone, Debug)]
@@ -699,19 +821,20 @@ struct Tried {
     latency: (f64, f64),
     ringing: Option<RingingFit>,
     residual: Vec<[f64; 3]>,
-    /// What the candidate adds to the predicted rates (or removes from the residual).
-    contribution: Vec<[f64; 3]>,
+    /// What each new effect adds to the predicted rates (or removes from the residual),
+    /// in the order they were tried.
+    contributions: Vec<(Kind, Vec<[f64; 3]>)>,
     implausible: Option<String>,
 }
 
-/// Refits the model with the candidate added and measures what it changes.
+/// Refits the model with the candidate (one effect, or a set named together) added and
+/// measures what each of its effects changes.
 #[allow(clippy::too_many_arguments)]
 fn try_candidate(
     prob: &Problem,
     fired: &[bool; NT],
     rigid_acc: &[(Kind, Vec<f64>)],
-    kind: Kind,
-    theta: &[f64],
+    new: &[(Kind, Vec<f64>)],
     rf: Option<RingingFit>,
     nuis: &[f64],
     hint: &[f64],
@@ -721,46 +844,59 @@ fn try_candidate(
     ringing_on: bool,
 ) -> Result<Tried, String> {
     let series = prob.series;
-    if kind.effect().on_residual() {
-        let rf = rf.ok_or("no ringing fit")?;
-        let latency = latency_of(rigid_acc);
-        let residual = ringing::remove(series, rigid_residual, whitening, &rf, latency);
-        let contribution = rigid_residual
-            .iter()
-            .zip(&residual)
-            .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
-            .collect();
-        return Ok(Tried {
-            pairs: rigid_acc.to_vec(),
-            nuis: nuis.to_vec(),
-            chi2_rigid: f64::NAN,
-            stderr: vec![],
-            sizes: vec![],
-            rigid_residual: rigid_residual.to_vec(),
-            latency,
-            implausible: acceptance::implausible_ringing(rf.decay_ms, rf.freq_hz),
-            ringing: Some(rf),
-            residual,
-            contribution,
-        });
+    if let [(kind, _)] = new {
+        if kind.effect().on_residual() {
+            return try_ringing(
+                series,
+                rigid_acc,
+                *kind,
+                rf,
+                nuis,
+                rigid_residual,
+                whitening,
+            );
+        }
     }
     let mut pairs = rigid_acc.to_vec();
-    pairs.push((kind, theta.to_vec()));
+    pairs.extend_from_slice(new);
     let (pairs, chi2_rigid, w, stderr, sizes) =
         refit_all(prob, fired, &pairs, nuis, hint, settings);
     let with = select::build(fired, &pairs, &w);
-    let without: Vec<(Kind, Vec<f64>)> = pairs.iter().filter(|p| p.0 != kind).cloned().collect();
     let y1 = prob
         .predict(&with)
         .ok_or("the model with it cannot be predicted")?;
-    let y0 = prob
-        .predict(&select::build(fired, &without, &w))
-        .ok_or("the model without it cannot be predicted")?;
-    let contribution = y1
-        .iter()
-        .zip(&y0)
-        .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
-        .collect();
+    let mut contributions = vec![];
+    let mut implausible = None;
+    let cx = select::context(prob, fired, hint);
+    for (kind, _) in new {
+        let without: Vec<(Kind, Vec<f64>)> =
+            pairs.iter().filter(|p| p.0 != *kind).cloned().collect();
+        let y0 = prob
+            .predict(&select::build(fired, &without, &w))
+            .ok_or("the model without it cannot be predicted")?;
+        contributions.push((
+            *kind,
+            y1.iter()
+                .zip(&y0)
+                .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
+                .collect(),
+        ));
+        let th = pairs
+            .iter()
+            .find(|p| p.0 == *kind)
+            .map(|p| p.1.clone())
+            .unwrap_or_default();
+        let sp = select::spec(*kind, prob, fired, hint);
+        implausible = implausible.or(
+            acceptance::implausible(*kind, &th, &cx, &sp.lo, &sp.hi).map(|why| {
+                if new.len() > 1 {
+                    format!("{}: {why}", kind.name())
+                } else {
+                    why
+                }
+            }),
+        );
+    }
     let rigid_residual = prob.residual(&with).ok_or("no residual")?;
     let latency = latency_of(&pairs);
     let ringing = if ringing_on {
@@ -778,14 +914,6 @@ fn try_candidate(
         Some(r) => ringing::remove(series, &rigid_residual, whitening, r, latency),
         None => rigid_residual.clone(),
     };
-    let th = pairs
-        .iter()
-        .find(|p| p.0 == kind)
-        .map(|p| p.1.clone())
-        .unwrap_or_default();
-    let sp = select::spec(kind, prob, fired, hint);
-    let cx = select::context(prob, fired, hint);
-    let implausible = acceptance::implausible(kind, &th, &cx, &sp.lo, &sp.hi);
     Ok(Tried {
         pairs,
         nuis: w,
@@ -796,8 +924,41 @@ fn try_candidate(
         latency,
         ringing,
         residual,
-        contribution,
+        contributions,
         implausible,
+    })
+}
+
+/// The ringing candidate: a tone removed from the rigid residual, the rigid fit unchanged.
+fn try_ringing(
+    series: &Series,
+    rigid_acc: &[(Kind, Vec<f64>)],
+    kind: Kind,
+    rf: Option<RingingFit>,
+    nuis: &[f64],
+    rigid_residual: &[[f64; 3]],
+    whitening: &ringing::Whitening,
+) -> Result<Tried, String> {
+    let rf = rf.ok_or("no ringing fit")?;
+    let latency = latency_of(rigid_acc);
+    let residual = ringing::remove(series, rigid_residual, whitening, &rf, latency);
+    let contribution = rigid_residual
+        .iter()
+        .zip(&residual)
+        .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
+        .collect();
+    Ok(Tried {
+        pairs: rigid_acc.to_vec(),
+        nuis: nuis.to_vec(),
+        chi2_rigid: f64::NAN,
+        stderr: vec![],
+        sizes: vec![],
+        rigid_residual: rigid_residual.to_vec(),
+        latency,
+        implausible: acceptance::implausible_ringing(rf.decay_ms, rf.freq_hz),
+        ringing: Some(rf),
+        residual,
+        contributions: vec![(kind, contribution)],
     })
 }
 

@@ -1,7 +1,7 @@
 //! The whole diagnosis: nominal prediction, noise, localisation, forward selection of
 //! mechanisms by BIC, and the contract output.
 
-use crate::acceptance;
+use crate::candidate::{Trial, Tried};
 use crate::effects::{self, Kind};
 use crate::fit::{self, Family, Problem};
 use crate::locate;
@@ -188,7 +188,7 @@ fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
 }
 
 /// The valve latency (open, close ms) among `pairs`, zero when none.
-fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
+pub(crate) fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
     pairs
         .iter()
         .find(|a| a.0 == Kind::ThrusterLatency)
@@ -328,8 +328,9 @@ pub fn diagnose(
                 };
                 let off: usize = sz[..sz.len() - 1].iter().sum();
                 let chi2 = fr.chi2 - ring_gain;
+                let k_live = fit::identifiable(&fr.stderr[off..off + k_new]);
                 screened.push((
-                    chi2 - chi2_cur + k_new as f64 * ln_n,
+                    chi2 - chi2_cur + k_live as f64 * ln_n,
                     kind,
                     fr.theta[off..off + k_new].to_vec(),
                     chi2,
@@ -343,6 +344,11 @@ pub fn diagnose(
         screened.sort_by(|a, b| a.0.total_cmp(&b.0));
         for (i, (dbic, kind, theta, chi2, note, rf, se)) in screened.into_iter().enumerate() {
             let k_new = effects::n_params(kind, &fired);
+            let k_live = if se.is_empty() {
+                k_new
+            } else {
+                fit::identifiable(&se)
+            };
             let (dbic, theta, se) = if i < 3 && dbic < 0.0 && !kind.effect().on_residual() {
                 match select::fit_from(
                     &prob,
@@ -357,7 +363,7 @@ pub fn diagnose(
                     Some((fr, sz)) if fr.chi2 - ring_gain < chi2 => {
                         let off: usize = sz[..sz.len() - 1].iter().sum();
                         (
-                            fr.chi2 - ring_gain - chi2_cur + k_new as f64 * ln_n,
+                            fr.chi2 - ring_gain - chi2_cur + k_live as f64 * ln_n,
                             fr.theta[off..off + k_new].to_vec(),
                             fr.stderr[off..off + k_new].to_vec(),
                         )
@@ -380,9 +386,9 @@ pub fn diagnose(
             } else {
                 wald(kind, &theta, &se, &prob)
             };
-            if w < k_new as f64 * ln_n {
+            if w < k_live as f64 * ln_n {
                 if dbic <= -settings.accept_margin {
-                    let reason = format!("its own parameters are within their noise of no effect (Wald {w:.1} < {:.1})", k_new as f64 * ln_n);
+                    let reason = format!("its own parameters are within their noise of no effect (Wald {w:.1} < {:.1})", k_live as f64 * ln_n);
                     rejections.push(Rejection {
                         round,
                         effect: kind.name(),
@@ -417,7 +423,7 @@ pub fn diagnose(
         {
             let mut pairs = acc_pairs.clone();
             pairs.push((Kind::Inertia, prob.plant.nominal_inertia().to_vec()));
-            if let Some((fr, _)) = select::fit_joint(
+            if let Some((fr, sz)) = select::fit_joint(
                 &prob,
                 &fired,
                 &pairs,
@@ -426,7 +432,11 @@ pub fn diagnose(
                 &slosh_hint,
                 settings.max_iter,
             ) {
-                let static_bic = fr.chi2 - ring_gain - chi2_cur + 9.0 * ln_n;
+                // the inertia and CoM offset terms the data can identify
+                let off: usize = sz[..sz.len() - 2].iter().sum();
+                let k_static =
+                    fit::identifiable(&fr.stderr[off..off + sz[sz.len() - 2] + sz[sz.len() - 1]]);
+                let static_bic = fr.chi2 - ring_gain - chi2_cur + k_static as f64 * ln_n;
                 if static_bic < ranked[0].0 {
                     let r = ranked.remove(0);
                     // said, so that no later text calls it merely the next best
@@ -452,62 +462,19 @@ pub fn diagnose(
             .cloned()
             .collect();
         // one verdict for a single effect and for a set named together
-        let verdict = |new: &[(Kind, Vec<f64>)], rf: Option<RingingFit>| -> Result<Tried, String> {
-            let t = try_candidate(
-                &prob,
-                &fired,
-                &rigid_acc,
-                new,
-                rf,
-                &omega0,
-                &slosh_hint,
-                settings,
-                &rigid_residual,
-                &whitening,
-                ringing_fit.is_some(),
-            )?;
-            if let Some(why) = t.implausible.clone() {
-                return Err(format!("implausible: {why}"));
-            }
-            for (kind, d) in &t.contributions {
-                let material = acceptance::materiality(d, &series.valid, sigma);
-                if material.iter().all(|&m| m < acceptance::MATERIAL_FRACTION) {
-                    let who = if new.len() > 1 {
-                        format!("{} ", kind.name())
-                    } else {
-                        String::new()
-                    };
-                    return Err(format!(
-                        "not material: {who}adds at most {:.2} of the gyro noise where it acts (needs {})",
-                        material.iter().cloned().fold(0.0, f64::max),
-                        acceptance::MATERIAL_FRACTION
-                    ));
-                }
-            }
-            let rms_new = locate::rms(&t.residual, &series.valid);
-            let tests_new = stats::residual_tests(series, &t.residual);
-            if let Some(why) = acceptance::axis_worse(rms_prev, rms_new, &tests_prev, &tests_new) {
-                return Err(why);
-            }
-            if !new[0].0.effect().on_residual() {
-                match acceptance::holdout(
-                    &prob,
-                    &fired,
-                    &rigid_acc,
-                    new,
-                    &omega0,
-                    &slosh_hint,
-                    settings.max_iter,
-                ) {
-                    Some(h) => {
-                        if let Some(why) = h.failure() {
-                            return Err(why);
-                        }
-                    }
-                    None => return Err("the out-of-sample fit failed".into()),
-                }
-            }
-            Ok(t)
+        let trial = Trial {
+            prob: &prob,
+            fired: &fired,
+            rigid_acc: &rigid_acc,
+            nuis: &omega0,
+            hint: &slosh_hint,
+            settings,
+            rigid_residual: &rigid_residual,
+            whitening: &whitening,
+            ringing_on: ringing_fit.is_some(),
+            sigma,
+            rms_prev,
+            tests_prev: &tests_prev,
         };
         let pool: Vec<(f64, Kind, Vec<f64>)> = ranked
             .iter()
@@ -520,7 +487,7 @@ pub fn diagnose(
             if dbic > -settings.accept_margin {
                 break;
             }
-            match verdict(&[(kind, theta)], rf) {
+            match trial.check(&[(kind, theta)], rf) {
                 Ok(t) => {
                     taken = Some((vec![(dbic, kind, note)], t));
                     break;
@@ -559,28 +526,26 @@ pub fn diagnose(
                     ) else {
                         continue;
                     };
-                    let k_pair = sz[sz.len() - 2] + sz[sz.len() - 1];
+                    let off_a: usize = sz[..sz.len() - 2].iter().sum();
+                    let off_b = off_a + sz[sz.len() - 2];
+                    let end = off_b + sz[sz.len() - 1];
+                    let k_pair = fit::identifiable(&fr.stderr[off_a..end]);
                     let dbic = fr.chi2 - ring_gain - chi2_cur + k_pair as f64 * ln_n;
                     // each must earn its place beside the other
                     if dbic > pool[a].0.min(pool[b].0) - settings.accept_margin {
                         continue;
                     }
-                    let off_a: usize = sz[..sz.len() - 2].iter().sum();
-                    let off_b = off_a + sz[sz.len() - 2];
-                    let own = |kind: Kind, off: usize, n: usize| {
-                        wald(
-                            kind,
-                            &fr.theta[off..off + n],
-                            &fr.stderr[off..off + n],
-                            &prob,
-                        ) >= n as f64 * ln_n
+                    let own = |kind: Kind, from: usize, to: usize| {
+                        let se = &fr.stderr[from..to];
+                        wald(kind, &fr.theta[from..to], se, &prob)
+                            >= fit::identifiable(se) as f64 * ln_n
                     };
-                    if !own(ka, off_a, sz[sz.len() - 2]) || !own(kb, off_b, sz[sz.len() - 1]) {
+                    if !own(ka, off_a, off_b) || !own(kb, off_b, end) {
                         continue;
                     }
                     let fitted = [
                         (ka, fr.theta[off_a..off_b].to_vec()),
-                        (kb, fr.theta[off_b..off_b + sz[sz.len() - 1]].to_vec()),
+                        (kb, fr.theta[off_b..end].to_vec()),
                     ];
                     pairs.push((dbic, fitted));
                 }
@@ -592,7 +557,7 @@ pub fn diagnose(
                     effect: new[0].0.name(),
                     delta_bic: dbic,
                 });
-                match verdict(&new, None) {
+                match trial.check(&new, None) {
                     Ok(t) => {
                         let together = |other: Kind| {
                             format!("named together with {}: alone neither generalised, together they predict held-out blocks better (delta BIC {dbic:.0} for both)", other.name())
@@ -648,7 +613,7 @@ pub fn diagnose(
         residual_cur = t.residual.clone();
         k_cur += named
             .iter()
-            .map(|n| effects::n_params(n.1, &fired))
+            .map(|n| t.identifiable(n.1, &fired))
             .sum::<usize>();
         let chi2_total = chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
         let delta_bic_total = chi2_total - chi2_nominal + k_cur as f64 * ln_n;
@@ -685,6 +650,172 @@ pub fn diagnose(
                 windows,
                 evidence,
             });
+        }
+    }
+    // 3. exchange: a first choice that stood in for several true effects (a thrust scale
+    // for an inertia error and a damping together) stays named after the true ones join
+    // it. Once the set is complete, each named rigid effect is replaced in turn by the
+    // unnamed mechanism that fits best in its place (screened, then fully refitted with
+    // the others); the swap is made if it lowers the BIC by the margin and the newcomer
+    // passes every acceptance check on top of the others.
+    if accepted
+        .iter()
+        .filter(|a| !a.kind.effect().on_residual())
+        .count()
+        >= 2
+    {
+        let _timing = Timing("exchange", std::time::Instant::now());
+        let sigma = noise.var.map(f64::sqrt);
+        let mut e = 0;
+        let mut swaps = 0;
+        while e < accepted.len() {
+            let out = accepted[e].kind;
+            if out.effect().on_residual() {
+                e += 1;
+                continue;
+            }
+            let rest: Vec<(Kind, Vec<f64>)> = accepted
+                .iter()
+                .filter(|a| a.kind != out && !a.kind.effect().on_residual())
+                .map(|a| (a.kind, a.theta.clone()))
+                .collect();
+            let k_out = joint_identifiable(&accepted, &sizes, &joint_stderr, out, &fired);
+            let k_rest = k_cur - k_out;
+            let bic_now = chi2_rigid + k_cur as f64 * ln_n;
+            let mut best: Option<(f64, Kind, Vec<f64>)> = None;
+            for &kind in Kind::ALL.iter() {
+                if kind == out
+                    || kind.effect().on_residual()
+                    || accepted.iter().any(|a| a.kind == kind)
+                    || !rest.iter().all(|r| combinable(r.0, kind))
+                {
+                    continue;
+                }
+                let Some((fr, sz)) = select::fit_joint(
+                    &prob,
+                    &fired,
+                    &rest,
+                    Some(kind),
+                    &omega0,
+                    &slosh_hint,
+                    settings.max_iter.min(3),
+                ) else {
+                    continue;
+                };
+                let off: usize = sz[..sz.len() - 1].iter().sum();
+                let n = sz[sz.len() - 1];
+                let k = fit::identifiable(&fr.stderr[off..off + n]);
+                let bic = fr.chi2 + (k_rest + k) as f64 * ln_n;
+                if best.as_ref().map(|b| bic < b.0).unwrap_or(true) {
+                    best = Some((bic, kind, fr.theta[off..off + n].to_vec()));
+                }
+            }
+            let Some((bic_screen, kind, theta)) = best else {
+                e += 1;
+                continue;
+            };
+            if swaps == MAX_SWAPS {
+                break;
+            }
+            let rms_prev = locate::rms(&residual_cur, &series.valid);
+            let tests_prev = stats::residual_tests(series, &residual_cur);
+            let trial = Trial {
+                prob: &prob,
+                fired: &fired,
+                rigid_acc: &rest,
+                nuis: &omega0,
+                hint: &slosh_hint,
+                settings,
+                rigid_residual: &rigid_residual,
+                whitening: &whitening,
+                ringing_on: ringing_fit.is_some(),
+                sigma,
+                rms_prev,
+                tests_prev: &tests_prev,
+            };
+            let verdict = trial.check(&[(kind, theta)], None).and_then(|t| {
+                let k_in = t.identifiable(kind, &fired);
+                let bic = t.chi2_rigid + (k_rest + k_in) as f64 * ln_n;
+                if bic > bic_now - settings.accept_margin {
+                    return Err(format!(
+                        "it does not fit better (delta BIC {:+.0})",
+                        bic - bic_now
+                    ));
+                }
+                let th = t.pairs.last().map(|p| p.1.clone()).unwrap_or_default();
+                let off: usize = t.sizes.iter().take(t.sizes.len().saturating_sub(1)).sum();
+                let se = t.stderr.get(off..off + th.len()).unwrap_or(&[]);
+                if wald(kind, &th, se, &prob) < k_in as f64 * ln_n {
+                    return Err("its own parameters are within their noise of no effect".into());
+                }
+                Ok((t, k_in, bic - bic_now))
+            });
+            match verdict {
+                Ok((t, k_in, dbic)) => {
+                    swaps += 1;
+                    let gone = accepted.remove(e);
+                    rejections.push(Rejection {
+                        round: settings.max_effects,
+                        effect: gone.kind.name(),
+                        delta_bic: gone.delta_bic,
+                        reason: format!(
+                            "named first, then replaced by {}: with the other named effects refitted it fits better (delta BIC {dbic:.0})",
+                            kind.name()
+                        ),
+                    });
+                    for a in accepted.iter_mut() {
+                        if let Some((_, th)) = t.pairs.iter().find(|p| p.0 == a.kind) {
+                            a.theta = th.clone();
+                        }
+                    }
+                    let residual_prev = residual_cur.clone();
+                    omega0 = t.nuis.clone();
+                    chi2_rigid = t.chi2_rigid;
+                    rigid_residual = t.rigid_residual.clone();
+                    joint_stderr = t.stderr.clone();
+                    sizes = t.sizes.clone();
+                    latency = t.latency;
+                    ringing_fit = t.ringing.clone();
+                    residual_cur = t.residual.clone();
+                    k_cur = k_rest + k_in;
+                    let chi2_total =
+                        chi2_rigid - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0);
+                    let windows = locate::top_windows(
+                        series,
+                        &residual_prev,
+                        &residual_cur,
+                        kind.effect().window_ms(),
+                        3,
+                    )
+                    .into_iter()
+                    .map(|w| w.map(|t| series.real_ms(t as f64).round() as i64))
+                    .collect();
+                    // the rigid effects keep the joint fit's order: the newcomer goes last
+                    accepted.push(Accepted {
+                        kind,
+                        theta: t.pairs.last().map(|p| p.1.clone()).unwrap_or_default(),
+                        stderr: vec![],
+                        delta_bic: chi2_total - chi2_nominal + k_cur as f64 * ln_n,
+                        rms_after: locate::rms(&residual_cur, &series.valid),
+                        windows,
+                        evidence: format!(
+                            "{}; named in place of {}, which the forward selection chose first and which stood in for it: with the other named effects refitted, it fits better (delta BIC {dbic:.0}) and passes every check",
+                            kind.effect().signature(),
+                            out.name()
+                        ),
+                    });
+                    // the effect now at position e has not been tried yet
+                }
+                Err(reason) => {
+                    rejections.push(Rejection {
+                        round: settings.max_effects,
+                        effect: kind.name(),
+                        delta_bic: bic_screen - bic_now,
+                        reason: format!("in place of {}: {reason}", out.name()),
+                    });
+                    e += 1;
+                }
+            }
         }
     }
     // standard errors of the rigid effects come from the last joint fit
@@ -786,8 +917,30 @@ pub fn diagnose(
 /// How many of a round's strongest candidates (or pairs) are tried against the acceptance
 /// checks.
 const MAX_TRIES: usize = 3;
+/// At most this many exchanges after the forward selection (each lowers the BIC by the
+/// margin, so the step ends anyway; this bounds its cost).
+const MAX_SWAPS: usize = 3;
 /// When no single candidate passes, pairs are formed from this many of the strongest.
 const PAIR_POOL: usize = 5;
+
+/// How many of the named `kind`'s parameters the last joint fit identified.
+fn joint_identifiable(
+    accepted: &[Accepted],
+    sizes: &[usize],
+    stderr: &[f64],
+    kind: Kind,
+    fired: &[bool; NT],
+) -> usize {
+    let rigid = accepted.iter().filter(|a| !a.kind.effect().on_residual());
+    let mut off = 0;
+    for (a, &n) in rigid.zip(sizes) {
+        if a.kind == kind {
+            return stderr.get(off..off + n).map(fit::identifiable).unwrap_or(n);
+        }
+        off += n;
+    }
+    effects::n_params(kind, fired)
+}
 
 /// Mechanisms that share parameters cannot be fitted together.
 fn combinable(a: Kind, b: Kind) -> bool {
@@ -807,193 +960,6 @@ pub struct Rejection {
     pub effect: &'static str,
     pub delta_bic: f64,
     pub reason: String,
-}
-
-/// The model with one more effect, as it would be if the effect were accepted.
-struct Tried {
-    /// Accepted rigid effects plus the candidate, refitted jointly (ringing not included).
-    pairs: Vec<(Kind, Vec<f64>)>,
-    nuis: Vec<f64>,
-    chi2_rigid: f64,
-    stderr: Vec<f64>,
-    sizes: Vec<usize>,
-    rigid_residual: Vec<[f64; 3]>,
-    latency: (f64, f64),
-    ringing: Option<RingingFit>,
-    residual: Vec<[f64; 3]>,
-    /// What each new effect adds to the predicted rates (or removes from the residual),
-    /// in the order they were tried.
-    contributions: Vec<(Kind, Vec<[f64; 3]>)>,
-    implausible: Option<String>,
-}
-
-/// Refits the model with the candidate (one effect, or a set named together) added and
-/// measures what each of its effects changes.
-#[allow(clippy::too_many_arguments)]
-fn try_candidate(
-    prob: &Problem,
-    fired: &[bool; NT],
-    rigid_acc: &[(Kind, Vec<f64>)],
-    new: &[(Kind, Vec<f64>)],
-    rf: Option<RingingFit>,
-    nuis: &[f64],
-    hint: &[f64],
-    settings: &Settings,
-    rigid_residual: &[[f64; 3]],
-    whitening: &ringing::Whitening,
-    ringing_on: bool,
-) -> Result<Tried, String> {
-    let series = prob.series;
-    if let [(kind, _)] = new {
-        if kind.effect().on_residual() {
-            return try_ringing(
-                series,
-                rigid_acc,
-                *kind,
-                rf,
-                nuis,
-                rigid_residual,
-                whitening,
-            );
-        }
-    }
-    let mut pairs = rigid_acc.to_vec();
-    pairs.extend_from_slice(new);
-    let (pairs, chi2_rigid, w, stderr, sizes) =
-        refit_all(prob, fired, &pairs, nuis, hint, settings);
-    let with = select::build(fired, &pairs, &w);
-    let y1 = prob
-        .predict(&with)
-        .ok_or("the model with it cannot be predicted")?;
-    let mut contributions = vec![];
-    let mut implausible = None;
-    let cx = select::context(prob, fired, hint);
-    for (kind, _) in new {
-        let without: Vec<(Kind, Vec<f64>)> =
-            pairs.iter().filter(|p| p.0 != *kind).cloned().collect();
-        let y0 = prob
-            .predict(&select::build(fired, &without, &w))
-            .ok_or("the model without it cannot be predicted")?;
-        contributions.push((
-            *kind,
-            y1.iter()
-                .zip(&y0)
-                .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
-                .collect(),
-        ));
-        let th = pairs
-            .iter()
-            .find(|p| p.0 == *kind)
-            .map(|p| p.1.clone())
-            .unwrap_or_default();
-        let sp = select::spec(*kind, prob, fired, hint);
-        implausible = implausible.or(
-            acceptance::implausible(*kind, &th, &cx, &sp.lo, &sp.hi).map(|why| {
-                if new.len() > 1 {
-                    format!("{}: {why}", kind.name())
-                } else {
-                    why
-                }
-            }),
-        );
-    }
-    let rigid_residual = prob.residual(&with).ok_or("no residual")?;
-    let latency = latency_of(&pairs);
-    let ringing = if ringing_on {
-        ringing::fit(
-            series,
-            &rigid_residual,
-            whitening,
-            settings.ringing_prior_hz,
-            latency,
-        )
-    } else {
-        None
-    };
-    let residual = match &ringing {
-        Some(r) => ringing::remove(series, &rigid_residual, whitening, r, latency),
-        None => rigid_residual.clone(),
-    };
-    Ok(Tried {
-        pairs,
-        nuis: w,
-        chi2_rigid,
-        stderr,
-        sizes,
-        rigid_residual,
-        latency,
-        ringing,
-        residual,
-        contributions,
-        implausible,
-    })
-}
-
-/// The ringing candidate: a tone removed from the rigid residual, the rigid fit unchanged.
-fn try_ringing(
-    series: &Series,
-    rigid_acc: &[(Kind, Vec<f64>)],
-    kind: Kind,
-    rf: Option<RingingFit>,
-    nuis: &[f64],
-    rigid_residual: &[[f64; 3]],
-    whitening: &ringing::Whitening,
-) -> Result<Tried, String> {
-    let rf = rf.ok_or("no ringing fit")?;
-    let latency = latency_of(rigid_acc);
-    let residual = ringing::remove(series, rigid_residual, whitening, &rf, latency);
-    let contribution = rigid_residual
-        .iter()
-        .zip(&residual)
-        .map(|(a, b)| std::array::from_fn(|i| a[i] - b[i]))
-        .collect();
-    Ok(Tried {
-        pairs: rigid_acc.to_vec(),
-        nuis: nuis.to_vec(),
-        chi2_rigid: f64::NAN,
-        stderr: vec![],
-        sizes: vec![],
-        rigid_residual: rigid_residual.to_vec(),
-        latency,
-        implausible: acceptance::implausible_ringing(rf.decay_ms, rf.freq_hz),
-        ringing: Some(rf),
-        residual,
-        contributions: vec![(kind, contribution)],
-    })
-}
-
-type Refit = (Vec<(Kind, Vec<f64>)>, f64, Vec<f64>, Vec<f64>, Vec<usize>);
-
-/// Joint refit of every accepted effect (ringing held, then re-regressed on the result).
-fn refit_all(
-    prob: &Problem,
-    fired: &[bool; NT],
-    pairs: &[(Kind, Vec<f64>)],
-    nuis: &[f64],
-    hint: &[f64],
-    settings: &Settings,
-) -> Refit {
-    let res = select::fit_joint(prob, fired, pairs, None, nuis, hint, settings.max_iter * 2);
-    let Some((fr, sizes)) = res else {
-        let p = select::build(fired, pairs, nuis);
-        return (
-            pairs.to_vec(),
-            prob.chi2(&p).unwrap_or(f64::INFINITY),
-            nuis.to_vec(),
-            vec![],
-            vec![],
-        );
-    };
-    let mut out = vec![];
-    let mut off = 0;
-    for ((k, _), &n) in pairs.iter().zip(sizes.iter()) {
-        out.push((*k, fr.theta[off..off + n].to_vec()));
-        off += n;
-    }
-    let w = fr.theta[off..].to_vec();
-    let p = select::build(fired, &out, &w);
-    let chi2 = prob.chi2(&p).unwrap_or(fr.chi2);
-    (out, chi2, w, fr.stderr, sizes)
 }
 
 fn axes_label(gain: [f64; 3]) -> String {

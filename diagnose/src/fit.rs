@@ -292,6 +292,15 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     })
 }
 
+/// How many of the parameters with these standard errors the data could identify: those
+/// some sample depends on (a dead parameter's error is NaN, see [`fit`]). This, not the
+/// layout's length, is the BIC's k and the Wald test's degrees of freedom: a planar craft's
+/// inertia has one identifiable term (Izz) of six, and charging it six would let a
+/// thruster-scale family of eight stand in for it.
+pub fn identifiable(stderr: &[f64]) -> usize {
+    stderr.iter().filter(|s| !s.is_nan()).count()
+}
+
 /// The normal matrix with every dead parameter's row and column replaced by the identity's,
 /// so the step leaves it where it is and the others' covariance is that of the live ones.
 fn pin_dead(mut jtj: DMatrix<f64>, dead: &[bool]) -> DMatrix<f64> {

@@ -5,6 +5,7 @@
 
 pub mod acceptance;
 pub mod alias;
+mod candidate;
 pub mod diagnosis;
 pub mod effects;
 pub mod fit;

@@ -56,8 +56,9 @@ fn windows_text(w: &[[i64; 2]]) -> String {
 
 /// Terminal summary of a fit-then-predict check (`holdout.rs`).
 pub fn holdout_summary(h: &crate::holdout::Holdout) -> String {
-    let f = numfmt::rates;
     let names: Vec<&str> = h.analysis.fitted.iter().map(|(k, _)| k.name()).collect();
+    let shown = measured_axes(&h.analysis.series);
+    let f = |v: [f64; 3]| rates_on(v, &shown);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -91,7 +92,8 @@ pub fn holdout_summary(h: &crate::holdout::Holdout) -> String {
 /// Terminal summary.
 pub fn summary(a: &Analysis) -> String {
     let o = &a.output;
-    let f = numfmt::rates;
+    let shown = measured_axes(&a.series);
+    let f = |v: [f64; 3]| rates_on(v, &shown);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -192,6 +194,33 @@ pub fn summary(a: &Analysis) -> String {
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// Three per-axis rates, "-" for an axis the recording does not measure.
+fn rates_on(v: [f64; 3], shown: &[usize]) -> String {
+    (0..3)
+        .map(|a| {
+            if shown.contains(&a) {
+                numfmt::sig(v[a], 3)
+            } else {
+                "-".into()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The axes with at least one usable sample (all three when none has): a planar craft's
+/// recording measures z only, and empty x and y panels would only take room.
+fn measured_axes(series: &Series) -> Vec<usize> {
+    let shown: Vec<usize> = (0..3)
+        .filter(|&a| series.valid.iter().any(|v| v[a]))
+        .collect();
+    if shown.is_empty() {
+        vec![0, 1, 2]
+    } else {
+        shown
+    }
+}
 const MEASURED: RGBColor = RGBColor(90, 90, 90);
 const NOMINAL: RGBColor = RGBColor(40, 90, 220);
 const FITTED: RGBColor = RGBColor(220, 60, 20);
@@ -277,8 +306,10 @@ fn residual_svg(
         let t0 = t.first().copied().unwrap_or(0.0);
         let t1 = t.last().copied().unwrap_or(0.0).max(t0 + 1e-3);
         let step = (before.len() / 3000).max(1);
-        for (ax, area) in body.split_evenly((3, 1)).iter().enumerate() {
-            let last = ax == 2;
+        let shown = measured_axes(series);
+        let rows = body.split_evenly((shown.len(), 1));
+        for (row, (&ax, area)) in shown.iter().zip(rows.iter()).enumerate() {
+            let last = row + 1 == shown.len();
             let mut chart = ChartBuilder::on(area)
                 .margin_left(8)
                 .margin_right(12)
@@ -390,9 +421,10 @@ fn window_svg(
             legend.push(("fitted time", BLACK, 1));
         }
         title_strip(&top, title, &legend)?;
-        let rows = body.split_evenly((3, 1));
+        let shown = measured_axes(series);
+        let rows = body.split_evenly((shown.len(), 1));
         let decimals = if v1 - v0 < 2.0 { 3 } else { 1 };
-        for (ax, area) in rows.iter().enumerate() {
+        for (&ax, area) in shown.iter().zip(rows.iter()) {
             let usable: Vec<usize> = idx
                 .iter()
                 .copied()
@@ -418,7 +450,7 @@ fn window_svg(
             }
             let span = (hi - lo).max(1e-4);
             let (lo, hi) = (lo - 0.08 * span, hi + 0.08 * span);
-            let last = ax == 2;
+            let last = Some(&ax) == shown.last();
             let mut chart = ChartBuilder::on(area)
                 .margin_left(8)
                 .margin_right(12)
@@ -573,6 +605,8 @@ h3{margin-bottom:4px}";
 pub fn html(a: &Analysis) -> String {
     let o = &a.output;
     let series = &a.series;
+    let shown = measured_axes(series);
+    let rates = |v: [f64; 3]| rates_on(v, &shown);
     let t = times_s(series);
     let mut h = String::new();
     h.push_str(
@@ -611,9 +645,9 @@ pub fn html(a: &Analysis) -> String {
     let _ = write!(
         h,
         "<p>Residual RMS (rad/s, x y z): before {}, after {}; gyro noise {}.</p></div>",
-        numfmt::rates(o.residual_rms_before),
-        numfmt::rates(o.residual_rms_after),
-        numfmt::rates(a.noise.var.map(f64::sqrt))
+        rates(o.residual_rms_before),
+        rates(o.residual_rms_after),
+        rates(a.noise.var.map(f64::sqrt))
     );
 
     // data issues
@@ -660,7 +694,7 @@ pub fn html(a: &Analysis) -> String {
         let _ = write!(
             h,
             "<p>Residual RMS with this and the earlier effects (rad/s, x y z): {}.</p><p><b>Located windows</b> (where the mismatch this effect explains is concentrated, shaded below): {}.</p>",
-            numfmt::rates(e.rms_after),
+            rates(e.rms_after),
             esc(&windows_text(&e.windows_ms))
         );
         window_panels(&mut h, a, &t, &e.windows_ms, &e.effect);
@@ -713,7 +747,7 @@ pub fn html(a: &Analysis) -> String {
         Some(u) => {
             let _ = write!(h, "<p class=\"why\">{}</p>", esc(&u.note));
             h.push_str("<table><tr><th>axis</th><th>residual RMS (rad/s)</th><th>noise RMS (rad/s)</th><th>ratio</th><th>Ljung-Box</th><th>flagged</th></tr>");
-            for ax in 0..3 {
+            for &ax in &shown {
                 let _ = write!(
                     h,
                     "<tr><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{:.2}</td><td class=\"n\">{:.0}</td><td>{}</td></tr>",
@@ -763,8 +797,8 @@ pub fn html(a: &Analysis) -> String {
             "<tr><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>",
             esc(&b.0.label()),
             b.1,
-            numfmt::rates(b.2.map(f64::sqrt)),
-            numfmt::rates(af.2.map(f64::sqrt))
+            rates(b.2.map(f64::sqrt)),
+            rates(af.2.map(f64::sqrt))
         );
     }
     h.push_str("</table>");

@@ -552,11 +552,6 @@ pub fn diagnose(
             }
             pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
             for (dbic, new) in pairs.into_iter().take(MAX_TRIES) {
-                scores.push(Score {
-                    round,
-                    effect: new[0].0.name(),
-                    delta_bic: dbic,
-                });
                 match trial.check(&new, None) {
                     Ok(t) => {
                         let together = |other: Kind| {

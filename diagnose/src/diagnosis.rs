@@ -3,6 +3,7 @@
 
 use crate::candidate::{Trial, Tried};
 use crate::effects::{self, Kind};
+use crate::exchange;
 use crate::fit::{self, Family, Problem};
 use crate::locate;
 use crate::model::{Plant, NT};
@@ -170,7 +171,7 @@ fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
 }
 
 /// Wald statistic of an effect's parameters against their "no effect" values.
-fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
+pub(crate) fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
     let fired = effects::fired_thrusters(prob.series);
     let null = kind
         .effect()
@@ -647,12 +648,9 @@ pub fn diagnose(
             });
         }
     }
-    // 3. exchange: a first choice that stood in for several true effects (a thrust scale
-    // for an inertia error and a damping together) stays named after the true ones join
-    // it. Once the set is complete, each named rigid effect is replaced in turn by the
-    // unnamed mechanism that fits best in its place (screened, then fully refitted with
-    // the others); the swap is made if it lowers the BIC by the margin and the newcomer
-    // passes every acceptance check on top of the others.
+    // 3. exchange (`exchange.rs`): each named rigid effect in turn is offered the unnamed
+    // mechanism that fits best in its place; a swap keeps the joint fit's order (the
+    // newcomer goes last) and updates the state as an acceptance does
     if accepted
         .iter()
         .filter(|a| !a.kind.effect().on_residual())
@@ -677,38 +675,6 @@ pub fn diagnose(
             let k_out = joint_identifiable(&accepted, &sizes, &joint_stderr, out, &fired);
             let k_rest = k_cur - k_out;
             let bic_now = chi2_rigid + k_cur as f64 * ln_n;
-            let mut best: Option<(f64, Kind, Vec<f64>)> = None;
-            for &kind in Kind::ALL.iter() {
-                if kind == out
-                    || kind.effect().on_residual()
-                    || accepted.iter().any(|a| a.kind == kind)
-                    || !rest.iter().all(|r| combinable(r.0, kind))
-                {
-                    continue;
-                }
-                let Some((fr, sz)) = select::fit_joint(
-                    &prob,
-                    &fired,
-                    &rest,
-                    Some(kind),
-                    &omega0,
-                    &slosh_hint,
-                    settings.max_iter.min(3),
-                ) else {
-                    continue;
-                };
-                let off: usize = sz[..sz.len() - 1].iter().sum();
-                let n = sz[sz.len() - 1];
-                let k = fit::identifiable(&fr.stderr[off..off + n]);
-                let bic = fr.chi2 + (k_rest + k) as f64 * ln_n;
-                if best.as_ref().map(|b| bic < b.0).unwrap_or(true) {
-                    best = Some((bic, kind, fr.theta[off..off + n].to_vec()));
-                }
-            }
-            let Some((bic_screen, kind, theta)) = best else {
-                e += 1;
-                continue;
-            };
             if swaps == MAX_SWAPS {
                 break;
             }
@@ -728,25 +694,16 @@ pub fn diagnose(
                 rms_prev,
                 tests_prev: &tests_prev,
             };
-            let verdict = trial.check(&[(kind, theta)], None).and_then(|t| {
-                let k_in = t.identifiable(kind, &fired);
-                let bic = t.chi2_rigid + (k_rest + k_in) as f64 * ln_n;
-                if bic > bic_now - settings.accept_margin {
-                    return Err(format!(
-                        "it does not fit better (delta BIC {:+.0})",
-                        bic - bic_now
-                    ));
-                }
-                let th = t.pairs.last().map(|p| p.1.clone()).unwrap_or_default();
-                let off: usize = t.sizes.iter().take(t.sizes.len().saturating_sub(1)).sum();
-                let se = t.stderr.get(off..off + th.len()).unwrap_or(&[]);
-                if wald(kind, &th, se, &prob) < k_in as f64 * ln_n {
-                    return Err("its own parameters are within their noise of no effect".into());
-                }
-                Ok((t, k_in, bic - bic_now))
-            });
+            let named: Vec<Kind> = accepted.iter().map(|a| a.kind).collect();
+            let verdict = exchange::replacement(&trial, out, &named, k_rest, bic_now, ln_n);
             match verdict {
-                Ok((t, k_in, dbic)) => {
+                Ok(None) => e += 1,
+                Ok(Some(exchange::Swap {
+                    kind,
+                    tried: t,
+                    k_in,
+                    delta_bic: dbic,
+                })) => {
                     swaps += 1;
                     let gone = accepted.remove(e);
                     rejections.push(Rejection {
@@ -801,11 +758,11 @@ pub fn diagnose(
                     });
                     // the effect now at position e has not been tried yet
                 }
-                Err(reason) => {
+                Err((kind, delta_bic, reason)) => {
                     rejections.push(Rejection {
                         round: settings.max_effects,
                         effect: kind.name(),
-                        delta_bic: bic_screen - bic_now,
+                        delta_bic,
                         reason: format!("in place of {}: {reason}", out.name()),
                     });
                     e += 1;
@@ -938,7 +895,7 @@ fn joint_identifiable(
 }
 
 /// Mechanisms that share parameters cannot be fitted together.
-fn combinable(a: Kind, b: Kind) -> bool {
+pub(crate) fn combinable(a: Kind, b: Kind) -> bool {
     let mass = |k: Kind| {
         matches!(
             k,

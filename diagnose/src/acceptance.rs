@@ -235,5 +235,5 @@ fn state_on(
         effects.push((kind, fit.theta.get(off..off + n)?.to_vec()));
         off += n;
     }
-    crate::diagnosis::fit_nuisance_with(test, &effects, &fit.theta[off..]).map(|f| f.params)
+    select::fit_nuisance_with(test, &effects, &fit.theta[off..]).map(|f| f.params)
 }

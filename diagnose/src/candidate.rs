@@ -3,12 +3,12 @@
 //! the forward selection, the pair search and the exchange step.
 
 use crate::acceptance;
-use crate::diagnosis::latency_of;
 use crate::effects::{self, Kind};
 use crate::fit::{self, Problem};
 use crate::locate;
 use crate::model::NT;
 use crate::ringing::{self, RingingFit};
+use crate::select::latency_of;
 use crate::select::{self, Settings};
 use crate::series::Series;
 use crate::stats::{self, ResidualTests};

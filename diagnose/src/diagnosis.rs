@@ -4,13 +4,13 @@
 use crate::candidate::{Trial, Tried};
 use crate::effects::{self, Kind};
 use crate::exchange;
-use crate::fit::{self, Family, Problem};
+use crate::fit::{self, Problem};
 use crate::locate;
 use crate::model::{Plant, NT};
 use crate::noise::{self, NoiseModel};
 use crate::output::{DataIssues, DiagnosisOutput, EffectReport, FORMAT};
 use crate::ringing::{self, RingingFit};
-use crate::select::{self, Settings};
+use crate::select::{self, combinable, fit_nuisance_with, wald, Settings};
 use crate::series::Series;
 use crate::stats::{self, ResidualTests};
 
@@ -71,26 +71,6 @@ struct Accepted {
 /// Fits the nuisances (initial rate, rate jumps at gaps) of the nominal model.
 fn fit_nuisance(prob: &Problem, nuis: &[f64]) -> Option<fit::FitResult> {
     fit_nuisance_with(prob, &[], nuis)
-}
-
-/// Fits the nuisances (initial rate, rate jumps at gaps) of the model with `effects` held
-/// at the given parameters.
-pub(crate) fn fit_nuisance_with(
-    prob: &Problem,
-    effects: &[(Kind, Vec<f64>)],
-    nuis: &[f64],
-) -> Option<fit::FitResult> {
-    let n = nuis.len();
-    let fired = effects::fired_thrusters(prob.series);
-    let fam = Family {
-        apply: Box::new(move |th: &[f64]| Some(select::build(&fired, effects, th))),
-        step: vec![1e-5; n],
-        lo: vec![-3.0; n],
-        hi: vec![3.0; n],
-        frozen_from: n,
-        nuisance_from: 0,
-    };
-    fit::fit(prob, &fam, nuis, 10)
 }
 
 /// Mean of the first usable samples per axis as the starting initial rate.
@@ -168,33 +148,6 @@ fn observable(kind: Kind, theta: &[f64], series: &Series) -> bool {
     let last =
         series.real_ms(series.word_ms.iter().rposition(|&w| w != 0).unwrap_or(0) as f64) * 1e-3;
     kind.effect().observable(theta, first, last)
-}
-
-/// Wald statistic of an effect's parameters against their "no effect" values.
-pub(crate) fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
-    let fired = effects::fired_thrusters(prob.series);
-    let null = kind
-        .effect()
-        .no_effect(theta, &select::context(prob, &fired, &[]));
-    null.iter()
-        .map(|&(i, v)| {
-            let e = se.get(i).copied().unwrap_or(f64::INFINITY);
-            if e > 0.0 && e.is_finite() {
-                ((theta[i] - v) / e).powi(2)
-            } else {
-                0.0
-            }
-        })
-        .sum()
-}
-
-/// The valve latency (open, close ms) among `pairs`, zero when none.
-pub(crate) fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
-    pairs
-        .iter()
-        .find(|a| a.0 == Kind::ThrusterLatency)
-        .map(|a| (a.1[0], a.1[1]))
-        .unwrap_or((0.0, 0.0))
 }
 
 /// Runs the diagnosis of `series` against the satellite `plant`; `None` when the nominal
@@ -892,17 +845,6 @@ fn joint_identifiable(
         off += n;
     }
     effects::n_params(kind, fired)
-}
-
-/// Mechanisms that share parameters cannot be fitted together.
-pub(crate) fn combinable(a: Kind, b: Kind) -> bool {
-    let mass = |k: Kind| {
-        matches!(
-            k,
-            Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset
-        )
-    };
-    !(mass(a) && mass(b) && (a == Kind::MassPropertyChange || b == Kind::MassPropertyChange))
 }
 
 /// A candidate the diagnosis did not name, and why.

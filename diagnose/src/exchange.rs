@@ -6,10 +6,10 @@
 //! the newcomer passes every acceptance check on top of the others.
 
 use crate::candidate::{Trial, Tried};
-use crate::diagnosis::{combinable, wald};
 use crate::effects::Kind;
 use crate::fit;
 use crate::select;
+use crate::select::{combinable, wald};
 
 /// A replacement that passed.
 pub(crate) struct Swap {

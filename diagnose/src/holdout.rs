@@ -4,13 +4,14 @@
 //! the first held-out sample, rate jumps at gaps) are re-estimated on the held-out part,
 //! for both models alike; every physical parameter comes from the fitted part.
 
-use crate::diagnosis::{self, fit_nuisance_with, initial_rate, Analysis};
+use crate::diagnosis::{self, initial_rate, Analysis};
 use crate::effects::Kind;
 use crate::fit::Problem;
 use crate::locate;
 use crate::model::Plant;
 use crate::noise;
 use crate::output::DataIssues;
+use crate::select::fit_nuisance_with;
 use crate::select::Settings;
 use crate::series::Series;
 

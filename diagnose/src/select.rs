@@ -271,3 +271,59 @@ fn fit_with_starts(
     }
     best.map(|b| (b, sizes))
 }
+
+/// Fits the nuisances (initial rate, rate jumps at gaps) of the model with `effects` held
+/// at the given parameters.
+pub(crate) fn fit_nuisance_with(
+    prob: &Problem,
+    effects: &[(Kind, Vec<f64>)],
+    nuis: &[f64],
+) -> Option<fit::FitResult> {
+    let n = nuis.len();
+    let fired = effects::fired_thrusters(prob.series);
+    let fam = Family {
+        apply: Box::new(move |th: &[f64]| Some(build(&fired, effects, th))),
+        step: vec![1e-5; n],
+        lo: vec![-3.0; n],
+        hi: vec![3.0; n],
+        frozen_from: n,
+        nuisance_from: 0,
+    };
+    fit::fit(prob, &fam, nuis, 10)
+}
+
+/// Wald statistic of an effect's parameters against their "no effect" values.
+pub(crate) fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64 {
+    let fired = effects::fired_thrusters(prob.series);
+    let null = kind.effect().no_effect(theta, &context(prob, &fired, &[]));
+    null.iter()
+        .map(|&(i, v)| {
+            let e = se.get(i).copied().unwrap_or(f64::INFINITY);
+            if e > 0.0 && e.is_finite() {
+                ((theta[i] - v) / e).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
+
+/// The valve latency (open, close ms) among `pairs`, zero when none.
+pub(crate) fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
+    pairs
+        .iter()
+        .find(|a| a.0 == Kind::ThrusterLatency)
+        .map(|a| (a.1[0], a.1[1]))
+        .unwrap_or((0.0, 0.0))
+}
+
+/// Mechanisms that share parameters cannot be fitted together.
+pub(crate) fn combinable(a: Kind, b: Kind) -> bool {
+    let mass = |k: Kind| {
+        matches!(
+            k,
+            Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset
+        )
+    };
+    !(mass(a) && mass(b) && (a == Kind::MassPropertyChange || b == Kind::MassPropertyChange))
+}

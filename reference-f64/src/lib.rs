@@ -5,6 +5,7 @@
 //! Modules mirror the seed's chapters.
 
 pub mod characterize;
+pub mod flight_id;
 pub mod import;
 pub mod mass_id;
 pub mod mixer;

@@ -14,3 +14,4 @@ pub fn open2_data_dir() -> PathBuf {
 
 pub mod coverage;
 pub mod crlb;
+pub mod identification_mc;

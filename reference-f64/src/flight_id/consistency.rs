@@ -1,0 +1,164 @@
+//! Does the fitted model explain the data as well as its noise model says it should? A score
+//! (Lagrange-multiplier) test per family of left-out effects: the whitened residuals'
+//! correlation with the directions those effects would move the rates (per-thruster thrust,
+//! valve opening and closing times), after removing what the fitted terms already explain.
+//! Under the model the statistic is chi-square with the rank of those directions, so the
+//! false-alarm rate is the test's level whatever the maneuver, rate or craft. A uniform
+//! thrust error is not among the directions: on rates it is exactly an inertia error.
+use nalgebra::{DMatrix, DVector};
+
+/// One test's outcome.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScoreTest {
+    /// "thrust" or "valve_timing".
+    pub name: &'static str,
+    pub statistic: f64,
+    /// Rank of the tested directions (after removing those the fitted terms explain).
+    pub dof: usize,
+    pub p_value: f64,
+}
+
+/// Share of a direction's own information that must remain after projecting out the fitted
+/// terms for it to be tested (directions below it are indistinguishable from the terms).
+const MIN_RESIDUAL_SHARE: f64 = 1e-3;
+
+/// The score test of the columns `z` given the fitted columns `t` of one normal-equation set.
+pub fn score_test(
+    name: &'static str,
+    info: &DMatrix<f64>,
+    score: &DVector<f64>,
+    t: &[usize],
+    z: &[usize],
+) -> Option<ScoreTest> {
+    let ntt = DMatrix::from_fn(t.len(), t.len(), |i, j| info[(t[i], t[j])]);
+    let ntz = DMatrix::from_fn(t.len(), z.len(), |i, j| info[(t[i], z[j])]);
+    let nzz = DMatrix::from_fn(z.len(), z.len(), |i, j| info[(z[i], z[j])]);
+    let sz = DVector::from_fn(z.len(), |i, _| score[z[i]]);
+    let st = DVector::from_fn(t.len(), |i, _| score[t[i]]);
+    let ntt_inv = ntt.clone().try_inverse()?;
+    let v = &nzz - ntz.transpose() * &ntt_inv * &ntz;
+    let s = &sz - ntz.transpose() * &ntt_inv * st;
+    // Normalise by each direction's own information; keep directions with enough left.
+    let d: Vec<f64> = (0..z.len()).map(|i| nzz[(i, i)]).collect();
+    let keep: Vec<usize> = (0..z.len()).filter(|&i| d[i] > 0.0).collect();
+    if keep.is_empty() {
+        return None;
+    }
+    let vn = DMatrix::from_fn(keep.len(), keep.len(), |i, j| {
+        v[(keep[i], keep[j])] / (d[keep[i]] * d[keep[j]]).sqrt()
+    });
+    let sn = DVector::from_fn(keep.len(), |i, _| s[keep[i]] / d[keep[i]].sqrt());
+    let eig = vn.symmetric_eigen();
+    let mut stat = 0.0;
+    let mut dof = 0;
+    for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
+        if lambda > MIN_RESIDUAL_SHARE {
+            let proj = eig.eigenvectors.column(k).dot(&sn);
+            stat += proj * proj / lambda;
+            dof += 1;
+        }
+    }
+    (dof > 0).then(|| ScoreTest {
+        name,
+        statistic: stat,
+        dof,
+        p_value: chi2_sf(stat, dof as f64),
+    })
+}
+
+/// Upper tail of the chi-square distribution: `Q(k/2, x/2)`.
+pub fn chi2_sf(x: f64, k: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    upper_gamma_regularized(0.5 * k, 0.5 * x)
+}
+
+/// `Q(a, x)` by its series (x < a + 1) or continued fraction (Numerical Recipes 6.2).
+fn upper_gamma_regularized(a: f64, x: f64) -> f64 {
+    let gln = ln_gamma(a);
+    if x < a + 1.0 {
+        let (mut sum, mut del, mut ap) = (1.0 / a, 1.0 / a, a);
+        for _ in 0..1000 {
+            ap += 1.0;
+            del *= x / ap;
+            sum += del;
+            if del.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        (1.0 - sum * (-x + a * x.ln() - gln).exp()).clamp(0.0, 1.0)
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..1000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        ((-x + a * x.ln() - gln).exp() * h).clamp(0.0, 1.0)
+    }
+}
+
+/// Lanczos approximation of `ln Gamma(a)`, a > 0.
+fn ln_gamma(a: f64) -> f64 {
+    const C: [f64; 6] = [
+        76.180_091_729_471_46,
+        -86.505_320_329_416_77,
+        24.014_098_240_830_91,
+        -1.231_739_572_450_155,
+        0.001_208_650_973_866_179,
+        -0.000_005_395_239_384_953,
+    ];
+    let mut y = a;
+    let tmp = a + 5.5;
+    let tmp = tmp - (a + 0.5) * tmp.ln();
+    let mut ser = 1.000_000_000_190_015;
+    for c in C {
+        y += 1.0;
+        ser += c / y;
+    }
+    -tmp + (2.506_628_274_631_000_5 * ser / a).ln()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi_square_tail_matches_tables() {
+        // Known quantiles: chi2(1) 3.841 -> 0.05, chi2(2) 13.816 -> 0.001, chi2(10) 18.307 -> 0.05.
+        for (x, k, p) in [(3.841, 1.0, 0.05), (13.816, 2.0, 0.001), (18.307, 10.0, 0.05), (29.588, 10.0, 0.001)] {
+            let got = chi2_sf(x, k);
+            assert!((got - p).abs() < 2e-4 * p.max(0.01) * 10.0, "chi2({k}) at {x}: {got} vs {p}");
+        }
+        assert_eq!(chi2_sf(0.0, 3.0), 1.0);
+    }
+
+    #[test]
+    fn a_direction_the_terms_explain_is_not_tested() {
+        // Column 1 equals column 0: nothing left to test; column 2 independent: one dof.
+        let info = DMatrix::from_row_slice(3, 3, &[4.0, 4.0, 0.0, 4.0, 4.0, 0.0, 0.0, 0.0, 1.0]);
+        let score = DVector::from_row_slice(&[0.0, 0.0, 3.0]);
+        assert!(score_test("x", &info, &score, &[0], &[1]).is_none());
+        let t = score_test("x", &info, &score, &[0], &[1, 2]).unwrap();
+        assert_eq!(t.dof, 1);
+        assert!((t.statistic - 9.0).abs() < 1e-9);
+    }
+}

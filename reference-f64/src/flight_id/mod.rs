@@ -1,0 +1,457 @@
+//! Identification from any flight: centre of mass and inertia (3-D craft) or yaw inertia and
+//! the CoM's x and y (planar craft) from measured rates and the commands, by an output-error
+//! (prediction-error) fit. An improvement on the seed's per-firing Kalman filter + RLS (seed
+//! 4.4), which measured each firing's acceleration from the rate change since one noisy
+//! sample and threw the coasts away: here every sample is a measurement of
+//! `omega_0 + sum of the model's increments` seen through the rate sensor, so the rate is
+//! continuous across word changes, coasts count, short closed-loop pulses count, the
+//! gyroscopic term is in the model, and the noise colour is fitted (`noise`). The result is
+//! the maximum-likelihood estimate under the fitted noise model, with its Fisher-information
+//! covariance; a score test (`consistency`) says when the data disagree with the model.
+//!
+//! Layout: [`flight`] (what a recording delivered), [`rigid`] (Euler's equation and its
+//! derivatives), [`noise`] (the rate noise model), [`fit`] (the whitened Gauss-Newton
+//! normal equations), [`consistency`] (the score tests), and [`identify`] here.
+pub mod consistency;
+pub mod fit;
+pub mod flight;
+pub mod noise;
+pub mod rigid;
+
+use crate::mass_id::{physical_validity, COM_TERMS, INERTIA_TERMS};
+use crate::satellite::Satellite;
+use consistency::{score_test, ScoreTest};
+use fit::{Extra, Normal, Problem, SensorResponse, State};
+use flight::{intervals, unit_wrench, windows, Flight};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use noise::ArNoise;
+use rigid::{sym_basis, Dynamics, Rigid, Term};
+
+/// Settings of [`identify`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Known command-to-thrust delay, ms (a measurement delay is the same on rates).
+    pub latency_ms: f64,
+    /// The rate sensor's response; None: a point sample for gyro counts (v1), otherwise the
+    /// response with the highest likelihood.
+    pub sensor: Option<SensorResponse>,
+    /// Fit a constant disturbance torque.
+    pub disturbance: bool,
+    /// Fit a yaw rate damping (planar craft).
+    pub damping: bool,
+    /// Highest order of the rate-noise model.
+    pub max_noise_order: usize,
+    /// Each thruster's relative thrust uncertainty (1 sigma, e.g. 0.05); empty: none stated.
+    pub thrust_sigma_rel: Vec<f64>,
+    /// Level of each consistency test.
+    pub consistency_alpha: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            latency_ms: 0.0,
+            sensor: None,
+            disturbance: false,
+            damping: false,
+            max_noise_order: 10,
+            thrust_sigma_rel: Vec::new(),
+            consistency_alpha: 1e-3,
+        }
+    }
+}
+
+/// Why no estimate could be made.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IdError {
+    #[error("invalid input: {0}")]
+    Invalid(String),
+    #[error("too few samples: no run of {0} consecutive samples with every measured axis")]
+    TooFewSamples(usize),
+    #[error("singular information: the commands excite none of the terms")]
+    Singular,
+}
+
+/// The estimate, in the contract's units.
+#[derive(Clone, Debug)]
+pub struct FlightEstimate {
+    /// xx yy zz xy xz yz, kg m^2 (the model's value for terms not identified).
+    pub inertia_kgm2: [f64; 6],
+    pub inertia_stderr_kgm2: [f64; 6],
+    /// CoM minus the model's, mm.
+    pub com_offset_mm: [f64; 3],
+    pub com_offset_stderr_mm: [f64; 3],
+    /// Constant disturbance torque (N m) and its standard error, when fitted.
+    pub disturbance_nm: Option<([f64; 3], [f64; 3])>,
+    /// Yaw damping (N m s/rad) and its standard error, when fitted.
+    pub damping_nms: Option<(f64, f64)>,
+    /// Covariance of (inertia 6, CoM mm 3), thrust uncertainty included.
+    pub covariance: DMatrix<f64>,
+    /// Terms the data do not determine (held at the model), and those a planar craft never
+    /// determines.
+    pub unobservable: Vec<&'static str>,
+    /// Terms a planar craft cannot identify (a subset of `unobservable`).
+    pub not_planar: Vec<&'static str>,
+    pub sensor: SensorResponse,
+    /// Noise model per measured axis.
+    pub noise: [Option<ArNoise>; 3],
+    pub consistency: Vec<ScoreTest>,
+    /// Rate samples in the fit (summed over axes).
+    pub samples_used: usize,
+    pub status: &'static str,
+}
+
+/// Terms a planar craft never identifies.
+pub const NOT_PLANAR: [&str; 6] = ["Ixx", "Iyy", "Ixy", "Ixz", "Iyz", "cm_z"];
+
+fn term_name(t: Term) -> &'static str {
+    match t {
+        Term::InvInertia(m) => INERTIA_TERMS[m],
+        Term::Com(a) => COM_TERMS[a],
+        Term::Disturbance(a) => ["dist_x", "dist_y", "dist_z"][a],
+        Term::Damping => "damping",
+    }
+}
+
+/// The size beyond which a term's standard error says the data do not determine it.
+fn term_scale(sat: &Satellite, j_nom: &Matrix3<f64>, t: Term, duration_s: f64) -> f64 {
+    let radius = (0..sat.n_thrusters())
+        .map(|i| sat.lever_arm_m(i).norm())
+        .fold(0.0, f64::max);
+    let min_torque = (0..sat.n_thrusters())
+        .map(|i| sat.torque_nm(i).norm())
+        .filter(|v| *v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let mean_principal = (j_nom[(0, 0)] + j_nom[(1, 1)] + j_nom[(2, 2)]) / 3.0;
+    match t {
+        Term::InvInertia(m) if m < 3 => 0.5 * j_nom[(m, m)].abs(),
+        Term::InvInertia(_) => 0.25 * mean_principal,
+        Term::Com(_) => 0.25 * radius,
+        Term::Disturbance(_) => 0.1 * if min_torque.is_finite() { min_torque } else { 1.0 },
+        Term::Damping => sat.inertia_kgm2[2] / duration_s.max(1e-3),
+    }
+}
+
+fn solve_spd(m: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    m.clone().cholesky().map(|c| c.solve(b)).or_else(|| m.clone().lu().solve(b))
+}
+
+/// Iterates Gauss-Newton steps and noise-model fits to convergence.
+fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<Normal> {
+    let nt = problem.terms.len();
+    for round in 0..4 {
+        for _ in 0..15 {
+            let normal = problem.accumulate(state);
+            let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
+            let delta = solve_spd(&ntt, &normal.score.rows(0, nt).into_owned())?;
+            problem.apply_step(state, &normal, &delta);
+            let inv = ntt.try_inverse()?;
+            let rel = (0..nt)
+                .map(|i| delta[i].abs() / inv[(i, i)].max(1e-300).sqrt())
+                .fold(0.0, f64::max);
+            if std::env::var("FLIGHT_ID_DEBUG").is_ok() {
+                eprintln!("round {round} ss {:.4e} rel {rel:.3e} j", normal.innovations.iter().map(|x| x.0).sum::<f64>()); eprintln!("  j {:?} dc {:?}", state.rigid.j.diagonal(), state.rigid.dc);
+            }
+            if !rel.is_finite() {
+                return None;
+            }
+            if rel < 1e-4 {
+                break;
+            }
+        }
+        let normal = problem.accumulate(state);
+        if round == 3 {
+            return Some(normal);
+        }
+        for a in 0..3 {
+            if problem.axes[a] {
+                let longest = normal.residuals[a].iter().map(Vec::len).max().unwrap_or(0);
+                state.noise[a] = ArNoise::fit(&normal.residuals[a], max_order.min(longest / 8));
+            }
+        }
+    }
+    None
+}
+
+/// Identifies the mass properties of `sat`'s craft from `flight`.
+pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<FlightEstimate, IdError> {
+    flight.check(sat).map_err(|e| IdError::Invalid(e.to_string()))?;
+    if !(opts.latency_ms.is_finite() && (0.0..=10_000.0).contains(&opts.latency_ms)) {
+        return Err(IdError::Invalid(format!("latency {} ms: must be in 0..=10000", opts.latency_ms)));
+    }
+    let dynamics = if sat.planar { Dynamics::Yaw } else { Dynamics::Full };
+    let axes: [bool; 3] = match dynamics {
+        Dynamics::Full => flight.axes,
+        Dynamics::Yaw => [false, false, flight.axes[2]],
+    };
+    if !axes.iter().any(|&a| a) {
+        return Err(IdError::Invalid(if sat.planar {
+            "a planar craft needs the z rate".into()
+        } else {
+            "no measured rate axis".into()
+        }));
+    }
+    let min_len = 20;
+    let wins = windows(flight, min_len);
+    if wins.is_empty() {
+        return Err(IdError::TooFewSamples(min_len));
+    }
+    let ivs = intervals(flight, sat, opts.latency_ms * 1e-3);
+    let i_nom = sat.inertia_matrix();
+    let j_nom = i_nom.try_inverse().ok_or_else(|| IdError::Invalid("model inertia is singular".into()))?;
+    let duration = flight.time_s.last().unwrap_or(&0.0) - flight.time_s.first().unwrap_or(&0.0);
+
+    let mut terms: Vec<Term> = match dynamics {
+        Dynamics::Full => (0..6).map(Term::InvInertia).chain((0..3).map(Term::Com)).collect(),
+        Dynamics::Yaw => vec![Term::InvInertia(2), Term::Com(0), Term::Com(1)],
+    };
+    if opts.disturbance {
+        match dynamics {
+            Dynamics::Full => terms.extend((0..3).map(Term::Disturbance)),
+            Dynamics::Yaw => terms.push(Term::Disturbance(2)),
+        }
+    }
+    if opts.damping && dynamics == Dynamics::Yaw {
+        terms.push(Term::Damping);
+    }
+    let sensors: Vec<SensorResponse> = match opts.sensor {
+        Some(s) => vec![s],
+        None if flight.from_gyro_counts => vec![SensorResponse::Point],
+        None => SensorResponse::ALL.to_vec(),
+    };
+    let nominal = Rigid {
+        dynamics,
+        j: j_nom,
+        dc: Vector3::zeros(),
+        d: Vector3::zeros(),
+        b: 0.0,
+    };
+    let initial_state = |sensor: SensorResponse| -> State {
+        let trajectory: Vec<Vector3<f64>> = flight
+            .rate
+            .iter()
+            .map(|r| Vector3::from_fn(|a, _| if axes[a] && r[a].is_finite() { r[a] } else { 0.0 }))
+            .collect();
+        let (t0, _) = match sensor {
+            SensorResponse::Point => (0, 0),
+            _ => (1, 0),
+        };
+        State {
+            rigid: nominal,
+            omega0: wins.iter().map(|&(s, _)| trajectory[(s + t0).min(flight.time_s.len() - 1)]).collect(),
+            trajectory,
+            noise: std::array::from_fn(|_| ArNoise::white(1e-6)),
+        }
+    };
+    let unit_wrenches: Vec<_> = (0..sat.n_thrusters()).map(|i| unit_wrench(sat, i)).collect();
+    let make_problem = |sensor, terms: Vec<Term>, extras: Vec<Extra>| Problem {
+        flight,
+        intervals: &ivs,
+        windows: &wins,
+        sensor,
+        axes,
+        terms,
+        extras,
+        inertia_fallback: i_nom,
+        unit_wrenches: unit_wrenches.clone(),
+    };
+
+    // Observability: pin (hold at the model) the least determined term until every free term
+    // is determined within its physical scale.
+    let mut pinned: Vec<Term> = Vec::new();
+    let (sensor, state, normal, free) = loop {
+        let free: Vec<Term> = terms.iter().copied().filter(|t| !pinned.contains(t)).collect();
+        if free.is_empty() {
+            return Err(IdError::Singular);
+        }
+        let mut best: Option<(f64, SensorResponse, State, Normal)> = None;
+        for &sensor in &sensors {
+            let problem = make_problem(sensor, free.clone(), Vec::new());
+            let mut state = initial_state(sensor);
+            let Some(normal) = converge(&problem, &mut state, opts.max_noise_order) else {
+                continue;
+            };
+            let loglik: f64 = (0..3)
+                .filter(|&a| axes[a] && normal.innovations[a].1 > 0)
+                .map(|a| -0.5 * (normal.innovations[a].0 / normal.innovations[a].1 as f64).ln())
+                .sum();
+            if best.as_ref().is_none_or(|b| loglik > b.0) {
+                best = Some((loglik, sensor, state, normal));
+            }
+        }
+        let Some((_, sensor, state, normal)) = best else {
+            // Singular: pin the term with the least information and retry.
+            let worst = free[free.len() - 1];
+            pinned.push(worst);
+            continue;
+        };
+        let nt = free.len();
+        let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
+        let cov = ntt.clone().try_inverse();
+        let worst = match &cov {
+            None => Some(free[nt - 1]),
+            Some(cov) => (0..nt)
+                .map(|i| {
+                    let se = cov[(i, i)].max(0.0).sqrt();
+                    (se / term_scale(sat, &j_nom, free[i], duration), i)
+                })
+                .filter(|(r, _)| !(*r <= 1.0))
+                .fold(None, |acc: Option<(f64, usize)>, x| match acc {
+                    Some(a) if a.0 >= x.0 || x.0.is_nan() => Some(a),
+                    _ => Some(x),
+                })
+                .map(|(_, i)| free[i]),
+        };
+        match worst {
+            Some(t) => pinned.push(t),
+            None => break (sensor, state, normal, free),
+        }
+    };
+
+    // Final pass with the extra directions: consistency and thrust uncertainty.
+    let firing: Vec<usize> = (0..sat.n_thrusters())
+        .filter(|&i| ivs.iter().any(|iv| iv.thruster_impulse[i] > 0.0))
+        .collect();
+    let mut extras: Vec<Extra> = firing.iter().map(|&i| Extra::ThrustScale(i)).collect();
+    extras.push(Extra::OpenDelay);
+    extras.push(Extra::CloseDelay);
+    let problem = make_problem(sensor, free.clone(), extras.clone());
+    let full = problem.accumulate(&state);
+    let _ = normal;
+    let nt = free.len();
+    let t_idx: Vec<usize> = (0..nt).collect();
+    let thrust_idx: Vec<usize> = (0..firing.len()).map(|k| nt + k).collect();
+    let timing_idx = vec![nt + firing.len(), nt + firing.len() + 1];
+    let mut tests = Vec::new();
+    if !thrust_idx.is_empty() {
+        tests.extend(score_test("thrust", &full.info, &full.score, &t_idx, &thrust_idx));
+    }
+    tests.extend(score_test("valve_timing", &full.info, &full.score, &t_idx, &timing_idx));
+
+    let ntt = full.info.view((0, 0), (nt, nt)).into_owned();
+    let mut cov_t = ntt.clone().try_inverse().ok_or(IdError::Singular)?;
+    if !opts.thrust_sigma_rel.is_empty() {
+        let ntz = DMatrix::from_fn(nt, thrust_idx.len(), |i, k| full.info[(i, thrust_idx[k])]);
+        let g = &cov_t * ntz;
+        let s2 = DMatrix::from_fn(firing.len(), firing.len(), |a, b| {
+            if a == b {
+                opts.thrust_sigma_rel.get(firing[a]).copied().unwrap_or(0.0).powi(2)
+            } else {
+                0.0
+            }
+        });
+        cov_t += &g * s2 * g.transpose();
+    }
+
+    // Physical terms: inverse inertia -> inertia by I = J^-1, dI = -I dJ I.
+    let rigid = state.rigid;
+    let pos = |t: Term| free.iter().position(|&f| f == t);
+    let (inertia, inertia_cov_rows): ([f64; 6], DMatrix<f64>) = match dynamics {
+        Dynamics::Full => {
+            let i_est = rigid.j.try_inverse().unwrap_or(Matrix3::from_element(f64::NAN));
+            let mut g = DMatrix::<f64>::zeros(6, nt);
+            for m in 0..6 {
+                if let Some(c) = pos(Term::InvInertia(m)) {
+                    let d = -(i_est * sym_basis(m) * i_est);
+                    let v = crate::mass_id::sym_to_vec6(&d);
+                    for r in 0..6 {
+                        g[(r, c)] = v[r];
+                    }
+                }
+            }
+            let v = crate::mass_id::sym_to_vec6(&i_est);
+            (std::array::from_fn(|r| v[r]), g)
+        }
+        Dynamics::Yaw => {
+            let jzz = rigid.j[(2, 2)];
+            let mut g = DMatrix::<f64>::zeros(6, nt);
+            if let Some(c) = pos(Term::InvInertia(2)) {
+                g[(2, c)] = -1.0 / (jzz * jzz);
+            }
+            let mut v = sat.inertia_kgm2;
+            v[2] = 1.0 / jzz;
+            (v, g)
+        }
+    };
+    let mut g_all = DMatrix::<f64>::zeros(9, nt);
+    g_all.view_mut((0, 0), (6, nt)).copy_from(&inertia_cov_rows);
+    for a in 0..3 {
+        if let Some(c) = pos(Term::Com(a)) {
+            g_all[(6 + a, c)] = 1e3;
+        }
+    }
+    let covariance = &g_all * &cov_t * g_all.transpose();
+    let se = |t: Term| pos(t).map(|c| cov_t[(c, c)].max(0.0).sqrt());
+
+    let not_planar: Vec<&'static str> = if sat.planar { NOT_PLANAR.to_vec() } else { Vec::new() };
+    let mut unobservable: Vec<&'static str> = not_planar.clone();
+    for t in &pinned {
+        let name = term_name(*t);
+        if !unobservable.contains(&name) {
+            unobservable.push(name);
+        }
+    }
+    let mut inertia_stderr = [0.0; 6];
+    for m in 0..6 {
+        inertia_stderr[m] = if unobservable.contains(&INERTIA_TERMS[m]) {
+            // The model's value with the observability scale as its uncertainty.
+            let scale = term_scale(sat, &j_nom, Term::InvInertia(m), duration);
+            scale * inertia[m.min(2)].powi(2).max(sat.inertia_kgm2[m.min(2)].powi(2))
+        } else {
+            covariance[(m, m)].max(0.0).sqrt()
+        };
+    }
+    let mut com_stderr = [0.0; 3];
+    for a in 0..3 {
+        com_stderr[a] = if unobservable.contains(&COM_TERMS[a]) {
+            term_scale(sat, &j_nom, Term::Com(a), duration) * 1e3
+        } else {
+            covariance[(6 + a, 6 + a)].max(0.0).sqrt()
+        };
+    }
+    let com_offset_mm: [f64; 3] = std::array::from_fn(|a| rigid.dc[a] * 1e3);
+    let disturbance_nm = opts.disturbance.then(|| {
+        (
+            std::array::from_fn(|a| rigid.d[a]),
+            std::array::from_fn(|a| se(Term::Disturbance(a)).unwrap_or(f64::NAN)),
+        )
+    });
+    let damping_nms = (opts.damping && dynamics == Dynamics::Yaw)
+        .then(|| (rigid.b, se(Term::Damping).unwrap_or(f64::NAN)));
+
+    // Status, most serious first.
+    let principal_j: Vec<f64> = match dynamics {
+        Dynamics::Full => (0..3).map(|a| rigid.j[(a, a)] / j_nom[(a, a)]).collect(),
+        Dynamics::Yaw => vec![rigid.j[(2, 2)] / j_nom[(2, 2)]],
+    };
+    let inconsistent = tests.iter().any(|t| t.p_value < opts.consistency_alpha);
+    let only_planar_unobservable = unobservable.len() == not_planar.len();
+    let status = if principal_j.iter().all(|r| r.abs() < 0.125) {
+        "no_gyro_response"
+    } else if let Err(why) = physical_validity(sat, &com_offset_mm, &inertia) {
+        why
+    } else if inconsistent {
+        "inconsistent"
+    } else if !only_planar_unobservable {
+        "unobservable_terms"
+    } else {
+        "ok"
+    };
+    let noise: [Option<ArNoise>; 3] = std::array::from_fn(|a| axes[a].then(|| state.noise[a].clone()));
+    Ok(FlightEstimate {
+        inertia_kgm2: inertia,
+        inertia_stderr_kgm2: inertia_stderr,
+        com_offset_mm,
+        com_offset_stderr_mm: com_stderr,
+        disturbance_nm,
+        damping_nms,
+        covariance,
+        unobservable,
+        not_planar,
+        sensor,
+        noise,
+        consistency: tests,
+        samples_used: full.innovations.iter().map(|x| x.1).sum(),
+        status,
+    })
+}

@@ -1,0 +1,290 @@
+//! Monte Carlo of the output-error identification (`reference_f64::flight_id`) over flights it
+//! was not developed on: every maneuver the simulator flies, sample rates 50-1000 Hz, 1x and
+//! 4x the gyro noise, and a planar craft whose yaw rate comes from motion capture (attitude
+//! with white noise differenced over one sample), open and closed loop. Each flight's error is
+//! divided by its reported standard error: bias in sigma, RMS error/sigma, 1- and 2-sigma
+//! coverage, share of status `ok`.
+use massid_sim::{simulate, Maneuver, SimSpec};
+use reference_f64::flight_id::flight::{Command, Flight};
+use reference_f64::flight_id::{identify, FlightEstimate, Options};
+use reference_f64::satellite::Satellite;
+use std::path::Path;
+
+/// Terms scored: CoM x y z (mm), Ixx Iyy Izz, Ixy Ixz Iyz.
+pub const TERMS: [&str; 9] = ["cm_x", "cm_y", "cm_z", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"];
+
+/// A flight condition.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Condition {
+    /// SPH2 in our simulator: maneuver, sample rate (Hz), gyro noise multiple.
+    Spheres { maneuver: Maneuver, rate_hz: f64, noise: f64 },
+    /// The planar air-bearing craft with motion-capture yaw rate: sample period (ms),
+    /// control step (ms), closed loop or random open loop.
+    PlanarMocap { step_ms: u64, control_ms: u64, closed_loop: bool },
+}
+
+impl Condition {
+    pub fn label(&self) -> String {
+        match self {
+            Condition::Spheres { maneuver, rate_hz, noise } => {
+                format!("sph2 {} {} Hz {}x", maneuver.name(), rate_hz, noise)
+            }
+            Condition::PlanarMocap { step_ms, control_ms, closed_loop } => format!(
+                "planar mocap {} Hz, {} ms steps, {}",
+                1000 / step_ms,
+                control_ms,
+                if *closed_loop { "closed loop" } else { "open loop" }
+            ),
+        }
+    }
+}
+
+/// One simulated flight: what the estimator reads, the model it is given, and the truth of
+/// the scored terms (NaN where the craft cannot show it).
+pub struct Simulated {
+    pub flight: Flight,
+    pub model: Satellite,
+    pub truth: [f64; 9],
+}
+
+/// Simulates one flight of `cond` with noise seed `seed`.
+pub fn fly(cond: &Condition, seed: u64) -> Simulated {
+    match cond {
+        Condition::Spheres { maneuver, rate_hz, noise } => {
+            let sat = Satellite::builtin("sph2").expect("sph2");
+            let mut spec = SimSpec::new(sat.clone(), Vec::new(), *maneuver);
+            spec.rate_hz = *rate_hz;
+            spec.seed = seed;
+            for s in spec.sensors.gyro_noise_rad_s.iter_mut() {
+                *s *= noise;
+            }
+            let out = simulate(&spec).expect("simulation");
+            let mut truth = [0.0; 9];
+            truth[3..].copy_from_slice(&sat.inertia_kgm2);
+            Simulated {
+                flight: Flight::from_v1(&out.recording, &sat),
+                model: sat,
+                truth,
+            }
+        }
+        Condition::PlanarMocap { step_ms, control_ms, closed_loop } => {
+            planar_mocap(*step_ms, *control_ms, *closed_loop, seed)
+        }
+    }
+}
+
+/// The air-bearing craft's nominal model (`examples/models/airbearing-mpc.toml`).
+pub fn airbearing_model() -> Satellite {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace");
+    massid_sim::model_file::ModelFile::read(&root.join("examples/models/airbearing-mpc.toml"))
+        .expect("model")
+        .satellite
+}
+
+struct Lcg(u64);
+
+impl Lcg {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn normal(&mut self) -> f64 {
+        let (u, v) = (self.uniform().max(1e-300), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+}
+
+/// Motion-capture noise: attitude noise (rad) differenced over one sample, plus white rate noise.
+pub const MOCAP_ANGLE_RAD: f64 = 0.0003;
+pub const MOCAP_WHITE_RAD_S: f64 = 0.002;
+
+/// A planar flight integrated exactly on a 1 ms grid (yaw only: `Izz omega_dot = tau_z` with
+/// torque about the true CoM), written independently of the estimator. True Izz 0.36 and CoM
+/// (+6, -4) mm from the model's: the model is wrong, as on a real table. Closed loop: every
+/// control step a proportional controller on the measured rate towards a random target fires
+/// the thrusters whose yaw torque has the wanted sign for a pulse proportional to the error.
+fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> Simulated {
+    let model = airbearing_model();
+    let izz = 0.36;
+    let dc = [6e-3, -4e-3];
+    let n = model.n_thrusters();
+    let yaw_torque = |i: usize| {
+        let p = model.pos_m(i) - model.com_m();
+        let f = model.force_n(i);
+        (p.x - dc[0]) * f.y - (p.y - dc[1]) * f.x
+    };
+    let model_yaw = |i: usize| model.torque_nm(i).z;
+    let mut rng = Lcg(seed.wrapping_mul(0x9E3779B97F4A7C15) ^ 0x1234_5678);
+    let seconds = 90u64;
+    let total = seconds * 1000;
+    let (mut omega, mut angle) = (0.0f64, 0.0f64);
+    let mut word = 0u16;
+    let mut target = 0.0;
+    let mut meas_angle_prev: Option<f64> = None;
+    let (mut time_s, mut rate, mut commands) = (Vec::new(), Vec::new(), Vec::new());
+    let mut last_meas = 0.0;
+    for t in 0..total {
+        if t % step_ms == 0 {
+            let meas_angle = angle + MOCAP_ANGLE_RAD * rng.normal();
+            let r = match meas_angle_prev {
+                Some(prev) => (meas_angle - prev) / (step_ms as f64 * 1e-3) + MOCAP_WHITE_RAD_S * rng.normal(),
+                None => f64::NAN,
+            };
+            meas_angle_prev = Some(meas_angle);
+            if r.is_finite() {
+                last_meas = r;
+            }
+            if t % control_ms == 0 {
+                if closed_loop {
+                    if t % 3000 == 0 {
+                        target = 0.3 * (2.0 * rng.uniform() - 1.0);
+                    }
+                    // Torque wanted to remove the error within two control steps.
+                    let want = 0.3237 * (target - last_meas) / (2.0 * control_ms as f64 * 1e-3);
+                    let sign = want.signum();
+                    let candidates: Vec<usize> = (0..n).filter(|&i| model_yaw(i) * sign > 0.0).collect();
+                    let per = candidates.iter().map(|&i| model_yaw(i).abs()).sum::<f64>() / candidates.len().max(1) as f64;
+                    let k = ((want.abs() / per.max(1e-9)).round() as usize).min(candidates.len());
+                    word = candidates.iter().take(k).fold(0u16, |w, &i| w | (1 << i));
+                } else {
+                    word = (0..n).filter(|_| rng.uniform() < 0.25).fold(0u16, |w, i| w | (1 << i));
+                }
+            }
+            time_s.push(t as f64 * 1e-3);
+            rate.push([f64::NAN, f64::NAN, r]);
+            commands.push(Command::Word(word));
+        }
+        // Exact 1 ms step: constant torque.
+        let f = model.thrusts_for_word(word);
+        let tau: f64 = (0..n).filter(|&i| f[i] > 0.0).map(|i| yaw_torque(i) * f[i] / model.thrust_n[i]).sum();
+        let a = tau / izz;
+        angle += omega * 1e-3 + 0.5 * a * 1e-6;
+        omega += a * 1e-3;
+    }
+    let mut truth = [f64::NAN; 9];
+    truth[0] = (dc[0]) * 1e3;
+    truth[1] = (dc[1]) * 1e3;
+    truth[5] = izz;
+    Simulated {
+        flight: Flight {
+            time_s,
+            rate,
+            axes: [false, false, true],
+            commands,
+            period_s: step_ms as f64 * 1e-3,
+            from_gyro_counts: false,
+        },
+        model,
+        truth,
+    }
+}
+
+/// Scores of one term over a cell's flights.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Score {
+    pub n: u32,
+    pub in1: u32,
+    pub in2: u32,
+    pub z_sum: f64,
+    pub z_sq: f64,
+    pub err_sq: f64,
+}
+
+impl Score {
+    pub fn add(&mut self, err: f64, sigma: f64) {
+        let z = err / sigma;
+        if !z.is_finite() {
+            return;
+        }
+        self.n += 1;
+        self.in1 += (z.abs() <= 1.0) as u32;
+        self.in2 += (z.abs() <= 2.0) as u32;
+        self.z_sum += z;
+        self.z_sq += z * z;
+        self.err_sq += err * err;
+    }
+    pub fn bias(&self) -> f64 {
+        self.z_sum / self.n.max(1) as f64
+    }
+    pub fn rms(&self) -> f64 {
+        (self.z_sq / self.n.max(1) as f64).sqrt()
+    }
+    pub fn cover1(&self) -> f64 {
+        100.0 * self.in1 as f64 / self.n.max(1) as f64
+    }
+    pub fn cover2(&self) -> f64 {
+        100.0 * self.in2 as f64 / self.n.max(1) as f64
+    }
+}
+
+/// A cell's outcome.
+#[derive(Clone, Debug, Default)]
+pub struct Cell {
+    pub flights: u32,
+    pub ok: u32,
+    pub failed: u32,
+    pub terms: [Score; 9],
+    pub statuses: Vec<String>,
+}
+
+impl Cell {
+    pub fn add(&mut self, sim: &Simulated, est: &Result<FlightEstimate, String>) {
+        self.flights += 1;
+        let e = match est {
+            Ok(e) => e,
+            Err(why) => {
+                self.failed += 1;
+                self.statuses.push(why.clone());
+                return;
+            }
+        };
+        if e.status == "ok" {
+            self.ok += 1;
+        } else {
+            self.statuses.push(e.status.to_string());
+        }
+        for t in 0..9 {
+            if sim.truth[t].is_nan() || e.unobservable.contains(&TERMS[t]) {
+                continue;
+            }
+            let (v, s) = if t < 3 {
+                (e.com_offset_mm[t], e.com_offset_stderr_mm[t])
+            } else {
+                (e.inertia_kgm2[t - 3], e.inertia_stderr_kgm2[t - 3])
+            };
+            self.terms[t].add(v - sim.truth[t], s);
+        }
+    }
+
+    /// The worst term on each criterion: (max |bias|, min RMS, max RMS, min 1-sigma, max
+    /// 1-sigma, min 2-sigma, max 2-sigma).
+    pub fn worst(&self) -> [f64; 7] {
+        let scored: Vec<&Score> = self.terms.iter().filter(|s| s.n > 0).collect();
+        let f = |g: &dyn Fn(&Score) -> f64, max: bool| {
+            scored
+                .iter()
+                .map(|s| g(s))
+                .fold(if max { f64::NEG_INFINITY } else { f64::INFINITY }, |a, b| if max { a.max(b) } else { a.min(b) })
+        };
+        [
+            f(&|s| s.bias().abs(), true),
+            f(&|s| s.rms(), false),
+            f(&|s| s.rms(), true),
+            f(&|s| s.cover1(), false),
+            f(&|s| s.cover1(), true),
+            f(&|s| s.cover2(), false),
+            f(&|s| s.cover2(), true),
+        ]
+    }
+}
+
+/// Runs `flights` flights of `cond` from seed `seed0` through the f64 identification.
+pub fn run_cell(cond: &Condition, flights: u64, seed0: u64, opts: &Options) -> Cell {
+    let mut cell = Cell::default();
+    for seed in seed0..seed0 + flights {
+        let sim = fly(cond, seed);
+        let est = identify(&sim.flight, &sim.model, opts).map_err(|e| e.to_string());
+        cell.add(&sim, &est);
+    }
+    cell
+}

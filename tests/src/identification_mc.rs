@@ -288,3 +288,56 @@ pub fn run_cell(cond: &Condition, flights: u64, seed0: u64, opts: &Options) -> C
     }
     cell
 }
+
+/// The grid: every maneuver x 50/100/250/500/1000 Hz x 1x/4x gyro noise on SPH2, plus
+/// the planar craft with motion-capture rates (25 and 50 Hz, open and closed loop).
+pub fn grid() -> Vec<Condition> {
+    let mut out = Vec::new();
+    for m in [
+        Maneuver::Rga12,
+        Maneuver::Single,
+        Maneuver::Combo,
+        Maneuver::RandomPwm,
+        Maneuver::ClosedLoop,
+    ] {
+        for rate_hz in [50.0, 100.0, 250.0, 500.0, 1000.0] {
+            for noise in [1.0, 4.0] {
+                out.push(Condition::Spheres { maneuver: m, rate_hz, noise });
+            }
+        }
+    }
+    for (step_ms, control_ms) in [(40, 80), (20, 60)] {
+        for closed_loop in [false, true] {
+            out.push(Condition::PlanarMocap { step_ms, control_ms, closed_loop });
+        }
+    }
+    out
+}
+
+/// Whether a cell meets the bars: |bias| <= 0.3 sigma, RMS error/sigma in
+/// [0.8, 1.25], 1-sigma coverage in [60, 76] %, 2-sigma in [90, 98] %, for every scored term.
+pub fn meets_bars(c: &Cell) -> bool {
+    let [b, rlo, rhi, c1lo, c1hi, c2lo, c2hi] = c.worst();
+    b <= 0.3 && rlo >= 0.8 && rhi <= 1.25 && c1lo >= 60.0 && c1hi <= 76.0 && c2lo >= 90.0 && c2hi <= 98.0
+}
+
+/// One markdown row per cell.
+pub fn markdown_row(cond: &Condition, c: &Cell) -> String {
+    let [b, rlo, rhi, c1lo, c1hi, c2lo, c2hi] = c.worst();
+    format!(
+        "| {} | {} | {:.0} | {:.2} | {:.2}-{:.2} | {:.0}-{:.0} | {:.0}-{:.0} | {} |",
+        cond.label(),
+        c.flights,
+        100.0 * c.ok as f64 / c.flights.max(1) as f64,
+        b,
+        rlo,
+        rhi,
+        c1lo,
+        c1hi,
+        c2lo,
+        c2hi,
+        if meets_bars(c) { "yes" } else { "**no**" }
+    )
+}
+
+pub const MARKDOWN_HEADER: &str = "| condition | flights | ok % | worst abs bias (sigma) | RMS err/sigma | 1-sigma % | 2-sigma % | bars met |\n|---|---|---|---|---|---|---|---|";

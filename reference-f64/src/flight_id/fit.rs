@@ -89,8 +89,9 @@ pub struct State {
     pub rigid: Rigid,
     /// Initial rate of each window.
     pub omega0: Vec<Vector3<f64>>,
-    /// Body rate at every sample for the gyroscopic and damping terms: the measured rates
-    /// (zero on unmeasured axes).
+    /// Body rate at every sample for the gyroscopic and damping terms: first the measured
+    /// rates (zero on unmeasured axes), then the fitted model's: a measured rate in the model's
+    /// own regressor would correlate it with the same sample's noise.
     pub trajectory: Vec<Vector3<f64>>,
     pub noise: [ArNoise; 3],
 }
@@ -114,6 +115,8 @@ pub struct Normal {
     pub residuals: [Vec<Vec<f64>>; 3],
     /// Per axis: sum of squared whitened residuals and their count.
     pub innovations: [(f64, usize); 3],
+    /// The model's body rate at each fitted sample (before the step).
+    pub fitted: Vec<(usize, Vector3<f64>)>,
 }
 
 impl Problem<'_> {
@@ -145,7 +148,9 @@ impl Problem<'_> {
         let mut nuisance = Vec::with_capacity(self.windows.len());
         let mut residuals: [Vec<Vec<f64>>; 3] = Default::default();
         let mut innovations = [(0.0, 0usize); 3];
+        let mut fitted = Vec::new();
         let i_gyro = state.rigid.inertia_or(&self.inertia_fallback);
+        let iei = Rigid::inertia_derivatives(&i_gyro);
         let (t0, t1) = self.sensor.trim();
         for (w, &(s, e)) in self.windows.iter().enumerate() {
             let n = e - s;
@@ -171,15 +176,18 @@ impl Problem<'_> {
                         iv.dt,
                     );
                     c += state.rigid.increment(iv, &tr);
-                    for (col, term) in self.terms.iter().enumerate() {
-                        dcol[col] += state.rigid.sensitivity(*term, iv, &tr);
-                    }
+                    state.rigid.add_sensitivities(&self.terms, iv, &tr, &iei, &mut dcol[..nt]);
                     for (x, extra) in self.extras.iter().enumerate() {
                         dcol[nt + x] += self.extra_response(&state.rigid, *extra, iv);
                     }
                 }
             }
             let w0 = state.omega0[w];
+            for k in s..e {
+                let r = k - s;
+                let model = w0 + Vector3::new(cum[0][r], cum[1][r], cum[2][r]);
+                fitted.push((k, Vector3::from_fn(|a, _| if self.axes[a] { model[a] } else { 0.0 })));
+            }
             let mut per_axis: [Option<NuisanceSums>; 3] = [None, None, None];
             if n <= t0 + t1 {
                 nuisance.push(per_axis);
@@ -244,6 +252,7 @@ impl Problem<'_> {
             nuisance,
             residuals,
             innovations,
+            fitted,
         }
     }
 

@@ -139,7 +139,7 @@ fn solve_spd(m: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
 /// Iterates Gauss-Newton steps and noise-model fits to convergence.
 fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<Normal> {
     let nt = problem.terms.len();
-    for round in 0..4 {
+    for round in 0..3 {
         for _ in 0..15 {
             let normal = problem.accumulate(state);
             let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
@@ -155,14 +155,19 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
             if !rel.is_finite() {
                 return None;
             }
-            if rel < 1e-4 {
+            if rel < 1e-3 {
                 break;
             }
         }
         let normal = problem.accumulate(state);
-        if round == 3 {
+        if round == 2 {
             return Some(normal);
         }
+        // The next round's gyroscopic and damping terms use the fitted rates (noise-free).
+        for &(k, w) in &normal.fitted {
+            state.trajectory[k] = w;
+        }
+        let normal = problem.accumulate(state);
         for a in 0..3 {
             if problem.axes[a] {
                 let longest = normal.residuals[a].iter().map(Vec::len).max().unwrap_or(0);

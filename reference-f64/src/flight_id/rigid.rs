@@ -6,8 +6,9 @@
 //! `Delta omega = J (U_tau + U_F x dc + d dt - G)`, `J = I^-1`,
 //! with `dc` the CoM minus the model's (torque about the true CoM is `tau_nom + F x dc`),
 //! `d` a constant disturbance torque and `G = integral omega x I omega`, the trapezoid of the
-//! measured rates (their noise is a thousandth of the rates that make `G` matter) with
-//! `I = J^-1`, differentiated through `J` (near gyro saturation `G` is half the thrust torque,
+//! rates (measured in the first round, the previous round's fit after: noise in the
+//! rates here acts like process noise and inflated the products' errors 1.5x) with `I = J^-1`,
+//! differentiated through `J` (near gyro saturation `G` is half the thrust torque,
 //! and leaving its derivative out made Gauss-Newton diverge). A planar craft turns about z only:
 //! `Delta omega_z = (U_tau,z + (U_F x dc)_z + d_z dt - b integral omega_z) / Izz`.
 //! The parameters enter through `J` (inverse inertia) so the model is linear in them but for
@@ -125,29 +126,42 @@ impl Rigid {
         self.apply_j(&(w.torque + w.force.cross(&self.dc)))
     }
 
-    /// d increment / d term.
-    pub fn sensitivity(&self, term: Term, iv: &Interval, tr: &TrajectoryTerms) -> Vector3<f64> {
-        match term {
-            // The gyroscopic term's inertia is J^-1: d(J^-1)/dJ_m = -I E_m I.
-            Term::InvInertia(m) => match self.dynamics {
-                Dynamics::Full => {
-                    let i = &tr.inertia;
-                    sym_basis(m) * self.drive(iv, tr) + self.j * tr.gyro_with(&(i * sym_basis(m) * i))
+    /// d increment / d term, for every term of `terms`, into `out` (added to it). `iei[m]` is
+    /// `I E_m I` for the inertia `tr.inertia` (see [`Rigid::inertia_derivatives`]).
+    pub fn add_sensitivities(
+        &self,
+        terms: &[Term],
+        iv: &Interval,
+        tr: &TrajectoryTerms,
+        iei: &[Matrix3<f64>; 6],
+        out: &mut [Vector3<f64>],
+    ) {
+        let drive = self.drive(iv, tr);
+        for (o, &term) in out.iter_mut().zip(terms) {
+            *o += match term {
+                // The gyroscopic term's inertia is J^-1: d(J^-1)/dJ_m = -I E_m I.
+                Term::InvInertia(m) => match self.dynamics {
+                    Dynamics::Full => sym_basis(m) * drive + self.j * tr.gyro_with(&iei[m]),
+                    Dynamics::Yaw => Vector3::new(0.0, 0.0, drive.z),
+                },
+                Term::Com(a) => {
+                    let mut e = Vector3::zeros();
+                    e[a] = 1.0;
+                    self.apply_j(&iv.impulse.force.cross(&e))
                 }
-                Dynamics::Yaw => Vector3::new(0.0, 0.0, self.drive(iv, tr).z),
-            },
-            Term::Com(a) => {
-                let mut e = Vector3::zeros();
-                e[a] = 1.0;
-                self.apply_j(&iv.impulse.force.cross(&e))
-            }
-            Term::Disturbance(a) => {
-                let mut e = Vector3::zeros();
-                e[a] = iv.dt;
-                self.apply_j(&e)
-            }
-            Term::Damping => Vector3::new(0.0, 0.0, -self.j[(2, 2)] * tr.yaw_angle),
+                Term::Disturbance(a) => {
+                    let mut e = Vector3::zeros();
+                    e[a] = iv.dt;
+                    self.apply_j(&e)
+                }
+                Term::Damping => Vector3::new(0.0, 0.0, -self.j[(2, 2)] * tr.yaw_angle),
+            };
         }
+    }
+
+    /// `I E_m I` for each inverse-inertia entry `m`.
+    pub fn inertia_derivatives(i: &Matrix3<f64>) -> [Matrix3<f64>; 6] {
+        std::array::from_fn(|m| i * sym_basis(m) * i)
     }
 
     /// Adds `delta` to a term.

@@ -9,7 +9,10 @@ fn main() {
     let flights: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(100);
     let seed0: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000);
     let filter = args.get(3).cloned().unwrap_or_default();
-    let cells: Vec<Condition> = grid().into_iter().filter(|c| c.label().contains(&filter)).collect();
+    let cells: Vec<Condition> = grid()
+        .into_iter()
+        .filter(|c| c.label().contains(&filter))
+        .collect();
     println!("{MARKDOWN_HEADER}");
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -29,7 +32,13 @@ fn main() {
                 }
                 for (t, s) in TERMS.iter().zip(&cell.terms) {
                     if s.n > 0 {
-                        eprintln!("   {t}: bias {:+.2} rms {:.2} c1 {:.0} c2 {:.0}", s.bias(), s.rms(), s.cover1(), s.cover2());
+                        eprintln!(
+                            "   {t}: bias {:+.2} rms {:.2} c1 {:.0} c2 {:.0}",
+                            s.bias(),
+                            s.rms(),
+                            s.cover1(),
+                            s.cover2()
+                        );
                     }
                 }
                 results.lock().unwrap()[i] = Some(cell);

@@ -11,29 +11,51 @@ use reference_f64::satellite::Satellite;
 use std::path::Path;
 
 /// Terms scored: CoM x y z (mm), Ixx Iyy Izz, Ixy Ixz Iyz.
-pub const TERMS: [&str; 9] = ["cm_x", "cm_y", "cm_z", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"];
+pub const TERMS: [&str; 9] = [
+    "cm_x", "cm_y", "cm_z", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz",
+];
 
 /// A flight condition.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Condition {
     /// SPH2 in our simulator: maneuver, sample rate (Hz), gyro noise multiple.
-    Spheres { maneuver: Maneuver, rate_hz: f64, noise: f64 },
+    Spheres {
+        maneuver: Maneuver,
+        rate_hz: f64,
+        noise: f64,
+    },
     /// The planar air-bearing craft with motion-capture yaw rate: sample period (ms),
     /// control step (ms), closed loop or random open loop.
-    PlanarMocap { step_ms: u64, control_ms: u64, closed_loop: bool },
+    PlanarMocap {
+        step_ms: u64,
+        control_ms: u64,
+        closed_loop: bool,
+    },
 }
 
 impl Condition {
     pub fn label(&self) -> String {
         match self {
-            Condition::Spheres { maneuver, rate_hz, noise } => {
+            Condition::Spheres {
+                maneuver,
+                rate_hz,
+                noise,
+            } => {
                 format!("sph2 {} {} Hz {}x", maneuver.name(), rate_hz, noise)
             }
-            Condition::PlanarMocap { step_ms, control_ms, closed_loop } => format!(
+            Condition::PlanarMocap {
+                step_ms,
+                control_ms,
+                closed_loop,
+            } => format!(
                 "planar mocap {} Hz, {} ms steps, {}",
                 1000 / step_ms,
                 control_ms,
-                if *closed_loop { "closed loop" } else { "open loop" }
+                if *closed_loop {
+                    "closed loop"
+                } else {
+                    "open loop"
+                }
             ),
         }
     }
@@ -50,7 +72,11 @@ pub struct Simulated {
 /// Simulates one flight of `cond` with noise seed `seed`.
 pub fn fly(cond: &Condition, seed: u64) -> Simulated {
     match cond {
-        Condition::Spheres { maneuver, rate_hz, noise } => {
+        Condition::Spheres {
+            maneuver,
+            rate_hz,
+            noise,
+        } => {
             let sat = Satellite::builtin("sph2").expect("sph2");
             let mut spec = SimSpec::new(sat.clone(), Vec::new(), *maneuver);
             spec.rate_hz = *rate_hz;
@@ -67,15 +93,19 @@ pub fn fly(cond: &Condition, seed: u64) -> Simulated {
                 truth,
             }
         }
-        Condition::PlanarMocap { step_ms, control_ms, closed_loop } => {
-            planar_mocap(*step_ms, *control_ms, *closed_loop, seed)
-        }
+        Condition::PlanarMocap {
+            step_ms,
+            control_ms,
+            closed_loop,
+        } => planar_mocap(*step_ms, *control_ms, *closed_loop, seed),
     }
 }
 
 /// The air-bearing craft's nominal model (`examples/models/airbearing-mpc.toml`).
 pub fn airbearing_model() -> Satellite {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("workspace");
     massid_sim::model_file::ModelFile::read(&root.join("examples/models/airbearing-mpc.toml"))
         .expect("model")
         .satellite
@@ -85,7 +115,10 @@ struct Lcg(u64);
 
 impl Lcg {
     fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
     fn normal(&mut self) -> f64 {
@@ -127,7 +160,9 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
         if t % step_ms == 0 {
             let meas_angle = angle + MOCAP_ANGLE_RAD * rng.normal();
             let r = match meas_angle_prev {
-                Some(prev) => (meas_angle - prev) / (step_ms as f64 * 1e-3) + MOCAP_WHITE_RAD_S * rng.normal(),
+                Some(prev) => {
+                    (meas_angle - prev) / (step_ms as f64 * 1e-3) + MOCAP_WHITE_RAD_S * rng.normal()
+                }
                 None => f64::NAN,
             };
             meas_angle_prev = Some(meas_angle);
@@ -142,12 +177,16 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
                     // Torque wanted to remove the error within two control steps.
                     let want = 0.3237 * (target - last_meas) / (2.0 * control_ms as f64 * 1e-3);
                     let sign = want.signum();
-                    let candidates: Vec<usize> = (0..n).filter(|&i| model_yaw(i) * sign > 0.0).collect();
-                    let per = candidates.iter().map(|&i| model_yaw(i).abs()).sum::<f64>() / candidates.len().max(1) as f64;
+                    let candidates: Vec<usize> =
+                        (0..n).filter(|&i| model_yaw(i) * sign > 0.0).collect();
+                    let per = candidates.iter().map(|&i| model_yaw(i).abs()).sum::<f64>()
+                        / candidates.len().max(1) as f64;
                     let k = ((want.abs() / per.max(1e-9)).round() as usize).min(candidates.len());
                     word = candidates.iter().take(k).fold(0u16, |w, &i| w | (1 << i));
                 } else {
-                    word = (0..n).filter(|_| rng.uniform() < 0.25).fold(0u16, |w, i| w | (1 << i));
+                    word = (0..n)
+                        .filter(|_| rng.uniform() < 0.25)
+                        .fold(0u16, |w, i| w | (1 << i));
                 }
             }
             time_s.push(t as f64 * 1e-3);
@@ -156,7 +195,10 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
         }
         // Exact 1 ms step: constant torque.
         let f = model.thrusts_for_word(word);
-        let tau: f64 = (0..n).filter(|&i| f[i] > 0.0).map(|i| yaw_torque(i) * f[i] / model.thrust_n[i]).sum();
+        let tau: f64 = (0..n)
+            .filter(|&i| f[i] > 0.0)
+            .map(|i| yaw_torque(i) * f[i] / model.thrust_n[i])
+            .sum();
         let a = tau / izz;
         angle += omega * 1e-3 + 0.5 * a * 1e-6;
         omega += a * 1e-3;
@@ -261,10 +303,14 @@ impl Cell {
     pub fn worst(&self) -> [f64; 7] {
         let scored: Vec<&Score> = self.terms.iter().filter(|s| s.n > 0).collect();
         let f = |g: &dyn Fn(&Score) -> f64, max: bool| {
-            scored
-                .iter()
-                .map(|s| g(s))
-                .fold(if max { f64::NEG_INFINITY } else { f64::INFINITY }, |a, b| if max { a.max(b) } else { a.min(b) })
+            scored.iter().map(|s| g(s)).fold(
+                if max {
+                    f64::NEG_INFINITY
+                } else {
+                    f64::INFINITY
+                },
+                |a, b| if max { a.max(b) } else { a.min(b) },
+            )
         };
         [
             f(&|s| s.bias().abs(), true),
@@ -302,13 +348,21 @@ pub fn grid() -> Vec<Condition> {
     ] {
         for rate_hz in [50.0, 100.0, 250.0, 500.0, 1000.0] {
             for noise in [1.0, 4.0] {
-                out.push(Condition::Spheres { maneuver: m, rate_hz, noise });
+                out.push(Condition::Spheres {
+                    maneuver: m,
+                    rate_hz,
+                    noise,
+                });
             }
         }
     }
     for (step_ms, control_ms) in [(40, 80), (20, 60)] {
         for closed_loop in [false, true] {
-            out.push(Condition::PlanarMocap { step_ms, control_ms, closed_loop });
+            out.push(Condition::PlanarMocap {
+                step_ms,
+                control_ms,
+                closed_loop,
+            });
         }
     }
     out
@@ -318,7 +372,13 @@ pub fn grid() -> Vec<Condition> {
 /// [0.8, 1.25], 1-sigma coverage in [60, 76] %, 2-sigma in [90, 98] %, for every scored term.
 pub fn meets_bars(c: &Cell) -> bool {
     let [b, rlo, rhi, c1lo, c1hi, c2lo, c2hi] = c.worst();
-    b <= 0.3 && rlo >= 0.8 && rhi <= 1.25 && c1lo >= 60.0 && c1hi <= 76.0 && c2lo >= 90.0 && c2hi <= 98.0
+    b <= 0.3
+        && rlo >= 0.8
+        && rhi <= 1.25
+        && c1lo >= 60.0
+        && c1hi <= 76.0
+        && c2lo >= 90.0
+        && c2hi <= 98.0
 }
 
 /// One markdown row per cell.

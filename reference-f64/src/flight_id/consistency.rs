@@ -144,9 +144,17 @@ mod tests {
     #[test]
     fn chi_square_tail_matches_tables() {
         // Known quantiles: chi2(1) 3.841 -> 0.05, chi2(2) 13.816 -> 0.001, chi2(10) 18.307 -> 0.05.
-        for (x, k, p) in [(3.841, 1.0, 0.05), (13.816, 2.0, 0.001), (18.307, 10.0, 0.05), (29.588, 10.0, 0.001)] {
+        for (x, k, p) in [
+            (3.841, 1.0, 0.05),
+            (13.816, 2.0, 0.001),
+            (18.307, 10.0, 0.05),
+            (29.588, 10.0, 0.001),
+        ] {
             let got = chi2_sf(x, k);
-            assert!((got - p).abs() < 2e-4 * p.max(0.01) * 10.0, "chi2({k}) at {x}: {got} vs {p}");
+            assert!(
+                (got - p).abs() < 2e-4 * p.max(0.01) * 10.0,
+                "chi2({k}) at {x}: {got} vs {p}"
+            );
         }
         assert_eq!(chi2_sf(0.0, 3.0), 1.0);
     }

@@ -89,19 +89,16 @@ pub struct State {
     pub rigid: Rigid,
     /// Initial rate of each window.
     pub omega0: Vec<Vector3<f64>>,
-    /// Body rate at every sample for the gyroscopic and damping terms: first the measured
-    /// rates (zero on unmeasured axes), then the fitted model's: a measured rate in the model's
-    /// own regressor would correlate it with the same sample's noise.
-    pub trajectory: Vec<Vector3<f64>>,
     pub noise: [ArNoise; 3],
 }
 
-/// One window's and axis' sums for its initial rate (whitened, unweighted).
+/// One window's information on its initial rates (measured axes), their cross-information
+/// with the columns, and their score: what the step needs to move them with the parameters.
 #[derive(Clone, Debug)]
 struct NuisanceSums {
-    nn: f64,
-    nx: DVector<f64>,
-    ne: f64,
+    nn_inv: DMatrix<f64>,
+    nx: DMatrix<f64>,
+    gn: DVector<f64>,
 }
 
 /// Normal equations after eliminating the initial rates, weighted by each axis' innovation
@@ -110,12 +107,13 @@ struct NuisanceSums {
 pub struct Normal {
     pub info: DMatrix<f64>,
     pub score: DVector<f64>,
-    nuisance: Vec<[Option<NuisanceSums>; 3]>,
+    nuisance: Vec<Option<NuisanceSums>>,
     /// Per axis: unwhitened residual series per window (for the noise fit).
     pub residuals: [Vec<Vec<f64>>; 3],
-    /// Per axis: sum of squared whitened residuals and their count.
+    /// Per axis: sum of squared whitened residuals and their count (at the current initial
+    /// rates, which converge with the parameters).
     pub innovations: [(f64, usize); 3],
-    /// The model's body rate at each fitted sample (before the step).
+    /// The model's body rate at each sample of a window (before the step).
     pub fitted: Vec<(usize, Vector3<f64>)>,
 }
 
@@ -139,112 +137,137 @@ impl Problem<'_> {
         }
     }
 
-    /// Accumulates the whitened normal equations at `state`.
+    /// Accumulates the whitened normal equations at `state`. The model's rate is integrated
+    /// from each window's initial rate (Heun's trapezoid for the gyroscopic and damping terms)
+    /// with its sensitivities (the variational equation), so the initial rates and the
+    /// parameters act on every axis through the gyroscopic coupling as they do on the craft.
     pub fn accumulate(&self, state: &State) -> Normal {
         let nc = self.columns();
         let nt = self.terms.len();
+        let used: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
+        let q = used.len();
+        let nall = nc + q;
         let mut info = DMatrix::<f64>::zeros(nc, nc);
         let mut score = DVector::<f64>::zeros(nc);
         let mut nuisance = Vec::with_capacity(self.windows.len());
         let mut residuals: [Vec<Vec<f64>>; 3] = Default::default();
         let mut innovations = [(0.0, 0usize); 3];
         let mut fitted = Vec::new();
-        let i_gyro = state.rigid.inertia_or(&self.inertia_fallback);
+        let rigid = &state.rigid;
+        let i_gyro = rigid.inertia_or(&self.inertia_fallback);
         let iei = Rigid::inertia_derivatives(&i_gyro);
         let (t0, t1) = self.sensor.trim();
         for (w, &(s, e)) in self.windows.iter().enumerate() {
             let n = e - s;
-            // Accumulated increments (point values) and their sensitivities, per axis.
-            let mut cum = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-            let mut sens: [DMatrix<f64>; 3] = std::array::from_fn(|_| DMatrix::zeros(n, nc));
-            let mut c = Vector3::zeros();
-            let mut dcol = vec![Vector3::<f64>::zeros(); nc];
+            // Model rate and its sensitivities (columns: terms, extras, initial rates).
+            let mut omega = vec![Vector3::<f64>::zeros(); n];
+            let mut sens: Vec<nalgebra::OMatrix<f64, nalgebra::U3, nalgebra::Dyn>> =
+                Vec::with_capacity(n);
+            let mut wk = state.omega0[w];
+            let mut sk = nalgebra::OMatrix::<f64, nalgebra::U3, nalgebra::Dyn>::zeros(nall);
+            for (j, &a) in used.iter().enumerate() {
+                sk[(a, nc + j)] = 1.0;
+            }
+            let mut direct = vec![Vector3::<f64>::zeros(); nc];
             for k in s..e {
-                let r = k - s;
-                for a in 0..3 {
-                    cum[a][r] = c[a];
-                    for (col, v) in dcol.iter().enumerate() {
-                        sens[a][(r, col)] = v[a];
+                omega[k - s] = wk;
+                sens.push(sk.clone());
+                if k + 1 == e {
+                    break;
+                }
+                let iv = &self.intervals[k];
+                let euler = TrajectoryTerms::trapezoid(&wk, &wk, &i_gyro, iv.dt);
+                let predicted = wk + rigid.increment(iv, &euler);
+                let tr = TrajectoryTerms::trapezoid(&wk, &predicted, &i_gyro, iv.dt);
+                let delta = rigid.increment(iv, &tr);
+                direct.iter_mut().for_each(|d| *d = Vector3::zeros());
+                rigid.add_sensitivities(&self.terms, iv, &tr, &iei, &mut direct[..nt]);
+                for (x, extra) in self.extras.iter().enumerate() {
+                    direct[nt + x] = self.extra_response(rigid, *extra, iv);
+                }
+                let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), &i_gyro, iv.dt);
+                let propagated = &a_k * &sk;
+                sk += propagated;
+                for (col, d) in direct.iter().enumerate() {
+                    for r in 0..3 {
+                        sk[(r, col)] += d[r];
                     }
                 }
-                if k + 1 < e {
-                    let iv = &self.intervals[k];
-                    let tr = TrajectoryTerms::trapezoid(
-                        &state.trajectory[k],
-                        &state.trajectory[k + 1],
-                        &i_gyro,
-                        iv.dt,
-                    );
-                    c += state.rigid.increment(iv, &tr);
-                    state.rigid.add_sensitivities(&self.terms, iv, &tr, &iei, &mut dcol[..nt]);
-                    for (x, extra) in self.extras.iter().enumerate() {
-                        dcol[nt + x] += self.extra_response(&state.rigid, *extra, iv);
-                    }
-                }
+                wk += delta;
             }
-            let w0 = state.omega0[w];
-            for k in s..e {
-                let r = k - s;
-                let model = w0 + Vector3::new(cum[0][r], cum[1][r], cum[2][r]);
-                fitted.push((k, Vector3::from_fn(|a, _| if self.axes[a] { model[a] } else { 0.0 })));
+            for (r, w) in omega.iter().enumerate() {
+                fitted.push((
+                    s + r,
+                    Vector3::from_fn(|a, _| if self.axes[a] { w[a] } else { 0.0 }),
+                ));
             }
-            let mut per_axis: [Option<NuisanceSums>; 3] = [None, None, None];
             if n <= t0 + t1 {
-                nuisance.push(per_axis);
+                nuisance.push(None);
                 continue;
             }
             let rows = t0..n - t1;
-            for a in 0..3 {
-                if !self.axes[a] {
-                    continue;
-                }
+            let mut wn = DMatrix::<f64>::zeros(nall, nall);
+            let mut wg = DVector::<f64>::zeros(nall);
+            let mut any = false;
+            for &a in &used {
                 let noise = &state.noise[a];
+                let om: Vec<f64> = omega.iter().map(|w| w[a]).collect();
                 let res: Vec<f64> = rows
                     .clone()
-                    .map(|r| self.flight.rate[s + r][a] - w0[a] - self.sensor.at(&cum[a], r))
-                    .collect();
-                let cols: Vec<Vec<f64>> = (0..nc)
-                    .map(|col| {
-                        let x: Vec<f64> = sens[a].column(col).iter().copied().collect();
-                        rows.clone().map(|r| self.sensor.at(&x, r)).collect()
-                    })
+                    .map(|r| self.flight.rate[s + r][a] - self.sensor.at(&om, r))
                     .collect();
                 let we = noise.whiten(&res);
                 if we.is_empty() {
                     continue;
                 }
-                let wn = noise.whiten(&vec![1.0; res.len()]);
-                let wx: Vec<Vec<f64>> = cols.iter().map(|x| noise.whiten(x)).collect();
+                any = true;
+                let wx: Vec<Vec<f64>> = (0..nall)
+                    .map(|col| {
+                        let x: Vec<f64> = sens.iter().map(|m| m[(a, col)]).collect();
+                        let y: Vec<f64> = rows.clone().map(|r| self.sensor.at(&x, r)).collect();
+                        noise.whiten(&y)
+                    })
+                    .collect();
                 let m = we.len();
-                let mut sums = NuisanceSums {
-                    nn: wn.iter().map(|v| v * v).sum(),
-                    nx: DVector::from_fn(nc, |col, _| (0..m).map(|i| wn[i] * wx[col][i]).sum()),
-                    ne: (0..m).map(|i| wn[i] * we[i]).sum(),
-                };
-                if sums.nn <= 0.0 {
-                    sums.nn = f64::INFINITY;
-                }
                 let inv_var = 1.0 / noise.sigma2.max(1e-300);
-                for i in 0..nc {
-                    let xe: f64 = (0..m).map(|r| wx[i][r] * we[r]).sum();
-                    score[i] += inv_var * (xe - sums.nx[i] * sums.ne / sums.nn);
-                    for j in 0..=i {
-                        let xx: f64 = (0..m).map(|r| wx[i][r] * wx[j][r]).sum();
-                        let v = inv_var * (xx - sums.nx[i] * sums.nx[j] / sums.nn);
-                        info[(i, j)] += v;
+                let nonzero: Vec<usize> = (0..nall)
+                    .filter(|&c| wx[c].iter().any(|v| *v != 0.0))
+                    .collect();
+                for (ii, &i) in nonzero.iter().enumerate() {
+                    wg[i] += inv_var * (0..m).map(|r| wx[i][r] * we[r]).sum::<f64>();
+                    for &j in &nonzero[..=ii] {
+                        let v = inv_var * (0..m).map(|r| wx[i][r] * wx[j][r]).sum::<f64>();
+                        wn[(i, j)] += v;
                         if i != j {
-                            info[(j, i)] += v;
+                            wn[(j, i)] += v;
                         }
                     }
                 }
-                // Innovations at the optimal initial rate for the current parameters.
-                let ss: f64 = we.iter().map(|v| v * v).sum::<f64>() - sums.ne * sums.ne / sums.nn;
-                innovations[a].0 += ss.max(0.0);
+                innovations[a].0 += we.iter().map(|v| v * v).sum::<f64>();
                 innovations[a].1 += m;
                 residuals[a].push(res);
-                per_axis[a] = Some(sums);
             }
-            nuisance.push(per_axis);
+            if !any {
+                nuisance.push(None);
+                continue;
+            }
+            // Eliminate the window's initial rates (Schur complement).
+            let nn = wn.view((nc, nc), (q, q)).into_owned();
+            let nn_inv = match nn.clone().try_inverse() {
+                Some(m) => m,
+                None => {
+                    let ridge = 1e-12 * nn.trace().abs().max(1e-300);
+                    (nn + DMatrix::identity(q, q) * ridge)
+                        .try_inverse()
+                        .unwrap_or(DMatrix::zeros(q, q))
+                }
+            };
+            let nx = wn.view((nc, 0), (q, nc)).into_owned();
+            let gn = wg.rows(nc, q).into_owned();
+            let ktx = nx.transpose() * &nn_inv;
+            info += wn.view((0, 0), (nc, nc)) - &ktx * &nx;
+            score += wg.rows(0, nc) - &ktx * &gn;
+            nuisance.push(Some(NuisanceSums { nn_inv, nx, gn }));
         }
         Normal {
             info,
@@ -257,16 +280,16 @@ impl Problem<'_> {
     }
 
     /// Applies the Gauss-Newton step `delta` (one entry per term) and the matching initial
-    /// rates; returns the step's size relative to the parameters' standard errors.
+    /// rates.
     pub fn apply_step(&self, state: &mut State, normal: &Normal, delta: &DVector<f64>) {
         let nt = self.terms.len();
-        for (w, per_axis) in normal.nuisance.iter().enumerate() {
-            for a in 0..3 {
-                if let Some(s) = &per_axis[a] {
-                    if s.nn.is_finite() {
-                        let dx: f64 = (0..nt).map(|i| s.nx[i] * delta[i]).sum();
-                        state.omega0[w][a] += (s.ne - dx) / s.nn;
-                    }
+        let used: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
+        for (w, sums) in normal.nuisance.iter().enumerate() {
+            if let Some(s) = sums {
+                let dx = s.nx.columns(0, nt) * delta;
+                let d0 = &s.nn_inv * (&s.gn - dx);
+                for (j, &a) in used.iter().enumerate() {
+                    state.omega0[w][a] += d0[j];
                 }
             }
         }
@@ -295,7 +318,9 @@ mod tests {
         let commands: Vec<Command> = (0..n)
             .map(|k| {
                 if k % 50 == 0 {
-                    x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    x = x
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
                     word = ((x >> 33) as u16) & 0x0fff;
                 }
                 Command::Word(word)
@@ -319,43 +344,72 @@ mod tests {
             d: Vector3::zeros(),
             b: 0.0,
         };
-        let terms: Vec<Term> = (0..6).map(Term::InvInertia).chain((0..3).map(Term::Com)).collect();
-        let problem = |f: &Flight, ivs: &[Interval], wins: &[(usize, usize)]| -> (Vec<Term>, Matrix3<f64>) {
-            let _ = (f, ivs, wins);
-            (terms.clone(), sat.inertia_matrix())
-        };
+        let terms: Vec<Term> = (0..6)
+            .map(Term::InvInertia)
+            .chain((0..3).map(Term::Com))
+            .collect();
+        let problem =
+            |f: &Flight, ivs: &[Interval], wins: &[(usize, usize)]| -> (Vec<Term>, Matrix3<f64>) {
+                let _ = (f, ivs, wins);
+                (terms.clone(), sat.inertia_matrix())
+            };
         let (terms, i_nom) = problem(&flight, &ivs, &wins);
         let unit: Vec<_> = (0..12).map(|i| unit_wrench(&sat, i)).collect();
-        // Data from the truth (trajectory zero: no gyroscopic term).
-        let mut st = State {
+        // Noise-free rates of the truth, by the model itself (gyroscopic term included).
+        let st = State {
             rigid: truth,
-            omega0: vec![Vector3::new(0.1, -0.2, 0.05)],
-            trajectory: vec![Vector3::zeros(); n],
+            omega0: vec![Vector3::new(0.5, -0.4, 0.3)],
             noise: std::array::from_fn(|_| ArNoise::white(1.0)),
         };
-        let p = Problem { flight: &flight, intervals: &ivs, windows: &wins, sensor: SensorResponse::Point, axes: [true; 3], terms: terms.clone(), extras: vec![], inertia_fallback: i_nom, unit_wrenches: unit.clone() };
-        // Noise-free rates of the truth, by the same model: omega0 + accumulated increments.
-        let tr0 = crate::flight_id::rigid::TrajectoryTerms::trapezoid(&Vector3::zeros(), &Vector3::zeros(), &i_nom, 1e-3);
-        let mut w = st.omega0[0];
-        for k in 0..n {
+        let p = Problem {
+            flight: &flight,
+            intervals: &ivs,
+            windows: &wins,
+            sensor: SensorResponse::Point,
+            axes: [true; 3],
+            terms: terms.clone(),
+            extras: vec![],
+            inertia_fallback: i_nom,
+            unit_wrenches: unit.clone(),
+        };
+        for (k, w) in p.accumulate(&st).fitted {
             flight.rate[k] = [w.x, w.y, w.z];
-            if k + 1 < n {
-                w += truth.increment(&ivs[k], &tr0);
-            }
         }
-        let p = Problem { flight: &flight, intervals: &ivs, windows: &wins, sensor: SensorResponse::Point, axes: [true; 3], terms, extras: vec![], inertia_fallback: i_nom, unit_wrenches: unit };
+        let p = Problem {
+            flight: &flight,
+            intervals: &ivs,
+            windows: &wins,
+            sensor: SensorResponse::Point,
+            axes: [true; 3],
+            terms,
+            extras: vec![],
+            inertia_fallback: i_nom,
+            unit_wrenches: unit,
+        };
         let mut st = State {
-            rigid: Rigid { j: j_nom, dc: Vector3::zeros(), ..truth },
-            omega0: vec![Vector3::zeros()],
-            trajectory: vec![Vector3::zeros(); n],
+            rigid: Rigid {
+                j: j_nom,
+                dc: Vector3::zeros(),
+                ..truth
+            },
+            omega0: vec![Vector3::new(0.45, -0.35, 0.25)],
             noise: std::array::from_fn(|_| ArNoise::white(1.0)),
         };
-        for _ in 0..6 {
+        for _ in 0..8 {
             let normal = p.accumulate(&st);
             let delta = normal.info.clone().lu().solve(&normal.score).unwrap();
             p.apply_step(&mut st, &normal, &delta);
         }
-        assert!((st.rigid.j - truth.j).norm() < 1e-6 * truth.j.norm(), "{:?}", st.rigid.j);
+        assert!(
+            (st.omega0[0] - Vector3::new(0.5, -0.4, 0.3)).norm() < 1e-9,
+            "{:?}",
+            st.omega0
+        );
+        assert!(
+            (st.rigid.j - truth.j).norm() < 1e-6 * truth.j.norm(),
+            "{:?}",
+            st.rigid.j
+        );
         assert!((st.rigid.dc - truth.dc).norm() < 1e-9);
     }
 }

@@ -60,7 +60,11 @@ impl Flight {
             })
             .collect();
         Flight {
-            time_s: rec.samples.iter().map(|s| s.time_ms as f64 * 1e-3).collect(),
+            time_s: rec
+                .samples
+                .iter()
+                .map(|s| s.time_ms as f64 * 1e-3)
+                .collect(),
             rate,
             axes: [true; 3],
             commands: rec
@@ -197,7 +201,12 @@ fn command_wrench(sat: &Satellite, c: &Command) -> (Wrench, [f64; MAX_THRUSTERS]
 
 /// d impulse / d delay of one valve edge from thrusts `f_old` to `f_new`: the old thrust acts
 /// longer, the new one shorter.
-fn add_edge(iv: &mut Interval, sat: &Satellite, f_old: &[f64; MAX_THRUSTERS], f_new: &[f64; MAX_THRUSTERS]) {
+fn add_edge(
+    iv: &mut Interval,
+    sat: &Satellite,
+    f_old: &[f64; MAX_THRUSTERS],
+    f_new: &[f64; MAX_THRUSTERS],
+) {
     for i in 0..sat.n_thrusters() {
         let (o, nw) = (f_old[i], f_new[i]);
         if nw > 0.0 && o == 0.0 {
@@ -213,8 +222,11 @@ fn add_edge(iv: &mut Interval, sat: &Satellite, f_old: &[f64; MAX_THRUSTERS], f_
 pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interval> {
     let n = flight.time_s.len();
     let t = &flight.time_s;
-    let cmds: Vec<(Wrench, [f64; MAX_THRUSTERS])> =
-        flight.commands.iter().map(|c| command_wrench(sat, c)).collect();
+    let cmds: Vec<(Wrench, [f64; MAX_THRUSTERS])> = flight
+        .commands
+        .iter()
+        .map(|c| command_wrench(sat, c))
+        .collect();
     let zero = (Wrench::default(), [0.0; MAX_THRUSTERS]);
     // Command index acting at time s: m with t_m + L <= s < t_m+1 + L (None before t_0 + L).
     let mut out = Vec::with_capacity(n.saturating_sub(1));
@@ -243,7 +255,11 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
             }
         }
         loop {
-            let end = if next < n { (t[next] + latency_s).min(b) } else { b };
+            let end = if next < n {
+                (t[next] + latency_s).min(b)
+            } else {
+                b
+            };
             let (w, f) = cur.map_or(&zero, |c| &cmds[c]);
             let d = (end - s).max(0.0);
             iv.impulse.add_scaled(w, d);
@@ -269,15 +285,14 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
 /// nominal periods. Each run gets its own initial rate. Runs shorter than `min_len` are dropped.
 pub fn windows(flight: &Flight, min_len: usize) -> Vec<(usize, usize)> {
     let n = flight.time_s.len();
-    let valid = |k: usize| {
-        (0..3).all(|a| !flight.axes[a] || flight.rate[k][a].is_finite())
-    };
+    let valid = |k: usize| (0..3).all(|a| !flight.axes[a] || flight.rate[k][a].is_finite());
     let mut out = Vec::new();
     let mut start: Option<usize> = None;
     for k in 0..=n {
         let keep = k < n
             && valid(k)
-            && start.is_none_or(|_| flight.time_s[k] - flight.time_s[k - 1] <= 1.5 * flight.period_s);
+            && start
+                .is_none_or(|_| flight.time_s[k] - flight.time_s[k - 1] <= 1.5 * flight.period_s);
         match (start, keep) {
             (None, true) => start = Some(k),
             (Some(s), false) => {

@@ -127,13 +127,22 @@ fn term_scale(sat: &Satellite, j_nom: &Matrix3<f64>, t: Term, duration_s: f64) -
         Term::InvInertia(m) if m < 3 => 0.5 * j_nom[(m, m)].abs(),
         Term::InvInertia(_) => 0.25 * mean_principal,
         Term::Com(_) => 0.25 * radius,
-        Term::Disturbance(_) => 0.1 * if min_torque.is_finite() { min_torque } else { 1.0 },
+        Term::Disturbance(_) => {
+            0.1 * if min_torque.is_finite() {
+                min_torque
+            } else {
+                1.0
+            }
+        }
         Term::Damping => sat.inertia_kgm2[2] / duration_s.max(1e-3),
     }
 }
 
 fn solve_spd(m: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    m.clone().cholesky().map(|c| c.solve(b)).or_else(|| m.clone().lu().solve(b))
+    m.clone()
+        .cholesky()
+        .map(|c| c.solve(b))
+        .or_else(|| m.clone().lu().solve(b))
 }
 
 /// Iterates Gauss-Newton steps and noise-model fits to convergence.
@@ -150,7 +159,11 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
                 .map(|i| delta[i].abs() / inv[(i, i)].max(1e-300).sqrt())
                 .fold(0.0, f64::max);
             if std::env::var("FLIGHT_ID_DEBUG").is_ok() {
-                eprintln!("round {round} ss {:.4e} rel {rel:.3e} j", normal.innovations.iter().map(|x| x.0).sum::<f64>()); eprintln!("  j {:?} dc {:?}", state.rigid.j.diagonal(), state.rigid.dc);
+                eprintln!(
+                    "round {round} ss {:.4e} rel {rel:.3e} j",
+                    normal.innovations.iter().map(|x| x.0).sum::<f64>()
+                );
+                eprintln!("  j {:?} dc {:?}", state.rigid.j.diagonal(), state.rigid.dc);
             }
             if !rel.is_finite() {
                 return None;
@@ -163,11 +176,6 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
         if round == 2 {
             return Some(normal);
         }
-        // The next round's gyroscopic and damping terms use the fitted rates (noise-free).
-        for &(k, w) in &normal.fitted {
-            state.trajectory[k] = w;
-        }
-        let normal = problem.accumulate(state);
         for a in 0..3 {
             if problem.axes[a] {
                 let longest = normal.residuals[a].iter().map(Vec::len).max().unwrap_or(0);
@@ -179,12 +187,25 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
 }
 
 /// Identifies the mass properties of `sat`'s craft from `flight`.
-pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<FlightEstimate, IdError> {
-    flight.check(sat).map_err(|e| IdError::Invalid(e.to_string()))?;
+pub fn identify(
+    flight: &Flight,
+    sat: &Satellite,
+    opts: &Options,
+) -> Result<FlightEstimate, IdError> {
+    flight
+        .check(sat)
+        .map_err(|e| IdError::Invalid(e.to_string()))?;
     if !(opts.latency_ms.is_finite() && (0.0..=10_000.0).contains(&opts.latency_ms)) {
-        return Err(IdError::Invalid(format!("latency {} ms: must be in 0..=10000", opts.latency_ms)));
+        return Err(IdError::Invalid(format!(
+            "latency {} ms: must be in 0..=10000",
+            opts.latency_ms
+        )));
     }
-    let dynamics = if sat.planar { Dynamics::Yaw } else { Dynamics::Full };
+    let dynamics = if sat.planar {
+        Dynamics::Yaw
+    } else {
+        Dynamics::Full
+    };
     let axes: [bool; 3] = match dynamics {
         Dynamics::Full => flight.axes,
         Dynamics::Yaw => [false, false, flight.axes[2]],
@@ -203,11 +224,16 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
     }
     let ivs = intervals(flight, sat, opts.latency_ms * 1e-3);
     let i_nom = sat.inertia_matrix();
-    let j_nom = i_nom.try_inverse().ok_or_else(|| IdError::Invalid("model inertia is singular".into()))?;
+    let j_nom = i_nom
+        .try_inverse()
+        .ok_or_else(|| IdError::Invalid("model inertia is singular".into()))?;
     let duration = flight.time_s.last().unwrap_or(&0.0) - flight.time_s.first().unwrap_or(&0.0);
 
     let mut terms: Vec<Term> = match dynamics {
-        Dynamics::Full => (0..6).map(Term::InvInertia).chain((0..3).map(Term::Com)).collect(),
+        Dynamics::Full => (0..6)
+            .map(Term::InvInertia)
+            .chain((0..3).map(Term::Com))
+            .collect(),
         Dynamics::Yaw => vec![Term::InvInertia(2), Term::Com(0), Term::Com(1)],
     };
     if opts.disturbance {
@@ -232,23 +258,28 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
         b: 0.0,
     };
     let initial_state = |sensor: SensorResponse| -> State {
-        let trajectory: Vec<Vector3<f64>> = flight
-            .rate
-            .iter()
-            .map(|r| Vector3::from_fn(|a, _| if axes[a] && r[a].is_finite() { r[a] } else { 0.0 }))
-            .collect();
-        let (t0, _) = match sensor {
-            SensorResponse::Point => (0, 0),
-            _ => (1, 0),
-        };
+        let t0 = usize::from(sensor != SensorResponse::Point);
         State {
             rigid: nominal,
-            omega0: wins.iter().map(|&(s, _)| trajectory[(s + t0).min(flight.time_s.len() - 1)]).collect(),
-            trajectory,
+            omega0: wins
+                .iter()
+                .map(|&(s, _)| {
+                    let r = flight.rate[(s + t0).min(flight.time_s.len() - 1)];
+                    Vector3::from_fn(|a, _| {
+                        if axes[a] && r[a].is_finite() {
+                            r[a]
+                        } else {
+                            0.0
+                        }
+                    })
+                })
+                .collect(),
             noise: std::array::from_fn(|_| ArNoise::white(1e-6)),
         }
     };
-    let unit_wrenches: Vec<_> = (0..sat.n_thrusters()).map(|i| unit_wrench(sat, i)).collect();
+    let unit_wrenches: Vec<_> = (0..sat.n_thrusters())
+        .map(|i| unit_wrench(sat, i))
+        .collect();
     let make_problem = |sensor, terms: Vec<Term>, extras: Vec<Extra>| Problem {
         flight,
         intervals: &ivs,
@@ -265,7 +296,11 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
     // is determined within its physical scale.
     let mut pinned: Vec<Term> = Vec::new();
     let (sensor, state, normal, free) = loop {
-        let free: Vec<Term> = terms.iter().copied().filter(|t| !pinned.contains(t)).collect();
+        let free: Vec<Term> = terms
+            .iter()
+            .copied()
+            .filter(|t| !pinned.contains(t))
+            .collect();
         if free.is_empty() {
             return Err(IdError::Singular);
         }
@@ -329,9 +364,21 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
     let timing_idx = vec![nt + firing.len(), nt + firing.len() + 1];
     let mut tests = Vec::new();
     if !thrust_idx.is_empty() {
-        tests.extend(score_test("thrust", &full.info, &full.score, &t_idx, &thrust_idx));
+        tests.extend(score_test(
+            "thrust",
+            &full.info,
+            &full.score,
+            &t_idx,
+            &thrust_idx,
+        ));
     }
-    tests.extend(score_test("valve_timing", &full.info, &full.score, &t_idx, &timing_idx));
+    tests.extend(score_test(
+        "valve_timing",
+        &full.info,
+        &full.score,
+        &t_idx,
+        &timing_idx,
+    ));
 
     let ntt = full.info.view((0, 0), (nt, nt)).into_owned();
     let mut cov_t = ntt.clone().try_inverse().ok_or(IdError::Singular)?;
@@ -340,7 +387,11 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
         let g = &cov_t * ntz;
         let s2 = DMatrix::from_fn(firing.len(), firing.len(), |a, b| {
             if a == b {
-                opts.thrust_sigma_rel.get(firing[a]).copied().unwrap_or(0.0).powi(2)
+                opts.thrust_sigma_rel
+                    .get(firing[a])
+                    .copied()
+                    .unwrap_or(0.0)
+                    .powi(2)
             } else {
                 0.0
             }
@@ -353,7 +404,10 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
     let pos = |t: Term| free.iter().position(|&f| f == t);
     let (inertia, inertia_cov_rows): ([f64; 6], DMatrix<f64>) = match dynamics {
         Dynamics::Full => {
-            let i_est = rigid.j.try_inverse().unwrap_or(Matrix3::from_element(f64::NAN));
+            let i_est = rigid
+                .j
+                .try_inverse()
+                .unwrap_or(Matrix3::from_element(f64::NAN));
             let mut g = DMatrix::<f64>::zeros(6, nt);
             for m in 0..6 {
                 if let Some(c) = pos(Term::InvInertia(m)) {
@@ -388,7 +442,11 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
     let covariance = &g_all * &cov_t * g_all.transpose();
     let se = |t: Term| pos(t).map(|c| cov_t[(c, c)].max(0.0).sqrt());
 
-    let not_planar: Vec<&'static str> = if sat.planar { NOT_PLANAR.to_vec() } else { Vec::new() };
+    let not_planar: Vec<&'static str> = if sat.planar {
+        NOT_PLANAR.to_vec()
+    } else {
+        Vec::new()
+    };
     let mut unobservable: Vec<&'static str> = not_planar.clone();
     for t in &pinned {
         let name = term_name(*t);
@@ -401,7 +459,10 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
         inertia_stderr[m] = if unobservable.contains(&INERTIA_TERMS[m]) {
             // The model's value with the observability scale as its uncertainty.
             let scale = term_scale(sat, &j_nom, Term::InvInertia(m), duration);
-            scale * inertia[m.min(2)].powi(2).max(sat.inertia_kgm2[m.min(2)].powi(2))
+            scale
+                * inertia[m.min(2)]
+                    .powi(2)
+                    .max(sat.inertia_kgm2[m.min(2)].powi(2))
         } else {
             covariance[(m, m)].max(0.0).sqrt()
         };
@@ -442,7 +503,8 @@ pub fn identify(flight: &Flight, sat: &Satellite, opts: &Options) -> Result<Flig
     } else {
         "ok"
     };
-    let noise: [Option<ArNoise>; 3] = std::array::from_fn(|a| axes[a].then(|| state.noise[a].clone()));
+    let noise: [Option<ArNoise>; 3] =
+        std::array::from_fn(|a| axes[a].then(|| state.noise[a].clone()));
     Ok(FlightEstimate {
         inertia_kgm2: inertia,
         inertia_stderr_kgm2: inertia_stderr,

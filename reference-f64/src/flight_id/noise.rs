@@ -140,14 +140,18 @@ mod tests {
         // lag-1 correlation near -0.45; the fitted model must leave white innovations.
         let a = gauss(20_001, 2);
         let w = gauss(20_000, 3);
-        let x: Vec<f64> = (0..20_000).map(|k| (a[k + 1] - a[k]) + 0.5 * w[k]).collect();
+        let x: Vec<f64> = (0..20_000)
+            .map(|k| (a[k + 1] - a[k]) + 0.5 * w[k])
+            .collect();
         let m = ArNoise::fit(&[x.clone()], 12);
         assert!(m.order() >= 3, "{m:?}");
         let e = m.whiten(&x);
-        let r1 = e.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / e.iter().map(|v| v * v).sum::<f64>();
+        let r1 =
+            e.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / e.iter().map(|v| v * v).sum::<f64>();
         assert!(r1.abs() < 0.03, "lag-1 correlation of the innovations {r1}");
         // A fault planted: whitening with white noise assumed leaves the correlation.
-        let r1_raw = x.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / x.iter().map(|v| v * v).sum::<f64>();
+        let r1_raw =
+            x.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / x.iter().map(|v| v * v).sum::<f64>();
         assert!(r1_raw < -0.3, "{r1_raw}");
     }
 }

@@ -6,9 +6,10 @@
 //! `Delta omega = J (U_tau + U_F x dc + d dt - G)`, `J = I^-1`,
 //! with `dc` the CoM minus the model's (torque about the true CoM is `tau_nom + F x dc`),
 //! `d` a constant disturbance torque and `G = integral omega x I omega`, the trapezoid of the
-//! rates (measured in the first round, the previous round's fit after: noise in the
-//! rates here acts like process noise and inflated the products' errors 1.5x) with `I = J^-1`,
-//! differentiated through `J` (near gyro saturation `G` is half the thrust torque,
+//! model's own rate (Heun's predictor for the end) with `I = J^-1`, differentiated through `J`
+//! and through the rate ([`Rigid::rate_jacobian`]; without it the initial rate's and the
+//! products' cross-axis effects were missing from the sensitivities and the products' errors
+//! were 1.3-1.5x their reported sigma) (near gyro saturation `G` is half the thrust torque,
 //! and leaving its derivative out made Gauss-Newton diverge). A planar craft turns about z only:
 //! `Delta omega_z = (U_tau,z + (U_F x dc)_z + d_z dt - b integral omega_z) / Izz`.
 //! The parameters enter through `J` (inverse inertia) so the model is linear in them but for
@@ -156,6 +157,24 @@ impl Rigid {
                 }
                 Term::Damping => Vector3::new(0.0, 0.0, -self.j[(2, 2)] * tr.yaw_angle),
             };
+        }
+    }
+
+    /// `d increment / d omega` over an interval of length `dt` at the rate `w`: the gyroscopic
+    /// term's `-J dt (d (w x I w) / dw) = -J dt ([w]x I - [I w]x)`, or the yaw damping's
+    /// `-Jzz b dt`. It carries the initial rate's and the parameters' effect along the flight.
+    pub fn rate_jacobian(&self, w: &Vector3<f64>, i: &Matrix3<f64>, dt: f64) -> Matrix3<f64> {
+        match self.dynamics {
+            Dynamics::Full => {
+                let skew =
+                    |v: &Vector3<f64>| Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0);
+                -(self.j * (skew(w) * i - skew(&(i * w)))) * dt
+            }
+            Dynamics::Yaw => {
+                let mut m = Matrix3::zeros();
+                m[(2, 2)] = -self.j[(2, 2)] * self.b * dt;
+                m
+            }
         }
     }
 

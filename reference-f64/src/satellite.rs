@@ -89,6 +89,11 @@ pub struct Satellite {
     /// Thrust lost by each open thruster per additional open thruster, N (seed ch. 3
     /// multi-thruster pressure drop). 0.0 in the built-in nominal models.
     pub pressure_drop_n_per_extra: f64,
+    /// Optional: each thruster's thrust uncertainty, 1 sigma, N (seed Table C.3 measures a
+    /// 2-8 % spread). The identification's standard errors then include it; absent, they
+    /// cover the rate noise only (a uniform thrust error is an inertia error on rates).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub thrust_sigma_n: Vec<f64>,
 }
 
 /// A model file that cannot be used: names the file (or origin) and why.
@@ -259,6 +264,7 @@ impl Satellite {
             accel_bias_counts: [ACCEL_BIAS_COUNTS; 3],
             accel_m_s2_per_count: ACCEL_M_S2_PER_COUNT,
             pressure_drop_n_per_extra: 0.0,
+            thrust_sigma_n: Vec::new(),
         })
     }
 
@@ -292,6 +298,10 @@ impl Satellite {
             && self.thrust_n.iter().all(|v| v.is_finite())
             && self.inertia_kgm2.iter().all(|v| v.is_finite())
             && self.com_offset_mm.iter().all(|v| v.is_finite())
+            && self
+                .thrust_sigma_n
+                .iter()
+                .all(|v| v.is_finite() && *v >= 0.0)
             && self.gyro_bias_counts.iter().all(|v| v.is_finite())
             && self.gyro_counts_per_rad_s.iter().all(|v| v.is_finite())
             && self.accel_bias_counts.iter().all(|v| v.is_finite())
@@ -316,6 +326,12 @@ impl Satellite {
                  ({n}, {}, {})",
                 self.thrust_dir.len(),
                 self.thrust_n.len()
+            ));
+        }
+        if !self.thrust_sigma_n.is_empty() && self.thrust_sigma_n.len() != n {
+            return Err(format!(
+                "thrust_sigma_n has {} entries; the model has {n} thrusters (or leave it out)",
+                self.thrust_sigma_n.len()
             ));
         }
         if self.planar {
@@ -372,6 +388,16 @@ impl Satellite {
             }
         }
         (lo, hi)
+    }
+
+    /// Each thruster's relative thrust uncertainty (`thrust_sigma_n / thrust_n`); empty when
+    /// the model states none.
+    pub fn thrust_sigma_rel(&self) -> Vec<f64> {
+        self.thrust_sigma_n
+            .iter()
+            .zip(&self.thrust_n)
+            .map(|(s, f)| if *f > 0.0 { s / f } else { 0.0 })
+            .collect()
     }
 
     /// Number of thrusters the model describes.

@@ -54,7 +54,7 @@ fn main() {
 }
 #[allow(dead_code)]
 fn dbg_flight(f: &reference_f64::flight_id::flight::Flight) {
-    let w = reference_f64::flight_id::flight::windows(f, 20);
+    let w = reference_f64::flight_id::flight::windows(f, 20, false);
     let nan = f
         .rate
         .iter()

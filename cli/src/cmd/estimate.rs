@@ -2,16 +2,23 @@
 //! [--json OUT.json]`: runs a recording through the mass-property identification and
 //! prints (and optionally writes, as `contracts/estimate-output.md`) the estimate.
 //!
-//! The f64 path is the reference's online pipeline (causal filter, one sample at a time: the
-//! same flight algorithm the kernels run, so `max_diff_vs_f64` measures arithmetic, not a
-//! different method) or, with `--offline`, its zero-phase offline form; the f32 and
-//! fixed-point paths run the onboard kernel (`massid_kernel::Pipeline`) one sample per tick
-//! ([`run_kernel`]).
+//! The f64 path is the output-error identification (`reference_f64::flight_id`: any craft,
+//! 3-D or planar, format v1 or v2, any maneuver, with its noise model and consistency test);
+//! `--method seed` runs the seed's design instead (the reference's online pipeline, the
+//! algorithm the kernels run, so `max_diff_vs_f64` then measures arithmetic; `--offline` its
+//! zero-phase form). The f32 and fixed-point paths run the onboard kernel
+//! (`massid_kernel::Pipeline`, the seed's design) one sample per tick ([`run_kernel`]).
 use anyhow::{anyhow, bail, Context};
+use reference_f64::flight_id::fit::SensorResponse;
+use reference_f64::flight_id::flight::Flight;
+use reference_f64::flight_id::{identify, FlightEstimate, Options as FlightOptions};
+use reference_f64::mass_id::{COM_TERMS, INERTIA_TERMS};
 use reference_f64::pipeline::{estimate_offline, estimate_online, Estimate, PipelineConfig};
 use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 use serde_json::{json, Map, Value};
+
+const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
@@ -31,10 +38,68 @@ pub struct Args {
     /// Write the estimate as JSON (estimate-output v1) here.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// f64 path: the offline form (zero-phase filter over the whole recording) instead of the
-    /// online one the kernels mirror. Better on its own, but not a like-for-like oracle.
+    /// f64 path: `output-error` (default: every sample, any craft, fitted noise model) or
+    /// `seed` (the seed's per-firing Kalman filter + RLS, the algorithm the kernels run).
+    #[arg(long, default_value = "output-error")]
+    method: String,
+    /// With `--method seed`: the offline form (zero-phase filter over the whole recording)
+    /// instead of the online one the kernels mirror.
     #[arg(long)]
     offline: bool,
+    /// Known command-to-thrust (or measurement) delay, ms (output-error method).
+    #[arg(long, default_value_t = 0.0)]
+    latency_ms: f64,
+    /// Rate sensor response: auto (gyro counts: point; rad/s: the most likely), point,
+    /// backward-mean (attitude differenced over one sample), central-mean.
+    #[arg(long, default_value = "auto")]
+    sensor: String,
+    /// Also fit a constant disturbance torque (e.g. a tilted air-bearing table).
+    #[arg(long)]
+    disturbance: bool,
+    /// Also fit a yaw rate damping (planar craft).
+    #[arg(long)]
+    damping: bool,
+}
+
+/// The f64 identification method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    OutputError,
+    Seed,
+}
+
+fn parse_method(s: &str) -> anyhow::Result<Method> {
+    Ok(match s {
+        "output-error" => Method::OutputError,
+        "seed" => Method::Seed,
+        other => bail!("--method {other:?}: expected output-error or seed"),
+    })
+}
+
+fn parse_sensor(s: &str) -> anyhow::Result<Option<SensorResponse>> {
+    Ok(match s {
+        "auto" => None,
+        "point" => Some(SensorResponse::Point),
+        "backward-mean" => Some(SensorResponse::BackwardMean),
+        "central-mean" => Some(SensorResponse::CentralMean),
+        other => bail!("--sensor {other:?}: expected auto, point, backward-mean or central-mean"),
+    })
+}
+
+impl Args {
+    fn flight_options(&self, sat: &Satellite) -> anyhow::Result<FlightOptions> {
+        if !(self.latency_ms.is_finite() && (0.0..=10_000.0).contains(&self.latency_ms)) {
+            bail!("--latency-ms {}: must be in 0..=10000", self.latency_ms);
+        }
+        Ok(FlightOptions {
+            latency_ms: self.latency_ms,
+            sensor: parse_sensor(&self.sensor)?,
+            disturbance: self.disturbance,
+            damping: self.damping,
+            thrust_sigma_rel: sat.thrust_sigma_rel(),
+            ..FlightOptions::default()
+        })
+    }
 }
 
 /// Which form of the f64 reference runs.
@@ -148,28 +213,101 @@ pub fn result_json(e: &Estimate) -> Value {
     })
 }
 
-/// Largest absolute difference of each field from the f64 result.
-pub fn max_diff_json(e: &Estimate, f64_result: &Estimate) -> Value {
-    let maxdiff = |a: &[f64], b: &[f64]| {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| (x - y).abs())
+/// The output-error estimate as the contract's JSON object, plus how it was made: the
+/// method, the sensor response and noise model used, and the consistency tests. Terms a planar
+/// craft cannot identify are null, as in the planar contract examples.
+pub fn flight_result_json(e: &FlightEstimate) -> Value {
+    let planar_null = |name: &str, v: f64| -> Value {
+        if e.not_planar.iter().any(|n| *n == name) {
+            Value::Null
+        } else {
+            json!(v)
+        }
+    };
+    let inertia: Vec<Value> = INERTIA_TERMS
+        .iter()
+        .zip(e.inertia_kgm2)
+        .map(|(n, v)| planar_null(n, v))
+        .collect();
+    let inertia_se: Vec<Value> = INERTIA_TERMS
+        .iter()
+        .zip(e.inertia_stderr_kgm2)
+        .map(|(n, v)| planar_null(n, v))
+        .collect();
+    let com: Vec<Value> = COM_TERMS
+        .iter()
+        .zip(e.com_offset_mm)
+        .map(|(n, v)| planar_null(n, v))
+        .collect();
+    let com_se: Vec<Value> = COM_TERMS
+        .iter()
+        .zip(e.com_offset_stderr_mm)
+        .map(|(n, v)| planar_null(n, v))
+        .collect();
+    let noise: Vec<Value> = e
+        .noise
+        .iter()
+        .enumerate()
+        .filter_map(|(a, n)| {
+            n.as_ref().map(|n| {
+                json!({
+                    "axis": AXIS_NAMES[a],
+                    "ar_coefficients": n.phi,
+                    "innovation_rad_s": n.sigma2.sqrt(),
+                    "rate_noise_rad_s": n.process_variance().sqrt(),
+                })
+            })
+        })
+        .collect();
+    let tests: Vec<Value> = e
+        .consistency
+        .iter()
+        .map(|t| json!({"test": t.name, "statistic": t.statistic, "dof": t.dof, "p_value": t.p_value}))
+        .collect();
+    json!({
+        "com_offset_mm": com,
+        "com_offset_stderr_mm": com_se,
+        "inertia_kgm2": inertia,
+        "inertia_stderr_kgm2": inertia_se,
+        "unobservable": e.unobservable,
+        "updates": e.samples_used,
+        "status": e.status,
+        "method": "output_error",
+        "sensor_response": e.sensor.name(),
+        "noise_model": noise,
+        "consistency": tests,
+    })
+}
+
+/// Largest absolute difference of each numeric field from the f64 result (nulls skipped).
+pub fn max_diff_json(e: &Value, f64_result: &Value) -> Value {
+    let nums = |v: &Value| -> Vec<Option<f64>> {
+        match v {
+            Value::Array(a) => a.iter().map(Value::as_f64).collect(),
+            other => vec![other.as_f64()],
+        }
+    };
+    let maxdiff = |key: &str| {
+        nums(&e[key])
+            .iter()
+            .zip(nums(&f64_result[key]))
+            .filter_map(|(a, b)| Some((a.as_ref()? - b?).abs()))
             .fold(0.0, f64::max)
     };
     json!({
-        "com_offset_mm": maxdiff(&e.com_offset_mm, &f64_result.com_offset_mm),
-        "com_offset_stderr_mm": maxdiff(&e.com_offset_stderr_mm, &f64_result.com_offset_stderr_mm),
-        "inertia_kgm2": maxdiff(&e.inertia_kgm2, &f64_result.inertia_kgm2),
-        "inertia_stderr_kgm2": maxdiff(&e.inertia_stderr_kgm2, &f64_result.inertia_stderr_kgm2),
-        "updates": (e.updates as i64 - f64_result.updates as i64).abs(),
+        "com_offset_mm": maxdiff("com_offset_mm"),
+        "com_offset_stderr_mm": maxdiff("com_offset_stderr_mm"),
+        "inertia_kgm2": maxdiff("inertia_kgm2"),
+        "inertia_stderr_kgm2": maxdiff("inertia_stderr_kgm2"),
+        "updates": maxdiff("updates"),
     })
 }
 
 /// The whole estimate-output v1 document.
-pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Estimate)]) -> Value {
+pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Value)]) -> Value {
     let mut res = Map::new();
     for (k, e) in results {
-        res.insert(k.name().to_string(), result_json(e));
+        res.insert(k.name().to_string(), e.clone());
     }
     let mut doc = Map::new();
     doc.insert("format".into(), json!("massid-estimate/1"));
@@ -188,9 +326,74 @@ pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Estimate)])
     Value::Object(doc)
 }
 
+fn print_flight_result(e: &FlightEstimate, sat: &Satellite) {
+    println!(
+        "[f64] output-error  status {}  samples {}  sensor {}",
+        e.status,
+        e.samples_used,
+        e.sensor.name()
+    );
+    let shown = |name: &str| !e.not_planar.iter().any(|n| *n == name);
+    for (a, name) in COM_TERMS.iter().enumerate() {
+        if shown(name) {
+            println!(
+                "  {name} - model: {:+.4} +- {:.4} mm",
+                e.com_offset_mm[a], e.com_offset_stderr_mm[a]
+            );
+        }
+    }
+    for (j, name) in INERTIA_TERMS.iter().enumerate() {
+        if shown(name) {
+            println!(
+                "  {name}: {:.6e} +- {:.1e} kg m^2  (model {:.6e})",
+                e.inertia_kgm2[j], e.inertia_stderr_kgm2[j], sat.inertia_kgm2[j]
+            );
+        }
+    }
+    if let Some((d, s)) = &e.disturbance_nm {
+        println!(
+            "  disturbance torque: {:+.2e} {:+.2e} {:+.2e} +- {:.1e} {:.1e} {:.1e} N m",
+            d[0], d[1], d[2], s[0], s[1], s[2]
+        );
+    }
+    if let Some((b, s)) = e.damping_nms {
+        println!("  yaw damping: {b:+.4e} +- {s:.1e} N m s/rad");
+    }
+    for (a, n) in e.noise.iter().enumerate() {
+        if let Some(n) = n {
+            println!(
+                "  rate noise {}: {:.2e} rad/s, AR order {} (innovation {:.2e})",
+                ["x", "y", "z"][a],
+                n.process_variance().sqrt(),
+                n.order(),
+                n.sigma2.sqrt()
+            );
+        }
+    }
+    for t in &e.consistency {
+        println!(
+            "  consistency {}: chi2 {:.1} on {} dof, p = {:.2e}",
+            t.name, t.statistic, t.dof, t.p_value
+        );
+    }
+    let held: Vec<&&str> = e.unobservable.iter().filter(|n| shown(n)).collect();
+    if !held.is_empty() {
+        println!(
+            "  unobservable (held at the model's values): {}",
+            held.iter().map(|s| **s).collect::<Vec<_>>().join(", ")
+        );
+    }
+    if !e.not_planar.is_empty() {
+        println!(
+            "  not identifiable on a planar craft: {}",
+            e.not_planar.join(", ")
+        );
+    }
+}
+
 fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
     println!(
-        "[{}] status {}  updates {}",
+        "[{}] seed design  status {}  updates {}",
         kernel.name(),
         e.status,
         e.updates
@@ -215,49 +418,50 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
     }
 }
 
-/// A recording in format v2 of a planar craft: yaw-rate identification of Izz, the CoM's
-/// x/y, rate damping and a disturbance torque (`reference_f64::planar_id`), reported in the
-/// contract's layout with every term a planar craft cannot identify listed unobservable.
-fn run_planar(args: &Args, kernels: &[Kernel]) -> anyhow::Result<()> {
-    use reference_f64::planar_id::{self, PlanarModel, PlanarOptions, NOT_PLANAR_TERMS};
+/// A recording in format v2 (rates in rad/s, any craft): the output-error method only (the
+/// onboard kernels fly 12-thruster v1 recordings).
+fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()> {
     use reference_f64::rate_recording::{Commands, RateRecording};
-    if kernels != [Kernel::F64] {
+    if kernels != [Kernel::F64] || method != Method::OutputError {
         bail!(
-            "--kernel {}: the onboard kernels fly the 12-thruster 3-D SPHERES layout; a planar \
-             recording (format v2) is identified by the f64 reference only (--kernel f64)",
-            args.kernel
+            "--kernel {} --method {}: a recording in format v2 is identified by the f64 \
+             output-error method only (the onboard kernels run 12-thruster v1 recordings)",
+            args.kernel,
+            args.method
         );
     }
     let rec = RateRecording::read(&args.recording)?;
-    let sat = match (&args.model, &args.satellite) {
-        (Some(path), _) => massid_sim::model_file::ModelFile::read(path)?.satellite,
-        _ => bail!(
+    let sat = match &args.model {
+        Some(path) => massid_sim::model_file::ModelFile::read(path)?.satellite,
+        None => bail!(
             "{}: a recording in format v2 needs its craft's model: pass --model FILE",
             args.recording.display()
         ),
     };
-    let model = PlanarModel::from_satellite(&sat).ok_or_else(|| {
-        anyhow!(
-            "{}: model {} is 3-D; recordings in format v2 are identified for planar craft \
-             only (`planar = true`)",
-            args.recording.display(),
-            sat.name
-        )
-    })?;
-    let Commands::Thrusters { n, words } = &rec.commands else {
-        bail!(
-            "{}: the commands are a body wrench; identification needs thruster states",
-            rec.source
-        );
-    };
-    if *n != sat.n_thrusters() {
-        bail!(
-            "{}: {n} thrusters in the recording, {} in model {}",
-            rec.source,
-            sat.n_thrusters(),
-            sat.name
-        );
+    if let Commands::Thrusters { n, .. } = &rec.commands {
+        if *n != sat.n_thrusters() {
+            bail!(
+                "{}: {n} thrusters in the recording, {} in model {}",
+                rec.source,
+                sat.n_thrusters(),
+                sat.name
+            );
+        }
     }
+    check_json_output(args)?;
+    let opts = args.flight_options(&sat)?;
+    let e = identify(&Flight::from_v2(&rec), &sat, &opts)
+        .map_err(|e| anyhow!("{}: {e}", rec.source))?;
+    print_flight_result(&e, &sat);
+    write_json(
+        args,
+        &rec.source,
+        &sat,
+        &[(Kernel::F64, flight_result_json(&e))],
+    )
+}
+
+fn check_json_output(args: &Args) -> anyhow::Result<()> {
     if let Some(out) = &args.json {
         let mut inputs: Vec<&Path> = vec![args.recording.as_path()];
         if let Some(m) = &args.model {
@@ -265,90 +469,51 @@ fn run_planar(args: &Args, kernels: &[Kernel]) -> anyhow::Result<()> {
         }
         crate::cmd::check_output(out, &inputs)?;
     }
-    let rate_z: Vec<f64> = rec.rate.iter().map(|r| r[2]).collect();
-    let e = planar_id::identify(
-        &model,
-        &rec.time_ms,
-        &rate_z,
-        words,
-        &PlanarOptions::default(),
-    )
-    .map_err(|e| anyhow!("{}: {e} (status {})", rec.source, e.status()))?;
-    let mm = |v: Option<f64>| v.map(|x| x * 1e3);
-    let mut unobservable: Vec<&str> = NOT_PLANAR_TERMS.to_vec();
-    unobservable.extend(e.unobservable.iter().filter(|t| t.starts_with("cm_")));
-    let i = sat.inertia_kgm2;
-    let result = json!({
-        "com_offset_mm": [mm(e.com_offset_m[0]), mm(e.com_offset_m[1]), Value::Null],
-        "com_offset_stderr_mm": [mm(e.com_stderr_m[0]), mm(e.com_stderr_m[1]), Value::Null],
-        "inertia_kgm2": [i[0], i[1], e.izz_kgm2, i[3], i[4], i[5]],
-        "inertia_stderr_kgm2": [Value::Null, Value::Null, e.izz_stderr, Value::Null, Value::Null, Value::Null],
-        "unobservable": unobservable,
-        "updates": e.intervals_used,
-        "status": "ok",
-    });
-    let se = |v: Option<f64>, s: Option<f64>, k: f64| match (v, s) {
-        (Some(v), Some(s)) => format!("{:+.4} ± {:.4}", v * k, s * k),
-        _ => "unobservable (held at the model)".to_string(),
+    Ok(())
+}
+
+fn write_json(
+    args: &Args,
+    source: &str,
+    sat: &Satellite,
+    results: &[(Kernel, Value)],
+) -> anyhow::Result<()> {
+    let Some(out) = &args.json else {
+        return Ok(());
     };
-    println!(
-        "planar identification of {} against {} ({} intervals, rate noise RMS {:.4} rad/s)",
-        rec.source, sat.name, e.intervals_used, e.residual_rms_rad_s
-    );
-    println!(
-        "  Izz        {:.4} ± {:.4} kg m^2 (model {:.4})",
-        e.izz_kgm2, e.izz_stderr, model.izz_kgm2
-    );
-    println!(
-        "  cm_x - model {} mm",
-        se(e.com_offset_m[0], e.com_stderr_m[0], 1e3)
-    );
-    println!(
-        "  cm_y - model {} mm",
-        se(e.com_offset_m[1], e.com_stderr_m[1], 1e3)
-    );
-    println!(
-        "  damping    {} N m s/rad",
-        se(e.damping_nms, e.damping_stderr, 1.0)
-    );
-    println!(
-        "  disturbance {} mN m",
-        se(e.disturbance_nm, e.disturbance_stderr, 1e3)
-    );
-    println!(
-        "  not identifiable on a planar craft: {}",
-        NOT_PLANAR_TERMS.join(", ")
-    );
-    if let Some(out) = &args.json {
-        let doc = json!({
-            "format": "massid-estimate/1",
-            "recording": args.recording.file_name().map(|f| f.to_string_lossy().into_owned()),
-            "model": sat.name,
-            "results": { "f64": result },
-        });
-        std::fs::write(out, serde_json::to_string_pretty(&doc)? + "\n")
-            .with_context(|| format!("{}: cannot write", out.display()))?;
-    }
+    let file_name = args
+        .recording
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| source.to_string());
+    let model = match &args.model {
+        Some(m) => m.display().to_string(),
+        None => sat.name.clone(),
+    };
+    let doc = output_json(&file_name, &model, results);
+    let text = serde_json::to_string_pretty(&doc)? + "\n";
+    let tmp = out.with_extension("json.tmp");
+    std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
+    std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
+    println!("wrote {}", out.display());
     Ok(())
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let kernels = parse_kernels(&args.kernel)?;
+    let method = parse_method(&args.method)?;
+    if args.offline && method != Method::Seed {
+        bail!("--offline is a form of --method seed");
+    }
     if reference_f64::rate_recording::format_version(&args.recording)? == 2 {
-        return run_planar(&args, &kernels);
+        return run_v2(&args, &kernels, method);
     }
     let rec = Recording::read(&args.recording)?;
     // A declared rate that contradicts the time steps is an error (file and line) for every
     // implementation: flight code counts time in ticks of the declared period.
     rec.checked_period_ms()?;
     let sat = load_satellite(&rec, args.satellite.as_deref(), args.model.as_deref())?;
-    if let Some(out) = &args.json {
-        let mut inputs: Vec<&Path> = vec![args.recording.as_path()];
-        if let Some(m) = &args.model {
-            inputs.push(m.as_path());
-        }
-        crate::cmd::check_output(out, &inputs)?;
-    }
+    check_json_output(&args)?;
     let form = if args.offline {
         ReferenceForm::Offline
     } else {
@@ -356,28 +521,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut results = Vec::new();
     for k in kernels {
-        let e = run_kernel(k, &rec, &sat, form)?;
-        print_result(k, &e, &sat);
-        results.push((k, e));
+        if k == Kernel::F64 && method == Method::OutputError {
+            let opts = args.flight_options(&sat)?;
+            let e = identify(&Flight::from_v1(&rec, &sat), &sat, &opts)
+                .map_err(|e| anyhow!("{}: {e}", rec.source))?;
+            print_flight_result(&e, &sat);
+            results.push((k, flight_result_json(&e)));
+        } else {
+            let e = run_kernel(k, &rec, &sat, form)?;
+            print_result(k, &e, &sat);
+            results.push((k, result_json(&e)));
+        }
     }
-    if let Some(out) = &args.json {
-        let file_name = args
-            .recording
-            .file_name()
-            .map(|f| f.to_string_lossy().into_owned())
-            .unwrap_or_else(|| rec.source.clone());
-        let model = match &args.model {
-            Some(m) => m.display().to_string(),
-            None => sat.name.clone(),
-        };
-        let doc = output_json(&file_name, &model, &results);
-        let text = serde_json::to_string_pretty(&doc)? + "\n";
-        let tmp = out.with_extension("json.tmp");
-        std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
-        std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
-        println!("wrote {}", out.display());
+    if results.len() > 1 {
+        if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
+            for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
+                let d = max_diff_json(e, base);
+                println!(
+                    "[{}] vs f64: max |diff| CoM {:.3e} mm, inertia {:.3e} kg m^2, inertia stderr {:.3e}",
+                    k.name(),
+                    d["com_offset_mm"].as_f64().unwrap_or(f64::NAN),
+                    d["inertia_kgm2"].as_f64().unwrap_or(f64::NAN),
+                    d["inertia_stderr_kgm2"].as_f64().unwrap_or(f64::NAN)
+                );
+            }
+        }
     }
-    Ok(())
+    write_json(&args, &rec.source, &sat, &results)
 }
 
 #[cfg(test)]
@@ -405,7 +575,10 @@ mod tests {
         let doc = output_json(
             "r.csv",
             "sph2",
-            &[(Kernel::F64, e.clone()), (Kernel::F64, e)],
+            &[
+                (Kernel::F64, result_json(&e)),
+                (Kernel::F64, result_json(&e)),
+            ],
         );
         assert_eq!(doc["format"], "massid-estimate/1");
         let r = &doc["results"]["f64"];

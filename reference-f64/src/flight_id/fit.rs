@@ -335,7 +335,7 @@ mod tests {
             from_gyro_counts: false,
         };
         let ivs = intervals(&flight, &sat, 0.0);
-        let wins = windows(&flight, 20);
+        let wins = windows(&flight, 20, false);
         let j_nom = sat.inertia_matrix().try_inverse().unwrap();
         let truth = Rigid {
             dynamics: Dynamics::Full,

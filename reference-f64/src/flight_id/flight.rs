@@ -282,17 +282,20 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
 }
 
 /// Runs of consecutive samples the fit uses: every measured axis present, steps within 1.5
-/// nominal periods. Each run gets its own initial rate. Runs shorter than `min_len` are dropped.
-pub fn windows(flight: &Flight, min_len: usize) -> Vec<(usize, usize)> {
+/// nominal periods, and with `cut_at_changes` no command change inside (an interval whose
+/// word changes ends a run; the next starts after it). Each run gets its own initial rate.
+/// Runs shorter than `min_len` are dropped.
+pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(usize, usize)> {
     let n = flight.time_s.len();
     let valid = |k: usize| (0..3).all(|a| !flight.axes[a] || flight.rate[k][a].is_finite());
+    let joins = |k: usize| {
+        flight.time_s[k] - flight.time_s[k - 1] <= 1.5 * flight.period_s
+            && !(cut_at_changes && flight.commands[k] != flight.commands[k - 1])
+    };
     let mut out = Vec::new();
     let mut start: Option<usize> = None;
     for k in 0..=n {
-        let keep = k < n
-            && valid(k)
-            && start
-                .is_none_or(|_| flight.time_s[k] - flight.time_s[k - 1] <= 1.5 * flight.period_s);
+        let keep = k < n && valid(k) && start.is_none_or(|_| joins(k));
         match (start, keep) {
             (None, true) => start = Some(k),
             (Some(s), false) => {

@@ -264,6 +264,9 @@ impl Score {
 pub struct Cell {
     pub flights: u32,
     pub ok: u32,
+    /// Flights the estimator flagged (inconsistent, implausible, no response): not scored,
+    /// since it does not vouch for them.
+    pub flagged: u32,
     pub failed: u32,
     pub terms: [Score; 9],
     pub statuses: Vec<String>,
@@ -284,6 +287,10 @@ impl Cell {
             self.ok += 1;
         } else {
             self.statuses.push(e.status.to_string());
+        }
+        if !matches!(e.status, "ok" | "unobservable_terms") {
+            self.flagged += 1;
+            return;
         }
         for t in 0..9 {
             if sim.truth[t].is_nan() || e.unobservable.contains(&TERMS[t]) {
@@ -326,13 +333,67 @@ impl Cell {
 
 /// Runs `flights` flights of `cond` from seed `seed0` through the f64 identification.
 pub fn run_cell(cond: &Condition, flights: u64, seed0: u64, opts: &Options) -> Cell {
+    run_cell_with(cond, flights, seed0, opts, |_| {})
+}
+
+/// [`run_cell`] with `fault` applied to every estimate before it is scored (the tests plant
+/// faults this way to show each check can fail).
+pub fn run_cell_with(
+    cond: &Condition,
+    flights: u64,
+    seed0: u64,
+    opts: &Options,
+    fault: impl Fn(&mut FlightEstimate),
+) -> Cell {
     let mut cell = Cell::default();
     for seed in seed0..seed0 + flights {
         let sim = fly(cond, seed);
-        let est = identify(&sim.flight, &sim.model, opts).map_err(|e| e.to_string());
+        let est = identify(&sim.flight, &sim.model, opts)
+            .map(|mut e| {
+                fault(&mut e);
+                e
+            })
+            .map_err(|e| e.to_string());
         cell.add(&sim, &est);
     }
     cell
+}
+
+/// The bars a cell of `n` flights must meet when the sigmas are right, wide enough that a
+/// calibrated estimator fails them by chance about once in a thousand terms: |mean z| <= 3.3 /
+/// sqrt(n), RMS z within the chi-square 0.05 %-99.95 % range, and every flight estimated.
+pub fn small_sample_check(c: &Cell) -> Result<(), String> {
+    if c.failed > 0 {
+        return Err(format!(
+            "{} of {} flights not estimated: {:?}",
+            c.failed, c.flights, c.statuses
+        ));
+    }
+    for (name, s) in TERMS.iter().zip(&c.terms) {
+        if s.n == 0 {
+            continue;
+        }
+        let n = s.n as f64;
+        let bias_bar = 3.3 / n.sqrt();
+        // Wilson-Hilferty quantiles of chi-square(n)/n at 0.05 % and 99.95 %.
+        let q = |z: f64| (1.0 - 2.0 / (9.0 * n) + z * (2.0 / (9.0 * n)).sqrt()).powi(3);
+        let (lo, hi) = (q(-3.29).sqrt(), q(3.29).sqrt());
+        if !(lo..=hi).contains(&s.rms()) {
+            return Err(format!(
+                "{name}: RMS error/sigma {:.2} outside [{lo:.2}, {hi:.2}] over {} flights",
+                s.rms(),
+                s.n
+            ));
+        }
+        if s.bias().abs() > bias_bar {
+            return Err(format!(
+                "{name}: bias {:+.2} sigma over {} flights (bar {bias_bar:.2})",
+                s.bias(),
+                s.n
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The grid: every maneuver x 50/100/250/500/1000 Hz x 1x/4x gyro noise on SPH2, plus
@@ -385,10 +446,11 @@ pub fn meets_bars(c: &Cell) -> bool {
 pub fn markdown_row(cond: &Condition, c: &Cell) -> String {
     let [b, rlo, rhi, c1lo, c1hi, c2lo, c2hi] = c.worst();
     format!(
-        "| {} | {} | {:.0} | {:.2} | {:.2}-{:.2} | {:.0}-{:.0} | {:.0}-{:.0} | {} |",
+        "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2}-{:.2} | {:.0}-{:.0} | {:.0}-{:.0} | {} |",
         cond.label(),
         c.flights,
         100.0 * c.ok as f64 / c.flights.max(1) as f64,
+        100.0 * c.flagged as f64 / c.flights.max(1) as f64,
         b,
         rlo,
         rhi,
@@ -400,4 +462,4 @@ pub fn markdown_row(cond: &Condition, c: &Cell) -> String {
     )
 }
 
-pub const MARKDOWN_HEADER: &str = "| condition | flights | ok % | worst abs bias (sigma) | RMS err/sigma | 1-sigma % | 2-sigma % | bars met |\n|---|---|---|---|---|---|---|---|";
+pub const MARKDOWN_HEADER: &str = "| condition | flights | ok % | flagged % | worst abs bias (sigma) | RMS err/sigma | 1-sigma % | 2-sigma % | bars met |\n|---|---|---|---|---|---|---|---|---|";

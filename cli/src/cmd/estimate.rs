@@ -218,7 +218,7 @@ pub fn result_json(e: &Estimate) -> Value {
 /// craft cannot identify are null, as in the planar contract examples.
 pub fn flight_result_json(e: &FlightEstimate) -> Value {
     let planar_null = |name: &str, v: f64| -> Value {
-        if e.not_planar.iter().any(|n| *n == name) {
+        if e.not_planar.contains(&name) {
             Value::Null
         } else {
             json!(v)
@@ -333,7 +333,7 @@ fn print_flight_result(e: &FlightEstimate, sat: &Satellite) {
         e.samples_used,
         e.sensor.name()
     );
-    let shown = |name: &str| !e.not_planar.iter().any(|n| *n == name);
+    let shown = |name: &str| !e.not_planar.contains(&name);
     for (a, name) in COM_TERMS.iter().enumerate() {
         if shown(name) {
             println!(

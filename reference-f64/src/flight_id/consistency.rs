@@ -23,12 +23,16 @@ pub struct ScoreTest {
 const MIN_RESIDUAL_SHARE: f64 = 1e-3;
 
 /// The score test of the columns `z` given the fitted columns `t` of one normal-equation set.
+/// `prior_var[i]` is the variance the model states for the coefficient of column `z[i]` (a
+/// thruster's relative thrust uncertainty): the score's covariance is then `V + V P V` rather
+/// than `V`, so deviations within the stated uncertainty are not called inconsistent.
 pub fn score_test(
     name: &'static str,
     info: &DMatrix<f64>,
     score: &DVector<f64>,
     t: &[usize],
     z: &[usize],
+    prior_var: &[f64],
 ) -> Option<ScoreTest> {
     let ntt = DMatrix::from_fn(t.len(), t.len(), |i, j| info[(t[i], t[j])]);
     let ntz = DMatrix::from_fn(t.len(), z.len(), |i, j| info[(t[i], z[j])]);
@@ -36,7 +40,15 @@ pub fn score_test(
     let sz = DVector::from_fn(z.len(), |i, _| score[z[i]]);
     let st = DVector::from_fn(t.len(), |i, _| score[t[i]]);
     let ntt_inv = ntt.clone().try_inverse()?;
-    let v = &nzz - ntz.transpose() * &ntt_inv * &ntz;
+    let v0 = &nzz - ntz.transpose() * &ntt_inv * &ntz;
+    let p = DMatrix::from_fn(z.len(), z.len(), |i, j| {
+        if i == j {
+            prior_var.get(i).copied().unwrap_or(0.0)
+        } else {
+            0.0
+        }
+    });
+    let v = &v0 + &v0 * p * &v0;
     let s = &sz - ntz.transpose() * &ntt_inv * st;
     // Normalise by each direction's own information; keep directions with enough left.
     let d: Vec<f64> = (0..z.len()).map(|i| nzz[(i, i)]).collect();
@@ -164,9 +176,12 @@ mod tests {
         // Column 1 equals column 0: nothing left to test; column 2 independent: one dof.
         let info = DMatrix::from_row_slice(3, 3, &[4.0, 4.0, 0.0, 4.0, 4.0, 0.0, 0.0, 0.0, 1.0]);
         let score = DVector::from_row_slice(&[0.0, 0.0, 3.0]);
-        assert!(score_test("x", &info, &score, &[0], &[1]).is_none());
-        let t = score_test("x", &info, &score, &[0], &[1, 2]).unwrap();
+        assert!(score_test("x", &info, &score, &[0], &[1], &[]).is_none());
+        let t = score_test("x", &info, &score, &[0], &[1, 2], &[]).unwrap();
         assert_eq!(t.dof, 1);
         assert!((t.statistic - 9.0).abs() < 1e-9);
+        // A stated prior variance of 1 on that direction: score variance 1 + 1 = 2.
+        let t = score_test("x", &info, &score, &[0], &[1, 2], &[0.0, 1.0]).unwrap();
+        assert!((t.statistic - 4.5).abs() < 1e-9);
     }
 }

@@ -186,7 +186,7 @@ impl Problem<'_> {
                     direct[nt + x] = self.extra_response(rigid, *extra, iv);
                 }
                 let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), &i_gyro, iv.dt);
-                let propagated = &a_k * &sk;
+                let propagated = a_k * &sk;
                 sk += propagated;
                 for (col, d) in direct.iter().enumerate() {
                     for r in 0..3 {

@@ -103,6 +103,10 @@ pub struct FlightEstimate {
     pub status: &'static str,
 }
 
+/// Level of the valve-timing test below which a v1 recording's windows are cut at word
+/// changes (see [`identify`]).
+const CUT_LEVEL: f64 = 0.05;
+
 /// Terms a planar craft never identifies.
 pub const NOT_PLANAR: [&str; 6] = ["Ixx", "Iyy", "Ixy", "Ixz", "Iyz", "cm_z"];
 
@@ -225,16 +229,18 @@ pub fn identify(
         return Err(IdError::TooFewSamples(min_len));
     }
     let first = identify_in(flight, sat, opts, dynamics, axes, &wins)?;
-    // Commands logged at the samples, valves switching on a finer grid (SPHERES: 1 ms) in
-    // between: the recording does not say when in an interval a word changed. When the valve
-    // timing test then fails, the windows are cut at every word change (each change's
-    // interval left out, a new initial rate after it): unbiased, at the cost of the impulse
-    // information those intervals held.
-    let coarse = flight.period_s > 1.5e-3;
+    // Format v1 logs the thruster word at each sample while SPHERES valves switch on a 1 ms
+    // grid: below 1 kHz the recording does not say when in an interval a word changed. When
+    // the valve timing test then fails, the windows are cut at every word change (each
+    // change's interval left out, a new initial rate after it): unbiased, at the cost of the
+    // impulse information those intervals held. (Format v2 defines each command as held until
+    // the next row, so its edges are at the samples.)
+    let coarse = flight.from_gyro_counts && flight.period_s > 1.5e-3;
+    // Cutting costs efficiency, not cutting costs bias: the decision uses a liberal level.
     let timing_fails = first
         .consistency
         .iter()
-        .any(|t| t.name == "valve_timing" && t.p_value < opts.consistency_alpha);
+        .any(|t| t.name == "valve_timing" && t.p_value < CUT_LEVEL);
     if coarse && timing_fails {
         let cut = windows(flight, 4, true);
         if !cut.is_empty() {
@@ -369,7 +375,7 @@ fn identify_in(
                     let se = cov[(i, i)].max(0.0).sqrt();
                     (se / term_scale(sat, &j_nom, free[i], duration), i)
                 })
-                .filter(|(r, _)| !(*r <= 1.0))
+                .filter(|(r, _)| r.is_nan() || *r > 1.0)
                 .fold(None, |acc: Option<(f64, usize)>, x| match acc {
                     Some(a) if a.0 >= x.0 || x.0.is_nan() => Some(a),
                     _ => Some(x),
@@ -397,6 +403,10 @@ fn identify_in(
     let thrust_idx: Vec<usize> = (0..firing.len()).map(|k| nt + k).collect();
     let timing_idx = vec![nt + firing.len(), nt + firing.len() + 1];
     let mut tests = Vec::new();
+    let thrust_var: Vec<f64> = firing
+        .iter()
+        .map(|&i| opts.thrust_sigma_rel.get(i).copied().unwrap_or(0.0).powi(2))
+        .collect();
     if !thrust_idx.is_empty() {
         tests.extend(score_test(
             "thrust",
@@ -404,6 +414,7 @@ fn identify_in(
             &full.score,
             &t_idx,
             &thrust_idx,
+            &thrust_var,
         ));
     }
     tests.extend(score_test(
@@ -412,6 +423,7 @@ fn identify_in(
         &full.score,
         &t_idx,
         &timing_idx,
+        &[],
     ));
 
     let ntt = full.info.view((0, 0), (nt, nt)).into_owned();

@@ -8,13 +8,25 @@
 //! consistent in closed loop, where the commands depend on earlier noise.
 use nalgebra::{DMatrix, DVector};
 
-/// `v_k = sum_i phi_i v_k-i + e_k`, `var(e) = sigma2`.
+/// ARMA(p, 1): `v_k = sum_i phi_i v_k-i + e_k + ma e_k-1`, `var(e) = sigma2`. The moving
+/// average term is what rates differenced from a noisy attitude need (`ma` near -1: white
+/// attitude noise differenced, plus a little white rate noise); the AR terms cover band-limited
+/// gyros and slowly wandering residuals.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ArNoise {
     pub phi: Vec<f64>,
     /// Innovation variance, (rad/s)^2.
     pub sigma2: f64,
+    /// The moving-average coefficient, in (-1, 1).
+    pub ma: f64,
 }
+
+/// Moving-average coefficients tried (a grid: the likelihood is smooth in it and the fit only
+/// needs it to a few per cent).
+const MA_GRID: [f64; 23] = [
+    -0.98, -0.95, -0.9, -0.85, -0.8, -0.7, -0.6, -0.5, -0.4, -0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3,
+    0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95,
+];
 
 impl ArNoise {
     /// White noise of variance `sigma2`.
@@ -22,6 +34,7 @@ impl ArNoise {
         ArNoise {
             phi: Vec::new(),
             sigma2,
+            ma: 0.0,
         }
     }
 
@@ -29,7 +42,7 @@ impl ArNoise {
         self.phi.len()
     }
 
-    /// Variance of the process itself (not the innovation), from its impulse response.
+    /// Variance of the rate noise itself (not the innovation), from its impulse response.
     pub fn process_variance(&self) -> f64 {
         let p = self.order();
         let mut h = vec![0.0; 2000];
@@ -37,32 +50,67 @@ impl ArNoise {
         for k in 1..h.len() {
             h[k] = (1..=p.min(k)).map(|i| self.phi[i - 1] * h[k - i]).sum();
         }
+        for k in (1..h.len()).rev() {
+            h[k] += self.ma * h[k - 1];
+        }
         self.sigma2 * h.iter().map(|x| x * x).sum::<f64>()
     }
 
-    /// `e_k = x_k - sum phi_i x_k-i` for `k >= order` (earlier samples have no full history).
+    /// The innovations `e_k = A(q) z_k` for `k >= order` (earlier samples have no full
+    /// history), with `z = x / (1 + ma q^-1)` started at zero.
     pub fn whiten(&self, x: &[f64]) -> Vec<f64> {
-        let p = self.order();
-        (p..x.len())
-            .map(|k| x[k] - (1..=p).map(|i| self.phi[i - 1] * x[k - i]).sum::<f64>())
-            .collect()
+        ar_filter(&self.phi, &inverse_ma(self.ma, x))
     }
 
-    /// Fits the order (0..=`max_order`) by BIC to series that are each a stretch of one
-    /// stationary process (the residuals of one axis, window by window).
+    /// Fits the moving-average coefficient (on [`MA_GRID`]) and the AR order (0..=`max_order`)
+    /// by BIC to series that are each a stretch of one process (the residuals of one axis,
+    /// window by window). Every candidate's transform is causal with a unit diagonal, so the
+    /// innovation variances compare directly.
     pub fn fit(series: &[Vec<f64>], max_order: usize) -> ArNoise {
         let mut best: Option<(f64, ArNoise)> = None;
-        for p in 0..=max_order {
-            let Some((m, n)) = fit_order(series, p) else {
-                break;
-            };
-            let bic = n as f64 * m.sigma2.max(1e-300).ln() + p as f64 * (n as f64).ln();
-            if best.as_ref().is_none_or(|(b, _)| bic < *b) {
-                best = Some((bic, m));
+        for ma in MA_GRID {
+            let input: Vec<Vec<f64>> = series.iter().map(|s| inverse_ma(ma, s)).collect();
+            let mut worse_in_a_row = 0;
+            for p in 0..=max_order {
+                let Some((m, n)) = fit_order(&input, p) else {
+                    break;
+                };
+                let k = p + usize::from(ma != 0.0);
+                let bic = n as f64 * m.sigma2.max(1e-300).ln() + k as f64 * (n as f64).ln();
+                if best.as_ref().is_none_or(|(b, _)| bic < *b) {
+                    best = Some((bic, ArNoise { ma, ..m }));
+                    worse_in_a_row = 0;
+                } else {
+                    worse_in_a_row += 1;
+                    if worse_in_a_row >= 3 {
+                        break;
+                    }
+                }
             }
         }
         best.map_or(ArNoise::white(0.0), |(_, m)| m)
     }
+}
+
+/// `z_k = x_k - ma z_k-1`, `z_-1 = 0`.
+fn inverse_ma(ma: f64, x: &[f64]) -> Vec<f64> {
+    if ma == 0.0 {
+        return x.to_vec();
+    }
+    x.iter()
+        .scan(0.0, |z, v| {
+            *z = v - ma * *z;
+            Some(*z)
+        })
+        .collect()
+}
+
+/// `x_k - sum phi_i x_k-i` for `k >= phi.len()`.
+fn ar_filter(phi: &[f64], x: &[f64]) -> Vec<f64> {
+    let p = phi.len();
+    (p..x.len())
+        .map(|k| x[k] - (1..=p).map(|i| phi[i - 1] * x[k - i]).sum::<f64>())
+        .collect()
 }
 
 /// Least-squares AR(`p`) over every stretch, with the number of innovations it used. None
@@ -93,10 +141,11 @@ fn fit_order(series: &[Vec<f64>], p: usize) -> Option<(ArNoise, usize)> {
     let model = ArNoise {
         phi: phi.iter().copied().collect(),
         sigma2: 0.0,
+        ma: 0.0,
     };
     let mut ss = 0.0;
     for s in series {
-        ss += model.whiten(s).iter().map(|e| e * e).sum::<f64>();
+        ss += ar_filter(&model.phi, s).iter().map(|e| e * e).sum::<f64>();
     }
     Some((
         ArNoise {
@@ -121,7 +170,7 @@ mod tests {
     #[test]
     fn white_noise_gets_order_zero_and_ar1_gets_its_coefficient() {
         let w = gauss(20_000, 1);
-        let m = ArNoise::fit(&[w.clone()], 8);
+        let m = ArNoise::fit(std::slice::from_ref(&w), 8);
         assert_eq!(m.order(), 0, "{m:?}");
         assert!((m.sigma2 - 1.0).abs() < 0.03);
         let mut x = vec![0.0; w.len()];
@@ -143,8 +192,8 @@ mod tests {
         let x: Vec<f64> = (0..20_000)
             .map(|k| (a[k + 1] - a[k]) + 0.5 * w[k])
             .collect();
-        let m = ArNoise::fit(&[x.clone()], 12);
-        assert!(m.order() >= 3, "{m:?}");
+        let m = ArNoise::fit(std::slice::from_ref(&x), 12);
+        assert!(m.ma < -0.5, "{m:?}");
         let e = m.whiten(&x);
         let r1 =
             e.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / e.iter().map(|v| v * v).sum::<f64>();

@@ -65,6 +65,8 @@ pub enum Extra {
     OpenDelay,
     /// Every valve closing later.
     CloseDelay,
+    /// A term the fit holds at zero (a disturbance torque, a yaw damping) moved off it.
+    Held(Term),
 }
 
 /// What is fitted and how.
@@ -122,8 +124,20 @@ impl Problem<'_> {
         self.terms.len() + self.extras.len()
     }
 
-    fn extra_response(&self, rigid: &Rigid, e: Extra, iv: &Interval) -> Vector3<f64> {
+    fn extra_response(
+        &self,
+        rigid: &Rigid,
+        e: Extra,
+        iv: &Interval,
+        tr: &TrajectoryTerms,
+        iei: &[Matrix3<f64>; 6],
+    ) -> Vector3<f64> {
         match e {
+            Extra::Held(term) => {
+                let mut out = [Vector3::zeros()];
+                rigid.add_sensitivities(&[term], iv, tr, iei, &mut out);
+                out[0]
+            }
             Extra::ThrustScale(i) => {
                 let u = &self.unit_wrenches[i];
                 let s = iv.thruster_impulse[i];
@@ -183,7 +197,7 @@ impl Problem<'_> {
                 direct.iter_mut().for_each(|d| *d = Vector3::zeros());
                 rigid.add_sensitivities(&self.terms, iv, &tr, &iei, &mut direct[..nt]);
                 for (x, extra) in self.extras.iter().enumerate() {
-                    direct[nt + x] = self.extra_response(rigid, *extra, iv);
+                    direct[nt + x] = self.extra_response(rigid, *extra, iv, &tr, &iei);
                 }
                 let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), &i_gyro, iv.dt);
                 let propagated = a_k * &sk;

@@ -351,10 +351,24 @@ fn identify_in(
             let Some(normal) = converge(&problem, &mut state, opts.max_noise_order) else {
                 continue;
             };
-            let loglik: f64 = (0..3)
+            // Gaussian log-likelihood per sample, and BIC's price for choosing a response other
+            // than the plain sample (a gyro) so that a tie does not smooth a gyro's data.
+            let used: Vec<usize> = (0..3)
                 .filter(|&a| axes[a] && normal.innovations[a].1 > 0)
-                .map(|a| -0.5 * (normal.innovations[a].0 / normal.innovations[a].1 as f64).ln())
-                .sum();
+                .collect();
+            let n: usize = used.iter().map(|&a| normal.innovations[a].1).sum();
+            let loglik: f64 = used
+                .iter()
+                .map(|&a| {
+                    let (ss, m) = normal.innovations[a];
+                    -0.5 * m as f64 * (ss / m as f64).ln()
+                })
+                .sum::<f64>()
+                - if sensor == SensorResponse::Point {
+                    0.0
+                } else {
+                    0.5 * (n.max(1) as f64).ln()
+                };
             if best.as_ref().is_none_or(|b| loglik > b.0) {
                 best = Some((loglik, sensor, state, normal));
             }
@@ -395,6 +409,28 @@ fn identify_in(
     let mut extras: Vec<Extra> = firing.iter().map(|&i| Extra::ThrustScale(i)).collect();
     extras.push(Extra::OpenDelay);
     extras.push(Extra::CloseDelay);
+    // Effects a rigid model leaves out that act on every craft: a constant disturbance torque
+    // (gravity gradient, a tilted table) and a yaw rate damping (air-bearing drag).
+    let held: Vec<Term> = match dynamics {
+        Dynamics::Full => (0..3).map(Term::Disturbance).collect(),
+        Dynamics::Yaw => vec![Term::Disturbance(2), Term::Damping],
+    }
+    .into_iter()
+    .filter(|t| !terms.contains(t))
+    .collect();
+    let disturbance_idx: Vec<usize> = held
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| matches!(t, Term::Disturbance(_)))
+        .map(|(k, _)| extras.len() + k)
+        .collect();
+    let damping_idx: Vec<usize> = held
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| matches!(t, Term::Damping))
+        .map(|(k, _)| extras.len() + k)
+        .collect();
+    extras.extend(held.iter().map(|&t| Extra::Held(t)));
     let problem = make_problem(sensor, free.clone(), extras.clone());
     let full = problem.accumulate(&state);
     let _ = normal;
@@ -425,6 +461,22 @@ fn identify_in(
         &timing_idx,
         &[],
     ));
+    for (name, idx) in [
+        ("disturbance", &disturbance_idx),
+        ("rate_damping", &damping_idx),
+    ] {
+        if !idx.is_empty() {
+            let cols: Vec<usize> = idx.iter().map(|k| nt + k).collect();
+            tests.extend(score_test(
+                name,
+                &full.info,
+                &full.score,
+                &t_idx,
+                &cols,
+                &[],
+            ));
+        }
+    }
 
     let ntt = full.info.view((0, 0), (nt, nt)).into_owned();
     let mut cov_t = ntt.clone().try_inverse().ok_or(IdError::Singular)?;

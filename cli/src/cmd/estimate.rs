@@ -351,12 +351,15 @@ fn print_flight_result(e: &FlightEstimate, sat: &Satellite) {
         }
     }
     if let Some((d, s)) = &e.disturbance_nm {
-        println!(
-            "  disturbance torque: {:+.2e} {:+.2e} {:+.2e} +- {:.1e} {:.1e} {:.1e} N m",
-            d[0], d[1], d[2], s[0], s[1], s[2]
-        );
+        let parts: Vec<String> = (0..3)
+            .filter(|&a| s[a].is_finite())
+            .map(|a| format!("{} {:+.2e} +- {:.1e}", AXIS_NAMES[a], d[a], s[a]))
+            .collect();
+        if !parts.is_empty() {
+            println!("  disturbance torque (N m): {}", parts.join(", "));
+        }
     }
-    if let Some((b, s)) = e.damping_nms {
+    if let Some((b, s)) = e.damping_nms.filter(|(_, s)| s.is_finite()) {
         println!("  yaw damping: {b:+.4e} +- {s:.1e} N m s/rad");
     }
     for (a, n) in e.noise.iter().enumerate() {

@@ -3,7 +3,7 @@
 //! calibration maneuver at 100 Hz, short random pulses at 50 Hz with 4x the gyro noise, closed
 //! loop at 250 Hz, and a planar craft with motion-capture rates in closed loop) give
 //! unbiased errors whose spread matches the reported sigmas; planted faults (sigmas halved, a
-//! bias of two sigmas) fail the same check.
+//! bias of one sigma) fail the same check.
 use massid_sim::Maneuver;
 use massid_tests::identification_mc::{run_cell, run_cell_with, small_sample_check, Condition};
 use reference_f64::flight_id::Options;
@@ -60,8 +60,9 @@ fn planted_faults_fail_the_check() {
     let why = small_sample_check(&halved).expect_err("sigmas halved must fail");
     assert!(why.contains("RMS"), "{why}");
     let biased = run_cell_with(&cond, FLIGHTS, SEED0, &Options::default(), |e| {
-        e.com_offset_mm[1] += 2.0 * e.com_offset_stderr_mm[1];
+        e.com_offset_mm[1] += e.com_offset_stderr_mm[1];
     });
-    let why = small_sample_check(&biased).expect_err("a 2-sigma bias must fail");
+    // One sigma of bias leaves the RMS within its bar (about 1.4) but not the mean.
+    let why = small_sample_check(&biased).expect_err("a 1-sigma bias must fail");
     assert!(why.contains("bias"), "{why}");
 }

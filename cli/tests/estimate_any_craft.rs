@@ -1,0 +1,91 @@
+//! `massid estimate` identifies any craft (issue 22 item 2): a 3-D ten-thruster craft's v2
+//! recording and a planar craft's motion-capture recording (`../shared/data/open3/`) are
+//! estimated, not refused, and the JSON says how (method, sensor response, noise model,
+//! consistency tests); a planar craft's unidentifiable terms are null. The kernels, which run
+//! the seed's 12-thruster design, refuse v2 with a clear error.
+use std::path::PathBuf;
+use std::process::Command;
+
+fn massid(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_massid"))
+        .args(args)
+        .output()
+        .expect("massid runs")
+}
+
+fn open3(name: &str) -> (String, String) {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open3");
+    (
+        d.join(format!("{name}.csv")).display().to_string(),
+        d.join(format!("{name}.model.toml")).display().to_string(),
+    )
+}
+
+fn estimate_json(name: &str) -> serde_json::Value {
+    let (rec, model) = open3(name);
+    let dir = std::env::temp_dir().join(format!("massid-any-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("e.json");
+    let o = massid(&[
+        "estimate",
+        &rec,
+        "--model",
+        &model,
+        "--json",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    v
+}
+
+#[test]
+fn a_3d_v2_recording_of_another_craft_is_identified() {
+    let v = estimate_json("r04_ft10_nominal");
+    let r = &v["results"]["f64"];
+    assert_eq!(r["status"], "ok", "{r}");
+    assert_eq!(r["method"], "output_error");
+    assert_eq!(r["sensor_response"], "point");
+    assert_eq!(r["noise_model"].as_array().unwrap().len(), 3);
+    assert!(r["consistency"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|t| t["test"] == "thrust"));
+    let ixx = r["inertia_kgm2"][0].as_f64().unwrap();
+    let se = r["inertia_stderr_kgm2"][0].as_f64().unwrap();
+    assert!(
+        (ixx - 0.045).abs() < 3.0 * se && se < 1e-3,
+        "Ixx {ixx} +- {se}"
+    );
+}
+
+#[test]
+fn a_planar_motion_capture_recording_reports_only_what_it_can_know() {
+    let v = estimate_json("r01_pl6_nominal");
+    let r = &v["results"]["f64"];
+    assert_eq!(r["status"], "ok", "{r}");
+    assert!(r["inertia_kgm2"][2].as_f64().is_some());
+    for i in [0, 1, 3, 4, 5] {
+        assert!(r["inertia_kgm2"][i].is_null(), "{r}");
+    }
+    assert!(r["com_offset_mm"][2].is_null());
+    assert!(r["unobservable"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|t| t == "Ixx"));
+}
+
+#[test]
+fn kernels_refuse_v2_with_a_clear_error() {
+    let (rec, model) = open3("r04_ft10_nominal");
+    let o = massid(&["estimate", &rec, "--model", &model, "--kernel", "all"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("format v2") && err.contains("output-error"),
+        "{err}"
+    );
+}

@@ -26,7 +26,7 @@ pub const MIN_MA_STRETCH: usize = 200;
 
 /// Moving-average coefficients tried (a grid: the likelihood is smooth in it and the fit only
 /// needs it to a few per cent).
-const MA_GRID: [f64; 23] = [
+pub const MA_GRID: [f64; 23] = [
     -0.98, -0.95, -0.9, -0.85, -0.8, -0.7, -0.6, -0.5, -0.4, -0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3,
     0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95,
 ];

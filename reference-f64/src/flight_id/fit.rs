@@ -362,12 +362,7 @@ mod tests {
             .map(Term::InvInertia)
             .chain((0..3).map(Term::Com))
             .collect();
-        let problem =
-            |f: &Flight, ivs: &[Interval], wins: &[(usize, usize)]| -> (Vec<Term>, Matrix3<f64>) {
-                let _ = (f, ivs, wins);
-                (terms.clone(), sat.inertia_matrix())
-            };
-        let (terms, i_nom) = problem(&flight, &ivs, &wins);
+        let i_nom = sat.inertia_matrix();
         let unit: Vec<_> = (0..12).map(|i| unit_wrench(&sat, i)).collect();
         // Noise-free rates of the truth, by the model itself (gyroscopic term included).
         let st = State {

@@ -164,13 +164,6 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
             let rel = (0..nt)
                 .map(|i| delta[i].abs() / inv[(i, i)].max(1e-300).sqrt())
                 .fold(0.0, f64::max);
-            if std::env::var("FLIGHT_ID_DEBUG").is_ok() {
-                eprintln!(
-                    "round {round} ss {:.4e} rel {rel:.3e} j",
-                    normal.innovations.iter().map(|x| x.0).sum::<f64>()
-                );
-                eprintln!("  j {:?} dc {:?}", state.rigid.j.diagonal(), state.rigid.dc);
-            }
             if !rel.is_finite() {
                 return None;
             }
@@ -335,7 +328,7 @@ fn identify_in(
     // Observability: pin (hold at the model) the least determined term until every free term
     // is determined within its physical scale.
     let mut pinned: Vec<Term> = Vec::new();
-    let (sensor, state, normal, free) = loop {
+    let (sensor, state, free) = loop {
         let free: Vec<Term> = terms
             .iter()
             .copied()
@@ -398,7 +391,7 @@ fn identify_in(
         };
         match worst {
             Some(t) => pinned.push(t),
-            None => break (sensor, state, normal, free),
+            None => break (sensor, state, free),
         }
     };
 
@@ -433,7 +426,6 @@ fn identify_in(
     extras.extend(held.iter().map(|&t| Extra::Held(t)));
     let problem = make_problem(sensor, free.clone(), extras.clone());
     let full = problem.accumulate(&state);
-    let _ = normal;
     let nt = free.len();
     let t_idx: Vec<usize> = (0..nt).collect();
     let thrust_idx: Vec<usize> = (0..firing.len()).map(|k| nt + k).collect();

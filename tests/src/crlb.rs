@@ -48,14 +48,20 @@ pub fn crlb(spec: &SimSpec) -> [f64; N] {
             }
         }
     }
-    // Whitening of the AR(1) noise: e_k = v_k - rho v_{k-1}, variance sigma^2 (1 - rho^2).
-    let dt = 1.0 / spec.rate_hz;
-    let rho = (-2.0 * std::f64::consts::PI * spec.sensors.gyro_bandwidth_hz * dt).exp();
-    let mut fim = SMatrix::<f64, N, N>::zeros();
+    whitened_bound::<N>(spec, &jac, n)
+}
+
+/// The diagonal, for the nine unknowns (the first [`N`] of `M` columns), of the inverse Fisher
+/// information of sensitivities `jac` (rows (sample, axis)) under the simulator's AR(1) gyro
+/// noise, whitened as `e_k = v_k - rho v_k-1` from the second sample on (variance
+/// `sigma^2 (1 - rho^2)`); columns past the nine are profiled out.
+fn whitened_bound<const M: usize>(spec: &SimSpec, jac: &DMatrix<f64>, n: usize) -> [f64; N] {
+    let rho = gyro_rho(spec);
+    let mut fim = SMatrix::<f64, M, M>::zeros();
     for a in 0..3 {
         let var_e = spec.sensors.gyro_noise_rad_s[a].powi(2) * (1.0 - rho * rho);
         for k in 1..n {
-            let row = SMatrix::<f64, 1, N>::from_fn(|_, j| {
+            let row = SMatrix::<f64, 1, M>::from_fn(|_, j| {
                 jac[(3 * k + a, j)] - rho * jac[(3 * (k - 1) + a, j)]
             });
             fim += row.transpose() * row / var_e;
@@ -63,7 +69,7 @@ pub fn crlb(spec: &SimSpec) -> [f64; N] {
     }
     let cov = fim
         .try_inverse()
-        .unwrap_or_else(|| SMatrix::<f64, N, N>::from_element(f64::NAN));
+        .unwrap_or_else(|| SMatrix::<f64, M, M>::from_element(f64::NAN));
     core::array::from_fn(|j| cov[(j, j)])
 }
 
@@ -216,21 +222,7 @@ pub fn crlb_fd_with_initial_rate_steps(spec: &SimSpec, steps: &FdSteps) -> [f64;
             }
         }
     }
-    let rho = gyro_rho(spec);
-    let mut fim = SMatrix::<f64, M, M>::zeros();
-    for a in 0..3 {
-        let var_e = spec.sensors.gyro_noise_rad_s[a].powi(2) * (1.0 - rho * rho);
-        for k in 1..n {
-            let row = SMatrix::<f64, 1, M>::from_fn(|_, j| {
-                jac[(3 * k + a, j)] - rho * jac[(3 * (k - 1) + a, j)]
-            });
-            fim += row.transpose() * row / var_e;
-        }
-    }
-    let cov = fim
-        .try_inverse()
-        .unwrap_or_else(|| SMatrix::<f64, M, M>::from_element(f64::NAN));
-    core::array::from_fn(|j| cov[(j, j)])
+    whitened_bound::<M>(spec, &jac, n)
 }
 
 /// The CRLB (variances, the nine unknowns in [`crlb`]'s order) from the estimator's own

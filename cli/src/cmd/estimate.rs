@@ -217,33 +217,24 @@ pub fn result_json(e: &Estimate) -> Value {
 /// method, the sensor response and noise model used, and the consistency tests. Terms a planar
 /// craft cannot identify are null, as in the planar contract examples.
 pub fn flight_result_json(e: &FlightEstimate) -> Value {
-    let planar_null = |name: &str, v: f64| -> Value {
-        if e.not_planar.contains(&name) {
-            Value::Null
-        } else {
-            json!(v)
-        }
+    // The values of `names`, null where a planar craft cannot know the term.
+    let shown = |names: &[&str], values: &[f64]| -> Vec<Value> {
+        names
+            .iter()
+            .zip(values)
+            .map(|(n, v)| {
+                if e.not_planar.contains(n) {
+                    Value::Null
+                } else {
+                    json!(v)
+                }
+            })
+            .collect()
     };
-    let inertia: Vec<Value> = INERTIA_TERMS
-        .iter()
-        .zip(e.inertia_kgm2)
-        .map(|(n, v)| planar_null(n, v))
-        .collect();
-    let inertia_se: Vec<Value> = INERTIA_TERMS
-        .iter()
-        .zip(e.inertia_stderr_kgm2)
-        .map(|(n, v)| planar_null(n, v))
-        .collect();
-    let com: Vec<Value> = COM_TERMS
-        .iter()
-        .zip(e.com_offset_mm)
-        .map(|(n, v)| planar_null(n, v))
-        .collect();
-    let com_se: Vec<Value> = COM_TERMS
-        .iter()
-        .zip(e.com_offset_stderr_mm)
-        .map(|(n, v)| planar_null(n, v))
-        .collect();
+    let inertia = shown(&INERTIA_TERMS, &e.inertia_kgm2);
+    let inertia_se = shown(&INERTIA_TERMS, &e.inertia_stderr_kgm2);
+    let com = shown(&COM_TERMS, &e.com_offset_mm);
+    let com_se = shown(&COM_TERMS, &e.com_offset_stderr_mm);
     let noise: Vec<Value> = e
         .noise
         .iter()

@@ -58,6 +58,7 @@
 
 #[cfg(feature = "capi")]
 pub mod capi;
+pub mod flight_id;
 pub mod fold;
 pub mod gyro_filter;
 pub mod int;

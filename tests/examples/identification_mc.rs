@@ -1,5 +1,5 @@
 //! Monte Carlo of `reference_f64::flight_id` over the grid (README table):
-//! `cargo run --release -p massid-tests --example identification_mc -- FLIGHTS SEED0 [FILTER]`
+//! `cargo run --release -p massid-tests --example identification_mc -- FLIGHTS SEED0 [FILTER] [f64|f32|fixed]`
 //! (the README's table: 100 flights per cell from seed 1000, which no development run used).
 use massid_tests::identification_mc::*;
 use reference_f64::flight_id::Options;
@@ -9,6 +9,10 @@ fn main() {
     let flights: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(100);
     let seed0: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000);
     let filter = args.get(3).cloned().unwrap_or_default();
+    let imp = args
+        .get(4)
+        .map(|s| Implementation::parse(s).expect("implementation: f64, f32 or fixed"))
+        .unwrap_or(Implementation::F64);
     let cells: Vec<Condition> = grid()
         .into_iter()
         .filter(|c| c.label().contains(&filter))
@@ -22,7 +26,7 @@ fn main() {
             s.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
                 let Some(cond) = cells.get(i) else { break };
-                let cell = run_cell(cond, flights, seed0, &Options::default());
+                let cell = run_cell_by(cond, flights, seed0, &Options::default(), imp);
                 eprintln!("{}", markdown_row(cond, &cell));
                 if cell.ok < cell.flights {
                     let mut st = cell.statuses.clone();

@@ -336,6 +336,77 @@ pub fn run_cell(cond: &Condition, flights: u64, seed0: u64, opts: &Options) -> C
     run_cell_with(cond, flights, seed0, opts, |_| {})
 }
 
+/// Which implementation identifies the flights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Implementation {
+    /// `reference_f64::flight_id`.
+    F64,
+    /// The onboard kernel's `flight_id` in f32.
+    F32,
+    /// The onboard kernel's `flight_id` in Q8.24 fixed point.
+    Fixed,
+}
+
+impl Implementation {
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "f64" => Some(Implementation::F64),
+            "f32" => Some(Implementation::F32),
+            "fixed" => Some(Implementation::Fixed),
+            _ => None,
+        }
+    }
+}
+
+/// One flight's estimate by `imp`. The kernels are told the rate sensor's response the
+/// reference chose for a flight without gyro counts (a point sample for gyro counts).
+pub fn estimate_with(
+    imp: Implementation,
+    sim: &Simulated,
+    opts: &Options,
+) -> Result<FlightEstimate, String> {
+    let response = || {
+        if sim.flight.from_gyro_counts {
+            Ok(None)
+        } else {
+            identify(&sim.flight, &sim.model, opts)
+                .map(|e| Some(e.sensor))
+                .map_err(|e| e.to_string())
+        }
+    };
+    match imp {
+        Implementation::F64 => identify(&sim.flight, &sim.model, opts).map_err(|e| e.to_string()),
+        Implementation::F32 => massid_kernel_host::flight_id::identify::<f32>(
+            &sim.flight,
+            &sim.model,
+            response()?,
+        )
+        .map_err(|e| e.to_string()),
+        Implementation::Fixed => massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
+            &sim.flight,
+            &sim.model,
+            response()?,
+        )
+        .map_err(|e| e.to_string()),
+    }
+}
+
+/// [`run_cell`] by any implementation.
+pub fn run_cell_by(
+    cond: &Condition,
+    flights: u64,
+    seed0: u64,
+    opts: &Options,
+    imp: Implementation,
+) -> Cell {
+    let mut cell = Cell::default();
+    for seed in seed0..seed0 + flights {
+        let sim = fly(cond, seed);
+        cell.add(&sim, &estimate_with(imp, &sim, opts));
+    }
+    cell
+}
+
 /// [`run_cell`] with `fault` applied to every estimate before it is scored (the tests plant
 /// faults this way to show each check can fail).
 pub fn run_cell_with(

@@ -120,7 +120,7 @@ fn term_name(t: Term) -> &'static str {
 }
 
 /// The size beyond which a term's standard error says the data do not determine it.
-fn term_scale(sat: &Satellite, j_nom: &Matrix3<f64>, t: Term, duration_s: f64) -> f64 {
+pub fn term_scale(sat: &Satellite, j_nom: &Matrix3<f64>, t: Term, duration_s: f64) -> f64 {
     let radius = (0..sat.n_thrusters())
         .map(|i| sat.lever_arm_m(i).norm())
         .fold(0.0, f64::max);

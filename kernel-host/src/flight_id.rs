@@ -1,0 +1,276 @@
+//! The onboard output-error identification (`massid_kernel::flight_id`) on a ground
+//! [`Flight`]: the model becomes the kernel's thruster table and settings, each sample one
+//! `push`, and the kernel's solution the reference's [`FlightEstimate`] (inertia from the
+//! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
+use crate::HostError;
+use massid_kernel::flight_id::craft::{Craft, Thruster, MAX_THRUSTERS};
+use massid_kernel::flight_id::solve::{SolveConfig, SolveError, NP};
+use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
+use massid_kernel::Scalar;
+use nalgebra::{DMatrix, Matrix3};
+use reference_f64::flight_id::fit::SensorResponse;
+use reference_f64::flight_id::flight::{Command, Flight};
+use reference_f64::flight_id::noise::ArNoise;
+use reference_f64::flight_id::rigid::{sym_basis, Term};
+use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
+use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
+use reference_f64::satellite::Satellite;
+
+/// Longest window, s: bounds every sum the kernel keeps (and the rounding of f32 sums).
+pub const MAX_WINDOW_S: f64 = 8.0;
+/// Shortest window kept, samples (the reference's).
+pub const MIN_WINDOW: u32 = 20;
+/// Shortest window kept when windows are cut at every command change (the reference's).
+pub const CUT_MIN_WINDOW: u32 = 4;
+
+fn model_error(sat: &Satellite, why: String) -> HostError {
+    HostError::Model {
+        name: sat.name.clone(),
+        why,
+    }
+}
+
+/// The kernel's thruster table for `sat`.
+pub fn craft<S: Scalar>(sat: &Satellite) -> Result<Craft<S>, HostError> {
+    let n = sat.n_thrusters();
+    if n == 0 || n > MAX_THRUSTERS {
+        return Err(model_error(
+            sat,
+            format!("{n} thrusters: the kernel takes 1-{MAX_THRUSTERS}"),
+        ));
+    }
+    let thrusters: Vec<Thruster> = (0..n)
+        .map(|i| Thruster {
+            pos_m: sat.thruster_pos_m[i].map(|v| v as f32),
+            dir: sat.dir(i).map(|v| v as f32).into(),
+            thrust_n: sat.thrust_n[i] as f32,
+        })
+        .collect();
+    let com = sat.com_m();
+    Craft::new(
+        &thrusters,
+        [com.x as f32, com.y as f32, com.z as f32],
+        sat.pressure_drop_n_per_extra as f32,
+    )
+    .map_err(|e| model_error(sat, format!("{e:?}")))
+}
+
+fn sensor(s: SensorResponse) -> KSensor {
+    match s {
+        SensorResponse::Point => KSensor::Point,
+        SensorResponse::BackwardMean => KSensor::BackwardMean,
+        SensorResponse::CentralMean => KSensor::CentralMean,
+    }
+}
+
+/// Identifies `sat` from `flight` with the kernel in format `S`; `response` is the rate
+/// sensor's (a gyro's point sample when `None`).
+pub fn identify<S: Scalar>(
+    flight: &Flight,
+    sat: &Satellite,
+    response: Option<SensorResponse>,
+) -> Result<FlightEstimate, HostError> {
+    flight
+        .check(sat)
+        .map_err(|e| model_error(sat, e.to_string()))?;
+    let table = craft::<S>(sat)?;
+    let i_nom = sat.inertia_matrix();
+    let j_nom = i_nom
+        .try_inverse()
+        .ok_or_else(|| model_error(sat, "inertia is singular".into()))?;
+    let duration = flight.time_s.last().unwrap_or(&0.0) - flight.time_s.first().unwrap_or(&0.0);
+    let terms: [Term; NP] = std::array::from_fn(|m| {
+        if m < 6 {
+            Term::InvInertia(m)
+        } else {
+            Term::Com(m - 6)
+        }
+    });
+    let free: [bool; NP] = if sat.planar {
+        std::array::from_fn(|m| matches!(m, 2 | 6 | 7))
+    } else {
+        [true; NP]
+    };
+    let axes = if sat.planar {
+        [false, false, flight.axes[2]]
+    } else {
+        flight.axes
+    };
+    let j6 = sym_to_vec6(&j_nom);
+    let period = flight.period_s;
+    let max_window = (MAX_WINDOW_S / period).clamp(MIN_WINDOW as f64, 1e9) as u32;
+    // Format v1 logs the word at each sample while the valves switch on a 1 ms grid: below
+    // 1 kHz the recording does not say when in an interval a word changed, so those
+    // intervals are left out (a new window after each change; the reference does the same
+    // when its valve-timing test fails, the kernel has no such test and always does).
+    let coarse = flight.from_gyro_counts && period > 1.5e-3;
+    let min_window = if coarse { CUT_MIN_WINDOW } else { MIN_WINDOW };
+    let response = response.unwrap_or(SensorResponse::Point);
+    let cfg = FlightIdConfig {
+        period_s: S::from_f32(period as f32),
+        sensor: sensor(response),
+        gyroscopic: !sat.planar,
+        inertia_kgm2: sat.inertia_kgm2.map(|v| S::from_f32(v as f32)),
+        max_window,
+        min_window,
+        solve: SolveConfig {
+            j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),
+            free,
+            axes,
+            max_noise_order: 2,
+            scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
+        },
+    };
+    let mut id = FlightId::new(cfg);
+    let mut prev_t: Option<f64> = None;
+    let mut prev_cmd: Option<&Command> = None;
+    for ((t, rate), cmd) in flight.time_s.iter().zip(&flight.rate).zip(&flight.commands) {
+        if coarse && prev_cmd.is_some_and(|c| c != cmd) {
+            id.break_window();
+        }
+        prev_cmd = Some(cmd);
+        let dt = prev_t.map_or(0.0, |p| t - p);
+        prev_t = Some(*t);
+        let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
+        let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
+        let wrench = match cmd {
+            Command::Word(w) => table.wrench(*w),
+            Command::Wrench { force, torque } => {
+                let v = [torque[0], torque[1], torque[2], force[0], force[1], force[2]];
+                v.map(|x| S::from_f32(x as f32))
+            }
+        };
+        id.push(S::from_f32(dt as f32), r, valid, wrench);
+    }
+    id.finish();
+    let sol = id.solve().map_err(|e| {
+        model_error(
+            sat,
+            match e {
+                SolveError::NoData => format!(
+                    "no run of {MIN_WINDOW} consecutive samples with every measured axis"
+                ),
+                other => format!("the kernel's fit failed: {other:?}"),
+            },
+        )
+    })?;
+    let theta: [f64; NP] = sol.theta.map(|v| f64::from(v.to_f32()));
+    let cov_t = DMatrix::from_fn(NP, NP, |r, c| {
+        f64::from(
+            sol.covariance
+                .get(r)
+                .and_then(|row| row.get(c))
+                .copied()
+                .unwrap_or(S::ZERO)
+                .to_f32(),
+        )
+    });
+    // Inverse inertia -> inertia (3-D: I = J^-1; planar: Izz = 1 / Jzz, the rest the model's).
+    let j_est = Matrix3::new(
+        theta[0], theta[3], theta[4], theta[3], theta[1], theta[5], theta[4], theta[5], theta[2],
+    );
+    let mut g = DMatrix::<f64>::zeros(9, NP);
+    let inertia: [f64; 6] = if sat.planar {
+        g[(2, 2)] = -1.0 / (theta[2] * theta[2]);
+        let mut v = sat.inertia_kgm2;
+        v[2] = 1.0 / theta[2];
+        v
+    } else {
+        let i_est = j_est.try_inverse().unwrap_or(Matrix3::from_element(f64::NAN));
+        for m in 0..6 {
+            let d = sym_to_vec6(&(-(i_est * sym_basis(m) * i_est)));
+            for r in 0..6 {
+                g[(r, m)] = d[r];
+            }
+        }
+        let v = sym_to_vec6(&i_est);
+        std::array::from_fn(|r| v[r])
+    };
+    for a in 0..3 {
+        g[(6 + a, 6 + a)] = 1e3;
+    }
+    let covariance = &g * &cov_t * g.transpose();
+    let not_planar: Vec<&'static str> = if sat.planar {
+        NOT_PLANAR.to_vec()
+    } else {
+        Vec::new()
+    };
+    let mut unobservable = not_planar.clone();
+    for (m, held) in sol.held.iter().enumerate() {
+        let name = if m < 6 {
+            INERTIA_TERMS[m]
+        } else {
+            COM_TERMS[m - 6]
+        };
+        if *held && !unobservable.contains(&name) {
+            unobservable.push(name);
+        }
+    }
+    let inertia_stderr: [f64; 6] = std::array::from_fn(|m| {
+        if unobservable.contains(&INERTIA_TERMS[m]) {
+            term_scale(sat, &j_nom, terms[m], duration)
+                * inertia[m.min(2)]
+                    .powi(2)
+                    .max(sat.inertia_kgm2[m.min(2)].powi(2))
+        } else {
+            covariance[(m, m)].max(0.0).sqrt()
+        }
+    });
+    let com_stderr: [f64; 3] = std::array::from_fn(|a| {
+        if unobservable.contains(&COM_TERMS[a]) {
+            term_scale(sat, &j_nom, terms[6 + a], duration) * 1e3
+        } else {
+            covariance[(6 + a, 6 + a)].max(0.0).sqrt()
+        }
+    });
+    let com_offset_mm: [f64; 3] = std::array::from_fn(|a| theta[6 + a] * 1e3);
+    let principal: Vec<f64> = if sat.planar {
+        vec![theta[2] / j_nom[(2, 2)]]
+    } else {
+        (0..3).map(|a| theta[a] / j_nom[(a, a)]).collect()
+    };
+    let status = if principal.iter().all(|r| r.abs() < 0.125) {
+        "no_gyro_response"
+    } else if !sol.positive_definite && !sat.planar {
+        "implausible_inertia_not_positive_definite"
+    } else if let Err(why) = physical_validity(sat, &com_offset_mm, &inertia) {
+        why
+    } else if unobservable.len() > not_planar.len() {
+        "unobservable_terms"
+    } else {
+        "ok"
+    };
+    let noise: [Option<ArNoise>; 3] = std::array::from_fn(|a| {
+        axes[a].then(|| {
+            let n = sol.noise[a];
+            ArNoise {
+                phi: n
+                    .phi
+                    .iter()
+                    .take(usize::from(n.order))
+                    .map(|v| f64::from(v.to_f32()))
+                    .collect(),
+                sigma2: f64::from(n.sigma2.to_f32()),
+                ma: 0.0,
+            }
+        })
+    });
+    let samples = id.sums().samples as usize * axes.iter().filter(|a| **a).count();
+    Ok(FlightEstimate {
+        inertia_kgm2: inertia,
+        inertia_stderr_kgm2: inertia_stderr,
+        com_offset_mm,
+        com_offset_stderr_mm: com_stderr,
+        disturbance_nm: None,
+        damping_nms: None,
+        covariance,
+        unobservable,
+        not_planar,
+        sensor: response,
+        noise,
+        consistency: Vec::new(),
+        command_timing_unknown: false,
+        samples_used: samples,
+        status,
+    })
+}

@@ -1,0 +1,133 @@
+//! Any thruster craft as the identification sees it: each thruster's body wrench when open
+//! (torque about the model's CoM and force), up to [`MAX_THRUSTERS`] slots with a mask, so
+//! that one fixed-size table serves a 4-thruster cubesat and a 16-thruster free-flyer alike
+//! (a const-generic count would make every craft a different type for the C ABI).
+
+use crate::scalar::Scalar;
+
+/// Thruster slots of the table (the recording format's word is 16 bits).
+pub const MAX_THRUSTERS: usize = 16;
+
+/// Why a craft table cannot be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CraftError {
+    /// More thrusters than [`MAX_THRUSTERS`], or none.
+    ThrusterCount,
+    /// A position, direction or thrust is not a finite number, or a thrust is not positive.
+    NotFinite {
+        /// 0-based thruster.
+        thruster: usize,
+    },
+}
+
+/// One thruster as a ground model states it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Thruster {
+    /// Position from the geometric centre, m.
+    pub pos_m: [f32; 3],
+    /// Force direction (unit).
+    pub dir: [f32; 3],
+    /// Thrust, N.
+    pub thrust_n: f32,
+}
+
+/// The table: per open thruster, its wrench `(lever x F, F)` about the model's CoM.
+#[derive(Clone, Copy, Debug)]
+pub struct Craft<S> {
+    /// Per thruster, torque (N m) then force (N) per newton of thrust, times the thrust.
+    wrench: [[S; 6]; MAX_THRUSTERS],
+    /// Per thruster, the unit wrench (per newton) for the pressure-drop correction.
+    unit: [[S; 6]; MAX_THRUSTERS],
+    count: usize,
+    /// Thrust lost per extra open thruster, N.
+    pressure_drop_n: S,
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    let [ax, ay, az] = a;
+    let [bx, by, bz] = b;
+    [ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx]
+}
+
+impl<S: Scalar> Craft<S> {
+    /// The table of `thrusters` (at most 16) for a model whose CoM is `com_m` from the
+    /// geometric centre; `pressure_drop_n` is subtracted from every open thruster per extra
+    /// open one (the seed's pressure-drop correction; 0 for the built-in models).
+    pub fn new(
+        thrusters: &[Thruster],
+        com_m: [f32; 3],
+        pressure_drop_n: f32,
+    ) -> Result<Self, CraftError> {
+        if thrusters.is_empty() || thrusters.len() > MAX_THRUSTERS {
+            return Err(CraftError::ThrusterCount);
+        }
+        let mut wrench = [[S::ZERO; 6]; MAX_THRUSTERS];
+        let mut unit = [[S::ZERO; 6]; MAX_THRUSTERS];
+        for (i, (t, (w, u))) in thrusters
+            .iter()
+            .zip(wrench.iter_mut().zip(unit.iter_mut()))
+            .enumerate()
+        {
+            let finite = t
+                .pos_m
+                .iter()
+                .chain(t.dir.iter())
+                .all(|v| v.is_finite())
+                && t.thrust_n.is_finite()
+                && t.thrust_n > 0.0;
+            if !finite {
+                return Err(CraftError::NotFinite { thruster: i });
+            }
+            let [px, py, pz] = t.pos_m;
+            let [cx, cy, cz] = com_m;
+            let torque = cross([px - cx, py - cy, pz - cz], t.dir);
+            let per_n = [
+                torque[0], torque[1], torque[2], t.dir[0], t.dir[1], t.dir[2],
+            ];
+            for ((wv, uv), p) in w.iter_mut().zip(u.iter_mut()).zip(per_n) {
+                *uv = S::from_f32(p);
+                *wv = S::from_f32(p * t.thrust_n);
+            }
+        }
+        Ok(Craft {
+            wrench,
+            unit,
+            count: thrusters.len(),
+            pressure_drop_n: S::from_f32(if pressure_drop_n.is_finite() {
+                pressure_drop_n
+            } else {
+                0.0
+            }),
+        })
+    }
+
+    /// Number of thrusters.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Bits of the word that name a thruster.
+    pub fn word_mask(&self) -> u16 {
+        u16::try_from((1u32 << self.count.min(MAX_THRUSTERS)).saturating_sub(1)).unwrap_or(u16::MAX)
+    }
+
+    /// The body wrench (torque N m, force N) while `word` is open; bits beyond the craft's
+    /// thrusters are ignored (the host checks words against the model before flying).
+    pub fn wrench(&self, word: u16) -> [S; 6] {
+        let word = word & self.word_mask();
+        let extra = word.count_ones().saturating_sub(1);
+        let drop = self
+            .pressure_drop_n
+            .times(S::from_int_pow2(i32::try_from(extra).unwrap_or(0), 0));
+        let mut out = [S::ZERO; 6];
+        for (i, (w, u)) in self.wrench.iter().zip(self.unit.iter()).enumerate() {
+            if word & (1u16 << i.min(15)) == 0 || i >= self.count {
+                continue;
+            }
+            for ((o, wv), uv) in out.iter_mut().zip(w).zip(u) {
+                *o = o.plus(*wv).minus(drop.times(*uv));
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,221 @@
+//! Mass-property identification from any flight, onboard: the output-error design of the
+//! f64 reference (`reference_f64::flight_id`) in a form that streams. Every rate sample is a
+//! measurement of its window's initial rate plus the drive accumulated since (Euler's
+//! equation), so the rate is continuous across word changes, coasts and short pulses count,
+//! and the gyroscopic term is in the model. The seed's per-firing Kalman filter + RLS (still
+//! in [`crate::pipeline`]) measured each firing's acceleration from the rate change since one
+//! noisy sample and threw the coasts away: its variance was 100-1000x the Cramér-Rao bound.
+//!
+//! One call of [`FlightId::push`] per sample adds the sample to a few hundred sums
+//! ([`sums`]); [`FlightId::solve`] fits the mass properties and an AR noise model per axis
+//! to those sums at any time ([`solve`]). Any craft: the thrusters are a table ([`craft`])
+//! and the caller passes the commanded wrench, so thruster words and wrench commands alike.
+//!
+//! What the reference does and this does not (yet): the gyroscopic term uses the measured
+//! rates and the nominal inertia (the reference differentiates it through the estimate), the
+//! noise model is AR of order <= 2 (the reference: ARMA(p,1)), and there are no score tests.
+pub mod craft;
+pub mod solve;
+pub mod sums;
+
+use crate::scalar::Scalar;
+use solve::{SolveConfig, SolveError, Solution, NP};
+use sums::{FlightSums, Sample, WindowSums, NZ};
+
+/// How the measured rate relates to the body rate (the reference's `SensorResponse`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum SensorResponse {
+    /// The rate at the sample instant (a gyro).
+    Point = 0,
+    /// The mean rate over the previous interval (attitude differenced over one sample).
+    BackwardMean = 1,
+    /// The mean over the previous and next intervals (attitude central-differenced).
+    CentralMean = 2,
+}
+
+/// Settings of [`FlightId`].
+#[derive(Clone, Copy, Debug)]
+pub struct FlightIdConfig<S> {
+    /// Nominal sample period, s; a step over 1.5 of it starts a new window.
+    pub period_s: S,
+    /// The rate sensor's response.
+    pub sensor: SensorResponse,
+    /// Euler's gyroscopic term `omega x I omega` (3-D craft); off for a planar craft.
+    pub gyroscopic: bool,
+    /// Nominal inertia, kg m^2, xx yy zz xy xz yz (the gyroscopic term's inertia).
+    pub inertia_kgm2: [S; 6],
+    /// Windows are cut at this many samples (bounds every sum).
+    pub max_window: u32,
+    /// Windows shorter than this are dropped.
+    pub min_window: u32,
+    /// What the fit estimates and how ([`solve::SolveConfig`]).
+    pub solve: SolveConfig<S>,
+}
+
+/// The streaming identification.
+#[derive(Clone, Copy, Debug)]
+pub struct FlightId<S> {
+    cfg: FlightIdConfig<S>,
+    sums: FlightSums<S>,
+    window: WindowSums<S>,
+    /// Drive accumulated since the window's first sample.
+    z: [S; NZ],
+    /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
+    recent: [([S; NZ], [S; 3]); 3],
+    filled: u32,
+    /// The window's rate anchor (its first measurement).
+    anchor: Option<[S; 3]>,
+    /// The previous sample's commanded wrench and measured rate.
+    previous: Option<([S; 6], [S; 3])>,
+}
+
+fn get<S: Scalar>(v: &[S], i: usize) -> S {
+    v.get(i).copied().unwrap_or(S::ZERO)
+}
+
+/// `omega x (I omega)` for inertia entries xx yy zz xy xz yz.
+fn gyroscopic<S: Scalar>(w: &[S; 3], i6: &[S; 6]) -> [S; 3] {
+    let g = |k| get(i6, k);
+    let [x, y, z] = *w;
+    let iw = [
+        g(0).times(x).plus(g(3).times(y)).plus(g(4).times(z)),
+        g(3).times(x).plus(g(1).times(y)).plus(g(5).times(z)),
+        g(4).times(x).plus(g(5).times(y)).plus(g(2).times(z)),
+    ];
+    let [a, b, c] = iw;
+    [
+        y.times(c).minus(z.times(b)),
+        z.times(a).minus(x.times(c)),
+        x.times(b).minus(y.times(a)),
+    ]
+}
+
+impl<S: Scalar> FlightId<S> {
+    /// Nothing measured yet.
+    pub fn new(cfg: FlightIdConfig<S>) -> Self {
+        FlightId {
+            cfg,
+            sums: FlightSums::default(),
+            window: WindowSums::default(),
+            z: [S::ZERO; NZ],
+            recent: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
+            filled: 0,
+            anchor: None,
+            previous: None,
+        }
+    }
+
+    /// The sums so far (closed windows).
+    pub fn sums(&self) -> &FlightSums<S> {
+        &self.sums
+    }
+
+    /// One sample: `dt_s` since the previous sample, the measured `rate` (rad/s; `valid` false
+    /// for a missing or railed sample) and the commanded `wrench` (torque about the model's
+    /// CoM N m, force N; [`craft::Craft::wrench`] of the thruster word) held until the next.
+    pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, wrench: [S; 6]) {
+        if !valid {
+            self.close_window();
+            self.previous = None;
+            return;
+        }
+        let gap = S::from_f32(1.5).times(self.cfg.period_s);
+        let joins = match self.previous {
+            Some(_) => !gap.lt(dt_s) && S::ZERO.lt(dt_s) && self.filled < self.cfg.max_window,
+            None => false,
+        };
+        if !joins {
+            self.close_window();
+        } else if let Some((w_prev, r_prev)) = self.previous {
+            let mut g = [S::ZERO; 3];
+            if self.cfg.gyroscopic {
+                let h = S::from_int_pow2(1, -1).times(dt_s);
+                let (a, b) = (
+                    gyroscopic(&r_prev, &self.cfg.inertia_kgm2),
+                    gyroscopic(&rate, &self.cfg.inertia_kgm2),
+                );
+                for ((gi, ai), bi) in g.iter_mut().zip(a).zip(b) {
+                    *gi = h.times(ai.plus(bi));
+                }
+            }
+            for (i, zi) in self.z.iter_mut().enumerate() {
+                let drive = get(&w_prev, i).times(dt_s);
+                *zi = zi.plus(drive).minus(get(&g, i));
+            }
+        }
+        self.recent.rotate_right(1);
+        if let Some(r) = self.recent.first_mut() {
+            *r = (self.z, rate);
+        }
+        self.filled = self.filled.saturating_add(1);
+        self.emit();
+        self.previous = Some((wrench, rate));
+    }
+
+    /// The measurement the newest sample completes, through the sensor's response.
+    fn emit(&mut self) {
+        let [(z2, y2), (z1, y1), (z0, _)] = self.recent;
+        let q = S::from_int_pow2(1, -2);
+        let h = S::from_int_pow2(1, -1);
+        let (z, y) = match self.cfg.sensor {
+            SensorResponse::Point => (z2, y2),
+            SensorResponse::BackwardMean if self.filled >= 2 => {
+                (core::array::from_fn(|i| h.times(get(&z1, i).plus(get(&z2, i)))), y2)
+            }
+            SensorResponse::CentralMean if self.filled >= 3 => (
+                core::array::from_fn(|i| {
+                    q.times(get(&z0, i).plus(get(&z1, i).mul_pow2(1)).plus(get(&z2, i)))
+                }),
+                y1,
+            ),
+            _ => return,
+        };
+        let anchor = *self.anchor.get_or_insert(y);
+        let jn = &self.cfg.solve.j_nominal;
+        let pred = |r: [usize; 3]| {
+            r.iter()
+                .zip(z.iter())
+                .fold(S::ZERO, |acc, (k, zc)| acc.mul_add(get(jn, *k), *zc))
+        };
+        // Rows of the nominal inverse inertia in xx yy zz xy xz yz order.
+        let rows = [[0, 3, 4], [3, 1, 5], [4, 5, 2]];
+        let y_anchored: [S; 3] =
+            core::array::from_fn(|a| get(&y, a).minus(get(&anchor, a)).minus(pred(rows.get(a).copied().unwrap_or([0; 3]))));
+        self.window.push(&Sample { z, y: y_anchored });
+    }
+
+    fn close_window(&mut self) {
+        self.window.close_into(&mut self.sums, self.cfg.min_window);
+        self.z = [S::ZERO; NZ];
+        self.filled = 0;
+        self.anchor = None;
+    }
+
+    /// Ends the window before the next sample: the interval up to it is not used (its
+    /// command changed at an unknown time, e.g. a ground replay of a recording that logs
+    /// thruster words at a coarser rate than the valves switch).
+    pub fn break_window(&mut self) {
+        self.close_window();
+        self.previous = None;
+    }
+
+    /// Ends the flight: closes the open window (call before the final [`FlightId::solve`]).
+    pub fn finish(&mut self) {
+        self.close_window();
+        self.previous = None;
+    }
+
+    /// Fits the mass properties to the closed windows.
+    pub fn solve(&self) -> Result<Solution<S>, SolveError> {
+        solve::solve(&self.sums, &self.cfg.solve)
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &FlightIdConfig<S> {
+        &self.cfg
+    }
+}
+
+/// Terms of [`Solution::theta`], in order: inverse inertia xx yy zz xy xz yz, then the CoM.
+pub const THETA_TERMS: usize = NP;

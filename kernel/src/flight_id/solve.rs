@@ -1,0 +1,569 @@
+//! The fit on the sums: Gauss-Newton on the mass properties and a Yule-Walker fit of each
+//! axis' AR noise model, alternated, all as quadratic forms in [`FlightSums`] (no data pass).
+//!
+//! Parameters `theta` = inverse inertia `J` (xx yy zz xy xz yz, 1/(kg m^2)) and the CoM
+//! minus the model's `dc` (m). The model matrix is `A = [J, -J [dc]x]`: the drive's torque
+//! part acts through `J`, its force part through the lever `dc` (torque about the true CoM is
+//! the model's plus `F x dc`). Axis `a`'s residual is `u_a . v - omega_0` with
+//! `u_a = (-(A - A_nom)_a, 1)`; its whitened sum of squares with the initial rates eliminated
+//! is `u_a^T W_a(phi) u_a`, `W_a = sum_l w_l(phi) L_l - c(phi)^2 C` (lagged moments `L_l`,
+//! window term `C`, AR weights `w_l` and gain `c`). Edge effects of the AR filter at window
+//! starts (p of each window's samples) are neglected.
+
+use super::sums::{FlightSums, LAGS, NZ};
+use crate::lu::{Lu, LuError};
+use crate::scalar::Scalar;
+
+/// Parameters: six inverse-inertia entries, then three CoM offsets.
+pub const NP: usize = 9;
+const NV: usize = NZ + 1;
+type M7<S> = [[S; NV]; NV];
+
+/// An axis' rate-noise model: `e_k = phi_1 e_(k-1) + phi_2 e_(k-2) + innovation`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArNoise<S> {
+    /// Order (0, 1 or 2).
+    pub order: u8,
+    /// AR coefficients (zero beyond the order).
+    pub phi: [S; 2],
+    /// Innovation variance, (rad/s)^2.
+    pub sigma2: S,
+}
+
+/// What the fit is told.
+#[derive(Clone, Copy, Debug)]
+pub struct SolveConfig<S> {
+    /// Nominal inverse inertia (the sums' anchor), xx yy zz xy xz yz.
+    pub j_nominal: [S; 6],
+    /// Terms the fit may move (others stay at the nominal).
+    pub free: [bool; NP],
+    /// Axes whose rate enters the fit.
+    pub axes: [bool; 3],
+    /// Highest AR order tried (at most 2).
+    pub max_noise_order: u8,
+    /// Per term, the standard error beyond which the data do not determine it: the term is
+    /// then held at the nominal ("unobservable").
+    pub scale: [S; NP],
+}
+
+/// Why the fit gave no estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolveError {
+    /// Not a single usable window, or no measured axis.
+    NoData,
+    /// The information of the free terms is singular even after holding the unobservable.
+    Singular,
+    /// A value left the scalar format.
+    Overflow,
+    /// Gauss-Newton did not settle.
+    NotConverged,
+}
+
+/// The fit's result.
+#[derive(Clone, Copy, Debug)]
+pub struct Solution<S> {
+    /// Estimated parameters (held ones at the nominal).
+    pub theta: [S; NP],
+    /// Covariance of the free terms (zero rows and columns for held ones).
+    pub covariance: [[S; NP]; NP],
+    /// Terms held because the data do not determine them (or not free).
+    pub held: [bool; NP],
+    /// Noise model per axis (axes not fitted: zero).
+    pub noise: [ArNoise<S>; 3],
+    /// Gauss-Newton steps taken.
+    pub steps: u32,
+    /// The inverse inertia is positive definite (else not a rigid body).
+    pub positive_definite: bool,
+}
+
+fn get<S: Scalar>(v: &[S], i: usize) -> S {
+    v.get(i).copied().unwrap_or(S::ZERO)
+}
+
+fn get2<S: Scalar, const M: usize>(m: &[[S; M]], i: usize, j: usize) -> S {
+    m.get(i).and_then(|r| r.get(j)).copied().unwrap_or(S::ZERO)
+}
+
+fn add2<S: Scalar, const M: usize>(m: &mut [[S; M]], i: usize, j: usize, v: S) {
+    if let Some(e) = m.get_mut(i).and_then(|r| r.get_mut(j)) {
+        *e = e.plus(v);
+    }
+}
+
+fn half<S: Scalar>() -> S {
+    S::from_int_pow2(1, -1)
+}
+
+/// `[[xx xy xz] [xy yy yz] [xz yz zz]]`.
+fn sym3<S: Scalar>(p: &[S]) -> [[S; 3]; 3] {
+    let g = |i| get(p, i);
+    [
+        [g(0), g(3), g(4)],
+        [g(3), g(1), g(5)],
+        [g(4), g(5), g(2)],
+    ]
+}
+
+/// `A = [J, -J [dc]x]` for inverse-inertia entries `j6` and lever `dc`.
+fn model_matrix<S: Scalar>(j6: &[S], dc: &[S]) -> [[S; NZ]; 3] {
+    let j = sym3(j6);
+    let (x, y, z) = (get(dc, 0), get(dc, 1), get(dc, 2));
+    let skew = [
+        [S::ZERO, z.negate(), y],
+        [z, S::ZERO, x.negate()],
+        [y.negate(), x, S::ZERO],
+    ];
+    let mut a = [[S::ZERO; NZ]; 3];
+    for (arow, jrow) in a.iter_mut().zip(j.iter()) {
+        for (c, out) in arow.iter_mut().enumerate() {
+            *out = if c < 3 {
+                get(jrow, c)
+            } else {
+                let col = c.saturating_sub(3);
+                jrow.iter()
+                    .zip(skew.iter())
+                    .fold(S::ZERO, |acc, (jk, srow)| acc.minus(jk.times(get(srow, col))))
+            };
+        }
+    }
+    a
+}
+
+/// The inverse-inertia basis entry `m` (xx yy zz xy xz yz) as six numbers.
+fn basis<S: Scalar>(m: usize) -> [S; 6] {
+    core::array::from_fn(|i| if i == m { S::ONE } else { S::ZERO })
+}
+
+/// Axis `a`'s whitened, initial-rate-eliminated moment matrix for AR weights `w`, gain^2 `c2`.
+fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<S> {
+    let mut out = [[S::ZERO; NV]; NV];
+    let h = half::<S>();
+    for l in 0..LAGS {
+        let wl = get(w, l);
+        let (Some(zz), Some(zy), Some(yz), Some(yy)) =
+            (s.lag.zz.get(l), s.lag.zy.get(l), s.lag.yz.get(l), s.lag.yy.get(l))
+        else {
+            continue;
+        };
+        let wh = wl.times(h);
+        for i in 0..NZ {
+            for j in 0..NZ {
+                add2(
+                    &mut out,
+                    i,
+                    j,
+                    wh.times(get2(zz, i, j).plus(get2(zz, j, i))),
+                );
+            }
+            let cross = wh.times(get2(zy, a, i).plus(get2(yz, a, i)));
+            add2(&mut out, i, NZ, cross);
+            add2(&mut out, NZ, i, cross);
+        }
+        add2(&mut out, NZ, NZ, wl.times(get(&yy[..], a)));
+    }
+    for i in 0..NZ {
+        for j in 0..NZ {
+            add2(&mut out, i, j, c2.times(get2(&s.czz, i, j)).negate());
+        }
+        let cross = c2.times(get2(&s.czy, a, i)).negate();
+        add2(&mut out, i, NZ, cross);
+        add2(&mut out, NZ, i, cross);
+    }
+    add2(&mut out, NZ, NZ, c2.times(get(&s.cyy, a)).negate());
+    out
+}
+
+fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
+    m.iter()
+        .zip(u)
+        .fold(S::ZERO, |acc, (row, ui)| {
+            acc.plus(ui.times(row.iter().zip(v).fold(S::ZERO, |r, (mij, vj)| r.mul_add(*mij, *vj))))
+        })
+}
+
+/// AR weights of `(1 - phi_1 B - phi_2 B^2)`: `w_0 = sum f_i^2`, `w_l = 2 sum f_i f_(i+l)`,
+/// and the gain squared `(sum f_i)^2`.
+fn ar_weights<S: Scalar>(phi: &[S; 2]) -> ([S; LAGS], S) {
+    let f = [S::ONE, get(phi, 0).negate(), get(phi, 1).negate()];
+    let two = S::from_int_pow2(1, 1);
+    let mut w = [S::ZERO; LAGS];
+    for (l, wl) in w.iter_mut().enumerate() {
+        let mut acc = S::ZERO;
+        for i in 0..3usize {
+            acc = acc.mul_add(get(&f, i), get(&f, i.saturating_add(l)));
+        }
+        *wl = if l == 0 { acc } else { two.times(acc) };
+    }
+    let c = f.iter().fold(S::ZERO, |a, v| a.plus(*v));
+    (w, c.times(c))
+}
+
+/// `log2(n)` to within 0.09 (integer part plus a linear fraction): the BIC's order penalty.
+fn log2_approx<S: Scalar>(n: u32) -> S {
+    let k = n.max(1).ilog2();
+    let base = 1u32.checked_shl(k).unwrap_or(1);
+    let frac = S::from_int_pow2(i32::try_from(n.saturating_sub(base)).unwrap_or(0), 0)
+        .checked_div(S::from_int_pow2(i32::try_from(base).unwrap_or(1), 0))
+        .unwrap_or(S::ZERO);
+    S::from_int_pow2(i32::try_from(k).unwrap_or(0), 0).plus(frac)
+}
+
+/// Yule-Walker AR fit of order 0..=`max_order` to autocovariances `g`, the order chosen by BIC
+/// (`N ln s2 + p ln N`, compared as `s2_p < s2_(p-1) (1 - ln N / N)`).
+fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<S>> {
+    let g0 = get(g, 0);
+    if !S::ZERO.lt(g0) {
+        return None;
+    }
+    let ln2 = S::from_f32(core::f32::consts::LN_2);
+    let nn = S::from_int_pow2(i32::try_from(n.max(1)).unwrap_or(i32::MAX), 0);
+    let keep = S::ONE.minus(ln2.times(log2_approx::<S>(n)).checked_div(nn)?);
+    let mut best = ArNoise {
+        order: 0,
+        phi: [S::ZERO; 2],
+        sigma2: g0,
+    };
+    if max_order == 0 {
+        return Some(best);
+    }
+    let r1 = get(g, 1).checked_div(g0)?;
+    let s1 = g0.times(S::ONE.minus(r1.times(r1)));
+    if !S::ZERO.lt(s1) {
+        return Some(best);
+    }
+    let one = ArNoise {
+        order: 1,
+        phi: [r1, S::ZERO],
+        sigma2: s1,
+    };
+    if s1.lt(best.sigma2.times(keep)) {
+        best = one;
+    }
+    if max_order >= 2 {
+        let r2 = get(g, 2).checked_div(g0)?;
+        let p22 = r2.minus(r1.times(r1)).checked_div(S::ONE.minus(r1.times(r1)))?;
+        let s2 = s1.times(S::ONE.minus(p22.times(p22)));
+        let two = ArNoise {
+            order: 2,
+            phi: [r1.times(S::ONE.minus(p22)), p22],
+            sigma2: s2,
+        };
+        if S::ZERO.lt(s2) && s2.lt(best.sigma2.times(keep)) {
+            best = two;
+        }
+    }
+    Some(best)
+}
+
+/// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns).
+fn residual_and_jacobian<S: Scalar>(
+    theta: &[S; NP],
+    j_nominal: &[S; 6],
+    a: usize,
+) -> ([S; NV], [[S; NV]; NP]) {
+    let (j6, dc) = theta.split_at(6);
+    let am = model_matrix(j6, dc);
+    let an = model_matrix(j_nominal, &[S::ZERO; 3]);
+    let row = |m: &[[S; NZ]; 3]| m.get(a).copied().unwrap_or([S::ZERO; NZ]);
+    let (ar, anr) = (row(&am), row(&an));
+    let mut u = [S::ZERO; NV];
+    for (i, ui) in u.iter_mut().enumerate() {
+        *ui = if i < NZ {
+            get(&anr, i).minus(get(&ar, i))
+        } else {
+            S::ONE
+        };
+    }
+    let mut d = [[S::ZERO; NV]; NP];
+    for (m, col) in d.iter_mut().enumerate() {
+        let deriv = if m < 6 {
+            row(&model_matrix(&basis::<S>(m), dc))
+        } else {
+            let e: [S; 3] = core::array::from_fn(|b| if Some(b) == m.checked_sub(6) { S::ONE } else { S::ZERO });
+            let mut q = row(&model_matrix(j6, &e));
+            for v in q.iter_mut().take(3) {
+                *v = S::ZERO;
+            }
+            q
+        };
+        for (c, dv) in col.iter_mut().zip(deriv) {
+            *c = dv.negate();
+        }
+    }
+    (u, d)
+}
+
+/// Normal equations of the free terms at `theta` with noise `noise`: information, score and
+/// the whitened cost per axis.
+fn normal<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+    theta: &[S; NP],
+    noise: &[ArNoise<S>; 3],
+    free: &[bool; NP],
+) -> ([[S; NP]; NP], [S; NP], [S; 3]) {
+    let mut info = [[S::ZERO; NP]; NP];
+    let mut score = [S::ZERO; NP];
+    let mut cost = [S::ZERO; 3];
+    for (a, (used, nz)) in cfg.axes.iter().zip(noise).enumerate() {
+        if !used {
+            continue;
+        }
+        let (w, c2) = ar_weights(&nz.phi);
+        let wm = weighted(s, a, &w, c2);
+        let (u, d) = residual_and_jacobian(theta, &cfg.j_nominal, a);
+        let inv = S::ONE.checked_div(nz.sigma2).unwrap_or(S::ZERO);
+        if let Some(c) = cost.get_mut(a) {
+            *c = quad(&wm, &u, &u);
+        }
+        for m in 0..NP {
+            if !free.get(m).copied().unwrap_or(false) {
+                continue;
+            }
+            let dm = d.get(m).copied().unwrap_or([S::ZERO; NV]);
+            if let Some(sm) = score.get_mut(m) {
+                *sm = sm.minus(inv.times(quad(&wm, &dm, &u)));
+            }
+            for n in 0..=m {
+                if !free.get(n).copied().unwrap_or(false) {
+                    continue;
+                }
+                let dn = d.get(n).copied().unwrap_or([S::ZERO; NV]);
+                let v = inv.times(quad(&wm, &dm, &dn));
+                add2(&mut info, m, n, v);
+                if n != m {
+                    add2(&mut info, n, m, v);
+                }
+            }
+        }
+    }
+    for (m, f) in free.iter().enumerate() {
+        if !f {
+            for n in 0..NP {
+                if let Some(e) = info.get_mut(m).and_then(|r| r.get_mut(n)) {
+                    *e = if m == n { S::ONE } else { S::ZERO };
+                }
+                if let Some(e) = info.get_mut(n).and_then(|r| r.get_mut(m)) {
+                    *e = if m == n { S::ONE } else { S::ZERO };
+                }
+            }
+        }
+    }
+    (info, score, cost)
+}
+
+/// The residual autocovariances at `theta` for axis `a` (lags 0..2, per sample).
+fn autocovariances<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+    theta: &[S; NP],
+    a: usize,
+) -> Option<[S; LAGS]> {
+    let (u, _) = residual_and_jacobian(theta, &cfg.j_nominal, a);
+    let n = S::from_int_pow2(i32::try_from(s.samples).unwrap_or(i32::MAX), 0);
+    // u^T C u: the window means' share (weights zero, gain^2 -1 leaves +C).
+    let centre = quad(&weighted(s, a, &[S::ZERO; LAGS], S::ONE.negate()), &u, &u);
+    let mut g = [S::ZERO; LAGS];
+    for (l, gl) in g.iter_mut().enumerate() {
+        let w: [S; LAGS] = core::array::from_fn(|i| if i == l { S::ONE } else { S::ZERO });
+        let raw = quad(&weighted(s, a, &w, S::ZERO), &u, &u);
+        *gl = raw.minus(centre).checked_div(n)?;
+    }
+    Some(g)
+}
+
+/// Power-of-two Jacobi scaling: `k_m` with `info_mm 2^(-2 k_m)` in [1, 8), so that one
+/// relative pivot threshold serves terms of any unit (1/(kg m^2) and m differ by 1e8 in
+/// information) and held terms' unit diagonal.
+fn scaling<S: Scalar>(info: &[[S; NP]; NP]) -> [i32; NP] {
+    core::array::from_fn(|m| {
+        let d = get2(info, m, m);
+        if S::ZERO.lt(d) {
+            d.split_pow2().1.div_euclid(2)
+        } else {
+            0
+        }
+    })
+}
+
+/// `info^-1 score` and `info^-1`, through the scaled system.
+fn scaled_solve<S: Scalar>(
+    info: &[[S; NP]; NP],
+    score: &[S; NP],
+) -> Result<([S; NP], [[S; NP]; NP]), SolveError> {
+    let k = scaling(info);
+    let kk = |m: usize| k.get(m).copied().unwrap_or(0);
+    let mut a = *info;
+    for (m, row) in a.iter_mut().enumerate() {
+        for (n, v) in row.iter_mut().enumerate() {
+            *v = v.mul_pow2(kk(m).saturating_add(kk(n)).saturating_neg());
+        }
+    }
+    let b: [S; NP] = core::array::from_fn(|m| get(score, m).mul_pow2(kk(m).saturating_neg()));
+    let lu = Lu::factor(&a, S::from_int_pow2(1, -20)).map_err(|e| match e {
+        LuError::Overflow => SolveError::Overflow,
+        _ => SolveError::Singular,
+    })?;
+    let x = lu.solve(&b).map_err(|_| SolveError::Overflow)?;
+    let delta = core::array::from_fn(|m| get(&x, m).mul_pow2(kk(m).saturating_neg()));
+    let mut cov = [[S::ZERO; NP]; NP];
+    for c in 0..NP {
+        let col = lu.solve(&basis9::<S>(c)).map_err(|_| SolveError::Overflow)?;
+        for (r, v) in col.iter().enumerate() {
+            if let Some(e) = cov.get_mut(r).and_then(|row| row.get_mut(c)) {
+                *e = v.mul_pow2(kk(r).saturating_add(kk(c)).saturating_neg());
+            }
+        }
+    }
+    Ok((delta, cov))
+}
+
+fn basis9<S: Scalar>(m: usize) -> [S; NP] {
+    core::array::from_fn(|i| if i == m { S::ONE } else { S::ZERO })
+}
+
+/// Leading minors of the inverse inertia are positive.
+fn positive_definite<S: Scalar>(j6: &[S]) -> bool {
+    let j = sym3(j6);
+    let d = |r: usize, c: usize| get2(&j, r, c);
+    let m1 = d(0, 0);
+    let m2 = d(0, 0).times(d(1, 1)).minus(d(0, 1).times(d(1, 0)));
+    let m3 = d(0, 0)
+        .times(d(1, 1).times(d(2, 2)).minus(d(1, 2).times(d(2, 1))))
+        .minus(d(0, 1).times(d(1, 0).times(d(2, 2)).minus(d(1, 2).times(d(2, 0)))))
+        .plus(d(0, 2).times(d(1, 0).times(d(2, 1)).minus(d(1, 1).times(d(2, 0)))));
+    S::ZERO.lt(m1) && S::ZERO.lt(m2) && S::ZERO.lt(m3)
+}
+
+/// Gauss-Newton steps (at most `max_steps`) at fixed noise; the step count, or None if it did
+/// not settle (every free term moved by less than 1/64 of its standard error).
+fn gauss_newton<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+    theta: &mut [S; NP],
+    noise: &[ArNoise<S>; 3],
+    free: &[bool; NP],
+    max_steps: u32,
+) -> Result<u32, SolveError> {
+    let tol = S::from_int_pow2(1, -6);
+    for step in 1..=max_steps {
+        let (info, score, _) = normal(s, cfg, theta, noise, free);
+        let (delta, cov) = scaled_solve(&info, &score)?;
+        let mut settled = true;
+        for (m, (t, dv)) in theta.iter_mut().zip(delta).enumerate() {
+            if !free.get(m).copied().unwrap_or(false) {
+                continue;
+            }
+            if !dv.is_valid() {
+                return Err(SolveError::Overflow);
+            }
+            *t = t.plus(dv);
+            let var = get2(&cov, m, m);
+            // |delta| > tol * sigma  <=>  delta^2 > tol^2 var
+            if tol.times(tol).times(var).lt(dv.times(dv)) {
+                settled = false;
+            }
+        }
+        if settled {
+            return Ok(step);
+        }
+    }
+    Err(SolveError::NotConverged)
+}
+
+/// Fits the mass properties and the noise models to `s`, holding the terms the data do not
+/// determine. Three rounds of (Gauss-Newton to convergence, noise refit).
+pub fn solve<S: Scalar>(s: &FlightSums<S>, cfg: &SolveConfig<S>) -> Result<Solution<S>, SolveError> {
+    if s.samples < 3 || s.windows == 0 || !cfg.axes.iter().any(|a| *a) {
+        return Err(SolveError::NoData);
+    }
+    if !s.lag.is_valid() {
+        return Err(SolveError::Overflow);
+    }
+    let nominal: [S; NP] =
+        core::array::from_fn(|m| if m < 6 { get(&cfg.j_nominal, m) } else { S::ZERO });
+    let mut free = cfg.free;
+    let mut steps = 0u32;
+    let white = ArNoise {
+        order: 0,
+        phi: [S::ZERO; 2],
+        sigma2: S::ONE,
+    };
+    'holding: for _ in 0..NP {
+        let mut theta = nominal;
+        let mut noise = [white; 3];
+        for (a, nz) in noise.iter_mut().enumerate() {
+            if let Some(g) = autocovariances(s, cfg, &theta, a) {
+                if S::ZERO.lt(get(&g, 0)) {
+                    nz.sigma2 = get(&g, 0);
+                }
+            }
+        }
+        for _round in 0..3 {
+            steps = steps.saturating_add(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)?);
+            for (a, nz) in noise.iter_mut().enumerate() {
+                if !cfg.axes.get(a).copied().unwrap_or(false) {
+                    continue;
+                }
+                let g = autocovariances(s, cfg, &theta, a).ok_or(SolveError::Overflow)?;
+                if let Some(fit) = fit_noise(&g, s.samples, cfg.max_noise_order.min(2)) {
+                    *nz = fit;
+                }
+            }
+            // The innovation variance the whitened cost implies at this noise model.
+            let (_, _, cost) = normal(s, cfg, &theta, &noise, &free);
+            let n = S::from_int_pow2(i32::try_from(s.samples).unwrap_or(i32::MAX), 0);
+            for (a, nz) in noise.iter_mut().enumerate() {
+                if cfg.axes.get(a).copied().unwrap_or(false) {
+                    let v = get(&cost, a).checked_div(n).unwrap_or(S::ZERO);
+                    if S::ZERO.lt(v) {
+                        nz.sigma2 = v;
+                    }
+                }
+            }
+        }
+        steps = steps.saturating_add(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)?);
+        let (info, score, _) = normal(s, cfg, &theta, &noise, &free);
+        let (_, cov) = scaled_solve(&info, &score)?;
+        // Hold the least determined term beyond its scale and start again.
+        let mut worst: Option<(usize, S)> = None;
+        for m in 0..NP {
+            if !free.get(m).copied().unwrap_or(false) {
+                continue;
+            }
+            let var = get2(&cov, m, m);
+            let sc = get(&cfg.scale, m);
+            if sc.times(sc).lt(var) {
+                let ratio = var.checked_div(sc.times(sc)).unwrap_or(S::headroom());
+                if worst.is_none_or(|(_, r)| r.lt(ratio)) {
+                    worst = Some((m, ratio));
+                }
+            }
+        }
+        if let Some((m, _)) = worst {
+            if let Some(f) = free.get_mut(m) {
+                *f = false;
+            }
+            continue 'holding;
+        }
+        let mut covariance = cov;
+        for (m, row) in covariance.iter_mut().enumerate() {
+            for (n, v) in row.iter_mut().enumerate() {
+                if !(free.get(m).copied().unwrap_or(false) && free.get(n).copied().unwrap_or(false)) {
+                    *v = S::ZERO;
+                }
+            }
+        }
+        let held = core::array::from_fn(|m| !free.get(m).copied().unwrap_or(false));
+        let positive_definite = positive_definite(theta.split_at(6).0);
+        return Ok(Solution {
+            theta,
+            covariance,
+            held,
+            noise,
+            steps,
+            positive_definite,
+        });
+    }
+    Err(SolveError::Singular)
+}

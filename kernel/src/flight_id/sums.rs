@@ -1,0 +1,249 @@
+//! The identification's sufficient statistics, accumulated one sample at a time.
+//!
+//! Within a window (a run of consecutive valid samples) the model says
+//! `y_k = omega_0 + A z_k + e_k`: `z_k` (6) is the drive accumulated since the window's first
+//! sample (torque minus the gyroscopic term, then force; [`super::FlightId`] builds it), `A`
+//! (3x6) holds the mass properties and `e` is coloured noise. Every quantity a Gauss-Newton
+//! fit with an AR(p <= 2) noise model needs is a quadratic form in the lagged moments
+//! `sum_k v_k v_(k-l)^T`, `v = (z, y)`, `l = 0..2`, and in the windows' sums (the initial
+//! rates are eliminated as `sum_w s_w s_w^T / n_w`). So the kernel keeps a few hundred sums
+//! instead of the flight, and the fit ([`super::solve`]) iterates on them at any time, as often
+//! as it likes: no second pass over data it cannot store.
+//!
+//! Each window is summed on its own and added to the flight's totals when it closes (shorter
+//! sums round less, and a window too short to use is dropped whole).
+
+use crate::scalar::Scalar;
+
+/// Drive components: accumulated torque minus gyroscopic term (N m s), then force (N s).
+pub const NZ: usize = 6;
+/// Lags kept: 0, 1, 2 (an AR noise model of order up to 2).
+pub const LAGS: usize = 3;
+
+/// `sum_k v_k v_(k-l)^T` by blocks, `v = (z, y)`; the `z` block is shared by the three axes.
+#[derive(Clone, Copy, Debug)]
+pub struct LagMoments<S> {
+    /// `zz[l][i][j] = sum z_k[i] z_(k-l)[j]`.
+    pub zz: [[[S; NZ]; NZ]; LAGS],
+    /// `zy[l][a][i] = sum z_k[i] y_(k-l)[a]`.
+    pub zy: [[[S; NZ]; 3]; LAGS],
+    /// `yz[l][a][i] = sum y_k[a] z_(k-l)[i]`.
+    pub yz: [[[S; NZ]; 3]; LAGS],
+    /// `yy[l][a] = sum y_k[a] y_(k-l)[a]`.
+    pub yy: [[S; 3]; LAGS],
+}
+
+impl<S: Scalar> LagMoments<S> {
+    /// All zero.
+    pub const fn zero() -> Self {
+        LagMoments {
+            zz: [[[S::ZERO; NZ]; NZ]; LAGS],
+            zy: [[[S::ZERO; NZ]; 3]; LAGS],
+            yz: [[[S::ZERO; NZ]; 3]; LAGS],
+            yy: [[S::ZERO; 3]; LAGS],
+        }
+    }
+
+    /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)).
+    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>) {
+        let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
+            self.zz.get_mut(l),
+            self.zy.get_mut(l),
+            self.yz.get_mut(l),
+            self.yy.get_mut(l),
+        ) else {
+            return;
+        };
+        for (row, zi) in zz.iter_mut().zip(now.z) {
+            for (m, zj) in row.iter_mut().zip(then.z) {
+                *m = m.mul_add(zi, zj);
+            }
+        }
+        for (a, ((zya, yza), yya)) in zy.iter_mut().zip(yz.iter_mut()).zip(yy.iter_mut()).enumerate() {
+            let (yn, yt) = (
+                now.y.get(a).copied().unwrap_or(S::ZERO),
+                then.y.get(a).copied().unwrap_or(S::ZERO),
+            );
+            for (m, zi) in zya.iter_mut().zip(now.z) {
+                *m = m.mul_add(zi, yt);
+            }
+            for (m, zj) in yza.iter_mut().zip(then.z) {
+                *m = m.mul_add(yn, zj);
+            }
+            *yya = yya.mul_add(yn, yt);
+        }
+    }
+
+    fn add(&mut self, other: &Self) {
+        let pairs = self
+            .zz
+            .iter_mut()
+            .flatten()
+            .flatten()
+            .zip(other.zz.iter().flatten().flatten())
+            .chain(
+                self.zy
+                    .iter_mut()
+                    .flatten()
+                    .flatten()
+                    .zip(other.zy.iter().flatten().flatten()),
+            )
+            .chain(
+                self.yz
+                    .iter_mut()
+                    .flatten()
+                    .flatten()
+                    .zip(other.yz.iter().flatten().flatten()),
+            )
+            .chain(
+                self.yy
+                    .iter_mut()
+                    .flatten()
+                    .zip(other.yy.iter().flatten()),
+            );
+        for (m, o) in pairs {
+            *m = m.plus(*o);
+        }
+    }
+
+    /// True if every sum is a valid number (no saturation, no NaN).
+    pub fn is_valid(&self) -> bool {
+        self.zz
+            .iter()
+            .flatten()
+            .flatten()
+            .chain(self.zy.iter().flatten().flatten())
+            .chain(self.yz.iter().flatten().flatten())
+            .chain(self.yy.iter().flatten())
+            .all(|v| v.is_valid())
+    }
+}
+
+/// One measurement as the sums take it: drive `z` and the anchored rate `y`, rad/s.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample<S> {
+    /// Accumulated drive, seen through the sensor's response.
+    pub z: [S; NZ],
+    /// Measured rate minus the window's anchor and the nominal model's prediction.
+    pub y: [S; 3],
+}
+
+impl<S: Scalar> Sample<S> {
+    const ZERO: Self = Sample {
+        z: [S::ZERO; NZ],
+        y: [S::ZERO; 3],
+    };
+}
+
+/// The flight's sums: lagged moments and the windows' initial-rate terms.
+#[derive(Clone, Copy, Debug)]
+pub struct FlightSums<S> {
+    /// Lagged moments over every closed window.
+    pub lag: LagMoments<S>,
+    /// `sum_w s_w s_w^T / n_w` by the same blocks (`s_w` the window's sum of `v`).
+    pub czz: [[S; NZ]; NZ],
+    /// See `czz`: `z` sum times axis `a`'s `y` sum.
+    pub czy: [[S; NZ]; 3],
+    /// See `czz`: axis `a`'s `y` sum squared.
+    pub cyy: [S; 3],
+    /// Samples in closed windows (each measures every axis the fit uses).
+    pub samples: u32,
+    /// Closed windows kept.
+    pub windows: u32,
+}
+
+impl<S: Scalar> Default for FlightSums<S> {
+    fn default() -> Self {
+        FlightSums {
+            lag: LagMoments::zero(),
+            czz: [[S::ZERO; NZ]; NZ],
+            czy: [[S::ZERO; NZ]; 3],
+            cyy: [S::ZERO; 3],
+            samples: 0,
+            windows: 0,
+        }
+    }
+}
+
+/// The open window's sums.
+#[derive(Clone, Copy, Debug)]
+pub struct WindowSums<S> {
+    lag: LagMoments<S>,
+    sz: [S; NZ],
+    sy: [S; 3],
+    n: u32,
+    /// The last two samples (newest first) for the lagged products.
+    history: [Sample<S>; LAGS - 1],
+}
+
+impl<S: Scalar> Default for WindowSums<S> {
+    fn default() -> Self {
+        WindowSums {
+            lag: LagMoments::zero(),
+            sz: [S::ZERO; NZ],
+            sy: [S::ZERO; 3],
+            n: 0,
+            history: [Sample::ZERO; LAGS - 1],
+        }
+    }
+}
+
+impl<S: Scalar> WindowSums<S> {
+    /// Samples in the window.
+    pub fn len(&self) -> u32 {
+        self.n
+    }
+
+    /// True if the window has no sample.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Adds one measurement.
+    pub fn push(&mut self, v: &Sample<S>) {
+        self.lag.add_pair(0, v, v);
+        let back = usize::try_from(self.n).unwrap_or(usize::MAX);
+        for (l, then) in self.history.iter().enumerate() {
+            if l < back {
+                self.lag.add_pair(l.saturating_add(1), v, then);
+            }
+        }
+        for (s, z) in self.sz.iter_mut().zip(v.z) {
+            *s = s.plus(z);
+        }
+        for (s, y) in self.sy.iter_mut().zip(v.y) {
+            *s = s.plus(y);
+        }
+        self.history.rotate_right(1);
+        if let Some(h) = self.history.first_mut() {
+            *h = *v;
+        }
+        self.n = self.n.saturating_add(1);
+    }
+
+    /// Closes the window into `flight` if it has at least `min_len` samples, and empties it.
+    pub fn close_into(&mut self, flight: &mut FlightSums<S>, min_len: u32) {
+        if self.n >= min_len.max(1) {
+            let n = S::from_int_pow2(i32::try_from(self.n).unwrap_or(i32::MAX), 0);
+            let mean_z = self.sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
+            let mean_y = self.sy.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
+            flight.lag.add(&self.lag);
+            for (row, mz) in flight.czz.iter_mut().zip(mean_z) {
+                for (c, sz) in row.iter_mut().zip(self.sz) {
+                    *c = c.mul_add(mz, sz);
+                }
+            }
+            for (row, my) in flight.czy.iter_mut().zip(mean_y) {
+                for (c, sz) in row.iter_mut().zip(self.sz) {
+                    *c = c.mul_add(my, sz);
+                }
+            }
+            for ((c, my), sy) in flight.cyy.iter_mut().zip(mean_y).zip(self.sy) {
+                *c = c.mul_add(my, sy);
+            }
+            flight.samples = flight.samples.saturating_add(self.n);
+            flight.windows = flight.windows.saturating_add(1);
+        }
+        *self = WindowSums::default();
+    }
+}

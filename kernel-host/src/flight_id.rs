@@ -117,7 +117,9 @@ pub fn identify<S: Scalar>(
             j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),
             free,
             axes,
-            max_noise_order: 2,
+            // Windows cut at every change are a few samples long: the AR fit's neglect of each
+            // window's first samples would not hold.
+            max_noise_order: if coarse { 0 } else { 2 },
             scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
         },
     };
@@ -136,7 +138,9 @@ pub fn identify<S: Scalar>(
         let wrench = match cmd {
             Command::Word(w) => table.wrench(*w),
             Command::Wrench { force, torque } => {
-                let v = [torque[0], torque[1], torque[2], force[0], force[1], force[2]];
+                let v = [
+                    torque[0], torque[1], torque[2], force[0], force[1], force[2],
+                ];
                 v.map(|x| S::from_f32(x as f32))
             }
         };
@@ -147,9 +151,9 @@ pub fn identify<S: Scalar>(
         model_error(
             sat,
             match e {
-                SolveError::NoData => format!(
-                    "no run of {MIN_WINDOW} consecutive samples with every measured axis"
-                ),
+                SolveError::NoData => {
+                    format!("no run of {MIN_WINDOW} consecutive samples with every measured axis")
+                }
                 other => format!("the kernel's fit failed: {other:?}"),
             },
         )
@@ -176,7 +180,9 @@ pub fn identify<S: Scalar>(
         v[2] = 1.0 / theta[2];
         v
     } else {
-        let i_est = j_est.try_inverse().unwrap_or(Matrix3::from_element(f64::NAN));
+        let i_est = j_est
+            .try_inverse()
+            .unwrap_or(Matrix3::from_element(f64::NAN));
         for m in 0..6 {
             let d = sym_to_vec6(&(-(i_est * sym_basis(m) * i_est)));
             for r in 0..6 {

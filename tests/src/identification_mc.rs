@@ -376,12 +376,10 @@ pub fn estimate_with(
     };
     match imp {
         Implementation::F64 => identify(&sim.flight, &sim.model, opts).map_err(|e| e.to_string()),
-        Implementation::F32 => massid_kernel_host::flight_id::identify::<f32>(
-            &sim.flight,
-            &sim.model,
-            response()?,
-        )
-        .map_err(|e| e.to_string()),
+        Implementation::F32 => {
+            massid_kernel_host::flight_id::identify::<f32>(&sim.flight, &sim.model, response()?)
+                .map_err(|e| e.to_string())
+        }
         Implementation::Fixed => massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
             &sim.flight,
             &sim.model,
@@ -504,7 +502,9 @@ pub fn grid() -> Vec<Condition> {
 /// [0.8, 1.25], 1-sigma coverage in [60, 76] %, 2-sigma in [90, 98] %, for every scored term.
 pub fn meets_bars(c: &Cell) -> bool {
     let [b, rlo, rhi, c1lo, c1hi, c2lo, c2hi] = c.worst();
-    b <= 0.3
+    c.failed == 0
+        && c.terms.iter().any(|s| s.n > 0)
+        && b <= 0.3
         && rlo >= 0.8
         && rhi <= 1.25
         && c1lo >= 60.0

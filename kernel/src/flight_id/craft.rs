@@ -68,11 +68,7 @@ impl<S: Scalar> Craft<S> {
             .zip(wrench.iter_mut().zip(unit.iter_mut()))
             .enumerate()
         {
-            let finite = t
-                .pos_m
-                .iter()
-                .chain(t.dir.iter())
-                .all(|v| v.is_finite())
+            let finite = t.pos_m.iter().chain(t.dir.iter()).all(|v| v.is_finite())
                 && t.thrust_n.is_finite()
                 && t.thrust_n > 0.0;
             if !finite {

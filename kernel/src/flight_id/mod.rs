@@ -19,7 +19,7 @@ pub mod solve;
 pub mod sums;
 
 use crate::scalar::Scalar;
-use solve::{SolveConfig, SolveError, Solution, NP};
+use solve::{Solution, SolveConfig, SolveError, NP};
 use sums::{FlightSums, Sample, WindowSums, NZ};
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
@@ -160,9 +160,10 @@ impl<S: Scalar> FlightId<S> {
         let h = S::from_int_pow2(1, -1);
         let (z, y) = match self.cfg.sensor {
             SensorResponse::Point => (z2, y2),
-            SensorResponse::BackwardMean if self.filled >= 2 => {
-                (core::array::from_fn(|i| h.times(get(&z1, i).plus(get(&z2, i)))), y2)
-            }
+            SensorResponse::BackwardMean if self.filled >= 2 => (
+                core::array::from_fn(|i| h.times(get(&z1, i).plus(get(&z2, i)))),
+                y2,
+            ),
             SensorResponse::CentralMean if self.filled >= 3 => (
                 core::array::from_fn(|i| {
                     q.times(get(&z0, i).plus(get(&z1, i).mul_pow2(1)).plus(get(&z2, i)))
@@ -180,8 +181,11 @@ impl<S: Scalar> FlightId<S> {
         };
         // Rows of the nominal inverse inertia in xx yy zz xy xz yz order.
         let rows = [[0, 3, 4], [3, 1, 5], [4, 5, 2]];
-        let y_anchored: [S; 3] =
-            core::array::from_fn(|a| get(&y, a).minus(get(&anchor, a)).minus(pred(rows.get(a).copied().unwrap_or([0; 3]))));
+        let y_anchored: [S; 3] = core::array::from_fn(|a| {
+            get(&y, a)
+                .minus(get(&anchor, a))
+                .minus(pred(rows.get(a).copied().unwrap_or([0; 3])))
+        });
         self.window.push(&Sample { z, y: y_anchored });
     }
 

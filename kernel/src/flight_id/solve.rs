@@ -97,11 +97,7 @@ fn half<S: Scalar>() -> S {
 /// `[[xx xy xz] [xy yy yz] [xz yz zz]]`.
 fn sym3<S: Scalar>(p: &[S]) -> [[S; 3]; 3] {
     let g = |i| get(p, i);
-    [
-        [g(0), g(3), g(4)],
-        [g(3), g(1), g(5)],
-        [g(4), g(5), g(2)],
-    ]
+    [[g(0), g(3), g(4)], [g(3), g(1), g(5)], [g(4), g(5), g(2)]]
 }
 
 /// `A = [J, -J [dc]x]` for inverse-inertia entries `j6` and lever `dc`.
@@ -122,7 +118,9 @@ fn model_matrix<S: Scalar>(j6: &[S], dc: &[S]) -> [[S; NZ]; 3] {
                 let col = c.saturating_sub(3);
                 jrow.iter()
                     .zip(skew.iter())
-                    .fold(S::ZERO, |acc, (jk, srow)| acc.minus(jk.times(get(srow, col))))
+                    .fold(S::ZERO, |acc, (jk, srow)| {
+                        acc.minus(jk.times(get(srow, col)))
+                    })
             };
         }
     }
@@ -140,9 +138,12 @@ fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<
     let h = half::<S>();
     for l in 0..LAGS {
         let wl = get(w, l);
-        let (Some(zz), Some(zy), Some(yz), Some(yy)) =
-            (s.lag.zz.get(l), s.lag.zy.get(l), s.lag.yz.get(l), s.lag.yy.get(l))
-        else {
+        let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
+            s.lag.zz.get(l),
+            s.lag.zy.get(l),
+            s.lag.yz.get(l),
+            s.lag.yy.get(l),
+        ) else {
             continue;
         };
         let wh = wl.times(h);
@@ -174,11 +175,15 @@ fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<
 }
 
 fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
-    m.iter()
-        .zip(u)
-        .fold(S::ZERO, |acc, (row, ui)| {
-            acc.plus(ui.times(row.iter().zip(v).fold(S::ZERO, |r, (mij, vj)| r.mul_add(*mij, *vj))))
-        })
+    m.iter().zip(u).fold(S::ZERO, |acc, (row, ui)| {
+        acc.plus(
+            ui.times(
+                row.iter()
+                    .zip(v)
+                    .fold(S::ZERO, |r, (mij, vj)| r.mul_add(*mij, *vj)),
+            ),
+        )
+    })
 }
 
 /// AR weights of `(1 - phi_1 B - phi_2 B^2)`: `w_0 = sum f_i^2`, `w_l = 2 sum f_i f_(i+l)`,
@@ -241,7 +246,9 @@ fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<
     }
     if max_order >= 2 {
         let r2 = get(g, 2).checked_div(g0)?;
-        let p22 = r2.minus(r1.times(r1)).checked_div(S::ONE.minus(r1.times(r1)))?;
+        let p22 = r2
+            .minus(r1.times(r1))
+            .checked_div(S::ONE.minus(r1.times(r1)))?;
         let s2 = s1.times(S::ONE.minus(p22.times(p22)));
         let two = ArNoise {
             order: 2,
@@ -279,7 +286,13 @@ fn residual_and_jacobian<S: Scalar>(
         let deriv = if m < 6 {
             row(&model_matrix(&basis::<S>(m), dc))
         } else {
-            let e: [S; 3] = core::array::from_fn(|b| if Some(b) == m.checked_sub(6) { S::ONE } else { S::ZERO });
+            let e: [S; 3] = core::array::from_fn(|b| {
+                if Some(b) == m.checked_sub(6) {
+                    S::ONE
+                } else {
+                    S::ZERO
+                }
+            });
             let mut q = row(&model_matrix(j6, &e));
             for v in q.iter_mut().take(3) {
                 *v = S::ZERO;
@@ -408,7 +421,9 @@ fn scaled_solve<S: Scalar>(
     let delta = core::array::from_fn(|m| get(&x, m).mul_pow2(kk(m).saturating_neg()));
     let mut cov = [[S::ZERO; NP]; NP];
     for c in 0..NP {
-        let col = lu.solve(&basis9::<S>(c)).map_err(|_| SolveError::Overflow)?;
+        let col = lu
+            .solve(&basis9::<S>(c))
+            .map_err(|_| SolveError::Overflow)?;
         for (r, v) in col.iter().enumerate() {
             if let Some(e) = cov.get_mut(r).and_then(|row| row.get_mut(c)) {
                 *e = v.mul_pow2(kk(r).saturating_add(kk(c)).saturating_neg());
@@ -473,15 +488,26 @@ fn gauss_newton<S: Scalar>(
 
 /// Fits the mass properties and the noise models to `s`, holding the terms the data do not
 /// determine. Three rounds of (Gauss-Newton to convergence, noise refit).
-pub fn solve<S: Scalar>(s: &FlightSums<S>, cfg: &SolveConfig<S>) -> Result<Solution<S>, SolveError> {
+pub fn solve<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+) -> Result<Solution<S>, SolveError> {
     if s.samples < 3 || s.windows == 0 || !cfg.axes.iter().any(|a| *a) {
         return Err(SolveError::NoData);
     }
-    if !s.lag.is_valid() {
+    // The sample count enters as a number of the format: a format that cannot hold it
+    // (Q8.24 above 127) cannot hold the sums either.
+    let count = S::from_int_pow2(i32::try_from(s.samples).unwrap_or(i32::MAX), 0);
+    if !s.lag.is_valid() || count.to_f32() != s.samples as f32 {
         return Err(SolveError::Overflow);
     }
-    let nominal: [S; NP] =
-        core::array::from_fn(|m| if m < 6 { get(&cfg.j_nominal, m) } else { S::ZERO });
+    let nominal: [S; NP] = core::array::from_fn(|m| {
+        if m < 6 {
+            get(&cfg.j_nominal, m)
+        } else {
+            S::ZERO
+        }
+    });
     let mut free = cfg.free;
     let mut steps = 0u32;
     let white = ArNoise {
@@ -549,7 +575,8 @@ pub fn solve<S: Scalar>(s: &FlightSums<S>, cfg: &SolveConfig<S>) -> Result<Solut
         let mut covariance = cov;
         for (m, row) in covariance.iter_mut().enumerate() {
             for (n, v) in row.iter_mut().enumerate() {
-                if !(free.get(m).copied().unwrap_or(false) && free.get(n).copied().unwrap_or(false)) {
+                if !(free.get(m).copied().unwrap_or(false) && free.get(n).copied().unwrap_or(false))
+                {
                     *v = S::ZERO;
                 }
             }

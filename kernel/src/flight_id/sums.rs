@@ -59,7 +59,12 @@ impl<S: Scalar> LagMoments<S> {
                 *m = m.mul_add(zi, zj);
             }
         }
-        for (a, ((zya, yza), yya)) in zy.iter_mut().zip(yz.iter_mut()).zip(yy.iter_mut()).enumerate() {
+        for (a, ((zya, yza), yya)) in zy
+            .iter_mut()
+            .zip(yz.iter_mut())
+            .zip(yy.iter_mut())
+            .enumerate()
+        {
             let (yn, yt) = (
                 now.y.get(a).copied().unwrap_or(S::ZERO),
                 then.y.get(a).copied().unwrap_or(S::ZERO),
@@ -95,12 +100,7 @@ impl<S: Scalar> LagMoments<S> {
                     .flatten()
                     .zip(other.yz.iter().flatten().flatten()),
             )
-            .chain(
-                self.yy
-                    .iter_mut()
-                    .flatten()
-                    .zip(other.yy.iter().flatten()),
-            );
+            .chain(self.yy.iter_mut().flatten().zip(other.yy.iter().flatten()));
         for (m, o) in pairs {
             *m = m.plus(*o);
         }

@@ -11,9 +11,12 @@
 //! to those sums at any time ([`solve`]). Any craft: the thrusters are a table ([`craft`])
 //! and the caller passes the commanded wrench, so thruster words and wrench commands alike.
 //!
-//! What the reference does and this does not (yet): the gyroscopic term uses the measured
-//! rates and the nominal inertia (the reference differentiates it through the estimate), the
-//! noise model is AR of order <= 2 (the reference: ARMA(p,1)), and there are no score tests.
+//! The gyroscopic term `omega x I omega` is linear in the six rate products
+//! `omega_i omega_j`, so their integrals are six more drive components and the inertia's
+//! information in the gyroscopic dynamics is used as the reference uses it (the reference
+//! integrates the model's rate, this the measured one). What the reference does and this does
+//! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and there are
+//! no score tests.
 pub mod craft;
 pub mod solve;
 pub mod sums;
@@ -41,10 +44,6 @@ pub struct FlightIdConfig<S> {
     pub period_s: S,
     /// The rate sensor's response.
     pub sensor: SensorResponse,
-    /// Euler's gyroscopic term `omega x I omega` (3-D craft); off for a planar craft.
-    pub gyroscopic: bool,
-    /// Nominal inertia, kg m^2, xx yy zz xy xz yz (the gyroscopic term's inertia).
-    pub inertia_kgm2: [S; 6],
     /// Windows are cut at this many samples (bounds every sum).
     pub max_window: u32,
     /// Windows shorter than this are dropped.
@@ -68,33 +67,21 @@ pub struct FlightId<S> {
     anchor: Option<[S; 3]>,
     /// The previous sample's commanded wrench and measured rate.
     previous: Option<([S; 6], [S; 3])>,
+    /// The nominal model's matrix: the sums hold rates minus its prediction, so that they
+    /// stay small (f32 rounding) whatever the rates.
+    nominal: [[S; NZ]; 3],
 }
 
 fn get<S: Scalar>(v: &[S], i: usize) -> S {
     v.get(i).copied().unwrap_or(S::ZERO)
 }
 
-/// `omega x (I omega)` for inertia entries xx yy zz xy xz yz.
-fn gyroscopic<S: Scalar>(w: &[S; 3], i6: &[S; 6]) -> [S; 3] {
-    let g = |k| get(i6, k);
-    let [x, y, z] = *w;
-    let iw = [
-        g(0).times(x).plus(g(3).times(y)).plus(g(4).times(z)),
-        g(3).times(x).plus(g(1).times(y)).plus(g(5).times(z)),
-        g(4).times(x).plus(g(5).times(y)).plus(g(2).times(z)),
-    ];
-    let [a, b, c] = iw;
-    [
-        y.times(c).minus(z.times(b)),
-        z.times(a).minus(x.times(c)),
-        x.times(b).minus(y.times(a)),
-    ]
-}
-
 impl<S: Scalar> FlightId<S> {
-    /// Nothing measured yet.
-    pub fn new(cfg: FlightIdConfig<S>) -> Self {
-        FlightId {
+    /// Nothing measured yet; None if the nominal inverse inertia is singular.
+    pub fn new(cfg: FlightIdConfig<S>) -> Option<Self> {
+        let nominal =
+            solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
+        Some(FlightId {
             cfg,
             sums: FlightSums::default(),
             window: WindowSums::default(),
@@ -103,7 +90,8 @@ impl<S: Scalar> FlightId<S> {
             filled: 0,
             anchor: None,
             previous: None,
-        }
+            nominal,
+        })
     }
 
     /// The sums so far (closed windows).
@@ -128,20 +116,24 @@ impl<S: Scalar> FlightId<S> {
         if !joins {
             self.close_window();
         } else if let Some((w_prev, r_prev)) = self.previous {
-            let mut g = [S::ZERO; 3];
-            if self.cfg.gyroscopic {
-                let h = S::from_int_pow2(1, -1).times(dt_s);
-                let (a, b) = (
-                    gyroscopic(&r_prev, &self.cfg.inertia_kgm2),
-                    gyroscopic(&rate, &self.cfg.inertia_kgm2),
-                );
-                for ((gi, ai), bi) in g.iter_mut().zip(a).zip(b) {
-                    *gi = h.times(ai.plus(bi));
-                }
-            }
+            let h = S::from_int_pow2(1, -1).times(dt_s);
+            let gyro = self.cfg.solve.gyroscopic;
             for (i, zi) in self.z.iter_mut().enumerate() {
-                let drive = get(&w_prev, i).times(dt_s);
-                *zi = zi.plus(drive).minus(get(&g, i));
+                *zi = if i < 6 {
+                    zi.plus(get(&w_prev, i).times(dt_s))
+                } else if gyro {
+                    // Trapezoid of the measured rate product (unbiased: the noise products
+                    // have zero mean in every component of omega x I omega).
+                    let (b, d) = solve::PRODUCTS
+                        .get(i.saturating_sub(6))
+                        .copied()
+                        .unwrap_or((0, 0));
+                    let then = get(&r_prev, b).times(get(&r_prev, d));
+                    let now = get(&rate, b).times(get(&rate, d));
+                    zi.plus(h.times(then.plus(now)))
+                } else {
+                    S::ZERO
+                };
             }
         }
         self.recent.rotate_right(1);
@@ -173,18 +165,13 @@ impl<S: Scalar> FlightId<S> {
             _ => return,
         };
         let anchor = *self.anchor.get_or_insert(y);
-        let jn = &self.cfg.solve.j_nominal;
-        let pred = |r: [usize; 3]| {
-            r.iter()
-                .zip(z.iter())
-                .fold(S::ZERO, |acc, (k, zc)| acc.mul_add(get(jn, *k), *zc))
-        };
-        // Rows of the nominal inverse inertia in xx yy zz xy xz yz order.
-        let rows = [[0, 3, 4], [3, 1, 5], [4, 5, 2]];
         let y_anchored: [S; 3] = core::array::from_fn(|a| {
-            get(&y, a)
-                .minus(get(&anchor, a))
-                .minus(pred(rows.get(a).copied().unwrap_or([0; 3])))
+            let row = self.nominal.get(a).copied().unwrap_or([S::ZERO; NZ]);
+            let pred = row
+                .iter()
+                .zip(z.iter())
+                .fold(S::ZERO, |acc, (r, zc)| acc.mul_add(*r, *zc));
+            get(&y, a).minus(get(&anchor, a)).minus(pred)
         });
         self.window.push(&Sample { z, y: y_anchored });
     }

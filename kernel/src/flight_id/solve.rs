@@ -39,6 +39,9 @@ pub struct SolveConfig<S> {
     pub free: [bool; NP],
     /// Axes whose rate enters the fit.
     pub axes: [bool; 3],
+    /// Euler's gyroscopic term is in the model (3-D craft); the drive then carries the
+    /// integrated rate products.
+    pub gyroscopic: bool,
     /// Highest AR order tried (at most 2).
     pub max_noise_order: u8,
     /// Per term, the standard error beyond which the data do not determine it: the term is
@@ -100,31 +103,155 @@ fn sym3<S: Scalar>(p: &[S]) -> [[S; 3]; 3] {
     [[g(0), g(3), g(4)], [g(3), g(1), g(5)], [g(4), g(5), g(2)]]
 }
 
-/// `A = [J, -J [dc]x]` for inverse-inertia entries `j6` and lever `dc`.
-fn model_matrix<S: Scalar>(j6: &[S], dc: &[S]) -> [[S; NZ]; 3] {
-    let j = sym3(j6);
+type M3<S> = [[S; 3]; 3];
+
+fn mul3<S: Scalar>(a: &M3<S>, b: &M3<S>) -> M3<S> {
+    core::array::from_fn(|r| {
+        core::array::from_fn(|c| {
+            (0..3).fold(S::ZERO, |acc, k| acc.mul_add(get2(a, r, k), get2(b, k, c)))
+        })
+    })
+}
+
+/// `m^-1` by the adjugate, or None when the determinant is not certainly non-zero.
+fn inv3<S: Scalar>(m: &M3<S>) -> Option<M3<S>> {
+    const NEXT: [usize; 3] = [1, 2, 0];
+    const AFTER: [usize; 3] = [2, 0, 1];
+    let n1 = |i: usize| NEXT.get(i).copied().unwrap_or(0);
+    let n2 = |i: usize| AFTER.get(i).copied().unwrap_or(0);
+    let g = |r: usize, c: usize| get2(m, r, c);
+    // Cofactor (r, c) by cyclic indices: no sign bookkeeping.
+    let cof = |r: usize, c: usize| {
+        g(n1(r), n1(c))
+            .times(g(n2(r), n2(c)))
+            .minus(g(n1(r), n2(c)).times(g(n2(r), n1(c))))
+    };
+    let det = (0..3).fold(S::ZERO, |acc, c| acc.mul_add(g(0, c), cof(0, c)));
+    if !S::ZERO.lt(det.abs()) {
+        return None;
+    }
+    let mut out = [[S::ZERO; 3]; 3];
+    for (r, row) in out.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = cof(c, r).checked_div(det)?;
+        }
+    }
+    Some(out)
+}
+
+/// Levi-Civita symbol.
+fn levi<S: Scalar>(a: usize, b: usize, c: usize) -> S {
+    match (a, b, c) {
+        (0, 1, 2) | (1, 2, 0) | (2, 0, 1) => S::ONE,
+        (0, 2, 1) | (2, 1, 0) | (1, 0, 2) => S::ONE.negate(),
+        _ => S::ZERO,
+    }
+}
+
+/// Rate products of the drive's gyroscopic part, in the order xx yy zz xy xz yz.
+pub const PRODUCTS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+/// `G(I)`: `omega x I omega = G(I) p` with `p` the rate products ([`PRODUCTS`]).
+fn gyro_map<S: Scalar>(i: &M3<S>) -> [[S; 6]; 3] {
+    core::array::from_fn(|a| {
+        core::array::from_fn(|p| {
+            let (b, d) = PRODUCTS.get(p).copied().unwrap_or((0, 0));
+            let term = |b: usize, d: usize| {
+                (0..3).fold(S::ZERO, |acc, c| {
+                    acc.mul_add(levi::<S>(a, b, c), get2(i, c, d))
+                })
+            };
+            if b == d {
+                term(b, d)
+            } else {
+                term(b, d).plus(term(d, b))
+            }
+        })
+    })
+}
+
+/// `[dc]x`.
+fn skew<S: Scalar>(dc: &[S]) -> M3<S> {
     let (x, y, z) = (get(dc, 0), get(dc, 1), get(dc, 2));
-    let skew = [
+    [
         [S::ZERO, z.negate(), y],
         [z, S::ZERO, x.negate()],
         [y.negate(), x, S::ZERO],
-    ];
-    let mut a = [[S::ZERO; NZ]; 3];
-    for (arow, jrow) in a.iter_mut().zip(j.iter()) {
-        for (c, out) in arow.iter_mut().enumerate() {
-            *out = if c < 3 {
-                get(jrow, c)
+    ]
+}
+
+/// Writes the blocks `[p | q | k]` (3, 3, 6 columns) into a model-sized matrix.
+fn blocks<S: Scalar>(p: &M3<S>, q: &M3<S>, k: &[[S; 6]; 3]) -> [[S; NZ]; 3] {
+    core::array::from_fn(|r| {
+        core::array::from_fn(|c| {
+            if c < 3 {
+                get2(p, r, c)
+            } else if c < 6 {
+                get2(q, r, c.saturating_sub(3))
             } else {
-                let col = c.saturating_sub(3);
-                jrow.iter()
-                    .zip(skew.iter())
-                    .fold(S::ZERO, |acc, (jk, srow)| {
-                        acc.minus(jk.times(get(srow, col)))
-                    })
-            };
-        }
+                get2(k, r, c.saturating_sub(6))
+            }
+        })
+    })
+}
+
+fn neg3<S: Scalar, const C: usize>(m: &[[S; C]; 3]) -> [[S; C]; 3] {
+    m.map(|row| row.map(|v| v.negate()))
+}
+
+fn mul36<S: Scalar>(a: &M3<S>, b: &[[S; 6]; 3]) -> [[S; 6]; 3] {
+    core::array::from_fn(|r| {
+        core::array::from_fn(|c| {
+            (0..3).fold(S::ZERO, |acc, k| acc.mul_add(get2(a, r, k), get2(b, k, c)))
+        })
+    })
+}
+
+/// The model matrix `A = [J, -J [dc]x, -J G(J^-1)]` for inverse-inertia entries `j6` and
+/// lever `dc` (`gyro`: the gyroscopic block, zero for a planar craft). None when `J` is
+/// singular.
+pub(crate) fn model_matrix<S: Scalar>(j6: &[S], dc: &[S], gyro: bool) -> Option<[[S; NZ]; 3]> {
+    let j = sym3(j6);
+    let k = if gyro {
+        neg3(&mul36(&j, &gyro_map(&inv3(&j)?)))
+    } else {
+        [[S::ZERO; 6]; 3]
+    };
+    Some(blocks(&j, &neg3(&mul3(&j, &skew(dc))), &k))
+}
+
+/// `dA / d theta_m` (inverse inertia entries, then the CoM).
+fn model_derivative<S: Scalar>(j6: &[S], dc: &[S], gyro: bool, m: usize) -> Option<[[S; NZ]; 3]> {
+    let j = sym3(j6);
+    let zero3 = [[S::ZERO; 3]; 3];
+    if m < 6 {
+        let e = sym3(&basis::<S>(m));
+        // d(-J G(I)) = -E G(I) + J G(I E I), since dI = -I E I and G is linear.
+        let k = if gyro {
+            let i = inv3(&j)?;
+            let gi = gyro_map(&i);
+            let iei = gyro_map(&mul3(&mul3(&i, &e), &i));
+            let a = neg3(&mul36(&e, &gi));
+            let b = mul36(&j, &iei);
+            core::array::from_fn(|r| core::array::from_fn(|c| get2(&a, r, c).plus(get2(&b, r, c))))
+        } else {
+            [[S::ZERO; 6]; 3]
+        };
+        Some(blocks(&e, &neg3(&mul3(&e, &skew(dc))), &k))
+    } else {
+        let unit: [S; 3] = core::array::from_fn(|b| {
+            if Some(b) == m.checked_sub(6) {
+                S::ONE
+            } else {
+                S::ZERO
+            }
+        });
+        Some(blocks(
+            &zero3,
+            &neg3(&mul3(&j, &skew(&unit))),
+            &[[S::ZERO; 6]; 3],
+        ))
     }
-    a
 }
 
 /// The inverse-inertia basis entry `m` (xx yy zz xy xz yz) as six numbers.
@@ -262,15 +389,16 @@ fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<
     Some(best)
 }
 
-/// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns).
+/// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns); None
+/// when the inverse inertia is singular.
 fn residual_and_jacobian<S: Scalar>(
     theta: &[S; NP],
-    j_nominal: &[S; 6],
+    cfg: &SolveConfig<S>,
     a: usize,
-) -> ([S; NV], [[S; NV]; NP]) {
+) -> Option<([S; NV], [[S; NV]; NP])> {
     let (j6, dc) = theta.split_at(6);
-    let am = model_matrix(j6, dc);
-    let an = model_matrix(j_nominal, &[S::ZERO; 3]);
+    let am = model_matrix(j6, dc, cfg.gyroscopic)?;
+    let an = model_matrix(&cfg.j_nominal, &[S::ZERO; 3], cfg.gyroscopic)?;
     let row = |m: &[[S; NZ]; 3]| m.get(a).copied().unwrap_or([S::ZERO; NZ]);
     let (ar, anr) = (row(&am), row(&an));
     let mut u = [S::ZERO; NV];
@@ -283,27 +411,12 @@ fn residual_and_jacobian<S: Scalar>(
     }
     let mut d = [[S::ZERO; NV]; NP];
     for (m, col) in d.iter_mut().enumerate() {
-        let deriv = if m < 6 {
-            row(&model_matrix(&basis::<S>(m), dc))
-        } else {
-            let e: [S; 3] = core::array::from_fn(|b| {
-                if Some(b) == m.checked_sub(6) {
-                    S::ONE
-                } else {
-                    S::ZERO
-                }
-            });
-            let mut q = row(&model_matrix(j6, &e));
-            for v in q.iter_mut().take(3) {
-                *v = S::ZERO;
-            }
-            q
-        };
+        let deriv = row(&model_derivative(j6, dc, cfg.gyroscopic, m)?);
         for (c, dv) in col.iter_mut().zip(deriv) {
             *c = dv.negate();
         }
     }
-    (u, d)
+    Some((u, d))
 }
 
 /// Normal equations of the free terms at `theta` with noise `noise`: information, score and
@@ -324,7 +437,9 @@ fn normal<S: Scalar>(
         }
         let (w, c2) = ar_weights(&nz.phi);
         let wm = weighted(s, a, &w, c2);
-        let (u, d) = residual_and_jacobian(theta, &cfg.j_nominal, a);
+        let Some((u, d)) = residual_and_jacobian(theta, cfg, a) else {
+            continue;
+        };
         let inv = S::ONE.checked_div(nz.sigma2).unwrap_or(S::ZERO);
         if let Some(c) = cost.get_mut(a) {
             *c = quad(&wm, &u, &u);
@@ -372,7 +487,7 @@ fn autocovariances<S: Scalar>(
     theta: &[S; NP],
     a: usize,
 ) -> Option<[S; LAGS]> {
-    let (u, _) = residual_and_jacobian(theta, &cfg.j_nominal, a);
+    let (u, _) = residual_and_jacobian(theta, cfg, a)?;
     let n = S::from_int_pow2(i32::try_from(s.samples).unwrap_or(i32::MAX), 0);
     // u^T C u: the window means' share (weights zero, gain^2 -1 leaves +C).
     let centre = quad(&weighted(s, a, &[S::ZERO; LAGS], S::ONE.negate()), &u, &u);

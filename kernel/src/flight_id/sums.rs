@@ -2,8 +2,8 @@
 //!
 //! Within a window (a run of consecutive valid samples) the model says
 //! `y_k = omega_0 + A z_k + e_k`: `z_k` (6) is the drive accumulated since the window's first
-//! sample (torque minus the gyroscopic term, then force; [`super::FlightId`] builds it), `A`
-//! (3x6) holds the mass properties and `e` is coloured noise. Every quantity a Gauss-Newton
+//! sample (torque, force, rate products; [`super::FlightId`] builds it), `A`
+//! (3x12) holds the mass properties and `e` is coloured noise. Every quantity a Gauss-Newton
 //! fit with an AR(p <= 2) noise model needs is a quadratic form in the lagged moments
 //! `sum_k v_k v_(k-l)^T`, `v = (z, y)`, `l = 0..2`, and in the windows' sums (the initial
 //! rates are eliminated as `sum_w s_w s_w^T / n_w`). So the kernel keeps a few hundred sums
@@ -15,8 +15,10 @@
 
 use crate::scalar::Scalar;
 
-/// Drive components: accumulated torque minus gyroscopic term (N m s), then force (N s).
-pub const NZ: usize = 6;
+/// Drive components: accumulated torque (N m s), force (N s), and the rate products
+/// `integral omega_i omega_j dt` (rad^2/s, order xx yy zz xy xz yz) that the gyroscopic term
+/// `omega x I omega` is linear in.
+pub const NZ: usize = 12;
 /// Lags kept: 0, 1, 2 (an AR noise model of order up to 2).
 pub const LAGS: usize = 3;
 

@@ -16,10 +16,12 @@ use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
 use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
-/// Longest window, s: bounds every sum the kernel keeps and their f32 rounding. Measured on
-/// 60 rga12/combo 1 kHz flights (seeds 740-799, `identification_mc 60 740 ... f32`): at 8 s
-/// worst bias 0.41 / RMS 1.26 sigma; at 20 s 0.64 / 1.46; at 60 s 0.77 / 1.56 (the sigma then
-/// matches the f64 reference's, 0.8-1.07x, against 1.0-2.3x at 8 s).
+/// Longest window, s. Measured on 60 rga12 and 60 combo 1 kHz flights (seeds 740-799,
+/// `identification_mc 60 740 "rga12 1000 Hz 1x" f32`): at 8 s worst bias 0.39 / RMS 1.26
+/// sigma; at 60 s 0.37 / 1.54 (the products), the same in the kernel's f64 instantiation, so
+/// not rounding: the kernel takes the gyroscopic products of the measured trajectory and has
+/// no variational equation, which over long windows overstates the products' information.
+/// At 60 s its sigma is 0.82-1.07x the reference's, at 8 s 1.0-2.3x.
 pub const MAX_WINDOW_S: f64 = 8.0;
 /// Shortest window kept, samples (the reference's).
 pub const MIN_WINDOW: u32 = 20;

@@ -240,6 +240,92 @@ impl Scalar for f32 {
     }
 }
 
+/// Doubles: what a core with a double-precision FPU (Cortex-M7) flies, and on the ground the
+/// kernel's algorithms without their f32 rounding (how the identification's rounding budget
+/// is measured: `kernel-host`'s `identify::<f64>` against `identify::<f32>`).
+impl Scalar for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    #[inline]
+    fn from_int_pow2(m: i32, e: i32) -> Self {
+        f64::from(m) * f64::from(pow2_f32(e.clamp(-126, 127))) * pow2_rest(e)
+    }
+    #[inline]
+    fn from_f32(v: f32) -> Self {
+        if v.is_nan() {
+            0.0
+        } else {
+            f64::from(v)
+        }
+    }
+    #[inline]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline]
+    fn checked_div(self, rhs: Self) -> Option<Self> {
+        if rhs == 0.0 {
+            return None;
+        }
+        let q = self / rhs;
+        q.is_finite().then_some(q)
+    }
+    #[inline]
+    fn abs(self) -> Self {
+        if self < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+    #[inline]
+    fn lt(self, rhs: Self) -> bool {
+        self < rhs
+    }
+    #[inline]
+    fn mul_pow2(self, e: i32) -> Self {
+        let e = e.clamp(-2000, 2000);
+        let first = e.clamp(-1000, 1000);
+        let second = e.saturating_sub(first);
+        self * pow2_f64(first) * pow2_f64(second)
+    }
+    #[inline]
+    fn is_valid(self) -> bool {
+        self.is_finite()
+    }
+    #[inline]
+    fn headroom() -> Self {
+        1.0e200
+    }
+    #[inline]
+    fn floor_times(self, k: u32) -> Option<i64> {
+        let x = self * f64::from(k);
+        if !x.is_finite() || x.abs() >= 9.0e15 {
+            return None;
+        }
+        let t = x as i64;
+        Some(if (t as f64) > x {
+            t.saturating_sub(1)
+        } else {
+            t
+        })
+    }
+}
+
+/// `2^(e - clamp(e, -126, 127))` for [`Scalar::from_int_pow2`] of f64.
+#[inline]
+fn pow2_rest(e: i32) -> f64 {
+    pow2_f64(e.saturating_sub(e.clamp(-126, 127)))
+}
+
+/// `2^e` as f64 from its bit pattern; clamps to the normal range.
+#[inline]
+fn pow2_f64(e: i32) -> f64 {
+    let e = e.clamp(-1022, 1023);
+    let biased = e.saturating_add(1023) as u64;
+    f64::from_bits(biased << 52)
+}
+
 /// `2^e` as f32 built from its bit pattern (no libm in `no_std`); clamps to the normal range.
 #[inline]
 fn pow2_f32(e: i32) -> f32 {

@@ -345,6 +345,8 @@ pub enum Implementation {
     F32,
     /// The onboard kernel's `flight_id` in Q8.24 fixed point.
     Fixed,
+    /// The onboard kernel's `flight_id` in f64 (its algorithm without f32 rounding).
+    KernelF64,
 }
 
 impl Implementation {
@@ -353,6 +355,7 @@ impl Implementation {
             "f64" => Some(Implementation::F64),
             "f32" => Some(Implementation::F32),
             "fixed" => Some(Implementation::Fixed),
+            "kernel-f64" => Some(Implementation::KernelF64),
             _ => None,
         }
     }
@@ -378,6 +381,10 @@ pub fn estimate_with(
         Implementation::F64 => identify(&sim.flight, &sim.model, opts).map_err(|e| e.to_string()),
         Implementation::F32 => {
             massid_kernel_host::flight_id::identify::<f32>(&sim.flight, &sim.model, response()?)
+                .map_err(|e| e.to_string())
+        }
+        Implementation::KernelF64 => {
+            massid_kernel_host::flight_id::identify::<f64>(&sim.flight, &sim.model, response()?)
                 .map_err(|e| e.to_string())
         }
         Implementation::Fixed => massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(

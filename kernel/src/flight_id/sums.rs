@@ -167,6 +167,10 @@ impl<S: Scalar> Default for FlightSums<S> {
     }
 }
 
+/// Samples summed on their own before joining the window's sums: f32 sums of a long window
+/// then round like sums of `n / BLOCK + BLOCK` terms, not `n` (two-level pairwise summation).
+pub const BLOCK: u32 = 256;
+
 /// The open window's sums.
 #[derive(Clone, Copy, Debug)]
 pub struct WindowSums<S> {
@@ -174,6 +178,11 @@ pub struct WindowSums<S> {
     sz: [S; NZ],
     sy: [S; 3],
     n: u32,
+    /// The current block's sums ([`BLOCK`]).
+    block: LagMoments<S>,
+    block_sz: [S; NZ],
+    block_sy: [S; 3],
+    block_n: u32,
     /// The last two samples (newest first) for the lagged products.
     history: [Sample<S>; LAGS - 1],
 }
@@ -185,6 +194,10 @@ impl<S: Scalar> Default for WindowSums<S> {
             sz: [S::ZERO; NZ],
             sy: [S::ZERO; 3],
             n: 0,
+            block: LagMoments::zero(),
+            block_sz: [S::ZERO; NZ],
+            block_sy: [S::ZERO; 3],
+            block_n: 0,
             history: [Sample::ZERO; LAGS - 1],
         }
     }
@@ -203,17 +216,17 @@ impl<S: Scalar> WindowSums<S> {
 
     /// Adds one measurement.
     pub fn push(&mut self, v: &Sample<S>) {
-        self.lag.add_pair(0, v, v);
+        self.block.add_pair(0, v, v);
         let back = usize::try_from(self.n).unwrap_or(usize::MAX);
         for (l, then) in self.history.iter().enumerate() {
             if l < back {
-                self.lag.add_pair(l.saturating_add(1), v, then);
+                self.block.add_pair(l.saturating_add(1), v, then);
             }
         }
-        for (s, z) in self.sz.iter_mut().zip(v.z) {
+        for (s, z) in self.block_sz.iter_mut().zip(v.z) {
             *s = s.plus(z);
         }
-        for (s, y) in self.sy.iter_mut().zip(v.y) {
+        for (s, y) in self.block_sy.iter_mut().zip(v.y) {
             *s = s.plus(y);
         }
         self.history.rotate_right(1);
@@ -221,10 +234,30 @@ impl<S: Scalar> WindowSums<S> {
             *h = *v;
         }
         self.n = self.n.saturating_add(1);
+        self.block_n = self.block_n.saturating_add(1);
+        if self.block_n >= BLOCK {
+            self.flush_block();
+        }
+    }
+
+    /// Adds the block's sums to the window's and empties the block.
+    fn flush_block(&mut self) {
+        self.lag.add(&self.block);
+        for (s, b) in self.sz.iter_mut().zip(self.block_sz) {
+            *s = s.plus(b);
+        }
+        for (s, b) in self.sy.iter_mut().zip(self.block_sy) {
+            *s = s.plus(b);
+        }
+        self.block = LagMoments::zero();
+        self.block_sz = [S::ZERO; NZ];
+        self.block_sy = [S::ZERO; 3];
+        self.block_n = 0;
     }
 
     /// Closes the window into `flight` if it has at least `min_len` samples, and empties it.
     pub fn close_into(&mut self, flight: &mut FlightSums<S>, min_len: u32) {
+        self.flush_block();
         if self.n >= min_len.max(1) {
             let n = S::from_int_pow2(i32::try_from(self.n).unwrap_or(i32::MAX), 0);
             let mean_z = self.sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));

@@ -4,7 +4,7 @@
 //! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
 use crate::HostError;
 use massid_kernel::flight_id::craft::{Craft, Thruster, MAX_THRUSTERS};
-use massid_kernel::flight_id::solve::{SolveConfig, SolveError, NP};
+use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
 use massid_kernel::Scalar;
 use nalgebra::{DMatrix, Matrix3};
@@ -123,7 +123,7 @@ pub fn identify<S: Scalar>(
             gyroscopic: !sat.planar,
             // Windows cut at every change are a few samples long: the AR fit's neglect of each
             // window's first samples would not hold.
-            max_noise_order: if coarse { 0 } else { 2 },
+            max_noise_order: if coarse { 0 } else { MAX_ORDER as u8 },
             scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
         },
     };

@@ -19,13 +19,16 @@ pub const NP: usize = 9;
 const NV: usize = NZ + 1;
 type M7<S> = [[S; NV]; NV];
 
-/// An axis' rate-noise model: `e_k = phi_1 e_(k-1) + phi_2 e_(k-2) + innovation`.
+/// Highest AR order the sums support.
+pub const MAX_ORDER: usize = LAGS - 1;
+
+/// An axis' rate-noise model: `e_k = sum_i phi_i e_(k-i) + innovation`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArNoise<S> {
-    /// Order (0, 1 or 2).
+    /// Order (0..=[`MAX_ORDER`]).
     pub order: u8,
     /// AR coefficients (zero beyond the order).
-    pub phi: [S; 2],
+    pub phi: [S; MAX_ORDER],
     /// Innovation variance, (rad/s)^2.
     pub sigma2: S,
 }
@@ -42,7 +45,7 @@ pub struct SolveConfig<S> {
     /// Euler's gyroscopic term is in the model (3-D craft); the drive then carries the
     /// integrated rate products.
     pub gyroscopic: bool,
-    /// Highest AR order tried (at most 2).
+    /// Highest AR order tried (at most [`MAX_ORDER`]).
     pub max_noise_order: u8,
     /// Per term, the standard error beyond which the data do not determine it: the term is
     /// then held at the nominal ("unobservable").
@@ -313,15 +316,18 @@ fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
     })
 }
 
-/// AR weights of `(1 - phi_1 B - phi_2 B^2)`: `w_0 = sum f_i^2`, `w_l = 2 sum f_i f_(i+l)`,
+/// AR weights of `(1 - sum phi_i B^i)`: `w_0 = sum f_i^2`, `w_l = 2 sum f_i f_(i+l)`,
 /// and the gain squared `(sum f_i)^2`.
-fn ar_weights<S: Scalar>(phi: &[S; 2]) -> ([S; LAGS], S) {
-    let f = [S::ONE, get(phi, 0).negate(), get(phi, 1).negate()];
+fn ar_weights<S: Scalar>(phi: &[S; MAX_ORDER]) -> ([S; LAGS], S) {
+    let f: [S; LAGS] = core::array::from_fn(|i| match i.checked_sub(1) {
+        None => S::ONE,
+        Some(k) => get(phi, k).negate(),
+    });
     let two = S::from_int_pow2(1, 1);
     let mut w = [S::ZERO; LAGS];
     for (l, wl) in w.iter_mut().enumerate() {
         let mut acc = S::ZERO;
-        for i in 0..3usize {
+        for i in 0..LAGS {
             acc = acc.mul_add(get(&f, i), get(&f, i.saturating_add(l)));
         }
         *wl = if l == 0 { acc } else { two.times(acc) };
@@ -340,8 +346,9 @@ fn log2_approx<S: Scalar>(n: u32) -> S {
     S::from_int_pow2(i32::try_from(k).unwrap_or(0), 0).plus(frac)
 }
 
-/// Yule-Walker AR fit of order 0..=`max_order` to autocovariances `g`, the order chosen by BIC
-/// (`N ln s2 + p ln N`, compared as `s2_p < s2_(p-1) (1 - ln N / N)`).
+/// Yule-Walker AR fit of order 0..=`max_order` to autocovariances `g` (Levinson-Durbin), the
+/// order chosen by BIC (`N ln s2 + p ln N`, compared as `s2_p < s2_best (1 - ln N / N)^(p -
+/// p_best)`, one order at a time).
 fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<S>> {
     let g0 = get(g, 0);
     if !S::ZERO.lt(g0) {
@@ -352,38 +359,42 @@ fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<
     let keep = S::ONE.minus(ln2.times(log2_approx::<S>(n)).checked_div(nn)?);
     let mut best = ArNoise {
         order: 0,
-        phi: [S::ZERO; 2],
+        phi: [S::ZERO; MAX_ORDER],
         sigma2: g0,
     };
-    if max_order == 0 {
-        return Some(best);
-    }
-    let r1 = get(g, 1).checked_div(g0)?;
-    let s1 = g0.times(S::ONE.minus(r1.times(r1)));
-    if !S::ZERO.lt(s1) {
-        return Some(best);
-    }
-    let one = ArNoise {
-        order: 1,
-        phi: [r1, S::ZERO],
-        sigma2: s1,
-    };
-    if s1.lt(best.sigma2.times(keep)) {
-        best = one;
-    }
-    if max_order >= 2 {
-        let r2 = get(g, 2).checked_div(g0)?;
-        let p22 = r2
-            .minus(r1.times(r1))
-            .checked_div(S::ONE.minus(r1.times(r1)))?;
-        let s2 = s1.times(S::ONE.minus(p22.times(p22)));
-        let two = ArNoise {
-            order: 2,
-            phi: [r1.times(S::ONE.minus(p22)), p22],
-            sigma2: s2,
-        };
-        if S::ZERO.lt(s2) && s2.lt(best.sigma2.times(keep)) {
-            best = two;
+    let mut phi = [S::ZERO; MAX_ORDER];
+    let mut s2 = g0;
+    for p in 1..=usize::from(max_order).min(MAX_ORDER) {
+        // Reflection coefficient k = (g_p - sum phi_i g_(p-i)) / s2.
+        let mut num = get(g, p);
+        for i in 1..p {
+            num = num.minus(get(&phi, i.saturating_sub(1)).times(get(g, p.saturating_sub(i))));
+        }
+        let k = num.checked_div(s2)?;
+        let prev = phi;
+        for i in 1..p {
+            if let Some(v) = phi.get_mut(i.saturating_sub(1)) {
+                *v = get(&prev, i.saturating_sub(1))
+                    .minus(k.times(get(&prev, p.saturating_sub(i).saturating_sub(1))));
+            }
+        }
+        if let Some(v) = phi.get_mut(p.saturating_sub(1)) {
+            *v = k;
+        }
+        s2 = s2.times(S::ONE.minus(k.times(k)));
+        if !S::ZERO.lt(s2) {
+            break;
+        }
+        let mut threshold = best.sigma2;
+        for _ in usize::from(best.order)..p {
+            threshold = threshold.times(keep);
+        }
+        if s2.lt(threshold) {
+            best = ArNoise {
+                order: u8::try_from(p).unwrap_or(0),
+                phi,
+                sigma2: s2,
+            };
         }
     }
     Some(best)
@@ -627,7 +638,7 @@ pub fn solve<S: Scalar>(
     let mut steps = 0u32;
     let white = ArNoise {
         order: 0,
-        phi: [S::ZERO; 2],
+        phi: [S::ZERO; MAX_ORDER],
         sigma2: S::ONE,
     };
     'holding: for _ in 0..NP {
@@ -647,7 +658,7 @@ pub fn solve<S: Scalar>(
                     continue;
                 }
                 let g = autocovariances(s, cfg, &theta, a).ok_or(SolveError::Overflow)?;
-                if let Some(fit) = fit_noise(&g, s.samples, cfg.max_noise_order.min(2)) {
+                if let Some(fit) = fit_noise(&g, s.samples, cfg.max_noise_order) {
                     *nz = fit;
                 }
             }

@@ -19,7 +19,7 @@ use crate::scalar::Scalar;
 /// `integral omega_i omega_j dt` (rad^2/s, order xx yy zz xy xz yz) that the gyroscopic term
 /// `omega x I omega` is linear in.
 pub const NZ: usize = 12;
-/// Lags kept: 0, 1, 2 (an AR noise model of order up to 2).
+/// Lags kept: 0..LAGS-1 (an AR noise model of order up to LAGS - 1).
 pub const LAGS: usize = 3;
 
 /// `sum_k v_k v_(k-l)^T` by blocks, `v = (z, y)`; the `z` block is shared by the three axes.

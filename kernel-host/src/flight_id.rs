@@ -3,11 +3,13 @@
 //! `push`, and the kernel's solution the reference's [`FlightEstimate`] (inertia from the
 //! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
 use crate::HostError;
+use massid_kernel::flight_id::consistency::REJECT_ABOVE;
 use massid_kernel::flight_id::craft::{Craft, Thruster, MAX_THRUSTERS};
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
 use massid_kernel::Scalar;
 use nalgebra::{DMatrix, Matrix3};
+use reference_f64::flight_id::consistency::{chi2_sf, ScoreTest};
 use reference_f64::flight_id::fit::SensorResponse;
 use reference_f64::flight_id::flight::{Command, Flight};
 use reference_f64::flight_id::noise::ArNoise;
@@ -74,6 +76,7 @@ pub fn identify<S: Scalar>(
     flight: &Flight,
     sat: &Satellite,
     response: Option<SensorResponse>,
+    latency_ms: f64,
 ) -> Result<FlightEstimate, HostError> {
     flight
         .check(sat)
@@ -106,14 +109,16 @@ pub fn identify<S: Scalar>(
     let max_window = (MAX_WINDOW_S / period).clamp(MIN_WINDOW as f64, 1e9) as u32;
     // Format v1 logs the word at each sample while the valves switch on a 1 ms grid: below
     // 1 kHz the recording does not say when in an interval a word changed, so those
-    // intervals are left out (a new window after each change; the reference does the same
-    // when its valve-timing test fails, the kernel has no such test and always does).
+    // intervals are left out (a new window after each change of the acting, delayed, wrench; the
+    // reference does the same when its valve-timing test fails, the kernel always does).
     let coarse = flight.from_gyro_counts && period > 1.5e-3;
     let min_window = if coarse { CUT_MIN_WINDOW } else { MIN_WINDOW };
     let response = response.unwrap_or(SensorResponse::Point);
     let cfg = FlightIdConfig {
         period_s: S::from_f32(period as f32),
         sensor: sensor(response),
+        delay_periods: (latency_ms * 1e-3 / period) as f32,
+        cut_at_changes: coarse,
         max_window,
         min_window,
         solve: SolveConfig {
@@ -127,15 +132,17 @@ pub fn identify<S: Scalar>(
             scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
         },
     };
-    let mut id =
-        FlightId::new(cfg).ok_or_else(|| model_error(sat, "inertia is singular".into()))?;
+    let mut id = FlightId::new(cfg).ok_or_else(|| {
+        model_error(
+            sat,
+            format!(
+                "inertia is singular, or the latency {latency_ms} ms is not 0-{} sample periods",
+                massid_kernel::flight_id::delay::MAX_DELAY_SAMPLES
+            ),
+        )
+    })?;
     let mut prev_t: Option<f64> = None;
-    let mut prev_cmd: Option<&Command> = None;
     for ((t, rate), cmd) in flight.time_s.iter().zip(&flight.rate).zip(&flight.commands) {
-        if coarse && prev_cmd.is_some_and(|c| c != cmd) {
-            id.break_window();
-        }
-        prev_cmd = Some(cmd);
         let dt = prev_t.map_or(0.0, |p| t - p);
         prev_t = Some(*t);
         let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
@@ -240,12 +247,25 @@ pub fn identify<S: Scalar>(
     } else {
         (0..3).map(|a| theta[a] / j_nom[(a, a)]).collect()
     };
+    let timing = sol.timing_statistic.map(|v| f64::from(v.to_f32()));
+    let consistency: Vec<ScoreTest> = timing
+        .map(|statistic| ScoreTest {
+            name: "valve_timing",
+            statistic,
+            dof: 1,
+            p_value: chi2_sf(statistic, 1.0),
+        })
+        .into_iter()
+        .collect();
+    let inconsistent = timing.is_some_and(|t| t > f64::from(REJECT_ABOVE));
     let status = if principal.iter().all(|r| r.abs() < 0.125) {
         "no_gyro_response"
     } else if !sol.positive_definite && !sat.planar {
         "implausible_inertia_not_positive_definite"
     } else if let Err(why) = physical_validity(sat, &com_offset_mm, &inertia) {
         why
+    } else if inconsistent {
+        "inconsistent"
     } else if unobservable.len() > not_planar.len() {
         "unobservable_terms"
     } else {
@@ -279,7 +299,7 @@ pub fn identify<S: Scalar>(
         not_planar,
         sensor: response,
         noise,
-        consistency: Vec::new(),
+        consistency,
         command_timing_unknown: false,
         samples_used: samples,
         status,

@@ -21,6 +21,9 @@ pub enum HostError {
     /// The recording contradicts itself (e.g. its declared rate and its time steps).
     #[error(transparent)]
     Recording(#[from] RecordingError),
+    /// The kernel's identification gave no estimate.
+    #[error("{0}")]
+    Fit(String),
     /// The kernel rejects the model.
     #[error("satellite {name}: the kernel rejects the model ({why})")]
     Model {

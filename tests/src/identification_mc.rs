@@ -379,18 +379,25 @@ pub fn estimate_with(
     };
     match imp {
         Implementation::F64 => identify(&sim.flight, &sim.model, opts).map_err(|e| e.to_string()),
-        Implementation::F32 => {
-            massid_kernel_host::flight_id::identify::<f32>(&sim.flight, &sim.model, response()?)
-                .map_err(|e| e.to_string())
-        }
-        Implementation::KernelF64 => {
-            massid_kernel_host::flight_id::identify::<f64>(&sim.flight, &sim.model, response()?)
-                .map_err(|e| e.to_string())
-        }
+        Implementation::F32 => massid_kernel_host::flight_id::identify::<f32>(
+            &sim.flight,
+            &sim.model,
+            response()?,
+            opts.latency_ms,
+        )
+        .map_err(|e| e.to_string()),
+        Implementation::KernelF64 => massid_kernel_host::flight_id::identify::<f64>(
+            &sim.flight,
+            &sim.model,
+            response()?,
+            opts.latency_ms,
+        )
+        .map_err(|e| e.to_string()),
         Implementation::Fixed => massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
             &sim.flight,
             &sim.model,
             response()?,
+            opts.latency_ms,
         )
         .map_err(|e| e.to_string()),
     }

@@ -3,6 +3,7 @@
 //! 31000+; development used 700-719), each check shown failing on a planted fault, and a
 //! format that cannot hold the sums says so instead of answering.
 use massid_sim::Maneuver;
+
 use massid_tests::identification_mc::*;
 use reference_f64::flight_id::Options;
 
@@ -73,4 +74,58 @@ fn fixed_point_refuses_sums_it_cannot_hold() {
     let e = estimate_with(Implementation::Fixed, &sim, &Options::default())
         .expect_err("Q8.24 cannot hold a flight's sums");
     assert!(e.contains("Overflow"), "{e}");
+}
+
+/// One SPH2 flight with `effects`, as the estimator reads it.
+fn sph2_flight(
+    maneuver: Maneuver,
+    rate_hz: f64,
+    seed: u64,
+    effects: Vec<massid_sim::effects::Effect>,
+) -> reference_f64::flight_id::flight::Flight {
+    let sat = reference_f64::satellite::Satellite::builtin("sph2").expect("sph2");
+    let mut spec = massid_sim::SimSpec::new(sat.clone(), effects, maneuver);
+    spec.rate_hz = rate_hz;
+    spec.seed = seed;
+    let out = massid_sim::simulate(&spec).expect("simulation");
+    reference_f64::flight_id::flight::Flight::from_v1(&out.recording, &sat)
+}
+
+fn kernel_status(flight: &reference_f64::flight_id::flight::Flight, latency_ms: f64) -> String {
+    let sat = reference_f64::satellite::Satellite::builtin("sph2").expect("sph2");
+    let e = massid_kernel_host::flight_id::identify::<f32>(flight, &sat, None, latency_ms)
+        .expect("estimate");
+    format!(
+        "{} {:?}",
+        e.status,
+        e.consistency.first().map(|t| t.statistic)
+    )
+}
+
+/// The onboard consistency test: an unmodelled 6 ms latency and a 10 ms thrust rise make
+/// the status `inconsistent`; the same flights without them, and the latency flight told its
+/// latency, stay `ok` (held-out seeds 31000+; development used 3000-3004).
+#[test]
+fn kernel_consistency_catches_timing_faults_and_passes_controls() {
+    use massid_sim::effects::{Effect, ThrustRise, ThrusterLatency};
+    let latency = || {
+        vec![Effect::ThrusterLatency(ThrusterLatency {
+            open_ms: 6.0,
+            close_ms: 6.0,
+        })]
+    };
+    let rise = || vec![Effect::ThrustRise(ThrustRise { tau_ms: 10.0 })];
+    for (maneuver, rate) in [(Maneuver::Rga12, 1000.0), (Maneuver::Combo, 250.0)] {
+        for seed in [31000, 31001] {
+            let control = kernel_status(&sph2_flight(maneuver, rate, seed, vec![]), 0.0);
+            assert!(control.starts_with("ok"), "{maneuver:?} control: {control}");
+            let late = sph2_flight(maneuver, rate, seed, latency());
+            let s = kernel_status(&late, 0.0);
+            assert!(s.starts_with("inconsistent"), "{maneuver:?} latency: {s}");
+            let told = kernel_status(&late, 6.0);
+            assert!(told.starts_with("ok"), "{maneuver:?} latency told: {told}");
+            let s = kernel_status(&sph2_flight(maneuver, rate, seed, rise()), 0.0);
+            assert!(s.starts_with("inconsistent"), "{maneuver:?} rise: {s}");
+        }
+    }
 }

@@ -17,13 +17,15 @@
 //! integrates the model's rate, this the measured one). What the reference does and this does
 //! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and there are
 //! no score tests.
+pub mod consistency;
 pub mod craft;
+pub mod delay;
 pub mod solve;
 pub mod sums;
 
 use crate::scalar::Scalar;
 use solve::{Solution, SolveConfig, SolveError, NP};
-use sums::{FlightSums, Sample, WindowSums, NZ};
+use sums::{FlightSums, Sample, WindowSums, NZ, N_MODEL};
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,6 +46,12 @@ pub struct FlightIdConfig<S> {
     pub period_s: S,
     /// The rate sensor's response.
     pub sensor: SensorResponse,
+    /// Known command-to-thrust delay, in sample periods ([`delay::CommandDelay`]).
+    pub delay_periods: f32,
+    /// Cut the windows wherever the acting wrench changes (the interval before the change is
+    /// left out): for replays of recordings that log commands at a coarser rate than the
+    /// valves switch, so the instant of a change within an interval is unknown.
+    pub cut_at_changes: bool,
     /// Windows are cut at this many samples (bounds every sum).
     pub max_window: u32,
     /// Windows shorter than this are dropped.
@@ -68,7 +76,9 @@ pub struct FlightId<S> {
     filled: u32,
     /// The window's rate anchor (its first measurement).
     anchor: Option<[S; 3]>,
-    /// The previous sample's commanded wrench and measured rate.
+    /// The delay line of the commands.
+    delay: delay::CommandDelay<S>,
+    /// The previous sample's acting wrench and measured rate.
     previous: Option<([S; 6], [S; 3])>,
     /// The nominal model's matrix: the sums hold rates minus its prediction, so that they
     /// stay small (f32 rounding) whatever the rates.
@@ -79,9 +89,16 @@ fn get<S: Scalar>(v: &[S], i: usize) -> S {
     v.get(i).copied().unwrap_or(S::ZERO)
 }
 
+/// Whether two wrenches differ in any component.
+fn differs<S: Scalar>(a: &[S; 6], b: &[S; 6]) -> bool {
+    a.iter().zip(b).any(|(x, y)| x.lt(*y) || y.lt(*x))
+}
+
 impl<S: Scalar> FlightId<S> {
-    /// Nothing measured yet; None if the nominal inverse inertia is singular.
+    /// Nothing measured yet; None if the nominal inverse inertia is singular or the delay is
+    /// out of range.
     pub fn new(cfg: FlightIdConfig<S>) -> Option<Self> {
+        let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
         Some(FlightId {
@@ -94,6 +111,7 @@ impl<S: Scalar> FlightId<S> {
             filled: 0,
             anchor: None,
             previous: None,
+            delay,
             nominal,
         })
     }
@@ -106,7 +124,9 @@ impl<S: Scalar> FlightId<S> {
     /// One sample: `dt_s` since the previous sample, the measured `rate` (rad/s; `valid` false
     /// for a missing or railed sample) and the commanded `wrench` (torque about the model's
     /// CoM N m, force N; [`craft::Craft::wrench`] of the thruster word) held until the next.
-    pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, wrench: [S; 6]) {
+    pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; 6]) {
+        // The command history runs on whatever happens to the rate samples.
+        let wrench = self.delay.push(command);
         if !valid {
             self.close_window();
             self.previous = None;
@@ -114,7 +134,12 @@ impl<S: Scalar> FlightId<S> {
         }
         let gap = S::from_f32(1.5).times(self.cfg.period_s);
         let joins = match self.previous {
-            Some(_) => !gap.lt(dt_s) && S::ZERO.lt(dt_s) && self.filled < self.cfg.max_window,
+            Some((w_prev, _)) => {
+                !gap.lt(dt_s)
+                    && S::ZERO.lt(dt_s)
+                    && self.filled < self.cfg.max_window
+                    && !(self.cfg.cut_at_changes && differs(&w_prev, &wrench))
+            }
             None => false,
         };
         if !joins {
@@ -126,7 +151,7 @@ impl<S: Scalar> FlightId<S> {
             for (i, (zi, carry)) in self.z.iter_mut().zip(self.z_carry.iter_mut()).enumerate() {
                 let increment = if i < 6 {
                     get(&w_prev, i).times(dt_s)
-                } else if gyro {
+                } else if i < N_MODEL && gyro {
                     // Trapezoid of the measured rate product (unbiased: the noise products
                     // have zero mean in every component of omega x I omega; taking them of a
                     // Kalman-filtered rate instead changed no Monte Carlo figure).
@@ -137,6 +162,10 @@ impl<S: Scalar> FlightId<S> {
                     let then = get(&r_prev, b).times(get(&r_prev, d));
                     let now = get(&rate, b).times(get(&rate, d));
                     h.times(then.plus(now))
+                } else if i >= N_MODEL {
+                    // The held wrench itself (the consistency test's direction), not summed.
+                    *zi = get(&w_prev, i.saturating_sub(N_MODEL));
+                    continue;
                 } else {
                     S::ZERO
                 };
@@ -192,14 +221,6 @@ impl<S: Scalar> FlightId<S> {
         self.z_carry = [S::ZERO; NZ];
         self.filled = 0;
         self.anchor = None;
-    }
-
-    /// Ends the window before the next sample: the interval up to it is not used (its
-    /// command changed at an unknown time, e.g. a ground replay of a recording that logs
-    /// thruster words at a coarser rate than the valves switch).
-    pub fn break_window(&mut self) {
-        self.close_window();
-        self.previous = None;
     }
 
     /// Ends the flight: closes the open window (call before the final [`FlightId::solve`]).

@@ -16,8 +16,9 @@ use crate::scalar::Scalar;
 
 /// Parameters: six inverse-inertia entries, then three CoM offsets.
 pub const NP: usize = 9;
-const NV: usize = NZ + 1;
-type M7<S> = [[S; NV]; NV];
+/// Size of `v = (z, y)`.
+pub(crate) const NV: usize = NZ + 1;
+pub(crate) type M7<S> = [[S; NV]; NV];
 
 /// Highest AR order the sums support.
 pub const MAX_ORDER: usize = LAGS - 1;
@@ -80,6 +81,9 @@ pub struct Solution<S> {
     pub steps: u32,
     /// The inverse inertia is positive definite (else not a rigid body).
     pub positive_definite: bool,
+    /// The consistency test's statistic (chi-square, 1 degree of freedom), if the timing
+    /// direction is distinguishable from the fitted terms ([`super::consistency`]).
+    pub timing_statistic: Option<S>,
 }
 
 fn get<S: Scalar>(v: &[S], i: usize) -> S {
@@ -191,8 +195,10 @@ fn blocks<S: Scalar>(p: &M3<S>, q: &M3<S>, k: &[[S; 6]; 3]) -> [[S; NZ]; 3] {
                 get2(p, r, c)
             } else if c < 6 {
                 get2(q, r, c.saturating_sub(3))
-            } else {
+            } else if c < 12 {
                 get2(k, r, c.saturating_sub(6))
+            } else {
+                S::ZERO
             }
         })
     })
@@ -263,7 +269,7 @@ fn basis<S: Scalar>(m: usize) -> [S; 6] {
 }
 
 /// Axis `a`'s whitened, initial-rate-eliminated moment matrix for AR weights `w`, gain^2 `c2`.
-fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<S> {
+pub(crate) fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<S> {
     let mut out = [[S::ZERO; NV]; NV];
     let h = half::<S>();
     for l in 0..LAGS {
@@ -304,7 +310,7 @@ fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<
     out
 }
 
-fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
+pub(crate) fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
     m.iter().zip(u).fold(S::ZERO, |acc, (row, ui)| {
         acc.plus(
             ui.times(
@@ -318,7 +324,7 @@ fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
 
 /// AR weights of `(1 - sum phi_i B^i)`: `w_0 = sum f_i^2`, `w_l = 2 sum f_i f_(i+l)`,
 /// and the gain squared `(sum f_i)^2`.
-fn ar_weights<S: Scalar>(phi: &[S; MAX_ORDER]) -> ([S; LAGS], S) {
+pub(crate) fn ar_weights<S: Scalar>(phi: &[S; MAX_ORDER]) -> ([S; LAGS], S) {
     let f: [S; LAGS] = core::array::from_fn(|i| match i.checked_sub(1) {
         None => S::ONE,
         Some(k) => get(phi, k).negate(),
@@ -402,7 +408,7 @@ fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<
 
 /// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns); None
 /// when the inverse inertia is singular.
-fn residual_and_jacobian<S: Scalar>(
+pub(crate) fn residual_and_jacobian<S: Scalar>(
     theta: &[S; NP],
     cfg: &SolveConfig<S>,
     a: usize,
@@ -709,6 +715,8 @@ pub fn solve<S: Scalar>(
         }
         let held = core::array::from_fn(|m| !free.get(m).copied().unwrap_or(false));
         let positive_definite = positive_definite(theta.split_at(6).0);
+        let timing_statistic =
+            super::consistency::timing_statistic(s, cfg, &theta, &noise, &free, &covariance);
         return Ok(Solution {
             theta,
             covariance,
@@ -716,6 +724,7 @@ pub fn solve<S: Scalar>(
             noise,
             steps,
             positive_definite,
+            timing_statistic,
         });
     }
     Err(SolveError::Singular)

@@ -17,8 +17,13 @@ use crate::scalar::Scalar;
 
 /// Drive components: accumulated torque (N m s), force (N s), and the rate products
 /// `integral omega_i omega_j dt` (rad^2/s, order xx yy zz xy xz yz) that the gyroscopic term
-/// `omega x I omega` is linear in.
-pub const NZ: usize = 12;
+/// `omega x I omega` is linear in; then the wrench (torque, force) held over the interval that
+/// ends at the sample, which the model leaves out: a command-to-thrust delay `L` moves the
+/// accumulated drive by `-L` times it, so it is the direction of the consistency test
+/// (`super::consistency`).
+pub const NZ: usize = 18;
+/// Components the model uses (the rest only enter the consistency test).
+pub const N_MODEL: usize = 12;
 /// Lags kept: 0..LAGS-1 (an AR noise model of order up to LAGS - 1).
 pub const LAGS: usize = 3;
 

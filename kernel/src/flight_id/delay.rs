@@ -1,0 +1,60 @@
+//! A known command-to-thrust delay: the wrench commanded at sample `j` acts from `t_j + L` to
+//! `t_(j+1) + L`. With `L = (m + f) T` (nominal period `T`), the interval after sample `k` is
+//! covered by command `k - m - 1` for its first fraction `f` and by command `k - m` for the
+//! rest; before the first command acts nothing fires. A fixed ring of the last commands, so a
+//! delay costs memory in proportion to [`MAX_DELAY_SAMPLES`], never to the flight.
+use crate::scalar::Scalar;
+
+/// Longest delay in sample periods.
+pub const MAX_DELAY_SAMPLES: usize = 62;
+const RING: usize = MAX_DELAY_SAMPLES + 2;
+
+/// The delay line.
+#[derive(Clone, Copy, Debug)]
+pub struct CommandDelay<S> {
+    /// Last commands, newest first (zero before the flight's first).
+    ring: [[S; 6]; RING],
+    whole: usize,
+    fraction: S,
+}
+
+/// Why a delay is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DelayError {
+    /// Negative, not a number, or longer than [`MAX_DELAY_SAMPLES`] periods.
+    OutOfRange,
+}
+
+impl<S: Scalar> CommandDelay<S> {
+    /// A delay of `periods` sample periods (`latency / T`).
+    pub fn new(periods: f32) -> Result<Self, DelayError> {
+        if !(periods.is_finite() && (0.0..=MAX_DELAY_SAMPLES as f32).contains(&periods)) {
+            return Err(DelayError::OutOfRange);
+        }
+        let whole = periods as usize; // floor: non-negative and at most 62
+        let fraction = periods - whole as f32;
+        Ok(CommandDelay {
+            ring: [[S::ZERO; 6]; RING],
+            whole,
+            fraction: S::from_f32(fraction),
+        })
+    }
+
+    /// Takes the command of the newest sample and returns the wrench acting over the interval
+    /// that starts at it.
+    pub fn push(&mut self, command: [S; 6]) -> [S; 6] {
+        self.ring.rotate_right(1);
+        if let Some(r) = self.ring.first_mut() {
+            *r = command;
+        }
+        let at = |i: usize| self.ring.get(i).copied().unwrap_or([S::ZERO; 6]);
+        let (late, early) = (at(self.whole), at(self.whole.saturating_add(1)));
+        core::array::from_fn(|c| {
+            let (l, e) = (
+                late.get(c).copied().unwrap_or(S::ZERO),
+                early.get(c).copied().unwrap_or(S::ZERO),
+            );
+            l.plus(self.fraction.times(e.minus(l)))
+        })
+    }
+}

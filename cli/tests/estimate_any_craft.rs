@@ -80,9 +80,10 @@ fn a_planar_motion_capture_recording_reports_only_what_it_can_know() {
 
 #[test]
 fn the_onboard_kernel_identifies_v2_craft_and_the_seed_method_refuses_them() {
-    for (name, term, truth) in [
-        ("r04_ft10_nominal", 0, 0.045),
-        ("r01_pl6_nominal", 2, 0.085),
+    for (name, term, truth, status) in [
+        ("r04_ft10_nominal", 0, 0.045, "ok"),
+        // Motion-capture rates: estimated, but the kernel's timing test is for gyros.
+        ("r01_pl6_nominal", 2, 0.085, "consistency_untested"),
     ] {
         let (rec, model) = open3(name);
         let dir = std::env::temp_dir().join(format!("massid-k-{}-{name}", std::process::id()));
@@ -110,8 +111,10 @@ fn the_onboard_kernel_identifies_v2_craft_and_the_seed_method_refuses_them() {
             serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
         std::fs::remove_dir_all(&dir).ok();
         let r = &v["results"]["f32"];
-        assert_eq!(r["status"], "ok", "{name}: {r}");
-        assert_eq!(r["consistency"][0]["test"], "valve_timing", "{r}");
+        assert_eq!(r["status"], status, "{name}: {r}");
+        if status == "ok" {
+            assert_eq!(r["consistency"][0]["test"], "valve_timing", "{r}");
+        }
         assert!(v["results"]["fixed"].is_null());
         let value = r["inertia_kgm2"][term].as_f64().unwrap();
         let se = r["inertia_stderr_kgm2"][term].as_f64().unwrap();

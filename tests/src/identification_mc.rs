@@ -288,7 +288,11 @@ impl Cell {
         } else {
             self.statuses.push(e.status.to_string());
         }
-        if !matches!(e.status, "ok" | "unobservable_terms") {
+        // An estimate whose consistency could not be tested still states its sigmas: scored.
+        if !matches!(
+            e.status,
+            "ok" | "unobservable_terms" | "consistency_untested"
+        ) {
             self.flagged += 1;
             return;
         }

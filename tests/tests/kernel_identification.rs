@@ -59,7 +59,13 @@ fn f32_kernel_is_calibrated_or_conservative_on_planar_motion_capture() {
         closed_loop: true,
     };
     let c = cell(&cond, 12, 31000, 1.0);
-    assert_eq!(c.ok, c.flights, "{:?}", c.statuses);
+    // The kernel's timing test is for gyros: differenced attitude is estimated, not tested.
+    assert_eq!(c.flagged + c.failed, 0, "{:?}", c.statuses);
+    assert!(
+        c.statuses.iter().all(|s| s == "consistency_untested") && c.statuses.len() == 12,
+        "{:?}",
+        c.statuses
+    );
     for (name, s) in TERMS.iter().zip(&c.terms) {
         if s.n > 0 {
             // AR(2) does not whiten differenced attitude: sigmas are conservative, never small.

@@ -44,6 +44,9 @@ fn main() {
                     match massid_kernel_host::flight_id::identify::<f32>(&flight, &sat, None, 0.0) {
                         Ok(e) => {
                             inconsistent += (e.status == "inconsistent") as u32;
+                            if e.status != "inconsistent" && !effects.is_empty() {
+                                println!("  seed {seed}: {}", e.status);
+                            }
                             stats.push(e.consistency.first().map_or(f64::NAN, |t| t.statistic));
                         }
                         Err(e) => println!("  {e}"),

@@ -1,6 +1,6 @@
 //! The widening product and the Q-format rounding product.
 
-use crate::discharge::{Engine, Obligation};
+use crate::discharge::{Engine, Obligation, PRODUCT_MUTANT_RLIMIT};
 use crate::prover::{Prover, ProverExt};
 use massid_kernel::int::mul::{
     round_product, unsigned_mul_by_halves, widening_mul_by_halves, widening_mul_direct,
@@ -41,6 +41,9 @@ impl Obligation for WideningProduct {
     }
     fn engine(&self) -> Engine {
         engine_for(self.0)
+    }
+    fn mutant_rlimit(&self) -> u32 {
+        PRODUCT_MUTANT_RLIMIT
     }
 }
 
@@ -102,6 +105,9 @@ impl Obligation for RoundedProduct {
     }
     fn engine(&self) -> Engine {
         engine_for(self.widening)
+    }
+    fn mutant_rlimit(&self) -> u32 {
+        PRODUCT_MUTANT_RLIMIT
     }
 }
 

@@ -38,7 +38,29 @@ enum Command {
     Model(cmd::model::Args),
 }
 
+/// A closed stdout (`massid ... | head`) ends the process quietly, as it does for other
+/// Unix tools: Rust ignores SIGPIPE, so every `println!` after the reader left would panic
+/// ("failed printing to stdout: Broken pipe"). Restoring the default action makes the write
+/// end the process (status 141 in a shell), with no message, in every subcommand.
+#[cfg(unix)]
+fn default_sigpipe() {
+    extern "C" {
+        fn signal(signum: i32, handler: usize) -> usize;
+    }
+    const SIGPIPE: i32 = 13; // Linux and the BSDs
+    const SIG_DFL: usize = 0;
+    // SAFETY: `signal` with SIG_DFL installs no handler code; it runs before any thread is
+    // started, so no other thread can observe the change midway.
+    unsafe {
+        signal(SIGPIPE, SIG_DFL);
+    }
+}
+
+#[cfg(not(unix))]
+fn default_sigpipe() {}
+
 fn main() -> std::process::ExitCode {
+    default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => cmd::demo::run(a),

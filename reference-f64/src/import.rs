@@ -33,11 +33,21 @@ use toml::Spanned;
 /// A rejected mapping file: the file, the 1-based line and the reason (starting with the
 /// column when the TOML parser knows it).
 #[derive(Debug, thiserror::Error)]
-#[error("{file}:{line}: {reason}")]
 pub struct MappingError {
     pub file: String,
     pub line: usize,
     pub reason: String,
+}
+
+/// `file:line: reason`, or `file: reason` when no line is known (line 0; never `file:0:`).
+impl std::fmt::Display for MappingError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line == 0 {
+            write!(f, "{}: {}", self.file, self.reason)
+        } else {
+            write!(f, "{}:{}: {}", self.file, self.line, self.reason)
+        }
+    }
 }
 
 /// Unit of the time column.
@@ -142,6 +152,8 @@ pub struct Mapping {
     pub source: String,
     pub satellite: String,
     pub sample_rate_hz: Option<f64>,
+    /// The line of `sample_rate_hz` in the mapping (0 when absent), for errors.
+    pub sample_rate_line: usize,
     pub time: TimeColumn,
     /// x, y, z.
     pub rates: [Option<RateColumn>; 3],
@@ -149,7 +161,10 @@ pub struct Mapping {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "the mapping table (satellite, time, rates, thrusters or wrench)"
+)]
 struct RawMapping {
     satellite: Spanned<String>,
     sample_rate_hz: Option<Spanned<f64>>,
@@ -160,7 +175,10 @@ struct RawMapping {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a [time] table { column = \"NAME\", unit = \"s\" | \"ms\" | \"us\" }"
+)]
 struct RawTime {
     column: String,
     unit: TimeUnit,
@@ -168,7 +186,7 @@ struct RawTime {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a [rates] table with x, y and/or z")]
 struct RawRates {
     x: Option<Spanned<RawRate>>,
     y: Option<Spanned<RawRate>>,
@@ -186,7 +204,10 @@ enum RawRateUnit {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a rate table { column = \"NAME\", unit = \"rad/s\" | \"deg/s\" | \"counts\", ... }"
+)]
 struct RawRate {
     column: String,
     unit: RawRateUnit,
@@ -196,7 +217,10 @@ struct RawRate {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a [thrusters] table { count = N, and columns, vector or bitmask }"
+)]
 struct RawThrusters {
     count: Spanned<i64>,
     columns: Option<Spanned<Vec<String>>>,
@@ -205,7 +229,10 @@ struct RawThrusters {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a bitmask table { column = \"NAME\", base = 10 | 16 }"
+)]
 struct RawBitmask {
     column: String,
     base: Option<u32>,
@@ -224,7 +251,10 @@ enum TorqueUnit {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a force table { column = \"NAME\", unit = \"N\" }"
+)]
 struct RawForce {
     column: String,
     #[allow(dead_code)] // the one accepted unit: stating it is what the field is for
@@ -232,7 +262,10 @@ struct RawForce {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a torque table { column = \"NAME\", unit = \"N m\" }"
+)]
 struct RawTorque {
     column: String,
     #[allow(dead_code)] // the one accepted unit: stating it is what the field is for
@@ -240,7 +273,10 @@ struct RawTorque {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a [wrench] table of force_x .. torque_z"
+)]
 struct RawWrench {
     force_x: Option<RawForce>,
     force_y: Option<RawForce>,
@@ -316,6 +352,10 @@ impl Mapping {
             }
             r => r.as_ref().map(|r| *r.get_ref()),
         };
+        let sample_rate_line = raw
+            .sample_rate_hz
+            .as_ref()
+            .map_or(0, |r| line_col(text, r.span().start).0);
 
         let rates_table = &raw.rates;
         let raw_rates = rates_table.get_ref();
@@ -379,6 +419,7 @@ impl Mapping {
             source: file.to_string(),
             satellite: name.clone(),
             sample_rate_hz,
+            sample_rate_line,
             time: TimeColumn {
                 column: t.column,
                 unit: t.unit,
@@ -786,6 +827,22 @@ pub fn import_reader<R: Read>(
             .map(|f| f.to_string_lossy().replace(char::is_control, "?"))
             .unwrap_or_default()
     };
+    // A declared rate must agree with the log's time steps within 10 % (the rule every
+    // subcommand applies to a recording): 1000 Hz over 60 ms steps is no "3269 gaps". A
+    // median of fewer than 10 steps says too little to overrule the mapping.
+    if let (Some(r), Some(step)) = (mapping.sample_rate_hz, rows.median_step_ms(10)) {
+        let period = 1000.0 / r;
+        if (step - period).abs() > 0.1 * period.max(step) {
+            return Err(RecordingError {
+                file: mapping.source.clone(),
+                line: mapping.sample_rate_line,
+                reason: format!(
+                    "sample_rate_hz = {r} declares a {period} ms period, but the time steps of {} are {step} ms (median): fix the rate or leave it out (the median step is then used)",
+                    Path::new(source).display()
+                ),
+            });
+        }
+    }
     let mut metadata =
         RateRecording::base_metadata(&mapping.satellite, axes, &kind, mapping.sample_rate_hz);
     metadata.push(("imported_from".to_string(), file_name(source)));

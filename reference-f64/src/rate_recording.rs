@@ -143,6 +143,14 @@ impl RowCollector {
         }
     }
 
+    /// Median step between kept rows, ms, when there are at least `min_steps` steps.
+    pub(crate) fn median_step_ms(&self, min_steps: usize) -> Option<f64> {
+        if self.steps.count() < min_steps.max(1) {
+            return None;
+        }
+        self.steps.median()
+    }
+
     /// True before the first kept row.
     pub(crate) fn is_empty(&self) -> bool {
         self.time_ms.is_empty()

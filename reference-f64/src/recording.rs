@@ -81,11 +81,21 @@ pub struct Recording {
 
 /// A rejected recording: the file, the 1-based line and the reason.
 #[derive(Debug, thiserror::Error)]
-#[error("{file}:{line}: {reason}")]
 pub struct RecordingError {
     pub file: String,
     pub line: usize,
     pub reason: String,
+}
+
+/// `file:line: reason`, or `file: reason` when no line is known (line 0; never `file:0:`).
+impl std::fmt::Display for RecordingError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line == 0 {
+            write!(f, "{}: {}", self.file, self.reason)
+        } else {
+            write!(f, "{}:{}: {}", self.file, self.line, self.reason)
+        }
+    }
 }
 
 impl Recording {
@@ -332,6 +342,11 @@ pub(crate) struct StepHistogram {
 impl StepHistogram {
     pub(crate) fn add(&mut self, step: u64) {
         *self.counts.entry(step).or_insert(0) += 1;
+    }
+
+    /// Number of steps added.
+    pub(crate) fn count(&self) -> usize {
+        self.counts.values().sum()
     }
 
     pub(crate) fn median(&self) -> Option<f64> {

@@ -21,6 +21,15 @@ pub const MAX_THRUSTERS: usize = 16;
 /// thrusters (1,7) (2,8) (3,9) (4,10) (5,11) (6,12) in the seed's 1-based numbering.
 pub const OPPOSING_PAIRS: [(usize, usize); 6] = [(0, 6), (1, 7), (2, 8), (3, 9), (4, 10), (5, 11)];
 
+/// Largest thrust of one thruster a model may state, N (small thruster craft).
+pub const MAX_THRUST_N: f64 = 100.0;
+/// A thrust direction's norm may differ from 1 by this much.
+pub const DIR_NORM_TOLERANCE: f64 = 0.01;
+/// Farthest a thruster may be from the geometric centre, m.
+pub const MAX_SIZE_M: f64 = 10.0;
+/// Heaviest craft a model may describe, kg.
+pub const MAX_MASS_KG: f64 = 10_000.0;
+
 /// Default gyro scale, counts per rad/s, every axis and satellite (seed App. D: `conversion = 1412.79`).
 pub const GYRO_COUNTS_PER_RAD_S: f64 = 1412.79;
 /// Standard gravity used for the accelerometer scale, m/s^2.
@@ -366,6 +375,129 @@ impl Satellite {
         }
         if self.inertia_matrix().cholesky().is_none() {
             return Err("inertia_kgm2 is not positive definite".into());
+        }
+        Ok(())
+    }
+
+    /// Physical plausibility of a model a user wrote (every model file is held to it when it
+    /// is read; [`Satellite::validate`] is the weaker check any estimator needs). Each reason
+    /// starts with the key it is about. The envelope, and why:
+    /// - `thrust_n`: each in (0, [`MAX_THRUST_N`]] N (a dead thruster is the simulator's
+    ///   `thrust_scale` effect with 0, not a nominal model);
+    /// - `thrust_dir`: unit vectors within [`DIR_NORM_TOLERANCE`] (the seed's calibrated
+    ///   directions have norms 0.997..1.000);
+    /// - `thruster_pos_m`: within [`MAX_SIZE_M`] of the geometric centre, not all at it;
+    /// - `mass_kg`: in (0, [`MAX_MASS_KG`]];
+    /// - `inertia_kgm2`: positive definite, principal moments obeying the triangle inequality
+    ///   (`I1 + I2 >= I3`, within 1 %) as any rigid body's do, and none above
+    ///   `mass_kg * (5 r)^2` with `r` the farthest thruster from the centre (all of the mass
+    ///   five times farther out than the thrusters);
+    /// - `com_offset_mm`: within `r` of the centre;
+    /// - `thrust_sigma_n`: each at most the thruster's thrust;
+    /// - `pressure_drop_n_per_extra`: at most the largest thrust;
+    /// - gyro and accelerometer scales: non-zero and at most 10^6 in magnitude, biases at most
+    ///   65535 counts in magnitude.
+    pub fn check_plausible(&self) -> Result<(), String> {
+        self.validate()?;
+        let n = self.n_thrusters();
+        for i in 0..n {
+            let f = self.thrust_n[i];
+            if !(f > 0.0 && f <= MAX_THRUST_N) {
+                return Err(format!(
+                    "thrust_n[{i}] = {f} N: a thruster's thrust must be in (0, {MAX_THRUST_N}] N \
+                     (a dead thruster is the `thrust_scale` effect with 0)"
+                ));
+            }
+            let norm = Vector3::from(self.thrust_dir[i]).norm();
+            if (norm - 1.0).abs() > DIR_NORM_TOLERANCE {
+                return Err(format!(
+                    "thrust_dir[{i}] has norm {norm:.6}: a direction is a unit vector (norm 1 \
+                     within {DIR_NORM_TOLERANCE})"
+                ));
+            }
+            let r = Vector3::from(self.thruster_pos_m[i]).norm();
+            if r > MAX_SIZE_M {
+                return Err(format!(
+                    "thruster_pos_m[{i}] is {r} m from the centre; at most {MAX_SIZE_M} m"
+                ));
+            }
+        }
+        let r_max = (0..n)
+            .map(|i| Vector3::from(self.thruster_pos_m[i]).norm())
+            .fold(0.0, f64::max);
+        if r_max <= 0.0 {
+            return Err(
+                "thruster_pos_m: every thruster is at the centre; they could not turn the craft"
+                    .into(),
+            );
+        }
+        if !(self.mass_kg > 0.0 && self.mass_kg <= MAX_MASS_KG) {
+            return Err(format!(
+                "mass_kg = {}: must be in (0, {MAX_MASS_KG}] kg",
+                self.mass_kg
+            ));
+        }
+        let eig = self.inertia_matrix().symmetric_eigenvalues();
+        let mut p = [eig[0], eig[1], eig[2]];
+        p.sort_by(f64::total_cmp);
+        if p[0] <= 0.0 {
+            return Err("inertia_kgm2 is not positive definite".into());
+        }
+        if p[0] + p[1] < p[2] * 0.99 {
+            return Err(format!(
+                "inertia_kgm2: principal moments {:.4e}, {:.4e}, {:.4e} kg m^2 break the triangle \
+                 inequality (the two smaller sum to less than the largest): no rigid body has them",
+                p[0], p[1], p[2]
+            ));
+        }
+        let cap = self.mass_kg * (5.0 * r_max).powi(2);
+        if p[2] > cap {
+            return Err(format!(
+                "inertia_kgm2: largest principal moment {:.4e} kg m^2 is above {cap:.4e} = \
+                 mass_kg * (5 x the farthest thruster's {r_max:.3} m)^2: outside the craft's envelope",
+                p[2]
+            ));
+        }
+        let com = Vector3::from(self.com_offset_mm).norm() * 1e-3;
+        if com > r_max {
+            return Err(format!(
+                "com_offset_mm is {:.1} mm from the centre, outside the thrusters ({:.1} mm)",
+                com * 1e3,
+                r_max * 1e3
+            ));
+        }
+        if !self.thrust_sigma_n.is_empty() {
+            if let Some(i) = (0..n).find(|&i| self.thrust_sigma_n[i] > self.thrust_n[i]) {
+                return Err(format!(
+                    "thrust_sigma_n[{i}] = {} N is more than thruster {}'s thrust {} N",
+                    self.thrust_sigma_n[i],
+                    i + 1,
+                    self.thrust_n[i]
+                ));
+            }
+        }
+        let f_max = self.thrust_n.iter().cloned().fold(0.0, f64::max);
+        if self.pressure_drop_n_per_extra > f_max {
+            return Err(format!(
+                "pressure_drop_n_per_extra = {} N is more than the largest thrust ({f_max} N)",
+                self.pressure_drop_n_per_extra
+            ));
+        }
+        for (key, v) in [
+            ("gyro_counts_per_rad_s", &self.gyro_counts_per_rad_s[..]),
+            ("accel_m_s2_per_count", &[self.accel_m_s2_per_count][..]),
+        ] {
+            if let Some(x) = v.iter().find(|x| !(x.abs() > 0.0 && x.abs() <= 1e6)) {
+                return Err(format!("{key}: {x} must be non-zero and at most 1e6"));
+            }
+        }
+        for (key, v) in [
+            ("gyro_bias_counts", &self.gyro_bias_counts),
+            ("accel_bias_counts", &self.accel_bias_counts),
+        ] {
+            if let Some(x) = v.iter().find(|x| x.abs() > 65535.0) {
+                return Err(format!("{key}: {x} is more than 65535 counts"));
+            }
         }
         Ok(())
     }

@@ -59,13 +59,23 @@ pub struct ModelFile {
 }
 
 /// Why a model file is unusable: the file, the line (0 when unknown) and the reason (which
-/// starts with the column when the parser knows it).
+/// starts with the column when the parser knows it). Shown as `file:line: reason`, or
+/// `file: reason` when no line is known (never `file:0:`).
 #[derive(Debug, thiserror::Error)]
-#[error("{file}:{line}: {reason}")]
 pub struct ModelFileError {
     pub file: String,
     pub line: usize,
     pub reason: String,
+}
+
+impl std::fmt::Display for ModelFileError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line == 0 {
+            write!(f, "{}: {}", self.file, self.reason)
+        } else {
+            write!(f, "{}:{}: {}", self.file, self.line, self.reason)
+        }
+    }
 }
 
 /// The normalised layout [`ModelFile::to_toml_string`] writes.
@@ -91,8 +101,20 @@ fn locate(text: &str, e: &toml::de::Error) -> (usize, String) {
 }
 
 impl ModelFile {
+    /// Reads a model file; a path that names no file but a built-in satellite (`sph2`) is
+    /// that satellite without effects, so every `--model` takes the built-in names too.
     pub fn read(path: &Path) -> Result<ModelFile, ModelFileError> {
         let file = path.display().to_string();
+        if !path.exists() {
+            if let Some(satellite) = path.to_str().and_then(Satellite::builtin) {
+                return Ok(ModelFile {
+                    satellite,
+                    effects: Vec::new(),
+                    sensors: SensorConfig::default(),
+                    artefacts: Artefacts::default(),
+                });
+            }
+        }
         let text = std::fs::read_to_string(path).map_err(|e| ModelFileError {
             file: file.clone(),
             line: 0,
@@ -120,7 +142,9 @@ impl ModelFile {
                 let (line, reason) = locate(text, &e);
                 err(line, format!("{reason} (a model file has a `satellite` key, or is a satellite description)"))
             })?;
-            satellite.validate().map_err(|r| err(0, r))?;
+            satellite
+                .check_plausible()
+                .map_err(|r| err(key_line(text, &r, 0), r))?;
             return Ok(ModelFile {
                 satellite,
                 effects: Vec::new(),
@@ -143,13 +167,13 @@ impl ModelFile {
                 )
             })?,
             SatelliteRef::Inline(s) => {
-                s.validate()
-                    .map_err(|r| err(line_of(text, "[satellite]"), r))?;
+                s.check_plausible()
+                    .map_err(|r| err(key_line(text, &r, line_of(text, "[satellite]")), r))?;
                 *s
             }
         };
         for (i, e) in raw.effects.iter().enumerate() {
-            e.validate()
+            e.check_plausible(&satellite)
                 .map_err(|r| err(nth_line_of(text, "[[effects]]", i), r))?;
         }
         Ok(ModelFile {
@@ -173,6 +197,28 @@ impl ModelFile {
         };
         toml::to_string_pretty(&w).unwrap_or_default()
     }
+}
+
+/// The line of the key a validation reason starts with (`thrust_n[3] = ...` names
+/// `thrust_n`), at or after line `from`; else `from` (0: unknown).
+fn key_line(text: &str, reason: &str, from: usize) -> usize {
+    let key: String = reason
+        .chars()
+        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+        .collect();
+    if key.is_empty() {
+        return from;
+    }
+    text.lines()
+        .enumerate()
+        .skip(from.saturating_sub(1))
+        .find(|(_, l)| {
+            let t = l.trim_start();
+            t.strip_prefix(key.as_str())
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map(|(i, _)| i + 1)
+        .unwrap_or(from)
 }
 
 fn line_of(text: &str, needle: &str) -> usize {

@@ -109,7 +109,21 @@ pub enum SimError {
     BadSatellite(String),
     #[error("closed loop: mixer: {0}")]
     Mixer(String),
+    #[error(
+        "a largest integration step of {step_ms:e} ms over {span_ms} ms of flight is {steps:.3e} steps; at most {max:.0e} are run (a step of at least {min_step_ms:.3e} ms for this length)",
+        max = MAX_STEPS
+    )]
+    TooManySteps {
+        step_ms: f64,
+        span_ms: f64,
+        steps: f64,
+        min_step_ms: f64,
+    },
 }
+
+/// Most integration steps one simulation runs (about 10 s of work here); bounds the work by
+/// the recording's length, not by the step a user types.
+pub const MAX_STEPS: f64 = 1e8;
 
 /// A finished simulation.
 #[derive(Clone, Debug)]
@@ -178,6 +192,17 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
         (Some(w), _) => w.len(),
         (None, _) => (seconds * 1000.0).round() as usize,
     };
+    // The flight lasts the script plus its coast; bound the steps before any work.
+    let span_ms = total_ms as f64 + 2000.0;
+    let steps = span_ms / spec.max_step_ms;
+    if !(spec.max_step_ms.is_finite() && spec.max_step_ms > 0.0 && steps <= MAX_STEPS) {
+        return Err(SimError::TooManySteps {
+            step_ms: spec.max_step_ms,
+            span_ms,
+            steps,
+            min_step_ms: span_ms / MAX_STEPS,
+        });
+    }
     let mut controller = match spec.maneuver {
         Maneuver::ClosedLoop => Some(Controller::new(sat, total_ms)?),
         _ => None,

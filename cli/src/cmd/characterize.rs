@@ -494,6 +494,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 )
         }
         Tool::Slosh { dt } => {
+            // A step longer than half the slosh period cannot represent it (Nyquist); 1e308
+            // used to print nulls.
+            let nyquist_s = std::f64::consts::PI / SloshModel::SEED.stiffness_per_mass.sqrt();
+            if !(dt.is_finite() && dt > 0.0 && dt <= nyquist_s) {
+                anyhow::bail!(
+                    "--dt {}: the sample time must be in (0, {nyquist_s:.4}] s, half the period of the slosh mode (sqrt(k/M) = {:.4} rad/s); a longer step cannot represent it",
+                    super::num(dt),
+                    SloshModel::SEED.stiffness_per_mass.sqrt()
+                );
+            }
             let d = SloshModel::SEED.discretize_zoh(dt)?;
             let (num, den) = d.transfer_function();
             Out(vec![], None)

@@ -10,21 +10,25 @@ use reference_f64::recording::Recording;
 use reference_f64::satellite::Satellite;
 
 #[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// The recording (massid-recording/1 or /2 CSV; `massid import` makes /2 from other logs).
     pub recording: PathBuf,
     /// Built-in satellite model (sph1..sph5); default: the recording's `satellite` metadata.
     #[arg(long, conflicts_with = "model")]
     pub satellite: Option<String>,
-    /// Satellite model file (TOML) instead of a built-in one.
+    /// Satellite model file (TOML), or a built-in name (sph1..sph5), instead of --satellite.
     #[arg(long)]
     pub model: Option<PathBuf>,
-    /// Write the massid-diagnosis/1 JSON here.
+    /// Write the massid-diagnosis/1 JSON here (`-`: stdout, the summary then goes to stderr).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write an HTML report with SVG plots into this directory.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Replace existing output files (--json, the report's files).
+    #[arg(long)]
+    pub force: bool,
     /// Also validate without truth: diagnose only the first FRACTION of the samples (e.g.
     /// 0.5), predict the rest with the nominal and with the fitted model, and print both
     /// residuals on the part the fit never saw.
@@ -72,12 +76,34 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--holdout {f}: the fraction fitted must be strictly between 0 and 1"
         );
     }
+    // Every output is checked before anything is read, computed or written: a refused
+    // output must not leave another one half-written, nor come after a long analysis.
+    let mut inputs: Vec<&std::path::Path> = vec![&args.recording];
+    if let Some(m) = &args.model {
+        inputs.push(m);
+    }
+    if let Some(out) = &args.json {
+        super::check_output(out, &inputs, args.force)?;
+    }
+    if let Some(dir) = &args.report {
+        if super::is_stdout(dir) {
+            anyhow::bail!("--report -: the report is a directory of files, not a stream");
+        }
+        if dir.exists() && !dir.is_dir() {
+            anyhow::bail!(
+                "{}: exists and is not a directory (--report names a directory)",
+                dir.display()
+            );
+        }
+        super::check_output(&dir.join("report.html"), &inputs, args.force)?;
+    }
     let rec = match format_version(&args.recording)? {
         2 => Input::Rates(RateRecording::read(&args.recording)?),
         _ => Input::Counts(Recording::read(&args.recording)?),
     };
     let sat = if let Some(m) = &args.model {
-        // The one model format (either layout): the nominal model is its satellite.
+        // The one model format (either layout) or a built-in name: the nominal model is its
+        // satellite.
         massid_sim::model_file::ModelFile::read(m)?.satellite
     } else {
         let name = args
@@ -93,14 +119,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Satellite::builtin(&name)
             .with_context(|| format!("unknown satellite `{name}` (built-in: sph1..sph5)"))?
     };
-    // Every output is checked before anything is computed or written: a refused output must
-    // not leave another one half-written.
-    if let Some(out) = &args.json {
-        super::check_output(out, &[&args.recording])?;
-    }
-    if let Some(dir) = &args.report {
-        super::check_output(&dir.join("report.html"), &[&args.recording])?;
-    }
+    let checked = match &rec {
+        Input::Counts(r) => super::inputs::Rec::V1(r),
+        Input::Rates(r) => super::inputs::Rec::V2(r),
+    };
+    super::inputs::check_recording(
+        checked,
+        &args.recording,
+        &sat,
+        &super::inputs::Needs::DIAGNOSE,
+    )?;
     // A diagnosis of a long recording takes tens of seconds: say that it is working (stderr,
     // drawn only on a terminal; indicatif hides it otherwise).
     let spinner = indicatif::ProgressBar::new_spinner();
@@ -138,25 +166,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     spinner.finish_and_clear();
     let analysis = analysis?;
-    print!("{}", report::summary(&analysis));
+    // With `--json -` stdout carries the JSON alone; the summary goes to stderr.
+    let json_to_stdout = args.json.as_deref().is_some_and(super::is_stdout);
+    let mut text = report::summary(&analysis);
     if let Some(f) = args.holdout {
         match &holdout {
-            Some(h) => print!("{}", report::holdout_summary(h)),
-            None => println!(
-                "held-out check ({:.0} % fitted): not possible (a part is empty or cannot be predicted)",
+            Some(h) => text.push_str(&report::holdout_summary(h)),
+            None => text.push_str(&format!(
+                "held-out check ({:.0} % fitted): not possible (a part is empty or cannot be predicted)\n",
                 f * 100.0
-            ),
+            )),
         }
-    }
-    if let Some(out) = &args.json {
-        let text = serde_json::to_string_pretty(&analysis.output)?;
-        std::fs::write(out, text + "\n")
-            .with_context(|| format!("{}: cannot write", out.display()))?;
     }
     if let Some(dir) = &args.report {
         report::write_html(dir, &analysis)
             .with_context(|| format!("{}: cannot write the report", dir.display()))?;
-        println!("report: {}", dir.join("report.html").display());
+        text.push_str(&format!("report: {}\n", dir.join("report.html").display()));
+    }
+    if json_to_stdout {
+        eprint!("{text}");
+    } else {
+        super::mix::emit(&text)?;
+    }
+    if let Some(out) = &args.json {
+        let json = serde_json::to_string_pretty(&analysis.output)? + "\n";
+        super::write_output(out, &json)?;
     }
     Ok(())
 }
@@ -183,6 +217,7 @@ mod tests {
             report: Some(dir.clone()),
             holdout: None,
             horizon: None,
+            force: false,
         };
         let e = run(args).expect_err("overwriting the input is refused");
         assert!(e.to_string().contains("refusing to overwrite"), "{e}");

@@ -22,6 +22,7 @@ const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Recording to identify (massid-recording/1 CSV, or /2 of a planar craft with --model).
     recording: PathBuf,
@@ -35,9 +36,12 @@ pub struct Args {
     /// Implementation(s) to run: f64 (reference), f32, fixed, or all.
     #[arg(long, default_value = "f64")]
     kernel: String,
-    /// Write the estimate as JSON (estimate-output v1) here.
+    /// Write the estimate as JSON (estimate-output v1) here (`-`: stdout).
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Replace an existing --json file.
+    #[arg(long)]
+    force: bool,
     /// f64 path: `output-error` (default: every sample, any craft, fitted noise model) or
     /// `seed` (the seed's per-firing Kalman filter + RLS, the algorithm the kernels run).
     #[arg(long, default_value = "output-error")]
@@ -317,10 +321,9 @@ pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Value)]) ->
     Value::Object(doc)
 }
 
-fn print_flight_result(kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
+fn print_flight_result(e: &FlightEstimate, sat: &Satellite) {
     println!(
-        "[{}] output-error  status {}  samples {}  sensor {}",
-        kernel.name(),
+        "[f64] output-error  status {}  samples {}  sensor {}",
         e.status,
         e.samples_used,
         e.sensor.name()
@@ -416,11 +419,12 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
 /// A recording in format v2 (rates in rad/s, any craft): the output-error method only (the
 /// onboard kernels fly 12-thruster v1 recordings).
 fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()> {
-    use reference_f64::rate_recording::{Commands, RateRecording};
-    if method != Method::OutputError {
+    use reference_f64::rate_recording::RateRecording;
+    if kernels != [Kernel::F64] || method != Method::OutputError {
         bail!(
-            "--method {}: a recording in format v2 is identified by the output-error method \
-             only (the seed's design needs 12-thruster gyro counts, format v1)",
+            "--kernel {} --method {}: a recording in format v2 is identified by the f64 \
+             output-error method only (the onboard kernels run 12-thruster v1 recordings)",
+            args.kernel,
             args.method
         );
     }
@@ -432,99 +436,23 @@ fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()>
             args.recording.display()
         ),
     };
-    if let Commands::Thrusters { n, .. } = &rec.commands {
-        if *n != sat.n_thrusters() {
-            bail!(
-                "{}: {n} thrusters in the recording, {} in model {}",
-                rec.source,
-                sat.n_thrusters(),
-                sat.name
-            );
-        }
-    }
+    crate::cmd::inputs::check_recording(
+        crate::cmd::inputs::Rec::V2(&rec),
+        &args.recording,
+        &sat,
+        &crate::cmd::inputs::Needs::estimate(false),
+    )?;
     check_json_output(args)?;
-    let results = output_error(args, &Flight::from_v2(&rec), &sat, kernels, &rec.source)?;
-    write_json(args, &rec.source, &sat, &results)
-}
-
-/// The output-error identification of `flight` by each of `kernels`: the f64 reference
-/// (`reference_f64::flight_id`) and the onboard kernel's form (`massid_kernel::flight_id`,
-/// f32; Q8.24 cannot hold its sums yet and says so), printed, with each kernel's largest
-/// differences from f64. A kernel reading rates other than gyro counts is told the sensor
-/// response the reference found likelier (`--sensor` overrides).
-fn output_error(
-    args: &Args,
-    flight: &Flight,
-    sat: &Satellite,
-    kernels: &[Kernel],
-    source: &str,
-) -> anyhow::Result<Vec<(Kernel, Value)>> {
-    let opts = args.flight_options(sat)?;
-    let mut reference: Option<FlightEstimate> = None;
-    let reference_of = |reference: &mut Option<FlightEstimate>| -> anyhow::Result<FlightEstimate> {
-        if let Some(e) = reference {
-            return Ok(e.clone());
-        }
-        let e = identify(flight, sat, &opts).map_err(|e| anyhow!("{source}: {e}"))?;
-        *reference = Some(e.clone());
-        Ok(e)
-    };
-    let mut results = Vec::new();
-    for &k in kernels {
-        let e = match k {
-            Kernel::F64 => reference_of(&mut reference)?,
-            Kernel::F32 | Kernel::Fixed => {
-                let response = match opts.sensor {
-                    Some(s) => Some(s),
-                    None if flight.from_gyro_counts => None,
-                    None => Some(reference_of(&mut reference)?.sensor),
-                };
-                let run = if k == Kernel::F32 {
-                    massid_kernel_host::flight_id::identify::<f32>(
-                        flight,
-                        sat,
-                        response,
-                        opts.latency_ms,
-                    )
-                } else {
-                    massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
-                        flight,
-                        sat,
-                        response,
-                        opts.latency_ms,
-                    )
-                };
-                match run {
-                    Ok(e) => e,
-                    Err(why) if kernels.len() > 1 => {
-                        println!("[{}] output-error  not available: {why}", k.name());
-                        continue;
-                    }
-                    Err(why) => bail!("{source}: [{}] {why}", k.name()),
-                }
-            }
-        };
-        print_flight_result(k, &e, sat);
-        results.push((k, flight_result_json(&e)));
-    }
-    print_differences(&results);
-    Ok(results)
-}
-
-/// Each kernel's largest differences from the f64 result.
-fn print_differences(results: &[(Kernel, Value)]) {
-    if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
-        for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
-            let d = max_diff_json(e, base);
-            println!(
-                "[{}] vs f64: max |diff| CoM {:.3e} mm, inertia {:.3e} kg m^2, inertia stderr {:.3e}",
-                k.name(),
-                d["com_offset_mm"].as_f64().unwrap_or(f64::NAN),
-                d["inertia_kgm2"].as_f64().unwrap_or(f64::NAN),
-                d["inertia_stderr_kgm2"].as_f64().unwrap_or(f64::NAN)
-            );
-        }
-    }
+    let opts = args.flight_options(&sat)?;
+    let e = identify(&Flight::from_v2(&rec), &sat, &opts)
+        .map_err(|e| anyhow!("{}: {e}", rec.source))?;
+    print_flight_result(&e, &sat);
+    write_json(
+        args,
+        &rec.source,
+        &sat,
+        &[(Kernel::F64, flight_result_json(&e))],
+    )
 }
 
 fn check_json_output(args: &Args) -> anyhow::Result<()> {
@@ -533,7 +461,7 @@ fn check_json_output(args: &Args) -> anyhow::Result<()> {
         if let Some(m) = &args.model {
             inputs.push(m.as_path());
         }
-        crate::cmd::check_output(out, &inputs)?;
+        crate::cmd::check_output(out, &inputs, args.force)?;
     }
     Ok(())
 }
@@ -558,6 +486,9 @@ fn write_json(
     };
     let doc = output_json(&file_name, &model, results);
     let text = serde_json::to_string_pretty(&doc)? + "\n";
+    if crate::cmd::is_stdout(out) {
+        return crate::cmd::write_output(out, &text);
+    }
     let tmp = out.with_extension("json.tmp");
     std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
     std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
@@ -579,24 +510,47 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // implementation: flight code counts time in ticks of the declared period.
     rec.checked_period_ms()?;
     let sat = load_satellite(&rec, args.satellite.as_deref(), args.model.as_deref())?;
+    let spheres = method == Method::Seed || kernels.iter().any(|k| *k != Kernel::F64);
+    crate::cmd::inputs::check_recording(
+        crate::cmd::inputs::Rec::V1(&rec),
+        &args.recording,
+        &sat,
+        &crate::cmd::inputs::Needs::estimate(spheres),
+    )?;
     check_json_output(&args)?;
     let form = if args.offline {
         ReferenceForm::Offline
     } else {
         ReferenceForm::Online
     };
-    if method == Method::OutputError {
-        let flight = Flight::from_v1(&rec, &sat);
-        let results = output_error(&args, &flight, &sat, &kernels, &rec.source)?;
-        return write_json(&args, &rec.source, &sat, &results);
-    }
     let mut results = Vec::new();
     for k in kernels {
-        let e = run_kernel(k, &rec, &sat, form)?;
-        print_result(k, &e, &sat);
-        results.push((k, result_json(&e)));
+        if k == Kernel::F64 && method == Method::OutputError {
+            let opts = args.flight_options(&sat)?;
+            let e = identify(&Flight::from_v1(&rec, &sat), &sat, &opts)
+                .map_err(|e| anyhow!("{}: {e}", rec.source))?;
+            print_flight_result(&e, &sat);
+            results.push((k, flight_result_json(&e)));
+        } else {
+            let e = run_kernel(k, &rec, &sat, form)?;
+            print_result(k, &e, &sat);
+            results.push((k, result_json(&e)));
+        }
     }
-    print_differences(&results);
+    if results.len() > 1 {
+        if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
+            for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
+                let d = max_diff_json(e, base);
+                println!(
+                    "[{}] vs f64: max |diff| CoM {:.3e} mm, inertia {:.3e} kg m^2, inertia stderr {:.3e}",
+                    k.name(),
+                    d["com_offset_mm"].as_f64().unwrap_or(f64::NAN),
+                    d["inertia_kgm2"].as_f64().unwrap_or(f64::NAN),
+                    d["inertia_stderr_kgm2"].as_f64().unwrap_or(f64::NAN)
+                );
+            }
+        }
+    }
     write_json(&args, &rec.source, &sat, &results)
 }
 

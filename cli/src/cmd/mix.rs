@@ -14,7 +14,8 @@ thrusters about the CoM, pseudo-inverse, opposing/negative resolution, scaling b
 pulse centring, multi-thruster pressure-drop correction (the model's parameter; 0 for the \
 built-in sph1..sph5), 10 ms minimum pulse, 1 ms resolution. The command is the average force (N) \
 and torque about the CoM (N m) wanted over one control period.",
-    group(clap::ArgGroup::new("craft").required(true).args(["satellite", "model"]))
+    group(clap::ArgGroup::new("craft").required(true).args(["satellite", "model"])),
+    allow_negative_numbers = true
 )]
 pub struct Args {
     /// Built-in satellite: sph1..sph5.
@@ -45,6 +46,10 @@ pub struct Args {
     #[arg(long)]
     trace: bool,
 }
+
+/// Commands scaled below this fraction to fit the thrusters are refused (a typo of the
+/// units, e.g. 1e308, or mN for N): above it the mixer scales with a warning, as the seed's.
+pub const MIN_REACH_SCALE: f64 = 1e-3;
 
 /// Parses "a,b,c" into three finite numbers.
 pub fn parse_triple(s: &str) -> Result<[f64; 3], String> {
@@ -92,6 +97,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let trace = mixer
         .mix_traced(force, torque)
         .context("cannot mix the command")?;
+    // A command the thrusters cannot come near (or whose duties overflow) is refused, not
+    // "scaled to 0.0000 %" with nothing fired.
+    let finite = [
+        &trace.pinv_duty,
+        &trace.resolved_duty,
+        &trace.refined_duty,
+        &trace.on_time_ms,
+        &trace.corrected_ms,
+    ]
+    .iter()
+    .all(|v| v.iter().all(|x| x.is_finite()));
+    if !(finite && trace.scale.is_finite() && trace.scale >= MIN_REACH_SCALE) {
+        bail!(
+            "--force {:?} --torque {:?}: out of reach: satellite {} delivers about {:.3e} of it in a {} ms period (the mixer refuses commands over {:.0} times its reach; the command is in N and N m)",
+            args.force,
+            args.torque,
+            sat.name,
+            if trace.scale.is_finite() { trace.scale } else { 0.0 },
+            args.period_ms,
+            1.0 / MIN_REACH_SCALE
+        );
+    }
     let firing = &trace.firing;
     let stages = [
         ("pinv_duty", trace.pinv_duty),

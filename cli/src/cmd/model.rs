@@ -7,12 +7,12 @@ use std::path::PathBuf;
 pub enum Args {
     /// Print the model in the normalised layout (the satellite in full, every section).
     Show {
-        /// Model file (TOML): either layout.
+        /// Model file (TOML): either layout; or a built-in name (sph1..sph5).
         file: PathBuf,
     },
     /// Check that every subcommand can use the model; errors name the file, line and column.
     Check {
-        /// Model file (TOML): either layout.
+        /// Model file (TOML): either layout; or a built-in name (sph1..sph5).
         file: PathBuf,
     },
 }

@@ -7,6 +7,7 @@ use reference_f64::satellite::Satellite;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Built-in satellite (sph1..sph5); a model file's satellite wins when both are given.
     #[arg(long, default_value = "sph2")]
@@ -32,6 +33,9 @@ pub struct Args {
     /// Output recording (CSV); the truth file goes beside it as NAME.truth.json.
     #[arg(long)]
     out: PathBuf,
+    /// Replace an existing recording and truth file.
+    #[arg(long)]
+    force: bool,
 }
 
 /// The recording must not be named like a truth file: its truth would be written beside it
@@ -56,9 +60,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Maneuver::NAMES.join(", ")
         )
     })?;
+    if !(args.step_ms.is_finite() && args.step_ms > 0.0 && args.step_ms <= 10.0) {
+        bail!("--step-ms {}: must be in (0, 10]", super::num(args.step_ms));
+    }
     let mut spec = match &args.model {
         Some(path) => {
             let m = ModelFile::read(path)?;
+            refuse_non_spheres(&m.satellite, path, maneuver)?;
             let mut s = SimSpec::new(m.satellite, m.effects, maneuver);
             s.sensors = m.sensors;
             s.artefacts = m.artefacts;
@@ -78,9 +86,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     spec.rate_hz = args.rate;
     spec.seconds = args.seconds;
     spec.seed = args.seed;
-    if !(args.step_ms.is_finite() && args.step_ms > 0.0 && args.step_ms <= 10.0) {
-        bail!("--step-ms {}: must be in (0, 10]", args.step_ms);
-    }
     spec.max_step_ms = args.step_ms;
 
     refuse_truth_name(&args.out)?;
@@ -89,8 +94,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(m) = &args.model {
         inputs.push(m);
     }
-    super::check_output(&args.out, &inputs)?;
-    super::check_output(&truth_path, &inputs)?;
+    if super::is_stdout(&args.out) {
+        bail!("--out -: a recording goes to a file (its truth file goes beside it)");
+    }
+    super::check_output(&args.out, &inputs, args.force)?;
+    super::check_output(&truth_path, &inputs, args.force)?;
     if truth_path == args.out {
         bail!(
             "{}: the output must not be named like a truth file",
@@ -98,7 +106,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
 
-    let out = simulate(&spec)?;
+    let out = simulate(&spec).map_err(|e| match e {
+        massid_sim::SimError::TooManySteps { .. } => {
+            anyhow!("--step-ms {}: {e}", super::num(args.step_ms))
+        }
+        massid_sim::SimError::BadSeconds(_) => anyhow!("--seconds: {e}"),
+        massid_sim::SimError::BadRate(_) => anyhow!("--rate: {e}"),
+        e => e.into(),
+    })?;
     let span_s = match (out.recording.samples.first(), out.recording.samples.last()) {
         (Some(a), Some(b)) => (b.time_ms - a.time_ms) as f64 / 1000.0,
         _ => 0.0,
@@ -127,6 +142,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.truth.effects.len(),
         truth_path.display()
     );
+    Ok(())
+}
+
+/// The maneuver scripts fly the SPHERES thruster layout and the recording is format v1 (gyro
+/// counts, a 12-bit thruster word): another craft (planar, or not 12 thrusters, or a rate
+/// sensor without counts) would get a script that names thrusters it does not have and a
+/// file of zero gyro counts. Refused, saying what would work.
+fn refuse_non_spheres(
+    sat: &Satellite,
+    path: &std::path::Path,
+    maneuver: Maneuver,
+) -> anyhow::Result<()> {
+    let n = sat.n_thrusters();
+    if sat.planar || n != reference_f64::satellite::N_THRUSTERS {
+        bail!(
+            "{}: satellite {} is a {} craft with {n} thrusters; the {} script and the recording format simulate writes (v1, gyro counts) are for a 12-thruster 3-D SPHERES craft; simulate this craft with the `massid_sim` library or import its flight log (`massid import`)",
+            path.display(),
+            sat.name,
+            if sat.planar { "planar" } else { "3-D" },
+            maneuver.name()
+        );
+    }
+    if sat.gyro_counts_per_rad_s.iter().any(|k| k.abs() < 10.0) {
+        bail!(
+            "{}: satellite {} has gyro_counts_per_rad_s {:?}: its rate sensor gives rad/s, not counts; a v1 recording of it would quantise every rate to 0 counts",
+            path.display(),
+            sat.name,
+            sat.gyro_counts_per_rad_s
+        );
+    }
     Ok(())
 }
 

@@ -334,6 +334,115 @@ impl Effect {
     }
 }
 
+/// Longest valve delay or rise time a model may state, ms.
+pub const MAX_DELAY_MS: f64 = 1000.0;
+/// Largest thrust or gyro scale factor a model may state.
+pub const MAX_SCALE: f64 = 10.0;
+
+impl Effect {
+    /// Plausibility of the effect on `sat`, checked when a model file is read (after
+    /// [`Effect::validate`]): arrays have the model's length (one `thrust_scale` entry per
+    /// thruster), delays and rise times at most [`MAX_DELAY_MS`], scales at most
+    /// [`MAX_SCALE`], a gyro bias within the 12-bit range, a CoM offset inside the thrusters,
+    /// inertias a rigid body within the satellite's envelope
+    /// (`Satellite::check_plausible`), times and frequencies finite and positive.
+    pub fn check_plausible(&self, sat: &Satellite) -> Result<(), String> {
+        self.validate()?;
+        let name = self.name();
+        let at_most = |what: &str, v: f64, max: f64, unit: &str| {
+            if v <= max {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{name}: {what} = {v}{unit} is implausible (at most {max}{unit})"
+                ))
+            }
+        };
+        let inertia_ok = |i: &[f64; 6]| {
+            let mut s = sat.clone();
+            s.inertia_kgm2 = *i;
+            s.check_plausible().map_err(|r| format!("{name}: {r}"))
+        };
+        let r_max_mm = (0..sat.n_thrusters())
+            .map(|i| nalgebra::Vector3::from(sat.thruster_pos_m[i]).norm() * 1e3)
+            .fold(0.0, f64::max);
+        let com_ok = |c: &[f64; 3]| {
+            let d = nalgebra::Vector3::from(*c).norm();
+            if d <= r_max_mm {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{name}: offset_mm moves the CoM {d:.1} mm, outside the thrusters ({r_max_mm:.1} mm)"
+                ))
+            }
+        };
+        match self {
+            Effect::ThrusterLatency(e) => {
+                at_most("open_ms", e.open_ms, MAX_DELAY_MS, " ms")?;
+                at_most("close_ms", e.close_ms, MAX_DELAY_MS, " ms")
+            }
+            Effect::ThrustRise(e) => at_most("tau_ms", e.tau_ms, MAX_DELAY_MS, " ms"),
+            Effect::ThrustScale(e) => {
+                let n = sat.n_thrusters();
+                if e.scale.len() != n {
+                    return Err(format!(
+                        "thrust_scale: scale has {} entries; satellite {} has {n} thrusters (one entry each, 1.0 for unchanged)",
+                        e.scale.len(),
+                        sat.name
+                    ));
+                }
+                e.scale
+                    .iter()
+                    .try_for_each(|s| at_most("scale", *s, MAX_SCALE, ""))
+            }
+            Effect::GyroScale(e) => e
+                .scale
+                .iter()
+                .try_for_each(|s| at_most("scale", *s, MAX_SCALE, "")),
+            Effect::GyroBias(e) => e
+                .counts
+                .iter()
+                .try_for_each(|c| at_most("|counts|", c.abs(), 4095.0, "")),
+            Effect::PressureDrop(e) => {
+                let f_max = sat.thrust_n.iter().cloned().fold(0.0, f64::max);
+                non_negative_at_most(
+                    name,
+                    "newton_per_extra_thruster",
+                    e.newton_per_extra_thruster,
+                    f_max,
+                )
+            }
+            Effect::ComOffset(e) => com_ok(&e.offset_mm),
+            Effect::Inertia(e) => inertia_ok(&e.inertia_kgm2),
+            Effect::MassPropertyChange(e) => {
+                com_ok(&e.offset_mm)?;
+                inertia_ok(&e.inertia_kgm2)
+            }
+            Effect::FuelSlosh(e) => e
+                .inertia_fraction
+                .iter()
+                .try_for_each(|f| at_most("inertia_fraction", *f, 1.0, "")),
+            Effect::Blowdown(e) => {
+                if e.start_s < 0.0 {
+                    return Err(format!("{name}: start_s = {} must be >= 0", e.start_s));
+                }
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+fn non_negative_at_most(name: &str, what: &str, v: f64, max: f64) -> Result<(), String> {
+    if (0.0..=max).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name}: {what} = {v} N must be in 0..={max} N (the largest thrust)"
+        ))
+    }
+}
+
 /// The `.truth.json` beside a simulated recording: every effect present beyond the nominal model.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
 pub struct Truth {

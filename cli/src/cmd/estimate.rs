@@ -321,9 +321,10 @@ pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Value)]) ->
     Value::Object(doc)
 }
 
-fn print_flight_result(e: &FlightEstimate, sat: &Satellite) {
+fn print_flight_result(kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
     println!(
-        "[f64] output-error  status {}  samples {}  sensor {}",
+        "[{}] output-error  status {}  samples {}  sensor {}",
+        kernel.name(),
         e.status,
         e.samples_used,
         e.sensor.name()
@@ -420,11 +421,10 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
 /// onboard kernels fly 12-thruster v1 recordings).
 fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()> {
     use reference_f64::rate_recording::RateRecording;
-    if kernels != [Kernel::F64] || method != Method::OutputError {
+    if method != Method::OutputError {
         bail!(
-            "--kernel {} --method {}: a recording in format v2 is identified by the f64 \
-             output-error method only (the onboard kernels run 12-thruster v1 recordings)",
-            args.kernel,
+            "--method {}: a recording in format v2 is identified by the output-error method \
+             only (the seed's design needs 12-thruster gyro counts, format v1)",
             args.method
         );
     }
@@ -443,16 +443,88 @@ fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()>
         &crate::cmd::inputs::Needs::estimate(false),
     )?;
     check_json_output(args)?;
-    let opts = args.flight_options(&sat)?;
-    let e = identify(&Flight::from_v2(&rec), &sat, &opts)
-        .map_err(|e| anyhow!("{}: {e}", rec.source))?;
-    print_flight_result(&e, &sat);
-    write_json(
-        args,
-        &rec.source,
-        &sat,
-        &[(Kernel::F64, flight_result_json(&e))],
-    )
+    let results = output_error(args, &Flight::from_v2(&rec), &sat, kernels, &rec.source)?;
+    write_json(args, &rec.source, &sat, &results)
+}
+
+/// The output-error identification of `flight` by each of `kernels`: the f64 reference
+/// (`reference_f64::flight_id`) and the onboard kernel's form (`massid_kernel::flight_id`,
+/// f32; Q8.24 cannot hold its sums yet and says so), printed, with each kernel's largest
+/// differences from f64. A kernel reading rates other than gyro counts is told the sensor
+/// response the reference found likelier (`--sensor` overrides).
+fn output_error(
+    args: &Args,
+    flight: &Flight,
+    sat: &Satellite,
+    kernels: &[Kernel],
+    source: &str,
+) -> anyhow::Result<Vec<(Kernel, Value)>> {
+    let opts = args.flight_options(sat)?;
+    let mut reference: Option<FlightEstimate> = None;
+    let reference_of = |reference: &mut Option<FlightEstimate>| -> anyhow::Result<FlightEstimate> {
+        if let Some(e) = reference {
+            return Ok(e.clone());
+        }
+        let e = identify(flight, sat, &opts).map_err(|e| anyhow!("{source}: {e}"))?;
+        *reference = Some(e.clone());
+        Ok(e)
+    };
+    let mut results = Vec::new();
+    for &k in kernels {
+        let e = match k {
+            Kernel::F64 => reference_of(&mut reference)?,
+            Kernel::F32 | Kernel::Fixed => {
+                let response = match opts.sensor {
+                    Some(s) => Some(s),
+                    None if flight.from_gyro_counts => None,
+                    None => Some(reference_of(&mut reference)?.sensor),
+                };
+                let run = if k == Kernel::F32 {
+                    massid_kernel_host::flight_id::identify::<f32>(
+                        flight,
+                        sat,
+                        response,
+                        opts.latency_ms,
+                    )
+                } else {
+                    massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
+                        flight,
+                        sat,
+                        response,
+                        opts.latency_ms,
+                    )
+                };
+                match run {
+                    Ok(e) => e,
+                    Err(why) if kernels.len() > 1 => {
+                        println!("[{}] output-error  not available: {why}", k.name());
+                        continue;
+                    }
+                    Err(why) => bail!("{source}: [{}] {why}", k.name()),
+                }
+            }
+        };
+        print_flight_result(k, &e, sat);
+        results.push((k, flight_result_json(&e)));
+    }
+    print_differences(&results);
+    Ok(results)
+}
+
+/// Each kernel's largest differences from the f64 result.
+fn print_differences(results: &[(Kernel, Value)]) {
+    if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
+        for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
+            let d = max_diff_json(e, base);
+            println!(
+                "[{}] vs f64: max |diff| CoM {:.3e} mm, inertia {:.3e} kg m^2, inertia stderr {:.3e}",
+                k.name(),
+                d["com_offset_mm"].as_f64().unwrap_or(f64::NAN),
+                d["inertia_kgm2"].as_f64().unwrap_or(f64::NAN),
+                d["inertia_stderr_kgm2"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+    }
 }
 
 fn check_json_output(args: &Args) -> anyhow::Result<()> {
@@ -510,7 +582,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // implementation: flight code counts time in ticks of the declared period.
     rec.checked_period_ms()?;
     let sat = load_satellite(&rec, args.satellite.as_deref(), args.model.as_deref())?;
-    let spheres = method == Method::Seed || kernels.iter().any(|k| *k != Kernel::F64);
+    let spheres = method == Method::Seed;
     crate::cmd::inputs::check_recording(
         crate::cmd::inputs::Rec::V1(&rec),
         &args.recording,
@@ -523,34 +595,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         ReferenceForm::Online
     };
+    if method == Method::OutputError {
+        let flight = Flight::from_v1(&rec, &sat);
+        let results = output_error(&args, &flight, &sat, &kernels, &rec.source)?;
+        return write_json(&args, &rec.source, &sat, &results);
+    }
     let mut results = Vec::new();
     for k in kernels {
-        if k == Kernel::F64 && method == Method::OutputError {
-            let opts = args.flight_options(&sat)?;
-            let e = identify(&Flight::from_v1(&rec, &sat), &sat, &opts)
-                .map_err(|e| anyhow!("{}: {e}", rec.source))?;
-            print_flight_result(&e, &sat);
-            results.push((k, flight_result_json(&e)));
-        } else {
-            let e = run_kernel(k, &rec, &sat, form)?;
-            print_result(k, &e, &sat);
-            results.push((k, result_json(&e)));
-        }
+        let e = run_kernel(k, &rec, &sat, form)?;
+        print_result(k, &e, &sat);
+        results.push((k, result_json(&e)));
     }
-    if results.len() > 1 {
-        if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
-            for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
-                let d = max_diff_json(e, base);
-                println!(
-                    "[{}] vs f64: max |diff| CoM {:.3e} mm, inertia {:.3e} kg m^2, inertia stderr {:.3e}",
-                    k.name(),
-                    d["com_offset_mm"].as_f64().unwrap_or(f64::NAN),
-                    d["inertia_kgm2"].as_f64().unwrap_or(f64::NAN),
-                    d["inertia_stderr_kgm2"].as_f64().unwrap_or(f64::NAN)
-                );
-            }
-        }
-    }
+    print_differences(&results);
     write_json(&args, &rec.source, &sat, &results)
 }
 

@@ -189,12 +189,14 @@ worst_tick() {
 deferred = ticks 1-8 after a word change (thrusters off or valve transient) that ran no deferred stage;
 deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending_stage\`; the last stage, the inverse-inertia solve, is \`solve\`);"
   echo "kf = Kalman update during the batch firings; kf_rls = Kalman update + RLS measurement (firing 3 on);"
-  echo "solve = end of firing with the batch/RLS LU solve; mixer_build = mixer rebuilt from the CoM estimate; mixer = one mix."
+  echo "solve = end of firing with the batch/RLS LU solve; mixer_build = mixer rebuilt from the CoM estimate; mixer = one mix;"
+  echo "flight_id_push = one sample of the output-error identification (\\`massid_kernel::flight_id\\`, f32, hard-float targets only:"
+  echo "its fit runs outside the tick and is not counted; the max is a tick that folds a 256-sample block or closes a window)."
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"
   for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_detect deferred_detect_finish \
-           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve mixer_build mixer other; do
+           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push mixer_build mixer other; do
     [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
     echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
   done

@@ -12,8 +12,10 @@ const RING: usize = MAX_DELAY_SAMPLES + 2;
 /// The delay line.
 #[derive(Clone, Copy, Debug)]
 pub struct CommandDelay<S> {
-    /// Last commands, newest first (zero before the flight's first).
+    /// Last commands (zero before the flight's first); the newest at `head`, older ones at
+    /// increasing indices modulo the length (a circular buffer: no copying per sample).
     ring: [[S; 6]; RING],
+    head: usize,
     whole: usize,
     fraction: S,
 }
@@ -35,6 +37,7 @@ impl<S: Scalar> CommandDelay<S> {
         let fraction = periods - whole as f32;
         Ok(CommandDelay {
             ring: [[S::ZERO; 6]; RING],
+            head: 0,
             whole,
             fraction: S::from_f32(fraction),
         })
@@ -43,11 +46,16 @@ impl<S: Scalar> CommandDelay<S> {
     /// Takes the command of the newest sample and returns the wrench acting over the interval
     /// that starts at it.
     pub fn push(&mut self, command: [S; 6]) -> [S; 6] {
-        self.ring.rotate_right(1);
-        if let Some(r) = self.ring.first_mut() {
+        self.head = self.head.checked_sub(1).unwrap_or(RING - 1);
+        if let Some(r) = self.ring.get_mut(self.head) {
             *r = command;
         }
-        let at = |i: usize| self.ring.get(i).copied().unwrap_or([S::ZERO; 6]);
+        // `i` samples back: index head + i modulo RING (both below RING, no overflow).
+        let at = |i: usize| {
+            let k = self.head.saturating_add(i);
+            let k = if k >= RING { k.saturating_sub(RING) } else { k };
+            self.ring.get(k).copied().unwrap_or([S::ZERO; 6])
+        };
         let (late, early) = (at(self.whole), at(self.whole.saturating_add(1)));
         core::array::from_fn(|c| {
             let (l, e) = (

@@ -186,32 +186,32 @@ impl<S: Scalar> FlightId<S> {
 
     /// The measurement the newest sample completes, through the sensor's response.
     fn emit(&mut self) {
-        let [(z2, y2), (z1, y1), (z0, _)] = self.recent;
+        let [(z2, y2), (z1, y1), (z0, _)] = &self.recent;
         let q = S::from_int_pow2(1, -2);
         let h = S::from_int_pow2(1, -1);
         let (z, y) = match self.cfg.sensor {
-            SensorResponse::Point => (z2, y2),
+            SensorResponse::Point => (*z2, *y2),
             SensorResponse::BackwardMean if self.filled >= 2 => (
-                core::array::from_fn(|i| h.times(get(&z1, i).plus(get(&z2, i)))),
-                y2,
+                core::array::from_fn(|i| h.times(get(z1, i).plus(get(z2, i)))),
+                *y2,
             ),
             SensorResponse::CentralMean if self.filled >= 3 => (
                 core::array::from_fn(|i| {
-                    q.times(get(&z0, i).plus(get(&z1, i).mul_pow2(1)).plus(get(&z2, i)))
+                    q.times(get(z0, i).plus(get(z1, i).mul_pow2(1)).plus(get(z2, i)))
                 }),
-                y1,
+                *y1,
             ),
             _ => return,
         };
         let anchor = *self.anchor.get_or_insert(y);
-        let y_anchored: [S; 3] = core::array::from_fn(|a| {
-            let row = self.nominal.get(a).copied().unwrap_or([S::ZERO; NZ]);
+        let mut y_anchored = [S::ZERO; 3];
+        for (a, (out, row)) in y_anchored.iter_mut().zip(self.nominal.iter()).enumerate() {
             let pred = row
                 .iter()
                 .zip(z.iter())
                 .fold(S::ZERO, |acc, (r, zc)| acc.mul_add(*r, *zc));
-            get(&y, a).minus(get(&anchor, a)).minus(pred)
-        });
+            *out = get(&y, a).minus(get(&anchor, a)).minus(pred);
+        }
         self.window.push(&Sample { z, y: y_anchored });
     }
 

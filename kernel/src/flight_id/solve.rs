@@ -100,10 +100,6 @@ fn add2<S: Scalar, const M: usize>(m: &mut [[S; M]], i: usize, j: usize, v: S) {
     }
 }
 
-fn half<S: Scalar>() -> S {
-    S::from_int_pow2(1, -1)
-}
-
 /// `[[xx xy xz] [xy yy yz] [xz yz zz]]`.
 fn sym3<S: Scalar>(p: &[S]) -> [[S; 3]; 3] {
     let g = |i| get(p, i);
@@ -144,6 +140,14 @@ fn inv3<S: Scalar>(m: &M3<S>) -> Option<M3<S>> {
         }
     }
     Some(out)
+}
+
+/// The inverse inertia (xx yy zz xy xz yz) of an inertia given the same way: the
+/// configuration's `j_nominal` from a model's inertia. None if it is singular.
+pub fn inverse_inertia<S: Scalar>(inertia: &[S; 6]) -> Option<[S; 6]> {
+    let j = inv3(&sym3(inertia))?;
+    let g = |r: usize, c: usize| get2(&j, r, c);
+    Some([g(0, 0), g(1, 1), g(2, 2), g(0, 1), g(0, 2), g(1, 2)])
 }
 
 /// Levi-Civita symbol.
@@ -271,28 +275,16 @@ fn basis<S: Scalar>(m: usize) -> [S; 6] {
 /// Axis `a`'s whitened, initial-rate-eliminated moment matrix for AR weights `w`, gain^2 `c2`.
 pub(crate) fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<S> {
     let mut out = [[S::ZERO; NV]; NV];
-    let h = half::<S>();
     for l in 0..LAGS {
         let wl = get(w, l);
-        let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
-            s.lag.zz.get(l),
-            s.lag.zy.get(l),
-            s.lag.yz.get(l),
-            s.lag.yy.get(l),
-        ) else {
+        let Some(yy) = s.lag.yy.get(l) else {
             continue;
         };
-        let wh = wl.times(h);
         for i in 0..NZ {
             for j in 0..NZ {
-                add2(
-                    &mut out,
-                    i,
-                    j,
-                    wh.times(get2(zz, i, j).plus(get2(zz, j, i))),
-                );
+                add2(&mut out, i, j, wl.times(s.lag.zz_sym(l, i, j)));
             }
-            let cross = wh.times(get2(zy, a, i).plus(get2(yz, a, i)));
+            let cross = wl.times(s.lag.zy_sym(l, a, i));
             add2(&mut out, i, NZ, cross);
             add2(&mut out, NZ, i, cross);
         }

@@ -51,7 +51,9 @@ impl<S: Scalar> LagMoments<S> {
         }
     }
 
-    /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)).
+    /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)). At lag 0 the
+    /// products are symmetric: only `zz[0][i][j]` with `i <= j` and `zy[0]` are kept (read
+    /// them through [`LagMoments::zz_sym`] and [`LagMoments::zy_sym`]).
     fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>) {
         let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
             self.zz.get_mut(l),
@@ -61,9 +63,14 @@ impl<S: Scalar> LagMoments<S> {
         ) else {
             return;
         };
-        for (row, zi) in zz.iter_mut().zip(now.z) {
-            for (m, zj) in row.iter_mut().zip(then.z) {
-                *m = m.mul_add(zi, zj);
+        for (i, (row, zi)) in zz.iter_mut().zip(now.z.iter()).enumerate() {
+            // Lag 0: the upper triangle only (from column i on).
+            let from = if l == 0 { i } else { 0 };
+            let (Some(dst), Some(src)) = (row.get_mut(from..), then.z.get(from..)) else {
+                continue;
+            };
+            for (m, zj) in dst.iter_mut().zip(src) {
+                *m = m.mul_add(*zi, *zj);
             }
         }
         for (a, ((zya, yza), yya)) in zy
@@ -79,37 +86,66 @@ impl<S: Scalar> LagMoments<S> {
             for (m, zi) in zya.iter_mut().zip(now.z) {
                 *m = m.mul_add(zi, yt);
             }
-            for (m, zj) in yza.iter_mut().zip(then.z) {
-                *m = m.mul_add(yn, zj);
+            if l > 0 {
+                for (m, zj) in yza.iter_mut().zip(then.z) {
+                    *m = m.mul_add(yn, zj);
+                }
             }
             *yya = yya.mul_add(yn, yt);
         }
     }
 
+    /// `(L_l + L_l^T) / 2` of the `z` block, entry `(i, j)`.
+    pub fn zz_sym(&self, l: usize, i: usize, j: usize) -> S {
+        let at = |r: usize, c: usize| {
+            self.zz
+                .get(l)
+                .and_then(|m| m.get(r))
+                .and_then(|row| row.get(c))
+                .copied()
+                .unwrap_or(S::ZERO)
+        };
+        if l == 0 {
+            at(i.min(j), i.max(j))
+        } else {
+            at(i, j).plus(at(j, i)).mul_pow2(-1)
+        }
+    }
+
+    /// `(L_l + L_l^T) / 2` between `z[i]` and axis `a`'s `y`.
+    pub fn zy_sym(&self, l: usize, a: usize, i: usize) -> S {
+        let at = |m: &[[[S; NZ]; 3]; LAGS]| {
+            m.get(l)
+                .and_then(|x| x.get(a))
+                .and_then(|row| row.get(i))
+                .copied()
+                .unwrap_or(S::ZERO)
+        };
+        if l == 0 {
+            at(&self.zy)
+        } else {
+            at(&self.zy).plus(at(&self.yz)).mul_pow2(-1)
+        }
+    }
+
     fn add(&mut self, other: &Self) {
-        let pairs = self
-            .zz
-            .iter_mut()
-            .flatten()
-            .flatten()
-            .zip(other.zz.iter().flatten().flatten())
-            .chain(
-                self.zy
-                    .iter_mut()
-                    .flatten()
-                    .flatten()
-                    .zip(other.zy.iter().flatten().flatten()),
-            )
-            .chain(
-                self.yz
-                    .iter_mut()
-                    .flatten()
-                    .flatten()
-                    .zip(other.yz.iter().flatten().flatten()),
-            )
-            .chain(self.yy.iter_mut().flatten().zip(other.yy.iter().flatten()));
-        for (m, o) in pairs {
-            *m = m.plus(*o);
+        for (m, o) in self.zz.iter_mut().zip(other.zz.iter()) {
+            for (row, orow) in m.iter_mut().zip(o.iter()) {
+                add_into(row, orow);
+            }
+        }
+        for (m, o) in self.zy.iter_mut().zip(other.zy.iter()) {
+            for (row, orow) in m.iter_mut().zip(o.iter()) {
+                add_into(row, orow);
+            }
+        }
+        for (m, o) in self.yz.iter_mut().zip(other.yz.iter()) {
+            for (row, orow) in m.iter_mut().zip(o.iter()) {
+                add_into(row, orow);
+            }
+        }
+        for (row, orow) in self.yy.iter_mut().zip(other.yy.iter()) {
+            add_into(row, orow);
         }
     }
 
@@ -123,6 +159,13 @@ impl<S: Scalar> LagMoments<S> {
             .chain(self.yz.iter().flatten().flatten())
             .chain(self.yy.iter().flatten())
             .all(|v| v.is_valid())
+    }
+}
+
+/// `dst += src`, element by element.
+fn add_into<S: Scalar>(dst: &mut [S], src: &[S]) {
+    for (d, v) in dst.iter_mut().zip(src) {
+        *d = d.plus(*v);
     }
 }
 

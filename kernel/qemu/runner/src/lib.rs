@@ -66,6 +66,10 @@ pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
     markers::kind(Kind::Calibration);
     run::<Q8_24, W>(out)?;
     run::<f32, W>(out)?;
+    // Hard-float targets and the host only: on the M0 its f32 is soft-float, and a trace of
+    // it would run to hundreds of millions of instructions.
+    #[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
+    run_flight_id(out)?;
     writeln!(out, "# done")
 }
 
@@ -130,6 +134,78 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     writeln!(out, "{} t={t} finish status={:?}", S::NAME, status)?;
     write_estimates(out, t, &pipeline.estimates())?;
     write_mixes(out, t, &pipeline)
+}
+
+/// The onboard output-error identification (`massid_kernel::flight_id`, f32) over the same
+/// sequence, each sample's push measured (kind `flight_id_push`); the final fit runs once,
+/// outside the tick (it is not measured: a background task's work). Its result is printed as
+/// `info` lines: the host and QEMU runs are not compared on it.
+#[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
+pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
+    use massid_kernel::flight_id::craft::{Craft, Thruster};
+    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
+    use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+    use massid_kernel::model::{N_THRUSTERS, SPH2_GYRO_BIAS_COUNTS};
+    let thrusters: [Thruster; N_THRUSTERS] = core::array::from_fn(|i| Thruster {
+        pos_m: SPH2.thruster_pos_m.get(i).copied().unwrap_or([0.0; 3]),
+        dir: SPH2.thrust_dir.get(i).copied().unwrap_or([1.0, 0.0, 0.0]),
+        thrust_n: SPH2.thrust_n.get(i).copied().unwrap_or(1.0),
+    });
+    let com_m = SPH2.com_offset_mm.map(|v| v * 1e-3);
+    let (Ok(craft), Some(j)) = (
+        Craft::<f32>::new(&thrusters, com_m, SPH2.pressure_drop_n_per_extra),
+        inverse_inertia(&SPH2.inertia_kgm2),
+    ) else {
+        return writeln!(out, "info f32 flight_id init-error");
+    };
+    let principal = (j[0] + j[1] + j[2]) / 3.0;
+    let scale: [f32; NP] = core::array::from_fn(|m| match m {
+        0..=2 => 0.5 * j.get(m).copied().unwrap_or(0.0),
+        3..=5 => 0.25 * principal,
+        _ => 0.025,
+    });
+    let cfg = FlightIdConfig {
+        period_s: 1e-3f32,
+        sensor: SensorResponse::Point,
+        delay_periods: 0.0,
+        cut_at_changes: false,
+        max_window: 8000,
+        min_window: 20,
+        solve: SolveConfig {
+            j_nominal: j,
+            free: [true; NP],
+            axes: [true; 3],
+            gyroscopic: true,
+            max_noise_order: 2,
+            scale,
+        },
+    };
+    let Some(mut id) = FlightId::new(cfg) else {
+        return writeln!(out, "info f32 flight_id init-error");
+    };
+    writeln!(out, "info f32 flight-id-bytes {}", core::mem::size_of::<FlightId<f32>>())?;
+    for (gyro, word) in sequence::samples() {
+        let valid = gyro.iter().all(|&c| c != 0 && c < 4095);
+        let rate: [f32; 3] = core::array::from_fn(|a| {
+            let c = f32::from(gyro.get(a).copied().unwrap_or(0));
+            let bias = SPH2_GYRO_BIAS_COUNTS.get(a).copied().unwrap_or(0.0);
+            let per = SPH2.gyro_counts_per_rad_s.get(a).copied().unwrap_or(1.0);
+            (c - bias) / per
+        });
+        markers::begin();
+        id.push(1e-3, rate, valid, craft.wrench(word));
+        markers::end();
+        markers::kind(Kind::FlightIdPush);
+    }
+    id.finish();
+    match id.solve() {
+        Ok(sol) => {
+            write!(out, "info f32 flight_id theta")?;
+            write_bits(out, &sol.theta)?;
+            writeln!(out, " held={:?}", sol.held)
+        }
+        Err(e) => writeln!(out, "info f32 flight_id {e:?}"),
+    }
 }
 
 /// Mixer commands as Q8.24 bits (force N x3, torque N m x3); value = bits / 2^24 in both

@@ -42,6 +42,9 @@ marker!(/// A mixer call (force/torque command to thruster on/off times).
     massid_mark_kind_mixer = 0x4d42_0015);
 marker!(/// Anything else (overflow events).
     massid_mark_kind_other = 0x4d42_0016);
+marker!(/// One sample of the output-error identification (`massid_kernel::flight_id`): the
+    /// thruster word's wrench and the push into the sums.
+    massid_mark_kind_flight_id_push = 0x4d42_001a);
 marker!(/// A tick where the thruster word changed without a solve (firing edge: KF reset, batch row).
     massid_mark_kind_edge = 0x4d42_0017);
 marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
@@ -103,6 +106,8 @@ pub enum Kind {
     /// A tick that ran one deferred end-of-firing stage (other than the final solve, which
     /// is [`Kind::Solve`]).
     Stage(DeferredStage),
+    /// One sample of the output-error identification.
+    FlightIdPush,
 }
 
 /// Ticks after a thruster-word change counted as [`Kind::Deferred`] (fewer than the 10 ms
@@ -148,6 +153,7 @@ pub fn kind(k: Kind) {
         Kind::Stage(DeferredStage::FactorInertia) => massid_mark_kind_deferred_factor_inertia(),
         // the final stage reports `TickEvent::Solved`: filed as `Kind::Solve`
         Kind::Stage(DeferredStage::SolveInertia) => massid_mark_kind_solve(),
+        Kind::FlightIdPush => massid_mark_kind_flight_id_push(),
     }
 }
 

@@ -25,10 +25,8 @@ use reference_f64::satellite::Satellite;
 /// no variational equation, which over long windows overstates the products' information.
 /// At 60 s its sigma is 0.82-1.07x the reference's, at 8 s 1.0-2.3x.
 pub const MAX_WINDOW_S: f64 = 8.0;
-/// Shortest window kept, samples (the reference's).
-pub const MIN_WINDOW: u32 = 20;
-/// Shortest window kept when windows are cut at every command change (the reference's).
-pub const CUT_MIN_WINDOW: u32 = 4;
+/// Shortest window cap, samples.
+const MIN_WINDOW: u32 = 20;
 
 fn model_error(sat: &Satellite, why: String) -> HostError {
     HostError::Model {
@@ -112,7 +110,7 @@ pub fn identify<S: Scalar>(
     // intervals are left out (a new window after each change of the acting, delayed, wrench; the
     // reference does the same when its valve-timing test fails, the kernel always does).
     let coarse = flight.from_gyro_counts && period > 1.5e-3;
-    let min_window = if coarse { CUT_MIN_WINDOW } else { MIN_WINDOW };
+    let max_noise_order: u8 = if coarse { 0 } else { MAX_ORDER as u8 };
     let response = response.unwrap_or(SensorResponse::Point);
     let cfg = FlightIdConfig {
         period_s: S::from_f32(period as f32),
@@ -120,7 +118,7 @@ pub fn identify<S: Scalar>(
         delay_periods: (latency_ms * 1e-3 / period) as f32,
         cut_at_changes: coarse,
         max_window,
-        min_window,
+        skip: u32::from(max_noise_order),
         solve: SolveConfig {
             j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),
             free,
@@ -128,7 +126,7 @@ pub fn identify<S: Scalar>(
             gyroscopic: !sat.planar,
             // Windows cut at every change are a few samples long: the AR fit's neglect of each
             // window's first samples would not hold.
-            max_noise_order: if coarse { 0 } else { MAX_ORDER as u8 },
+            max_noise_order,
             scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
         },
     };
@@ -161,9 +159,7 @@ pub fn identify<S: Scalar>(
     id.finish();
     let sol = id.solve().map_err(|e| {
         HostError::Fit(match e {
-            SolveError::NoData => {
-                format!("no run of {MIN_WINDOW} consecutive samples with every measured axis")
-            }
+            SolveError::NoData => "no run of consecutive samples with every measured axis".into(),
             SolveError::Overflow => {
                 "the flight's sums do not fit the kernel's number format (Overflow)".into()
             }

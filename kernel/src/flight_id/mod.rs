@@ -54,8 +54,9 @@ pub struct FlightIdConfig<S> {
     pub cut_at_changes: bool,
     /// Windows are cut at this many samples (bounds every sum).
     pub max_window: u32,
-    /// Windows shorter than this are dropped.
-    pub min_window: u32,
+    /// Samples left out at each window's start: the noise model's highest order (their
+    /// whitened residual would need samples before the window).
+    pub skip: u32,
     /// What the fit estimates and how ([`solve::SolveConfig`]).
     pub solve: SolveConfig<S>,
 }
@@ -212,11 +213,12 @@ impl<S: Scalar> FlightId<S> {
                 .fold(S::ZERO, |acc, (r, zc)| acc.mul_add(*r, *zc));
             *out = get(&y, a).minus(get(&anchor, a)).minus(pred);
         }
-        self.window.push(&Sample { z, y: y_anchored });
+        self.window
+            .push(&mut self.sums, &Sample { z, y: y_anchored }, self.cfg.skip);
     }
 
     fn close_window(&mut self) {
-        self.window.close_into(&mut self.sums, self.cfg.min_window);
+        self.window.close_into(&mut self.sums);
         self.z = [S::ZERO; NZ];
         self.z_carry = [S::ZERO; NZ];
         self.filled = 0;
@@ -229,9 +231,12 @@ impl<S: Scalar> FlightId<S> {
         self.previous = None;
     }
 
-    /// Fits the mass properties to the closed windows.
+    /// Fits the mass properties to the closed windows (on a folded copy of the sums: this is
+    /// a background task's work, not a tick's).
     pub fn solve(&self) -> Result<Solution<S>, SolveError> {
-        solve::solve(&self.sums, &self.cfg.solve)
+        let mut sums = self.sums;
+        sums.fold_all();
+        solve::solve(&sums, &self.cfg.solve)
     }
 
     /// The configuration.

@@ -398,6 +398,14 @@ fn fit_noise<S: Scalar>(g: &[S; LAGS], n: u32, max_order: u8) -> Option<ArNoise<
     Some(best)
 }
 
+/// Residual degrees of freedom per axis: the samples less one initial rate per window (with
+/// windows of a few samples, as a coarse replay cut at every change makes, dividing by the
+/// samples alone put the noise 15 % low and the sigmas with it).
+fn dof<S: Scalar>(s: &FlightSums<S>) -> S {
+    let d = s.samples.saturating_sub(s.windows).max(1);
+    S::from_int_pow2(i32::try_from(d).unwrap_or(i32::MAX), 0)
+}
+
 /// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns); None
 /// when the inverse inertia is singular.
 pub(crate) fn residual_and_jacobian<S: Scalar>(
@@ -497,7 +505,7 @@ fn autocovariances<S: Scalar>(
     a: usize,
 ) -> Option<[S; LAGS]> {
     let (u, _) = residual_and_jacobian(theta, cfg, a)?;
-    let n = S::from_int_pow2(i32::try_from(s.samples).unwrap_or(i32::MAX), 0);
+    let n = dof::<S>(s);
     // u^T C u: the window means' share (weights zero, gain^2 -1 leaves +C).
     let centre = quad(&weighted(s, a, &[S::ZERO; LAGS], S::ONE.negate()), &u, &u);
     let mut g = [S::ZERO; LAGS];
@@ -662,7 +670,7 @@ pub fn solve<S: Scalar>(
             }
             // The innovation variance the whitened cost implies at this noise model.
             let (_, _, cost) = normal(s, cfg, &theta, &noise, &free);
-            let n = S::from_int_pow2(i32::try_from(s.samples).unwrap_or(i32::MAX), 0);
+            let n = dof::<S>(s);
             for (a, nz) in noise.iter_mut().enumerate() {
                 if cfg.axes.get(a).copied().unwrap_or(false) {
                     let v = get(&cost, a).checked_div(n).unwrap_or(S::ZERO);

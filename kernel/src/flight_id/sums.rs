@@ -10,8 +10,9 @@
 //! instead of the flight, and the fit ([`super::solve`]) iterates on them at any time, as often
 //! as it likes: no second pass over data it cannot store.
 //!
-//! Each window is summed on its own and added to the flight's totals when it closes (shorter
-//! sums round less, and a window too short to use is dropped whole).
+//! Products go into recent sums that are folded into the flight's a few entries per sample,
+//! so each entry is folded about every [`BLOCK`] samples (shorter f32 sums round less) and no
+//! sample carries a whole fold (the M4F tick budget).
 
 use crate::scalar::Scalar;
 
@@ -128,27 +129,6 @@ impl<S: Scalar> LagMoments<S> {
         }
     }
 
-    fn add(&mut self, other: &Self) {
-        for (m, o) in self.zz.iter_mut().zip(other.zz.iter()) {
-            for (row, orow) in m.iter_mut().zip(o.iter()) {
-                add_into(row, orow);
-            }
-        }
-        for (m, o) in self.zy.iter_mut().zip(other.zy.iter()) {
-            for (row, orow) in m.iter_mut().zip(o.iter()) {
-                add_into(row, orow);
-            }
-        }
-        for (m, o) in self.yz.iter_mut().zip(other.yz.iter()) {
-            for (row, orow) in m.iter_mut().zip(o.iter()) {
-                add_into(row, orow);
-            }
-        }
-        for (row, orow) in self.yy.iter_mut().zip(other.yy.iter()) {
-            add_into(row, orow);
-        }
-    }
-
     /// True if every sum is a valid number (no saturation, no NaN).
     pub fn is_valid(&self) -> bool {
         self.zz
@@ -159,13 +139,6 @@ impl<S: Scalar> LagMoments<S> {
             .chain(self.yz.iter().flatten().flatten())
             .chain(self.yy.iter().flatten())
             .all(|v| v.is_valid())
-    }
-}
-
-/// `dst += src`, element by element.
-fn add_into<S: Scalar>(dst: &mut [S], src: &[S]) {
-    for (d, v) in dst.iter_mut().zip(src) {
-        *d = d.plus(*v);
     }
 }
 
@@ -185,20 +158,61 @@ impl<S: Scalar> Sample<S> {
     };
 }
 
+/// Entries of a [`LagMoments`], in the order `zz`, `zy`, `yz`, `yy`.
+pub const ENTRIES: usize = LAGS * NZ * NZ + 2 * LAGS * 3 * NZ + LAGS * 3;
+
+/// Samples over which every entry of the recent sums is folded into the flight's once: f32
+/// sums then round like sums of `n / BLOCK + BLOCK` terms, not `n` (two-level summation).
+pub const BLOCK: usize = 256;
+
+/// Entries folded per sample (a rolling fold: no tick carries the whole fold).
+const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil(BLOCK);
+
+impl<S: Scalar> LagMoments<S> {
+    /// Entry `k` of the flat order (`zz`, `zy`, `yz`, `yy`).
+    fn entry_mut(&mut self, k: usize) -> Option<&mut S> {
+        const ZZ: usize = LAGS * NZ * NZ;
+        const ZY: usize = LAGS * 3 * NZ;
+        let split3 = |k: usize, inner: usize, mid: usize| {
+            let outer = k.checked_div(inner.checked_mul(mid)?)?;
+            let rest = k.checked_rem(inner.checked_mul(mid)?)?;
+            Some((outer, rest.checked_div(inner)?, rest.checked_rem(inner)?))
+        };
+        if k < ZZ {
+            let (l, r, c) = split3(k, NZ, NZ)?;
+            self.zz.get_mut(l)?.get_mut(r)?.get_mut(c)
+        } else if let Some(k) = k.checked_sub(ZZ).filter(|k| *k < ZY) {
+            let (l, a, c) = split3(k, NZ, 3)?;
+            self.zy.get_mut(l)?.get_mut(a)?.get_mut(c)
+        } else if let Some(k) = k.checked_sub(ZZ + ZY).filter(|k| *k < ZY) {
+            let (l, a, c) = split3(k, NZ, 3)?;
+            self.yz.get_mut(l)?.get_mut(a)?.get_mut(c)
+        } else {
+            let k = k.checked_sub(ZZ + 2 * ZY)?;
+            self.yy
+                .get_mut(k.checked_div(3)?)?
+                .get_mut(k.checked_rem(3)?)
+        }
+    }
+}
+
 /// The flight's sums: lagged moments and the windows' initial-rate terms.
 #[derive(Clone, Copy, Debug)]
 pub struct FlightSums<S> {
-    /// Lagged moments over every closed window.
+    /// Lagged moments, folded (see [`FlightSums::fold_all`]: the fit reads them folded).
     pub lag: LagMoments<S>,
+    /// Recent lagged moments, folded into `lag` a few entries per sample.
+    recent: LagMoments<S>,
+    cursor: usize,
     /// `sum_w s_w s_w^T / n_w` by the same blocks (`s_w` the window's sum of `v`).
     pub czz: [[S; NZ]; NZ],
     /// See `czz`: `z` sum times axis `a`'s `y` sum.
     pub czy: [[S; NZ]; 3],
     /// See `czz`: axis `a`'s `y` sum squared.
     pub cyy: [S; 3],
-    /// Samples in closed windows (each measures every axis the fit uses).
+    /// Samples in the sums (each measures every axis the fit uses).
     pub samples: u32,
-    /// Closed windows kept.
+    /// Closed windows.
     pub windows: u32,
 }
 
@@ -206,6 +220,8 @@ impl<S: Scalar> Default for FlightSums<S> {
     fn default() -> Self {
         FlightSums {
             lag: LagMoments::zero(),
+            recent: LagMoments::zero(),
+            cursor: 0,
             czz: [[S::ZERO; NZ]; NZ],
             czy: [[S::ZERO; NZ]; 3],
             cyy: [S::ZERO; 3],
@@ -215,66 +231,84 @@ impl<S: Scalar> Default for FlightSums<S> {
     }
 }
 
-/// Samples summed on their own before joining the window's sums: f32 sums of a long window
-/// then round like sums of `n / BLOCK + BLOCK` terms, not `n` (two-level pairwise summation).
-pub const BLOCK: u32 = 256;
+impl<S: Scalar> FlightSums<S> {
+    /// Moves `count` entries of the recent sums, from the cursor on, into the folded ones.
+    fn fold(&mut self, count: usize) {
+        for _ in 0..count {
+            let k = self.cursor;
+            if let Some(v) = self.recent.entry_mut(k) {
+                let moved = *v;
+                *v = S::ZERO;
+                if let Some(d) = self.lag.entry_mut(k) {
+                    *d = d.plus(moved);
+                }
+            }
+            self.cursor = k.saturating_add(1);
+            if self.cursor >= ENTRIES {
+                self.cursor = 0;
+            }
+        }
+    }
+
+    /// Folds everything (before a fit; outside the tick).
+    pub fn fold_all(&mut self) {
+        self.fold(ENTRIES);
+    }
+}
 
 /// The open window's sums.
 #[derive(Clone, Copy, Debug)]
 pub struct WindowSums<S> {
-    lag: LagMoments<S>,
     sz: [S; NZ],
     sy: [S; 3],
     n: u32,
-    /// The current block's sums ([`BLOCK`]).
-    block: LagMoments<S>,
-    block_sz: [S; NZ],
-    block_sy: [S; 3],
-    block_n: u32,
-    /// The last two samples (newest first) for the lagged products.
+    /// Samples seen, including those left out at the start.
+    seen: u32,
+    /// The last two samples used (newest first) for the lagged products.
     history: [Sample<S>; LAGS - 1],
 }
 
 impl<S: Scalar> Default for WindowSums<S> {
     fn default() -> Self {
         WindowSums {
-            lag: LagMoments::zero(),
             sz: [S::ZERO; NZ],
             sy: [S::ZERO; 3],
             n: 0,
-            block: LagMoments::zero(),
-            block_sz: [S::ZERO; NZ],
-            block_sy: [S::ZERO; 3],
-            block_n: 0,
+            seen: 0,
             history: [Sample::ZERO; LAGS - 1],
         }
     }
 }
 
 impl<S: Scalar> WindowSums<S> {
-    /// Samples in the window.
+    /// Samples of the window in the sums.
     pub fn len(&self) -> u32 {
         self.n
     }
 
-    /// True if the window has no sample.
+    /// True if the window has no sample in the sums.
     pub fn is_empty(&self) -> bool {
         self.n == 0
     }
 
-    /// Adds one measurement.
-    pub fn push(&mut self, v: &Sample<S>) {
-        self.block.add_pair(0, v, v);
+    /// Adds one measurement to `flight`'s sums, except the window's first `skip` (the noise
+    /// model's order: their whitened residual would need samples before the window).
+    pub fn push(&mut self, flight: &mut FlightSums<S>, v: &Sample<S>, skip: u32) {
+        self.seen = self.seen.saturating_add(1);
+        if self.seen <= skip {
+            return;
+        }
+        flight.recent.add_pair(0, v, v);
         let back = usize::try_from(self.n).unwrap_or(usize::MAX);
         for (l, then) in self.history.iter().enumerate() {
             if l < back {
-                self.block.add_pair(l.saturating_add(1), v, then);
+                flight.recent.add_pair(l.saturating_add(1), v, then);
             }
         }
-        for (s, z) in self.block_sz.iter_mut().zip(v.z) {
+        for (s, z) in self.sz.iter_mut().zip(v.z) {
             *s = s.plus(z);
         }
-        for (s, y) in self.block_sy.iter_mut().zip(v.y) {
+        for (s, y) in self.sy.iter_mut().zip(v.y) {
             *s = s.plus(y);
         }
         self.history.rotate_right(1);
@@ -282,35 +316,16 @@ impl<S: Scalar> WindowSums<S> {
             *h = *v;
         }
         self.n = self.n.saturating_add(1);
-        self.block_n = self.block_n.saturating_add(1);
-        if self.block_n >= BLOCK {
-            self.flush_block();
-        }
+        flight.samples = flight.samples.saturating_add(1);
+        flight.fold(FOLD_PER_SAMPLE);
     }
 
-    /// Adds the block's sums to the window's and empties the block.
-    fn flush_block(&mut self) {
-        self.lag.add(&self.block);
-        for (s, b) in self.sz.iter_mut().zip(self.block_sz) {
-            *s = s.plus(b);
-        }
-        for (s, b) in self.sy.iter_mut().zip(self.block_sy) {
-            *s = s.plus(b);
-        }
-        self.block = LagMoments::zero();
-        self.block_sz = [S::ZERO; NZ];
-        self.block_sy = [S::ZERO; 3];
-        self.block_n = 0;
-    }
-
-    /// Closes the window into `flight` if it has at least `min_len` samples, and empties it.
-    pub fn close_into(&mut self, flight: &mut FlightSums<S>, min_len: u32) {
-        self.flush_block();
-        if self.n >= min_len.max(1) {
+    /// Closes the window: its initial rate's term into `flight`; empties the window.
+    pub fn close_into(&mut self, flight: &mut FlightSums<S>) {
+        if self.n > 0 {
             let n = S::from_int_pow2(i32::try_from(self.n).unwrap_or(i32::MAX), 0);
             let mean_z = self.sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
             let mean_y = self.sy.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
-            flight.lag.add(&self.lag);
             for (row, mz) in flight.czz.iter_mut().zip(mean_z) {
                 for (c, sz) in row.iter_mut().zip(self.sz) {
                     *c = c.mul_add(mz, sz);
@@ -324,7 +339,6 @@ impl<S: Scalar> WindowSums<S> {
             for ((c, my), sy) in flight.cyy.iter_mut().zip(mean_y).zip(self.sy) {
                 *c = c.mul_add(my, sy);
             }
-            flight.samples = flight.samples.saturating_add(self.n);
             flight.windows = flight.windows.saturating_add(1);
         }
         *self = WindowSums::default();

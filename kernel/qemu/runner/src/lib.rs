@@ -170,7 +170,7 @@ pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
         delay_periods: 0.0,
         cut_at_changes: false,
         max_window: 8000,
-        min_window: 20,
+        skip: 2,
         solve: SolveConfig {
             j_nominal: j,
             free: [true; NP],

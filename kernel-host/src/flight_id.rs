@@ -18,13 +18,20 @@ use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
 use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
-/// Longest window, s. Measured on 60 rga12 and 60 combo 1 kHz flights (seeds 740-799,
-/// `identification_mc 60 740 "rga12 1000 Hz 1x" f32`): at 8 s worst bias 0.39 / RMS 1.26
-/// sigma; at 60 s 0.37 / 1.54 (the products), the same in the kernel's f64 instantiation, so
-/// not rounding: the kernel takes the gyroscopic products of the measured trajectory and has
-/// no variational equation, which over long windows overstates the products' information.
-/// At 60 s its sigma is 0.82-1.07x the reference's, at 8 s 1.0-2.3x.
-pub const MAX_WINDOW_S: f64 = 8.0;
+/// Longest window, s.
+pub const MAX_WINDOW_S: f64 = 60.0;
+/// Longest rotation a window spans past [`TURN_WINDOW_S`], rad (3-D craft). The kernel
+/// takes the gyroscopic products of the measured rates and has no variational equation;
+/// over a window that turns far that miscalibrates the products. Measured on 60 flights each
+/// (seeds 740-799, `identification_mc 60 740 FILTER f32`, the limits set by hand in the
+/// code): windows cut at 8 s: calibrated (rga12 1 kHz RMS up to 1.26), sigma 1.03-2.29x the
+/// reference's; at 60 s with no turn limit: rga12 RMS 1.55, sigma 0.82-1.07x; at 60 s with 4
+/// rad after 8 s (these constants): rga12 RMS 1.25, combo 1.17, closed loop 1.26, and sigma
+/// 0.95-1.01x the reference's on single and closed loop, 1.3-1.95x on rga12, combo and
+/// random-pwm.
+pub const MAX_WINDOW_TURN_RAD: f64 = 4.0;
+/// See [`MAX_WINDOW_TURN_RAD`], s.
+pub const TURN_WINDOW_S: f64 = 8.0;
 /// Shortest window cap, samples.
 const MIN_WINDOW: u32 = 20;
 
@@ -118,6 +125,12 @@ pub fn identify<S: Scalar>(
         delay_periods: (latency_ms * 1e-3 / period) as f32,
         cut_at_changes: coarse,
         max_window,
+        max_window_turn_rad: S::from_f32(if sat.planar {
+            f32::INFINITY
+        } else {
+            MAX_WINDOW_TURN_RAD as f32
+        }),
+        turn_window: (TURN_WINDOW_S / period).clamp(0.0, 1e9) as u32,
         skip: u32::from(max_noise_order),
         solve: SolveConfig {
             j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),

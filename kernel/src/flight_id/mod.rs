@@ -54,6 +54,13 @@ pub struct FlightIdConfig<S> {
     pub cut_at_changes: bool,
     /// Windows are cut at this many samples (bounds every sum).
     pub max_window: u32,
+    /// Past `turn_window` samples, a window is also cut once the craft has turned this far in
+    /// it (rad, summed over the axes): the kernel takes the gyroscopic products of the
+    /// measured rates and has no variational equation, an approximation that degrades with the
+    /// rotation a long window spans.
+    pub max_window_turn_rad: S,
+    /// See `max_window_turn_rad`.
+    pub turn_window: u32,
     /// Samples left out at each window's start: the noise model's highest order (their
     /// whitened residual would need samples before the window).
     pub skip: u32,
@@ -75,6 +82,8 @@ pub struct FlightId<S> {
     /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
     recent: [([S; NZ], [S; 3]); 3],
     filled: u32,
+    /// Rotation in the window so far, rad (sum over the axes of `|omega| dt`).
+    turned: S,
     /// The window's rate anchor (its first measurement).
     anchor: Option<[S; 3]>,
     /// The delay line of the commands.
@@ -110,6 +119,7 @@ impl<S: Scalar> FlightId<S> {
             z_carry: [S::ZERO; NZ],
             recent: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
             filled: 0,
+            turned: S::ZERO,
             anchor: None,
             previous: None,
             delay,
@@ -139,6 +149,8 @@ impl<S: Scalar> FlightId<S> {
                 !gap.lt(dt_s)
                     && S::ZERO.lt(dt_s)
                     && self.filled < self.cfg.max_window
+                    && (self.filled < self.cfg.turn_window
+                        || self.turned.lt(self.cfg.max_window_turn_rad))
                     && !(self.cfg.cut_at_changes && differs(&w_prev, &wrench))
             }
             None => false,
@@ -174,6 +186,11 @@ impl<S: Scalar> FlightId<S> {
                 let t = zi.plus(y);
                 *carry = t.minus(*zi).minus(y);
                 *zi = t;
+            }
+        }
+        if joins {
+            for w in rate {
+                self.turned = self.turned.plus(w.abs().times(dt_s));
             }
         }
         self.recent.rotate_right(1);
@@ -222,6 +239,7 @@ impl<S: Scalar> FlightId<S> {
         self.z = [S::ZERO; NZ];
         self.z_carry = [S::ZERO; NZ];
         self.filled = 0;
+        self.turned = S::ZERO;
         self.anchor = None;
     }
 

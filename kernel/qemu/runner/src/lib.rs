@@ -170,6 +170,8 @@ pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
         delay_periods: 0.0,
         cut_at_changes: false,
         max_window: 8000,
+        max_window_turn_rad: 1e9,
+        turn_window: 8000,
         skip: 2,
         solve: SolveConfig {
             j_nominal: j,

@@ -3,9 +3,9 @@
 //! `cargo run --release -p massid-proofs-solver --example prove -- [filter] [--open] [--mutants] [--rlimit N] [--guard S]`.
 //!
 //! Without `--rlimit` each question gets the limit the tests use (`PROOF_RLIMIT`, or the
-//! obligation's mutant limit); `--rlimit 0` removes it (then only the wall-clock guard, `--guard S`,
-//! default 3600 s, stops Z3, and a guard hit is printed, not counted as a verdict): that is
-//! how the consumption figures of `proofs/README.md` were measured.
+//! obligation's mutant limit); `--rlimit 0` removes it (then only the wall-clock guard,
+//! `--guard S`, default 7200 s, stops Z3, and a guard hit is printed, not counted as a
+//! verdict): that is how the consumption figures of `proofs/README.md` were measured.
 
 use massid_proofs_solver::discharge::{self, Budget, Verdict};
 use massid_proofs_solver::obligations;

@@ -190,7 +190,7 @@ deferred = ticks 1-8 after a word change (thrusters off or valve transient) that
 deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending_stage\`; the last stage, the inverse-inertia solve, is \`solve\`);"
   echo "kf = Kalman update during the batch firings; kf_rls = Kalman update + RLS measurement (firing 3 on);"
   echo "solve = end of firing with the batch/RLS LU solve; mixer_build = mixer rebuilt from the CoM estimate; mixer = one mix;"
-  echo "flight_id_push = one sample of the output-error identification (\\`massid_kernel::flight_id\\`, f32, hard-float targets only:"
+  echo "flight_id_push = one sample of the output-error identification (\`massid_kernel::flight_id\`, f32, hard-float targets only:"
   echo "its fit runs outside the tick and is not counted; the min is a window's first samples, left out of the sums)."
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"

@@ -21,23 +21,33 @@ fn open3(name: &str) -> (String, String) {
     )
 }
 
-fn estimate_json(name: &str) -> serde_json::Value {
+/// `massid estimate` of an open3 recording with `extra` arguments: stdout and the JSON.
+fn estimate_with(name: &str, extra: &[&str]) -> (String, serde_json::Value) {
     let (rec, model) = open3(name);
-    let dir = std::env::temp_dir().join(format!("massid-any-{}-{name}", std::process::id()));
+    // One directory per call: tests run in parallel on the same recordings.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    let dir = std::env::temp_dir().join(format!("massid-any-{}-{call}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("e.json");
-    let o = massid(&[
+    let mut args = vec![
         "estimate",
         &rec,
         "--model",
         &model,
         "--json",
         out.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let o = massid(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     std::fs::remove_dir_all(&dir).ok();
-    v
+    (String::from_utf8_lossy(&o.stdout).into_owned(), v)
+}
+
+fn estimate_json(name: &str) -> serde_json::Value {
+    estimate_with(name, &[]).1
 }
 
 #[test]
@@ -85,31 +95,13 @@ fn the_onboard_kernel_identifies_v2_craft_and_the_seed_method_refuses_them() {
         // Motion-capture rates: estimated, but the kernel's timing test is for gyros.
         ("r01_pl6_nominal", 2, 0.085, "consistency_untested"),
     ] {
-        let (rec, model) = open3(name);
-        let dir = std::env::temp_dir().join(format!("massid-k-{}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let out = dir.join("e.json");
-        let o = massid(&[
-            "estimate",
-            &rec,
-            "--model",
-            &model,
-            "--kernel",
-            "all",
-            "--json",
-            out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let stdout = String::from_utf8_lossy(&o.stdout);
+        let (stdout, v) = estimate_with(name, &["--kernel", "all"]);
         // Q8.24 cannot hold the sums: said, not answered.
         assert!(
             stdout.contains("[fixed] output-error  not available"),
             "{stdout}"
         );
         assert!(stdout.contains("[f32] vs f64"), "{stdout}");
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
-        std::fs::remove_dir_all(&dir).ok();
         let r = &v["results"]["f32"];
         assert_eq!(r["status"], status, "{name}: {r}");
         if status == "ok" {

@@ -149,6 +149,51 @@ pub fn max_abs<S: Scalar>(a: S, b: S) -> S {
     }
 }
 
+/// The operations the IEEE impls ([`f32`], [`f64`]) share, written once.
+macro_rules! ieee_float_ops {
+    () => {
+        #[inline]
+        fn checked_div(self, rhs: Self) -> Option<Self> {
+            if rhs == 0.0 {
+                return None;
+            }
+            let q = self / rhs;
+            q.is_finite().then_some(q)
+        }
+        #[inline]
+        fn abs(self) -> Self {
+            if self < 0.0 {
+                -self
+            } else {
+                self
+            }
+        }
+        #[inline]
+        fn lt(self, rhs: Self) -> bool {
+            self < rhs
+        }
+        #[inline]
+        fn is_valid(self) -> bool {
+            self.is_finite()
+        }
+        #[inline]
+        fn floor_times(self, k: u32) -> Option<i64> {
+            // An f32 or f64 value times a u32 is exact in f64 for f32, and rounded once for
+            // f64; the floor is then taken exactly.
+            let x = f64::from(self) * f64::from(k);
+            if !x.is_finite() || x.abs() >= 9.0e15 {
+                return None;
+            }
+            let t = x as i64; // truncation toward zero, exact below 2^53
+            Some(if (t as f64) > x {
+                t.saturating_sub(1)
+            } else {
+                t
+            })
+        }
+    };
+}
+
 impl Scalar for f32 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
@@ -168,30 +213,7 @@ impl Scalar for f32 {
     fn to_f32(self) -> f32 {
         self
     }
-    #[inline]
-    fn checked_div(self, rhs: Self) -> Option<Self> {
-        if rhs == 0.0 {
-            return None;
-        }
-        let q = self / rhs;
-        if q.is_finite() {
-            Some(q)
-        } else {
-            None
-        }
-    }
-    #[inline]
-    fn abs(self) -> Self {
-        if self < 0.0 {
-            -self
-        } else {
-            self
-        }
-    }
-    #[inline]
-    fn lt(self, rhs: Self) -> bool {
-        self < rhs
-    }
+    ieee_float_ops!();
     #[inline]
     fn mul_pow2(self, e: i32) -> Self {
         // A single power of two only spans 2^-126..2^127; the shift is applied in up to three
@@ -205,26 +227,8 @@ impl Scalar for f32 {
         self * pow2_f32(first) * pow2_f32(second) * pow2_f32(third)
     }
     #[inline]
-    fn is_valid(self) -> bool {
-        self.is_finite()
-    }
-    #[inline]
     fn headroom() -> Self {
         1.0e30
-    }
-    #[inline]
-    fn floor_times(self, k: u32) -> Option<i64> {
-        // f32 (24-bit mantissa) times a u32 is exact in f64 (53 bits).
-        let x = f64::from(self) * f64::from(k);
-        if !x.is_finite() || x.abs() >= 9.0e15 {
-            return None;
-        }
-        let t = x as i64; // truncation toward zero, exact here
-        Some(if (t as f64) > x {
-            t.saturating_sub(1)
-        } else {
-            t
-        })
     }
     #[inline]
     fn split_pow2(self) -> (Self, i32) {
@@ -262,26 +266,7 @@ impl Scalar for f64 {
     fn to_f32(self) -> f32 {
         self as f32
     }
-    #[inline]
-    fn checked_div(self, rhs: Self) -> Option<Self> {
-        if rhs == 0.0 {
-            return None;
-        }
-        let q = self / rhs;
-        q.is_finite().then_some(q)
-    }
-    #[inline]
-    fn abs(self) -> Self {
-        if self < 0.0 {
-            -self
-        } else {
-            self
-        }
-    }
-    #[inline]
-    fn lt(self, rhs: Self) -> bool {
-        self < rhs
-    }
+    ieee_float_ops!();
     #[inline]
     fn mul_pow2(self, e: i32) -> Self {
         let e = e.clamp(-2000, 2000);
@@ -290,25 +275,8 @@ impl Scalar for f64 {
         self * pow2_f64(first) * pow2_f64(second)
     }
     #[inline]
-    fn is_valid(self) -> bool {
-        self.is_finite()
-    }
-    #[inline]
     fn headroom() -> Self {
         1.0e200
-    }
-    #[inline]
-    fn floor_times(self, k: u32) -> Option<i64> {
-        let x = self * f64::from(k);
-        if !x.is_finite() || x.abs() >= 9.0e15 {
-            return None;
-        }
-        let t = x as i64;
-        Some(if (t as f64) > x {
-            t.saturating_sub(1)
-        } else {
-            t
-        })
     }
 }
 

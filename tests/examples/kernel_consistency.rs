@@ -1,6 +1,5 @@
 //! The onboard kernel's consistency test (f32) on planted faults and their controls:
 //! `cargo run --release -p massid-tests --example kernel_consistency -- SEED0 FLIGHTS`.
-use massid_sim::effects::{Effect, ThrustRise, ThrustScale, ThrusterLatency};
 use massid_sim::{simulate, Maneuver, SimSpec};
 use reference_f64::flight_id::flight::Flight;
 use reference_f64::satellite::Satellite;
@@ -10,26 +9,8 @@ fn main() {
     let seed0: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(3000);
     let flights: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
     let sat = Satellite::builtin("sph2").expect("sph2");
-    let mut weak = vec![1.0; 12];
-    weak[4] = 0.9;
-    let faults: Vec<(&str, Vec<Effect>)> = vec![
-        ("none", vec![]),
-        (
-            "latency 6/6 ms",
-            vec![Effect::ThrusterLatency(ThrusterLatency {
-                open_ms: 6.0,
-                close_ms: 6.0,
-            })],
-        ),
-        (
-            "thruster 5 at 0.9",
-            vec![Effect::ThrustScale(ThrustScale { scale: weak })],
-        ),
-        (
-            "thrust rise 10 ms",
-            vec![Effect::ThrustRise(ThrustRise { tau_ms: 10.0 })],
-        ),
-    ];
+    let mut faults: Vec<(&str, Vec<massid_sim::effects::Effect>)> = vec![("none", vec![])];
+    faults.extend(massid_tests::planted_faults::planted_faults(12));
     for m in [Maneuver::Rga12, Maneuver::Combo, Maneuver::ClosedLoop] {
         for rate in [1000.0, 250.0] {
             for (name, effects) in &faults {

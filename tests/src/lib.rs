@@ -15,3 +15,4 @@ pub fn open2_data_dir() -> PathBuf {
 pub mod coverage;
 pub mod crlb;
 pub mod identification_mc;
+pub mod planted_faults;

@@ -8,7 +8,7 @@
 //! 2. A model stating each thruster's thrust uncertainty (5 %) on flights whose true thrusts
 //!    are drawn with that spread: the 2-sigma intervals of the principal inertias must cover
 //!    the truth; without the stated uncertainty they must not.
-use massid_sim::effects::{Effect, ThrustRise, ThrustScale, ThrusterLatency};
+use massid_sim::effects::{Effect, ThrustScale};
 use massid_sim::{simulate, Maneuver, SimSpec};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -53,30 +53,7 @@ fn principal_ratio(e: &FlightEstimate, sat: &Satellite) -> [f64; 3] {
 
 const MANEUVERS: [Maneuver; 2] = [Maneuver::Rga12, Maneuver::Combo];
 const FAULT_SEEDS: [u64; 2] = [3000, 3001];
-/// The thruster made 10 % weak (thruster 5: one of the RGA's rotation pair about x).
-const WEAK: usize = 4;
-
-fn faults(n: usize) -> Vec<(&'static str, Vec<Effect>)> {
-    let mut one_weak = vec![1.0; n];
-    one_weak[WEAK] = 0.9;
-    vec![
-        (
-            "latency 6/6 ms",
-            vec![Effect::ThrusterLatency(ThrusterLatency {
-                open_ms: 6.0,
-                close_ms: 6.0,
-            })],
-        ),
-        (
-            "thruster 5 at 0.9",
-            vec![Effect::ThrustScale(ThrustScale { scale: one_weak })],
-        ),
-        (
-            "thrust rise 10 ms",
-            vec![Effect::ThrustRise(ThrustRise { tau_ms: 10.0 })],
-        ),
-    ]
-}
+use massid_tests::planted_faults::planted_faults as faults;
 
 #[test]
 fn planted_faults_are_inconsistent_and_clean_flights_ok() {

@@ -106,8 +106,8 @@ pub const PRODUCT_MUTANT_RLIMIT: u32 = 1_000_000_000;
 /// mutant, 6,412,096 for `shift_nearest` site 8 (equivalent, proved; the largest
 /// refutation is `shift_nearest` site 35's, 2,277,385). On the integer engine one mutant,
 /// `div_by_i64_q8_24` site 3, is not decided by the first solver at any limit tried
-/// (329,502,891 in 120 s); it uses that solver's half of this and is refuted by the second
-/// solver of the integer engine (25,061,655 in all). Measured with
+/// (none in 102,091,010, 120 s); it uses that solver's half of this and is refuted by the
+/// second solver of the integer engine (25,061,655 in all). Measured with
 /// `cargo run --release -p massid-proofs-solver --example prove -- --mutants --rlimit 0 --guard 120`.
 pub const MUTANT_RLIMIT: u32 = 50_000_000;
 

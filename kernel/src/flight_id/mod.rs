@@ -249,12 +249,22 @@ impl<S: Scalar> FlightId<S> {
         self.previous = None;
     }
 
-    /// Fits the mass properties to the closed windows (on a folded copy of the sums: this is
-    /// a background task's work, not a tick's).
+    /// Fits the mass properties to the closed windows and tests their consistency (on a
+    /// folded copy of the sums: this is a background task's work, not a tick's).
     pub fn solve(&self) -> Result<Solution<S>, SolveError> {
         let mut sums = self.sums;
         sums.fold_all();
-        solve::solve(&sums, &self.cfg.solve)
+        let mut solution = solve::solve(&sums, &self.cfg.solve)?;
+        let free = solution.held.map(|h| !h);
+        solution.timing_statistic = consistency::timing_statistic(
+            &sums,
+            &self.cfg.solve,
+            &solution.theta,
+            &solution.noise,
+            &free,
+            &solution.covariance,
+        );
+        Ok(solution)
     }
 
     /// The configuration.

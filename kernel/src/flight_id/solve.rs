@@ -82,7 +82,8 @@ pub struct Solution<S> {
     /// The inverse inertia is positive definite (else not a rigid body).
     pub positive_definite: bool,
     /// The consistency test's statistic (chi-square, 1 degree of freedom), if the timing
-    /// direction is distinguishable from the fitted terms ([`super::consistency`]).
+    /// direction is distinguishable from the fitted terms ([`super::consistency`]; filled by
+    /// [`super::FlightId::solve`], `None` from [`solve`] alone).
     pub timing_statistic: Option<S>,
 }
 
@@ -715,8 +716,6 @@ pub fn solve<S: Scalar>(
         }
         let held = core::array::from_fn(|m| !free.get(m).copied().unwrap_or(false));
         let positive_definite = positive_definite(theta.split_at(6).0);
-        let timing_statistic =
-            super::consistency::timing_statistic(s, cfg, &theta, &noise, &free, &covariance);
         return Ok(Solution {
             theta,
             covariance,
@@ -724,7 +723,7 @@ pub fn solve<S: Scalar>(
             noise,
             steps,
             positive_definite,
-            timing_statistic,
+            timing_statistic: None,
         });
     }
     Err(SolveError::Singular)

@@ -1,21 +1,10 @@
 //! Issue 26: every input gets a right answer or a clear error. One test per case of the
 //! issue's "Why" list: panics, hangs, confidently wrong answers, models accepted without a
 //! check, and the conventions the subcommands now share.
+mod common;
+use common::{bin, massid, ok, repo, s};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-
-/// The binary under test; `MASSID_BIN` runs these tests against another build (e.g. the
-/// one before the fixes, to see each test fail).
-fn bin() -> String {
-    std::env::var("MASSID_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_massid").to_string())
-}
-
-fn massid(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .output()
-        .expect("massid runs")
-}
 
 /// Runs massid, expects a failure, returns stderr (which must hold no panic).
 fn fails(args: &[&str]) -> String {
@@ -37,20 +26,6 @@ fn fails(args: &[&str]) -> String {
     err
 }
 
-fn ok(args: &[&str]) -> String {
-    let out = massid(args);
-    assert!(
-        out.status.success(),
-        "massid {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
 fn data(rel: &str) -> String {
     repo()
         .join("../shared/data")
@@ -60,14 +35,7 @@ fn data(rel: &str) -> String {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("massid-bad-{}-{name}", std::process::id()));
-    std::fs::remove_dir_all(&d).ok();
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
+    common::tmp("bad", name)
 }
 
 const O01: &str = "open/o01_nominal_rga12.csv";

@@ -3,15 +3,9 @@
 //! estimated, not refused, and the JSON says how (method, sensor response, noise model,
 //! consistency tests); a planar craft's unidentifiable terms are null. The onboard kernel's
 //! output-error form (f32) identifies them too; the seed's design refuses v2 with a clear error.
+mod common;
+use common::massid;
 use std::path::PathBuf;
-use std::process::Command;
-
-fn massid(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_massid"))
-        .args(args)
-        .output()
-        .expect("massid runs")
-}
 
 fn open3(name: &str) -> (String, String) {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open3");

@@ -1,28 +1,11 @@
 //! `massid import`: the real air-bearing log through the shipped mapping, the summary line,
 //! errors as `file:line: reason`, and never overwriting a file.
+mod common;
+use common::{massid, repo, s};
 use std::path::PathBuf;
-use std::process::Command;
-
-fn massid(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_massid"))
-        .args(args)
-        .output()
-        .expect("massid runs")
-}
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("massid-import-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &std::path::Path) -> &str {
-    p.to_str().unwrap()
+    common::tmp("import", name)
 }
 
 #[test]
@@ -31,7 +14,7 @@ fn imports_the_real_log_and_refuses_to_overwrite() {
     let log = repo().join("../shared/data/real/airbearing-mpc/real_test_data.csv");
     let map = repo().join("examples/import/airbearing-mpc.toml");
     let out = d.join("air.csv");
-    let args = ["import", s(&log), "--mapping", s(&map), "--out", s(&out)];
+    let args = ["import", &s(&log), "--mapping", &s(&map), "--out", &s(&out)];
     let o = massid(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -61,10 +44,24 @@ fn imports_the_real_log_and_refuses_to_overwrite() {
     assert_eq!(std::fs::read(&out).unwrap(), before);
     let copy = d.join("log.csv");
     std::fs::copy(&log, &copy).unwrap();
-    let o = massid(&["import", s(&copy), "--mapping", s(&map), "--out", s(&copy)]);
+    let o = massid(&[
+        "import",
+        &s(&copy),
+        "--mapping",
+        &s(&map),
+        "--out",
+        &s(&copy),
+    ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("refusing to overwrite an input file"));
-    let o = massid(&["import", s(&copy), "--mapping", s(&map), "--out", s(&map)]);
+    let o = massid(&[
+        "import",
+        &s(&copy),
+        "--mapping",
+        &s(&map),
+        "--out",
+        &s(&map),
+    ]);
     assert!(!o.status.success(), "the mapping is an input too");
     std::fs::remove_dir_all(&d).ok();
 }
@@ -81,7 +78,7 @@ fn errors_name_the_file_and_line() {
     let log = d.join("log.csv");
     std::fs::write(&log, "t,w,A,B\n0,1,0,1\n0.1,abc,1,0\n").unwrap();
     let out = d.join("rec.csv");
-    let o = massid(&["import", s(&log), "--mapping", s(&map), "--out", s(&out)]);
+    let o = massid(&["import", &s(&log), "--mapping", &s(&map), "--out", &s(&out)]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -94,7 +91,7 @@ fn errors_name_the_file_and_line() {
     assert!(!out.exists(), "nothing written on error");
 
     std::fs::write(&log, "t,w,A,B\n0,1,0,1\n0.1,-90,1,0\n").unwrap();
-    let o = massid(&["import", s(&log), "--mapping", s(&map), "--out", s(&out)]);
+    let o = massid(&["import", &s(&log), "--mapping", &s(&map), "--out", &s(&out)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let written = std::fs::read_to_string(&out).unwrap();
     assert!(
@@ -111,11 +108,11 @@ fn errors_name_the_file_and_line() {
     .unwrap();
     let o = massid(&[
         "import",
-        s(&log),
+        &s(&log),
         "--mapping",
-        s(&map),
+        &s(&map),
         "--out",
-        s(&d.join("r2.csv")),
+        &s(&d.join("r2.csv")),
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);

@@ -1,34 +1,12 @@
 //! The one model format (issue 14 item 1): one model file drives `simulate`, then
 //! `estimate`, `diagnose` and `mix` against the same file; every example model file in the
 //! repository passes `massid model check`; a typo is an error with line and column.
+mod common;
+use common::{massid, ok, repo};
 use std::path::PathBuf;
-use std::process::Command;
-
-fn massid(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_massid"))
-        .args(args)
-        .output()
-        .expect("massid runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = massid(args);
-    assert!(
-        out.status.success(),
-        "massid {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("massid-model-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmp("model", name)
 }
 
 #[test]

@@ -8,6 +8,7 @@
 //! algorithm the kernels run, so `max_diff_vs_f64` then measures arithmetic; `--offline` its
 //! zero-phase form). The f32 and fixed-point paths run the onboard kernel
 //! (`massid_kernel::Pipeline`, the seed's design) one sample per tick ([`run_kernel`]).
+use crate::cmd::Text;
 use anyhow::{anyhow, bail, Context};
 use reference_f64::flight_id::fit::SensorResponse;
 use reference_f64::flight_id::flight::Flight;
@@ -91,6 +92,11 @@ fn parse_sensor(s: &str) -> anyhow::Result<Option<SensorResponse>> {
 }
 
 impl Args {
+    /// The human text goes to stderr when the JSON goes to stdout.
+    fn text(&self) -> Text {
+        Text::beside_json(self.json.as_deref())
+    }
+
     fn flight_options(&self, sat: &Satellite) -> anyhow::Result<FlightOptions> {
         if !(self.latency_ms.is_finite() && (0.0..=10_000.0).contains(&self.latency_ms)) {
             bail!("--latency-ms {}: must be in 0..=10000", self.latency_ms);
@@ -321,8 +327,9 @@ pub fn output_json(recording: &str, model: &str, results: &[(Kernel, Value)]) ->
     Value::Object(doc)
 }
 
-fn print_flight_result(kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
-    println!(
+fn print_flight_result(out: Text, kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
+    say!(
+        out,
         "[{}] output-error  status {}  samples {}  sensor {}",
         kernel.name(),
         e.status,
@@ -332,17 +339,22 @@ fn print_flight_result(kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
     let shown = |name: &str| !e.not_planar.contains(&name);
     for (a, name) in COM_TERMS.iter().enumerate() {
         if shown(name) {
-            println!(
+            say!(
+                out,
                 "  {name} - model: {:+.4} +- {:.4} mm",
-                e.com_offset_mm[a], e.com_offset_stderr_mm[a]
+                e.com_offset_mm[a],
+                e.com_offset_stderr_mm[a]
             );
         }
     }
     for (j, name) in INERTIA_TERMS.iter().enumerate() {
         if shown(name) {
-            println!(
+            say!(
+                out,
                 "  {name}: {:.6e} +- {:.1e} kg m^2  (model {:.6e})",
-                e.inertia_kgm2[j], e.inertia_stderr_kgm2[j], sat.inertia_kgm2[j]
+                e.inertia_kgm2[j],
+                e.inertia_stderr_kgm2[j],
+                sat.inertia_kgm2[j]
             );
         }
     }
@@ -352,15 +364,16 @@ fn print_flight_result(kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
             .map(|a| format!("{} {:+.2e} +- {:.1e}", AXIS_NAMES[a], d[a], s[a]))
             .collect();
         if !parts.is_empty() {
-            println!("  disturbance torque (N m): {}", parts.join(", "));
+            say!(out, "  disturbance torque (N m): {}", parts.join(", "));
         }
     }
     if let Some((b, s)) = e.damping_nms.filter(|(_, s)| s.is_finite()) {
-        println!("  yaw damping: {b:+.4e} +- {s:.1e} N m s/rad");
+        say!(out, "  yaw damping: {b:+.4e} +- {s:.1e} N m s/rad");
     }
     for (a, n) in e.noise.iter().enumerate() {
         if let Some(n) = n {
-            println!(
+            say!(
+                out,
                 "  rate noise {}: {:.2e} rad/s, AR order {} (innovation {:.2e})",
                 ["x", "y", "z"][a],
                 n.process_variance().sqrt(),
@@ -370,28 +383,35 @@ fn print_flight_result(kernel: Kernel, e: &FlightEstimate, sat: &Satellite) {
         }
     }
     for t in &e.consistency {
-        println!(
+        say!(
+            out,
             "  consistency {}: chi2 {:.1} on {} dof, p = {:.2e}",
-            t.name, t.statistic, t.dof, t.p_value
+            t.name,
+            t.statistic,
+            t.dof,
+            t.p_value
         );
     }
     let held: Vec<&&str> = e.unobservable.iter().filter(|n| shown(n)).collect();
     if !held.is_empty() {
-        println!(
+        say!(
+            out,
             "  unobservable (held at the model's values): {}",
             held.iter().map(|s| **s).collect::<Vec<_>>().join(", ")
         );
     }
     if !e.not_planar.is_empty() {
-        println!(
+        say!(
+            out,
             "  not identifiable on a planar craft: {}",
             e.not_planar.join(", ")
         );
     }
 }
 
-fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
-    println!(
+fn print_result(out: Text, kernel: Kernel, e: &Estimate, sat: &Satellite) {
+    say!(
+        out,
         "[{}] seed design  status {}  updates {}",
         kernel.name(),
         e.status,
@@ -399,18 +419,28 @@ fn print_result(kernel: Kernel, e: &Estimate, sat: &Satellite) {
     );
     let c = e.com_offset_mm;
     let cs = e.com_offset_stderr_mm;
-    println!(
+    say!(
+        out,
         "  CoM offset (mm, vs model): x {:+.3} +- {:.3}  y {:+.3} +- {:.3}  z {:+.3} +- {:.3}",
-        c[0], cs[0], c[1], cs[1], c[2], cs[2]
+        c[0],
+        cs[0],
+        c[1],
+        cs[1],
+        c[2],
+        cs[2]
     );
     for (j, name) in reference_f64::mass_id::INERTIA_TERMS.iter().enumerate() {
-        println!(
+        say!(
+            out,
             "  {name}: {:.6e} +- {:.1e} kg m^2  (model {:.6e})",
-            e.inertia_kgm2[j], e.inertia_stderr_kgm2[j], sat.inertia_kgm2[j]
+            e.inertia_kgm2[j],
+            e.inertia_stderr_kgm2[j],
+            sat.inertia_kgm2[j]
         );
     }
     if !e.unobservable.is_empty() {
-        println!(
+        say!(
+            out,
             "  unobservable (held at the model's values): {}",
             e.unobservable.join(", ")
         );
@@ -460,6 +490,7 @@ fn output_error(
     source: &str,
 ) -> anyhow::Result<Vec<(Kernel, Value)>> {
     let opts = args.flight_options(sat)?;
+    let out = args.text();
     let mut reference: Option<FlightEstimate> = None;
     let reference_of = |reference: &mut Option<FlightEstimate>| -> anyhow::Result<FlightEstimate> {
         if let Some(e) = reference {
@@ -497,26 +528,26 @@ fn output_error(
                 match run {
                     Ok(e) => e,
                     Err(why) if kernels.len() > 1 => {
-                        println!("[{}] output-error  not available: {why}", k.name());
+                        say!(out, "[{}] output-error  not available: {why}", k.name());
                         continue;
                     }
                     Err(why) => bail!("{source}: [{}] {why}", k.name()),
                 }
             }
         };
-        print_flight_result(k, &e, sat);
+        print_flight_result(out, k, &e, sat);
         results.push((k, flight_result_json(&e)));
     }
-    print_differences(&results);
+    print_differences(out, &results);
     Ok(results)
 }
 
 /// Each kernel's largest differences from the f64 result.
-fn print_differences(results: &[(Kernel, Value)]) {
+fn print_differences(out: Text, results: &[(Kernel, Value)]) {
     if let Some((_, base)) = results.iter().find(|(k, _)| *k == Kernel::F64) {
         for (k, e) in results.iter().filter(|(k, _)| *k != Kernel::F64) {
             let d = max_diff_json(e, base);
-            println!(
+            say!(out,
                 "[{}] vs f64: max |diff| CoM {:.3e} mm, inertia {:.3e} kg m^2, inertia stderr {:.3e}",
                 k.name(),
                 d["com_offset_mm"].as_f64().unwrap_or(f64::NAN),
@@ -564,7 +595,7 @@ fn write_json(
     let tmp = out.with_extension("json.tmp");
     std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
     std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
-    println!("wrote {}", out.display());
+    say!(args.text(), "wrote {}", out.display());
     Ok(())
 }
 
@@ -600,13 +631,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let results = output_error(&args, &flight, &sat, &kernels, &rec.source)?;
         return write_json(&args, &rec.source, &sat, &results);
     }
+    let out = args.text();
     let mut results = Vec::new();
     for k in kernels {
         let e = run_kernel(k, &rec, &sat, form)?;
-        print_result(k, &e, &sat);
+        print_result(out, k, &e, &sat);
         results.push((k, result_json(&e)));
     }
-    print_differences(&results);
+    print_differences(out, &results);
     write_json(&args, &rec.source, &sat, &results)
 }
 

@@ -1,14 +1,4 @@
 //! One module per subcommand.
-pub mod characterize;
-pub mod demo;
-pub mod diagnose;
-pub mod estimate;
-pub mod import;
-pub mod inputs;
-pub mod mix;
-pub mod model;
-pub mod simulate;
-
 /// A number as a message quotes it: plain when moderate, else in exponent form (`1e308`,
 /// not 309 digits).
 pub fn num(x: f64) -> String {
@@ -18,6 +8,50 @@ pub fn num(x: f64) -> String {
         format!("{x:e}")
     }
 }
+
+/// Where a subcommand's human text goes: stdout, or stderr when stdout carries a JSON
+/// document (`--json -`), so that a program reading stdout gets the JSON alone.
+#[derive(Clone, Copy, Debug)]
+pub struct Text {
+    to_stderr: bool,
+}
+
+impl Text {
+    /// The text's destination given the `--json` output, if any.
+    pub fn beside_json(json: Option<&std::path::Path>) -> Text {
+        Text {
+            to_stderr: json.is_some_and(is_stdout),
+        }
+    }
+
+    /// Prints one line.
+    pub fn line(&self, args: std::fmt::Arguments) {
+        if self.to_stderr {
+            eprintln!("{args}");
+        } else {
+            println!("{args}");
+        }
+    }
+}
+
+/// `say!(text, "...", args)`: one line of human text to `text`'s destination ([`Text`]).
+macro_rules! say {
+    ($text:expr, $($fmt:tt)*) => {
+        $text.line(format_args!($($fmt)*))
+    };
+}
+pub(crate) use say;
+
+// The subcommands, after the `say!` macro they use (a macro is in scope below its definition).
+pub mod characterize;
+pub mod demo;
+pub mod diagnose;
+pub mod estimate;
+pub mod import;
+pub mod inputs;
+pub mod mix;
+pub mod model;
+pub mod simulate;
 
 /// Whether an output path means standard output (`-`).
 pub fn is_stdout(out: &std::path::Path) -> bool {

@@ -211,15 +211,35 @@ fn a_gyro_stuck_at_its_bias_is_called_unresponsive_not_a_thrust_scale() {
 }
 
 #[test]
-fn simulate_refuses_the_spheres_scripts_for_an_8_thruster_planar_model() {
+fn simulate_of_an_8_thruster_planar_model_refuses_rga12_and_writes_v2_for_its_own_maneuvers() {
     let d = tmp("planar-sim");
     let out = s(&d.join("pl.csv"));
+    // rga12 (the default) flies the SPHERES layout: refused, naming what works
     let e = fails(&["simulate", "--model", &planar_model(), "--out", &out]);
     assert!(
-        e.contains("planar craft with 8 thrusters") && e.contains("12-thruster 3-D SPHERES"),
+        e.contains("planar craft with 8 thrusters")
+            && e.contains("rga12")
+            && e.contains("single, combo, random-pwm"),
         "{e}"
     );
     assert!(!d.join("pl.csv").exists(), "no file of zero gyro counts");
+    // a maneuver built from its thrusters: rates in rad/s (v2), not zero counts
+    ok(&[
+        "simulate",
+        "--model",
+        &planar_model(),
+        "--maneuver",
+        "single",
+        "--rate",
+        "50",
+        "--out",
+        &out,
+    ]);
+    let text = std::fs::read_to_string(d.join("pl.csv")).unwrap();
+    assert!(
+        text.starts_with("# format = massid-recording/2\n"),
+        "{text:.200}"
+    );
 }
 
 #[test]

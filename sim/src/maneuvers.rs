@@ -9,11 +9,85 @@
 //!   an opposing pair) with random pulses of 10-190 ms centred in the period (as the PWM
 //!   mixer centres them), then 1.5 s rest.
 //! - `random_pwm`: like combo, but every thruster independently fires with probability 0.3.
+//!
+//! `single`, `combo` and `random_pwm` are built from a craft's own thrusters ([`Layout`]):
+//! any count, planar or 3-D. `rga12` (and the closed loop's mixer) fly the SPHERES layout
+//! only; [`Layout::is_spheres`] says whether a craft has it.
 use rand::seq::SliceRandom;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use reference_f64::mixer::MIN_PULSE_MS;
-use reference_f64::satellite::{N_THRUSTERS, OPPOSING_PAIRS};
+use reference_f64::satellite::{Satellite, N_THRUSTERS, OPPOSING_PAIRS};
+
+/// What a script needs of a craft: how many thrusters, and which thruster undoes which
+/// (firing both of such a pair wastes gas and excites nothing, so the random scripts never do).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// Number of thrusters (bit i of a word = thruster i+1).
+    pub n: usize,
+    /// For each thruster, the one whose force and torque cancel its own, if any.
+    pub opposite: Vec<Option<usize>>,
+}
+
+/// Two thrusters oppose when the sum of their wrenches is under this fraction of their
+/// sizes (SPHERES' measured thrusts differ by up to a few percent).
+const OPPOSING_TOLERANCE: f64 = 0.1;
+
+impl Layout {
+    /// The SPHERES layout: 12 thrusters in the six opposing pairs of the seed.
+    pub fn spheres() -> Layout {
+        let mut opposite = vec![None; N_THRUSTERS];
+        for (a, b) in OPPOSING_PAIRS {
+            opposite[a] = Some(b);
+            opposite[b] = Some(a);
+        }
+        Layout {
+            n: N_THRUSTERS,
+            opposite,
+        }
+    }
+
+    /// A craft's layout from its geometry: thruster j opposes i when their forces and their
+    /// torques about the CoM both cancel (same line of action, opposite sense); torques are
+    /// scaled by the farthest thruster's lever arm so both parts weigh alike.
+    pub fn of(sat: &Satellite) -> Layout {
+        let n = sat.n_thrusters();
+        let reach = (0..n)
+            .map(|i| sat.lever_arm_m(i).norm())
+            .fold(1e-3, f64::max);
+        let wrench = |i: usize| -> [f64; 6] {
+            let (f, t) = (sat.force_n(i), sat.torque_nm(i) / reach);
+            [f.x, f.y, f.z, t.x, t.y, t.z]
+        };
+        let norm = |w: [f64; 6]| w.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let opposite = (0..n)
+            .map(|i| {
+                let wi = wrench(i);
+                (0..n)
+                    .filter(|&j| j != i)
+                    .map(|j| {
+                        let wj = wrench(j);
+                        let sum = norm(std::array::from_fn(|k| wi[k] + wj[k]));
+                        (j, sum / (norm(wi) + norm(wj)).max(f64::MIN_POSITIVE))
+                    })
+                    .filter(|&(_, r)| r < OPPOSING_TOLERANCE)
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .map(|(j, _)| j)
+            })
+            .collect();
+        Layout { n, opposite }
+    }
+
+    /// Whether `sat` has the SPHERES layout the `rga12` pairs and the PWM mixer assume:
+    /// a 3-D craft with 12 thrusters in the seed's opposing pairs.
+    pub fn is_spheres(sat: &Satellite) -> bool {
+        !sat.planar && Layout::of(sat) == Layout::spheres()
+    }
+
+    fn opposite(&self, i: usize) -> Option<usize> {
+        self.opposite.get(i).copied().flatten()
+    }
+}
 
 /// Thruster pairs (0-based) of the RGA set: (+x, -x, +y, -y, +z, -z) rotations, and
 /// (+x, -x, +y, -y, +z, -z) translations. Each pair's torques add and forces cancel (rotation)
@@ -51,11 +125,17 @@ pub fn rga12() -> Vec<u16> {
     w
 }
 
-/// Each thruster alone (1 s rest, then 0.5 s on / 1.5 s off each: 25 s).
+/// Each SPHERES thruster alone (1 s rest, then 0.5 s on / 1.5 s off each: 25 s).
 pub fn single() -> Vec<u16> {
+    single_for(&Layout::spheres())
+}
+
+/// Each of the craft's thrusters alone, in turn (1 s rest, then 0.5 s on / 1.5 s coast
+/// each): every thruster's torque shows on its own, which identifies inertia and CoM.
+pub fn single_for(layout: &Layout) -> Vec<u16> {
     let mut w = Vec::new();
     push(&mut w, 0, 1000);
-    for i in 0..N_THRUSTERS {
+    for i in 0..layout.n {
         push(&mut w, 1 << i, 500);
         push(&mut w, 0, 1500);
     }
@@ -78,36 +158,27 @@ fn random_width(rng: &mut ChaCha8Rng) -> usize {
     rng.gen_range(MIN_PULSE_MS as usize..=PERIOD_MS - MIN_PULSE_MS as usize)
 }
 
-fn opposite(i: usize) -> usize {
-    OPPOSING_PAIRS
-        .iter()
-        .find_map(|&(a, b)| {
-            if a == i {
-                Some(b)
-            } else if b == i {
-                Some(a)
-            } else {
-                None
-            }
-        })
-        .unwrap_or(i)
+/// Random short-pulse combos of SPHERES thrusters for about `seconds` of firing.
+pub fn combo(seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
+    combo_for(&Layout::spheres(), seconds, rng)
 }
 
-/// Random short-pulse combos for about `seconds` of firing (whole 200 ms periods).
-pub fn combo(seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
+/// Random short-pulse combos for about `seconds` of firing (whole 200 ms periods): 1-4 of
+/// the craft's thrusters per period, never both of an opposing pair.
+pub fn combo_for(layout: &Layout, seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
     let periods = ((seconds * 1000.0) / PERIOD_MS as f64).round().max(1.0) as usize;
     let mut w = Vec::new();
     push(&mut w, 0, 1000);
     for _ in 0..periods {
-        let n = rng.gen_range(1..=4);
-        let mut all: Vec<usize> = (0..N_THRUSTERS).collect();
+        let n = rng.gen_range(1..=4.min(layout.n.max(1)));
+        let mut all: Vec<usize> = (0..layout.n).collect();
         all.shuffle(rng);
         let mut chosen: Vec<usize> = Vec::new();
         for i in all {
             if chosen.len() == n {
                 break;
             }
-            if !chosen.contains(&opposite(i)) {
+            if layout.opposite(i).is_none_or(|o| !chosen.contains(&o)) {
                 chosen.push(i);
             }
         }
@@ -119,16 +190,21 @@ pub fn combo(seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
     w
 }
 
-/// Random PWM excitation: every thruster fires with probability 0.3 per period (opposing
-/// pairs excluded), random centred pulse widths.
+/// Random PWM excitation of the SPHERES thrusters for about `seconds`.
 pub fn random_pwm(seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
+    random_pwm_for(&Layout::spheres(), seconds, rng)
+}
+
+/// Random PWM excitation: every one of the craft's thrusters fires with probability 0.3
+/// per period (opposing pairs excluded), random centred pulse widths.
+pub fn random_pwm_for(layout: &Layout, seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
     let periods = ((seconds * 1000.0) / PERIOD_MS as f64).round().max(1.0) as usize;
     let mut w = Vec::new();
     push(&mut w, 0, 1000);
     for _ in 0..periods {
         let mut firing: Vec<(usize, usize)> = Vec::new();
-        for i in 0..N_THRUSTERS {
-            if rng.gen_bool(0.3) && !firing.iter().any(|&(j, _)| j == opposite(i)) {
+        for i in 0..layout.n {
+            if rng.gen_bool(0.3) && !firing.iter().any(|&(j, _)| layout.opposite(i) == Some(j)) {
                 firing.push((i, random_width(rng)));
             }
         }
@@ -136,4 +212,35 @@ pub fn random_pwm(seconds: f64, rng: &mut ChaCha8Rng) -> Vec<u16> {
     }
     push(&mut w, 0, 1500);
     w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_spheres_layout_is_found_from_every_builtin_geometry() {
+        // What keeps the SPHERES scripts' bytes: the geometry gives the seed's pairs.
+        for name in Satellite::BUILTIN_NAMES {
+            let sat = Satellite::builtin(name).unwrap();
+            assert_eq!(Layout::of(&sat), Layout::spheres(), "{name}");
+            assert!(Layout::is_spheres(&sat));
+        }
+    }
+
+    #[test]
+    fn an_8_thruster_craft_gets_every_one_of_its_thrusters_in_its_scripts() {
+        let mut sat = Satellite::builtin("sph2").unwrap();
+        sat.thruster_pos_m.truncate(8);
+        sat.thrust_dir.truncate(8);
+        sat.thrust_n.truncate(8);
+        let layout = Layout::of(&sat);
+        assert_eq!(layout.n, 8);
+        assert!(!Layout::is_spheres(&sat));
+        let w = single_for(&layout);
+        assert_eq!(w.iter().fold(0, |a, b| a | b), 0xff);
+        let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
+        let w = random_pwm_for(&layout, 20.0, &mut rng);
+        assert_eq!(w.iter().fold(0, |a, b| a | b), 0xff);
+    }
 }

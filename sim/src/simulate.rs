@@ -1,5 +1,6 @@
 //! The full simulation: maneuver -> 6-DOF plant with effects -> sensors -> recording + truth.
 //! Deterministic: the same spec and seed give the same bytes (ChaCha8 streams, fixed order).
+//! A craft whose rates v1 cannot hold (see [`needs_v2`]) is also recorded in format v2.
 use crate::dynamics::{Plant, State};
 use crate::effects::{Effect, PlantConfig, Truth};
 use crate::maneuvers;
@@ -10,6 +11,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use reference_f64::mixer::Mixer;
+use reference_f64::rate_recording::{Commands, RateRecording};
 use reference_f64::recording::{Recording, Sample};
 use reference_f64::satellite::Satellite;
 
@@ -26,6 +28,14 @@ pub enum Maneuver {
 
 impl Maneuver {
     pub const NAMES: [&'static str; 5] = ["rga12", "single", "combo", "random-pwm", "closed-loop"];
+    /// The maneuvers built from any craft's own thrusters ([`maneuvers::Layout`]); the
+    /// others fly the SPHERES layout.
+    pub const ANY_CRAFT: [&'static str; 3] = ["single", "combo", "random-pwm"];
+
+    /// Whether the script needs the SPHERES thruster layout (the RGA pairs, the PWM mixer).
+    pub fn spheres_only(&self) -> bool {
+        matches!(self, Maneuver::Rga12 | Maneuver::ClosedLoop)
+    }
 
     pub fn parse(s: &str) -> Option<Maneuver> {
         Some(match s {
@@ -110,6 +120,16 @@ pub enum SimError {
     #[error("closed loop: mixer: {0}")]
     Mixer(String),
     #[error(
+        "satellite {satellite} is a {kind} craft with {n} thrusters; the {maneuver} script flies the SPHERES layout (12 thrusters in six opposing pairs, 3-D); maneuvers built from this craft's own thrusters: {}",
+        Maneuver::ANY_CRAFT.join(", ")
+    )]
+    SpheresOnly {
+        satellite: String,
+        kind: &'static str,
+        n: usize,
+        maneuver: &'static str,
+    },
+    #[error(
         "a largest integration step of {step_ms:e} ms over {span_ms} ms of flight is {steps:.3e} steps; at most {max:.0e} are run (a step of at least {min_step_ms:.3e} ms for this length)",
         max = MAX_STEPS
     )]
@@ -128,7 +148,11 @@ pub const MAX_STEPS: f64 = 1e8;
 /// A finished simulation.
 #[derive(Clone, Debug)]
 pub struct SimOutput {
+    /// Format v1 (gyro counts, a 12-bit word): meaningful for a craft whose gyro gives counts.
     pub recording: Recording,
+    /// Format v2 (rates in rad/s on the craft's axes; rows as in `recording`, re-sent rows
+    /// included): present when the craft [`needs_v2`], and then the recording to write.
+    pub rate_recording: Option<RateRecording>,
     pub truth: Truth,
     /// Commanded word per millisecond from t = 0.
     pub commands: Vec<u16>,
@@ -152,6 +176,16 @@ fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
     r
 }
 
+/// Whether a craft's recording must be format v2: v1 holds a 3-D rate in 12-bit counts and
+/// a 12-thruster word, so a planar craft, another thruster count, or a rate sensor that
+/// gives rad/s (under 10 counts per rad/s: every rate would quantise to a few counts) does
+/// not fit it.
+pub fn needs_v2(sat: &Satellite) -> bool {
+    sat.planar
+        || sat.n_thrusters() != reference_f64::satellite::N_THRUSTERS
+        || sat.gyro_counts_per_rad_s.iter().any(|k| k.abs() < 10.0)
+}
+
 /// Runs the simulation.
 pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let period_ms = 1000.0 / spec.rate_hz;
@@ -173,15 +207,28 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
         e.validate().map_err(SimError::BadEffect)?;
     }
     let sat = &spec.satellite;
+    if spec.maneuver.spheres_only() && !maneuvers::Layout::is_spheres(sat) {
+        return Err(SimError::SpheresOnly {
+            satellite: sat.name.clone(),
+            kind: if sat.planar { "planar" } else { "3-D" },
+            n: sat.n_thrusters(),
+            maneuver: spec.maneuver.name(),
+        });
+    }
     let plant = Plant::new(sat, PlantConfig::new(sat, &spec.effects));
     let seconds = spec.seconds.unwrap_or(spec.maneuver.default_seconds());
 
+    let layout = maneuvers::Layout::of(sat);
     let mut maneuver_rng = rng(spec.seed, STREAM_MANEUVER);
     let open_loop: Option<Vec<u16>> = match spec.maneuver {
         Maneuver::Rga12 => Some(maneuvers::rga12()),
-        Maneuver::Single => Some(maneuvers::single()),
-        Maneuver::Combo => Some(maneuvers::combo(seconds, &mut maneuver_rng)),
-        Maneuver::RandomPwm => Some(maneuvers::random_pwm(seconds, &mut maneuver_rng)),
+        Maneuver::Single => Some(maneuvers::single_for(&layout)),
+        Maneuver::Combo => Some(maneuvers::combo_for(&layout, seconds, &mut maneuver_rng)),
+        Maneuver::RandomPwm => Some(maneuvers::random_pwm_for(
+            &layout,
+            seconds,
+            &mut maneuver_rng,
+        )),
         Maneuver::ClosedLoop => None,
     };
     let total_ms = match (&open_loop, spec.maneuver) {
@@ -232,6 +279,10 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let mut gyro_n: Vec<[f64; 3]> = Vec::new();
     let mut word = 0u16;
     let c = &plant.cfg;
+    // A v2 row's command holds until the next row, so a v2 craft's commands change only at
+    // sample instants: its file then says exactly what was flown (a 1 ms pulse edge between
+    // two rows would read as up to a sample period of valve latency).
+    let hold = needs_v2(sat);
     for t in 0..total_ms {
         prop.advance_to(t as f64);
         let is_sample = t % period_ms == 0;
@@ -252,9 +303,13 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
                 }));
                 ctl.plan(t, &sensed, &x.attitude())?;
             }
-            word = ctl.word_at(t);
+            if is_sample || !hold {
+                word = ctl.word_at(t);
+            }
         } else if let Some(w) = &open_loop {
-            word = w[t];
+            if is_sample || !hold {
+                word = w[t];
+            }
         }
         prop.command(word);
         commands.push(word);
@@ -282,11 +337,17 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     });
 
     let mut samples = Vec::with_capacity(times.len());
+    let mut sensed_rad_s = Vec::with_capacity(times.len());
     for k in 0..times.len() {
+        let sensed: [f64; 3] =
+            std::array::from_fn(|a| c.gyro_scale[a] * (rates[k][a] + ringing[k][a] + gyro_n[k][a]));
+        // What a rad/s sensor reports: a gyro bias effect (counts) in the sensor's units.
+        sensed_rad_s.push(std::array::from_fn::<f64, 3, _>(|a| {
+            sensed[a] + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
+        }));
         let gyro: [u16; 3] = std::array::from_fn(|a| {
-            let sensed = c.gyro_scale[a] * (rates[k][a] + ringing[k][a] + gyro_n[k][a]);
             let bias = sat.gyro_bias_counts[a] + c.gyro_bias_counts[a];
-            quantise(bias + sensed * sat.gyro_counts_per_rad_s[a])
+            quantise(bias + sensed[a] * sat.gyro_counts_per_rad_s[a])
         });
         let an = accel_noise(&spec.sensors, &mut accel_rng);
         let acc: [u16; 3] = std::array::from_fn(|a| {
@@ -312,8 +373,10 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
         recording.issues = clean.issues;
         recording.samples = rows;
     }
+    let rate_recording = needs_v2(sat).then(|| v2_of(&recording, sat, spec, &times, &sensed_rad_s));
     Ok(SimOutput {
         recording,
+        rate_recording,
         truth: Truth {
             satellite: sat.name.clone(),
             effects: spec.effects.clone(),
@@ -322,6 +385,51 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
         body_rate: rates,
         final_state,
     })
+}
+
+/// The v2 form of `v1`'s rows (after the artefacts): each row's sensed rate in rad/s on the
+/// craft's axes (z alone for a planar craft) and its thruster word, the same metadata.
+fn v2_of(
+    v1: &Recording,
+    sat: &Satellite,
+    spec: &SimSpec,
+    times: &[u64],
+    sensed_rad_s: &[[f64; 3]],
+) -> RateRecording {
+    let axes = if sat.planar {
+        [false, false, true]
+    } else {
+        [true; 3]
+    };
+    let rows = &v1.samples;
+    let rate = rows
+        .iter()
+        .map(|r| {
+            let k = times.partition_point(|&t| t < r.time_ms);
+            let v = sensed_rad_s.get(k).copied().unwrap_or([f64::NAN; 3]);
+            std::array::from_fn(|a| if axes[a] { v[a] } else { f64::NAN })
+        })
+        .collect();
+    let commands = Commands::Thrusters {
+        n: sat.n_thrusters(),
+        words: rows.iter().map(|r| r.thrusters).collect(),
+    };
+    let mut metadata = RateRecording::base_metadata(&sat.name, axes, &commands, Some(spec.rate_hz));
+    metadata.extend(
+        v1.metadata
+            .iter()
+            .filter(|(k, _)| !matches!(k.as_str(), "format" | "satellite" | "sample_rate_hz"))
+            .cloned(),
+    );
+    RateRecording {
+        source: v1.source.clone(),
+        metadata,
+        axes,
+        time_ms: rows.iter().map(|r| r.time_ms).collect(),
+        rate,
+        commands,
+        issues: v1.issues.clone(),
+    }
 }
 
 /// The closed-loop maneuver's controller (runs every 200 ms control period, seed 3.3): rate

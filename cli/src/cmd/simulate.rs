@@ -1,5 +1,7 @@
 //! `massid simulate`: fly a maneuver on a simulated satellite (with the effects of a model
-//! file) and write the recording plus its `.truth.json`.
+//! file) and write the recording plus its `.truth.json`. A SPHERES-like craft is recorded in
+//! format v1 (gyro counts); any other (planar, another thruster count, a rate sensor in
+//! rad/s) in format v2, flying a maneuver built from its own thrusters.
 use anyhow::{anyhow, bail, Context};
 use massid_sim::model_file::ModelFile;
 use massid_sim::{simulate, Maneuver, SimSpec, Truth};
@@ -12,7 +14,8 @@ pub struct Args {
     /// Built-in satellite (sph1..sph5); a model file's satellite wins when both are given.
     #[arg(long, default_value = "sph2")]
     satellite: String,
-    /// rga12 | single | combo | random-pwm | closed-loop
+    /// rga12 | single | combo | random-pwm | closed-loop (rga12 and closed-loop fly the SPHERES
+    /// layout; single, combo and random-pwm are built from any craft's own thrusters)
     #[arg(long, default_value = "rga12")]
     maneuver: String,
     /// Model file (TOML): satellite, effects, sensors, telemetry artefacts.
@@ -66,7 +69,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut spec = match &args.model {
         Some(path) => {
             let m = ModelFile::read(path)?;
-            refuse_non_spheres(&m.satellite, path, maneuver)?;
             let mut s = SimSpec::new(m.satellite, m.effects, maneuver);
             s.sensors = m.sensors;
             s.artefacts = m.artefacts;
@@ -107,6 +109,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     let out = simulate(&spec).map_err(|e| match e {
+        massid_sim::SimError::SpheresOnly { .. } => match &args.model {
+            Some(path) => anyhow!("{}: {e}", path.display()),
+            None => e.into(),
+        },
         massid_sim::SimError::TooManySteps { .. } => {
             anyhow!("--step-ms {}: {e}", super::num(args.step_ms))
         }
@@ -126,52 +132,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
-    let mut rec = out.recording;
-    rec.source = args.out.display().to_string();
-    rec.write(&args.out).map_err(|e| anyhow!("{e}"))?;
+    let rows = match out.rate_recording {
+        Some(mut v2) => {
+            v2.source = args.out.display().to_string();
+            v2.write(&args.out).map_err(|e| anyhow!("{e}"))?;
+            v2.time_ms.len()
+        }
+        None => {
+            let mut v1 = out.recording;
+            v1.source = args.out.display().to_string();
+            v1.write(&args.out).map_err(|e| anyhow!("{e}"))?;
+            v1.samples.len()
+        }
+    };
     out.truth
         .write(&truth_path)
         .with_context(|| format!("{}: cannot write", truth_path.display()))?;
     eprintln!(
         "wrote {} ({} samples, {} Hz, {} s, maneuver {}, {} effects) and {}",
         args.out.display(),
-        rec.samples.len(),
+        rows,
         spec.rate_hz,
         out.commands.len() as f64 / 1000.0,
         maneuver.name(),
         out.truth.effects.len(),
         truth_path.display()
     );
-    Ok(())
-}
-
-/// The maneuver scripts fly the SPHERES thruster layout and the recording is format v1 (gyro
-/// counts, a 12-bit thruster word): another craft (planar, or not 12 thrusters, or a rate
-/// sensor without counts) would get a script that names thrusters it does not have and a
-/// file of zero gyro counts. Refused, saying what would work.
-fn refuse_non_spheres(
-    sat: &Satellite,
-    path: &std::path::Path,
-    maneuver: Maneuver,
-) -> anyhow::Result<()> {
-    let n = sat.n_thrusters();
-    if sat.planar || n != reference_f64::satellite::N_THRUSTERS {
-        bail!(
-            "{}: satellite {} is a {} craft with {n} thrusters; the {} script and the recording format simulate writes (v1, gyro counts) are for a 12-thruster 3-D SPHERES craft; simulate this craft with the `massid_sim` library or import its flight log (`massid import`)",
-            path.display(),
-            sat.name,
-            if sat.planar { "planar" } else { "3-D" },
-            maneuver.name()
-        );
-    }
-    if sat.gyro_counts_per_rad_s.iter().any(|k| k.abs() < 10.0) {
-        bail!(
-            "{}: satellite {} has gyro_counts_per_rad_s {:?}: its rate sensor gives rad/s, not counts; a v1 recording of it would quantise every rate to 0 counts",
-            path.display(),
-            sat.name,
-            sat.gyro_counts_per_rad_s
-        );
-    }
     Ok(())
 }
 

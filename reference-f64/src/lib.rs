@@ -4,6 +4,7 @@
 //!
 //! Modules mirror the seed's chapters.
 
+pub mod allocation;
 pub mod characterize;
 pub mod flight_id;
 pub mod import;

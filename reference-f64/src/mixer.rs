@@ -43,7 +43,8 @@
 //! `D_i` is `0` (dropped: `d_i < m - 1/2`) or `P` (rounded up: `d_i >= P - m + 1/2`).
 //! Hence `|impulse - commanded| <= sum_i |e_i| |F_i|` for force and
 //! `<= sum_i |e_i| |L_i x F_i|` for torque ([`Firing::quantisation_bound`]).
-use crate::satellite::{Satellite, N_THRUSTERS, OPPOSING_PAIRS};
+use crate::allocation::{allocate, AllocationError};
+use crate::satellite::{Satellite, MAX_THRUSTERS, N_THRUSTERS, OPPOSING_PAIRS};
 use nalgebra::{Matrix6, SMatrix, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
@@ -53,17 +54,17 @@ pub const DEFAULT_PERIOD_MS: u32 = 200;
 pub const MIN_PULSE_MS: u32 = 10;
 
 /// 6 x 12 mixing matrix (seed 3.3).
-pub type MixingMatrix = SMatrix<f64, 6, N_THRUSTERS>;
+pub type MixingMatrix = SMatrix<f64, 6, MAX_THRUSTERS>;
 /// 12 x 6 pseudo-inverse of the mixing matrix.
-pub type MixingPinv = SMatrix<f64, N_THRUSTERS, 6>;
+pub type MixingPinv = SMatrix<f64, MAX_THRUSTERS, 6>;
 
 /// Why a mixer could not be built or a command could not be mixed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MixerError {
     #[error("control period must be at least twice the minimum pulse ({min_pulse_ms} ms), got {period_ms} ms")]
     BadPeriod { period_ms: u32, min_pulse_ms: u32 },
-    #[error("the PWM mixer's opposing-pair logic is that of a {N_THRUSTERS}-thruster SPHERES satellite; this model has {0} thrusters")]
-    NotTwelveThrusters(usize),
+    #[error("a model needs 1 to {MAX_THRUSTERS} thrusters, this one has {0}")]
+    ThrusterCount(usize),
     #[error("thruster {thruster}: {reason}")]
     BadThruster { thruster: usize, reason: String },
     #[error("pressure drop per extra open thruster must be finite and >= 0, got {0}")]
@@ -76,6 +77,10 @@ pub enum MixerError {
     NonFiniteCommand { force: [f64; 3], torque: [f64; 3] },
     #[error("thruster {thruster}: pressure drop with {open} open thrusters exceeds its thrust")]
     PressureDropExceedsThrust { thruster: usize, open: usize },
+    #[error("{0}")]
+    OutOfReach(#[from] AllocationError),
+    #[error("a planar craft has no {axis}: its command must be 0 (got {value})")]
+    OffPlane { axis: &'static str, value: f64 },
 }
 
 /// Mixer settings (seed 3.3-3.4).
@@ -105,9 +110,9 @@ pub struct Firing {
     pub period_ms: u32,
     pub min_pulse_ms: u32,
     /// ON time of thruster i (0-based), ms; equals `off_ms[i]` (0) when it does not fire.
-    pub on_ms: [u32; N_THRUSTERS],
+    pub on_ms: [u32; MAX_THRUSTERS],
     /// OFF time of thruster i, ms.
-    pub off_ms: [u32; N_THRUSTERS],
+    pub off_ms: [u32; MAX_THRUSTERS],
     /// Factor (<= 1) the command was scaled by to fit the thrusters' reach (stage 6).
     pub scale: f64,
 }
@@ -126,7 +131,7 @@ impl Firing {
     /// Thruster word (bit i = thruster i+1 open, recording-format convention) at time `t_ms`
     /// within the period (a thruster is open on `[on, off)`).
     pub fn word_at(&self, t_ms: u32) -> u16 {
-        (0..N_THRUSTERS)
+        (0..MAX_THRUSTERS)
             .filter(|&i| self.on_ms[i] <= t_ms && t_ms < self.off_ms[i])
             .fold(0u16, |w, i| w | (1 << i))
     }
@@ -136,7 +141,7 @@ impl Firing {
     pub fn impulse(&self, geometry: &ThrusterGeometry) -> (Vector3<f64>, Vector3<f64>) {
         let mut f = Vector3::zeros();
         let mut t = Vector3::zeros();
-        for i in 0..N_THRUSTERS {
+        for i in 0..MAX_THRUSTERS {
             let secs = self.duration_ms(i) as f64 * 1e-3;
             f += geometry.force_n[i] * secs;
             t += geometry.torque_nm(i) * secs;
@@ -151,7 +156,7 @@ impl Firing {
         let coarse = (self.min_pulse_ms as f64 - 0.5) * 1e-3;
         let mut bf = 0.0;
         let mut bt = 0.0;
-        for i in 0..N_THRUSTERS {
+        for i in 0..MAX_THRUSTERS {
             let d = self.duration_ms(i);
             let e = if d == 0 || d == self.period_ms {
                 coarse
@@ -170,12 +175,13 @@ impl Firing {
 /// pressure-drop model `thrust_n - p (n_open - 1)` of the seed's flight code.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThrusterGeometry {
-    pub force_n: [Vector3<f64>; N_THRUSTERS],
-    pub lever_arm_m: [Vector3<f64>; N_THRUSTERS],
-    pub thrust_n: [f64; N_THRUSTERS],
-    /// How many thrusters the model described: the mixer refuses anything but
-    /// [`N_THRUSTERS`] rather than mix for thrusters that are not there.
+    pub force_n: [Vector3<f64>; MAX_THRUSTERS],
+    pub lever_arm_m: [Vector3<f64>; MAX_THRUSTERS],
+    pub thrust_n: [f64; MAX_THRUSTERS],
+    /// How many thrusters the model described (slots past it are empty: zero force).
     pub described: usize,
+    /// A planar craft (air bearing): only `Fx`, `Fy` and `Tz` are mixed.
+    pub planar: bool,
 }
 
 impl ThrusterGeometry {
@@ -198,6 +204,7 @@ impl ThrusterGeometry {
             lever_arm_m: std::array::from_fn(|i| if i < n { sat.pos_m(i) - com } else { -com }),
             thrust_n: std::array::from_fn(|i| sat.thrust_n.get(i).copied().unwrap_or(0.0)),
             described: n,
+            planar: sat.planar,
         }
     }
 
@@ -206,11 +213,33 @@ impl ThrusterGeometry {
         self.lever_arm_m[i].cross(&self.force_n[i])
     }
 
-    fn validate(&self) -> Result<(), MixerError> {
-        if self.described != N_THRUSTERS {
-            return Err(MixerError::NotTwelveThrusters(self.described));
+    /// Whether the seed's opposing-pair rules (stages 3-5) apply: a 3-D craft of
+    /// [`N_THRUSTERS`] thrusters whose [`OPPOSING_PAIRS`] push in opposite directions
+    /// (within 8 degrees), as on SPHERES. Every other craft is mixed by the non-negative
+    /// allocation ([`crate::allocation`]).
+    pub fn has_opposing_pairs(&self) -> bool {
+        !self.planar
+            && self.described == N_THRUSTERS
+            && OPPOSING_PAIRS.iter().all(|&(a, b)| {
+                let (fa, fb) = (self.force_n[a], self.force_n[b]);
+                fa.dot(&fb) < -0.99 * fa.norm() * fb.norm()
+            })
+    }
+
+    /// The axes this craft's mixer controls (indices into `Fx Fy Fz Tx Ty Tz`).
+    pub fn axes(&self) -> &'static [usize] {
+        if self.planar {
+            &[0, 1, 5]
+        } else {
+            &[0, 1, 2, 3, 4, 5]
         }
-        for i in 0..N_THRUSTERS {
+    }
+
+    fn validate(&self) -> Result<(), MixerError> {
+        if !(1..=MAX_THRUSTERS).contains(&self.described) {
+            return Err(MixerError::ThrusterCount(self.described));
+        }
+        for i in 0..self.described {
             let finite = self.force_n[i]
                 .iter()
                 .chain(self.lever_arm_m[i].iter())
@@ -239,20 +268,22 @@ impl ThrusterGeometry {
 }
 
 /// Every intermediate of one mix, for tests, the CLI's `--trace` and differential checks.
+/// For a craft without opposing pairs stages 2-5 are one step, the non-negative allocation,
+/// and `pinv_duty`, `resolved_duty` and `refined_duty` all hold its duties.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MixTrace {
     /// Stage 2: `M* c`, duty per thruster (can be negative / above 1).
-    pub pinv_duty: [f64; N_THRUSTERS],
+    pub pinv_duty: [f64; MAX_THRUSTERS],
     /// Stages 3-4: after opposing-thrust and negative-value resolution (>= 0, one per pair).
-    pub resolved_duty: [f64; N_THRUSTERS],
+    pub resolved_duty: [f64; MAX_THRUSTERS],
     /// Stage 5: exact duties on the chosen thrusters.
-    pub refined_duty: [f64; N_THRUSTERS],
+    pub refined_duty: [f64; MAX_THRUSTERS],
     /// Stage 6: the scale applied (1 when the command is within reach).
     pub scale: f64,
     /// Stages 7-8: real on-times, ms, before the pressure correction.
-    pub on_time_ms: [f64; N_THRUSTERS],
+    pub on_time_ms: [f64; MAX_THRUSTERS],
     /// Stage 9: real on-times after the pressure-drop correction (clamped to the period), ms.
-    pub corrected_ms: [f64; N_THRUSTERS],
+    pub corrected_ms: [f64; MAX_THRUSTERS],
     /// Stages 10-11: the output.
     pub firing: Firing,
 }
@@ -263,7 +294,8 @@ pub struct Mixer {
     geometry: ThrusterGeometry,
     config: MixerConfig,
     matrix: MixingMatrix,
-    pinv: MixingPinv,
+    /// The pseudo-inverse when the seed's pair rules apply; `None`: non-negative allocation.
+    pinv: Option<MixingPinv>,
 }
 
 impl Mixer {
@@ -283,7 +315,11 @@ impl Mixer {
             return Err(MixerError::BadPressureDrop(p));
         }
         let matrix = mixing_matrix(&geometry);
-        let pinv = pseudo_inverse(&matrix).ok_or(MixerError::SingularMixingMatrix)?;
+        let pinv = if geometry.has_opposing_pairs() {
+            Some(pseudo_inverse(&matrix).ok_or(MixerError::SingularMixingMatrix)?)
+        } else {
+            None
+        };
         Ok(Mixer {
             geometry,
             config,
@@ -320,9 +356,9 @@ impl Mixer {
     pub fn matrix(&self) -> &MixingMatrix {
         &self.matrix
     }
-    /// Its pseudo-inverse `M* = M^T (M M^T)^-1`.
-    pub fn pinv(&self) -> &MixingPinv {
-        &self.pinv
+    /// Its pseudo-inverse `M* = M^T (M M^T)^-1` when the seed's pair rules mix this craft.
+    pub fn pinv(&self) -> Option<&MixingPinv> {
+        self.pinv.as_ref()
     }
 
     /// Mixes a body-frame command: `force_n` (N) and `torque_nm` (N m, about the CoM) are the
@@ -361,20 +397,29 @@ impl Mixer {
         );
         let period = self.config.period_ms as f64;
 
-        // Stage 2: duties from the pseudo-inverse.
-        let pinv_duty: [f64; N_THRUSTERS] = (self.pinv * command).into();
-        // Stages 3-4.
-        let resolved_duty = resolve_negative_values(
-            &resolve_opposing_thrust(&pinv_duty, &self.geometry.thrust_n),
-            &self.geometry.thrust_n,
-        );
-        // Stage 5.
-        let refined_duty = refine_on_active_set(&self.matrix, &command, &resolved_duty);
+        let (pinv_duty, resolved_duty, refined_duty) = match &self.pinv {
+            Some(pinv) => {
+                // Stage 2: duties from the pseudo-inverse.
+                let pinv_duty: [f64; MAX_THRUSTERS] = (pinv * command).into();
+                // Stages 3-4.
+                let resolved_duty = resolve_negative_values(
+                    &resolve_opposing_thrust(&pinv_duty, &self.geometry.thrust_n),
+                    &self.geometry.thrust_n,
+                );
+                // Stage 5.
+                let refined_duty = refine_on_active_set(&self.matrix, &command, &resolved_duty);
+                (pinv_duty, resolved_duty, refined_duty)
+            }
+            None => {
+                let duty = self.allocate(&command)?;
+                (duty, duty, duty)
+            }
+        };
         // Stage 6.
         let (scaled, scale) = scale_by_maximum(&refined_duty);
         // Stages 7-8 (centring is implicit: all pulses share the period's midpoint, which is
         // what makes the overlaps of stage 9 nested).
-        let on_time_ms: [f64; N_THRUSTERS] = std::array::from_fn(|i| scaled[i] * period);
+        let on_time_ms: [f64; MAX_THRUSTERS] = std::array::from_fn(|i| scaled[i] * period);
         // Stage 9.
         let corrected_ms = pressure_drop_correction(
             &on_time_ms,
@@ -401,11 +446,33 @@ impl Mixer {
     }
 }
 
+impl Mixer {
+    /// Stages 2-5 for a craft without opposing pairs: the smallest-norm non-negative duties
+    /// ([`crate::allocation`]); a planar craft's off-plane axes must not be commanded.
+    fn allocate(&self, command: &Vector6<f64>) -> Result<[f64; MAX_THRUSTERS], MixerError> {
+        let axes = self.geometry.axes();
+        for (k, name) in ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"].iter().enumerate() {
+            if !axes.contains(&k) && command[k] != 0.0 {
+                return Err(MixerError::OffPlane {
+                    axis: name,
+                    value: command[k],
+                });
+            }
+        }
+        let n = self.geometry.described;
+        let columns: Vec<Vector6<f64>> = (0..n).map(|i| self.matrix.column(i).into()).collect();
+        let duty = allocate(&columns, axes, command)?;
+        let mut out = [0.0; MAX_THRUSTERS];
+        out[..n].copy_from_slice(&duty);
+        Ok(out)
+    }
+}
+
 /// Stage 1 (seed 3.3): column `i` is `[F_i ; L_i x F_i]` with the calibrated force vector
 /// `F_i` and the lever arm `L_i` about the current CoM estimate.
 pub fn mixing_matrix(geometry: &ThrusterGeometry) -> MixingMatrix {
     let mut m = MixingMatrix::zeros();
-    for i in 0..N_THRUSTERS {
+    for i in 0..MAX_THRUSTERS {
         let f = geometry.force_n[i];
         let t = geometry.torque_nm(i);
         m.fixed_view_mut::<3, 1>(0, i).copy_from(&f);
@@ -426,9 +493,9 @@ pub fn pseudo_inverse(m: &MixingMatrix) -> Option<MixingPinv> {
 /// inefficient"): when both thrusters of a pair have positive duty, the smaller force
 /// (duty x thrust, N) is removed from both, leaving only the net on one of them.
 pub fn resolve_opposing_thrust(
-    duty: &[f64; N_THRUSTERS],
-    thrust_n: &[f64; N_THRUSTERS],
-) -> [f64; N_THRUSTERS] {
+    duty: &[f64; MAX_THRUSTERS],
+    thrust_n: &[f64; MAX_THRUSTERS],
+) -> [f64; MAX_THRUSTERS] {
     let mut out = *duty;
     for &(a, b) in OPPOSING_PAIRS.iter() {
         if out[a] > 0.0 && out[b] > 0.0 {
@@ -449,9 +516,9 @@ pub fn resolve_opposing_thrust(
 /// commands to the opposite thruster"): a negative duty becomes the same force (N) on the
 /// opposite thruster of its pair, converted with that thruster's own strength.
 pub fn resolve_negative_values(
-    duty: &[f64; N_THRUSTERS],
-    thrust_n: &[f64; N_THRUSTERS],
-) -> [f64; N_THRUSTERS] {
+    duty: &[f64; MAX_THRUSTERS],
+    thrust_n: &[f64; MAX_THRUSTERS],
+) -> [f64; MAX_THRUSTERS] {
     let mut out = *duty;
     for &(a, b) in OPPOSING_PAIRS.iter() {
         // net force along thruster a's direction, N
@@ -486,8 +553,8 @@ pub fn resolve_negative_values(
 pub fn refine_on_active_set(
     m: &MixingMatrix,
     command: &Vector6<f64>,
-    resolved: &[f64; N_THRUSTERS],
-) -> [f64; N_THRUSTERS] {
+    resolved: &[f64; MAX_THRUSTERS],
+) -> [f64; MAX_THRUSTERS] {
     let mut side: [usize; 6] = std::array::from_fn(|k| {
         let (a, b) = OPPOSING_PAIRS[k];
         if resolved[b] > resolved[a] {
@@ -505,7 +572,7 @@ pub fn refine_on_active_set(
             return *resolved;
         };
         if v.iter().all(|x| *x >= 0.0) {
-            let mut out = [0.0; N_THRUSTERS];
+            let mut out = [0.0; MAX_THRUSTERS];
             for (k, &i) in side.iter().enumerate() {
                 out[i] = v[k];
             }
@@ -524,7 +591,7 @@ pub fn refine_on_active_set(
 /// Stage 6 (seed 3.3: "If any of these values is greater than 1, then they are all scaled
 /// down so that the net direction of the commanded firing will remain the same"). Returns the
 /// duties and the scale applied (1 when none exceeds 1).
-pub fn scale_by_maximum(duty: &[f64; N_THRUSTERS]) -> ([f64; N_THRUSTERS], f64) {
+pub fn scale_by_maximum(duty: &[f64; MAX_THRUSTERS]) -> ([f64; MAX_THRUSTERS], f64) {
     let max = duty.iter().cloned().fold(0.0, f64::max);
     if max > 1.0 {
         (std::array::from_fn(|i| duty[i] / max), 1.0 / max)
@@ -545,14 +612,16 @@ pub fn scale_by_maximum(duty: &[f64; N_THRUSTERS]) -> ([f64; N_THRUSTERS], f64) 
 /// Every pulse with a positive real on-time counts as open, including ones stage 10 will
 /// drop below the minimum pulse: the seed's order is correction first, deadband last.
 pub fn pressure_drop_correction(
-    on_time_ms: &[f64; N_THRUSTERS],
-    thrust_n: &[f64; N_THRUSTERS],
+    on_time_ms: &[f64; MAX_THRUSTERS],
+    thrust_n: &[f64; MAX_THRUSTERS],
     drop_n_per_extra: f64,
     period_ms: f64,
-) -> Result<[f64; N_THRUSTERS], MixerError> {
+) -> Result<[f64; MAX_THRUSTERS], MixerError> {
     let mut out = *on_time_ms;
     if drop_n_per_extra > 0.0 {
-        let mut active: Vec<usize> = (0..N_THRUSTERS).filter(|&i| on_time_ms[i] > 0.0).collect();
+        let mut active: Vec<usize> = (0..MAX_THRUSTERS)
+            .filter(|&i| on_time_ms[i] > 0.0)
+            .collect();
         active.sort_by(|&a, &b| on_time_ms[a].total_cmp(&on_time_ms[b]).then(a.cmp(&b)));
         let n = active.len();
         let mut shorter_sum = 0.0;
@@ -581,14 +650,14 @@ pub fn pressure_drop_correction(
 /// Stages 10-11: the integer rules of the module doc (1 ms resolution with ties up, 10 ms
 /// deadband, round up near the full period, centring with floor).
 pub fn quantise(
-    corrected_ms: &[f64; N_THRUSTERS],
+    corrected_ms: &[f64; MAX_THRUSTERS],
     period_ms: u32,
     min_pulse_ms: u32,
     scale: f64,
 ) -> Firing {
-    let mut on_ms = [0u32; N_THRUSTERS];
-    let mut off_ms = [0u32; N_THRUSTERS];
-    for i in 0..N_THRUSTERS {
+    let mut on_ms = [0u32; MAX_THRUSTERS];
+    let mut off_ms = [0u32; MAX_THRUSTERS];
+    for i in 0..MAX_THRUSTERS {
         let dur = quantise_duration(corrected_ms[i], period_ms, min_pulse_ms);
         if dur > 0 {
             on_ms[i] = (period_ms - dur) / 2;
@@ -634,7 +703,7 @@ mod tests {
         assert_eq!(quantise_duration(250.0, 200, 10), 200);
         let f = quantise(
             &[
-                21.0, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 200.0,
+                21.0, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 200.0, 0.0, 0.0, 0.0, 0.0,
             ],
             200,
             10,
@@ -684,8 +753,9 @@ mod tests {
 
     #[test]
     fn opposing_and_negative_resolution_keep_the_pair_net() {
-        let thrust = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.2, 0.1, 0.1, 0.1, 0.1, 0.1];
-        let mut duty = [0.0; N_THRUSTERS];
+        let mut thrust = [0.1; MAX_THRUSTERS];
+        thrust[6] = 0.2;
+        let mut duty = [0.0; MAX_THRUSTERS];
         duty[0] = 0.5; // 0.05 N
         duty[6] = 0.1; // 0.02 N the other way
         duty[1] = -0.3; // -> thruster 8 gets 0.03 N
@@ -696,8 +766,8 @@ mod tests {
 
     #[test]
     fn pressure_correction_of_the_smallest_pulse_uses_all_others() {
-        let thrust = [0.1; N_THRUSTERS];
-        let mut d = [0.0; N_THRUSTERS];
+        let thrust = [0.1; MAX_THRUSTERS];
+        let mut d = [0.0; MAX_THRUSTERS];
         d[0] = 50.0;
         d[1] = 100.0;
         d[2] = 100.0;

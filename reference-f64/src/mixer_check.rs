@@ -4,7 +4,7 @@
 //! user acts on the assumption that it was met).
 
 use crate::mixer::{MixTrace, Mixer};
-use crate::satellite::{Satellite, N_THRUSTERS};
+use crate::satellite::Satellite;
 use nalgebra::Vector3;
 
 /// A delivered error on any axis above this fraction of the (scaled) command's magnitude is
@@ -82,11 +82,11 @@ pub fn check(
             scale: firing.scale,
         });
     }
-    let dropped: Vec<usize> = (0..N_THRUSTERS)
+    let dropped: Vec<usize> = (0..mixer.geometry().described)
         .filter(|&i| trace.corrected_ms[i] > 0.0 && firing.duration_ms(i) == 0)
         .map(|i| i + 1)
         .collect();
-    let fired = (0..N_THRUSTERS).any(|i| firing.duration_ms(i) > 0);
+    let fired = (0..mixer.geometry().described).any(|i| firing.duration_ms(i) > 0);
     let commanded = force.norm() > 0.0 || torque.norm() > 0.0;
     if commanded && !fired {
         warnings.push(MixWarning::NothingFired);
@@ -102,10 +102,10 @@ pub fn check(
         // error against a zero command (a pure torque must not push the craft).
         let g = mixer.geometry();
         let duty = |i: usize| f64::from(firing.duration_ms(i)) * 1e-3 / period_s;
-        let gross_force: f64 = (0..N_THRUSTERS)
+        let gross_force: f64 = (0..mixer.geometry().described)
             .map(|i| g.force_n[i].norm() * duty(i))
             .sum();
-        let gross_torque: f64 = (0..N_THRUSTERS)
+        let gross_torque: f64 = (0..mixer.geometry().described)
             .map(|i| g.torque_nm(i).norm() * duty(i))
             .sum();
         for (what, cmd, got, gross) in [

@@ -12,6 +12,7 @@ pub fn open2_data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open2")
 }
 
+pub mod allocation_check;
 pub mod coverage;
 pub mod crlb;
 pub mod identification_mc;

@@ -208,8 +208,8 @@ mod mixer {
                 continue;
             }
             assert_eq!(
-                (k.on_ms, k.off_ms),
-                (trace.firing.on_ms, trace.firing.off_ms),
+                (&k.on_ms[..], &k.off_ms[..]),
+                (&trace.firing.on_ms[..12], &trace.firing.off_ms[..12]),
                 "command f {f:?} t {tq:?}: kernel {k:?} vs reference {:?}",
                 trace.corrected_ms
             );

@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 use proptest::prelude::*;
 use reference_f64::mixer::{MixTrace, Mixer, MixerConfig, ThrusterGeometry, MIN_PULSE_MS};
 use reference_f64::satellite::{
-    Satellite, N_THRUSTERS, OPPOSING_PAIRS, SEED_PRESSURE_DROP_N_PER_EXTRA,
+    Satellite, MAX_THRUSTERS, N_THRUSTERS, OPPOSING_PAIRS, SEED_PRESSURE_DROP_N_PER_EXTRA,
 };
 
 const PERIOD_MS: u32 = 200;
@@ -338,11 +338,26 @@ fn bad_inputs_are_errors_not_panics() {
     g.thrust_n[4] = -0.1;
     assert!(Mixer::new(g.clone(), MixerConfig::default()).is_err());
     g.thrust_n[4] = 0.1;
-    // all thrusters along x: cannot make every axis
+    // All thrusters along x: no opposing pairs, so the non-negative allocation mixes it, and
+    // every command but +x force is out of reach (an error, not a firing).
     for i in 0..N_THRUSTERS {
         g.force_n[i] = Vector3::new(0.1, 0.0, 0.0);
     }
-    assert!(Mixer::new(g, MixerConfig::default()).is_err());
+    let m = Mixer::new(g, MixerConfig::default()).unwrap();
+    assert!(m.pinv().is_none());
+    for (f, t) in [
+        (Vector3::new(-0.01, 0.0, 0.0), Vector3::zeros()),
+        (Vector3::new(0.0, 0.01, 0.0), Vector3::zeros()),
+        (Vector3::zeros(), Vector3::new(0.0, 0.0, 1e-3)),
+    ] {
+        assert!(
+            matches!(
+                m.mix(f, t),
+                Err(reference_f64::mixer::MixerError::OutOfReach(_))
+            ),
+            "{f:?} {t:?}"
+        );
+    }
 }
 
 proptest! {
@@ -388,8 +403,8 @@ fn stage_5_is_what_makes_the_impulse_exact() {
         for (f, t) in pure_commands() {
             let tr = m.mix_traced(f, t).unwrap();
             let c = nalgebra::Vector6::new(f.x, f.y, f.z, t.x, t.y, t.z);
-            let got4 = m.matrix() * nalgebra::SVector::<f64, N_THRUSTERS>::from(tr.resolved_duty);
-            let got5 = m.matrix() * nalgebra::SVector::<f64, N_THRUSTERS>::from(tr.refined_duty);
+            let got4 = m.matrix() * nalgebra::SVector::<f64, MAX_THRUSTERS>::from(tr.resolved_duty);
+            let got5 = m.matrix() * nalgebra::SVector::<f64, MAX_THRUSTERS>::from(tr.refined_duty);
             // compare in a common scale: force N and torque / 0.1 m
             let w = nalgebra::Vector6::new(1.0, 1.0, 1.0, 10.0, 10.0, 10.0);
             let rel = |g: nalgebra::Vector6<f64>| {

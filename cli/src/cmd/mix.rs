@@ -2,7 +2,7 @@
 //! Fig. 3.2), printing each thruster's ON/OFF time in ms within the control period.
 use anyhow::{anyhow, bail, Context};
 use reference_f64::mixer::{Mixer, DEFAULT_PERIOD_MS};
-use reference_f64::satellite::{Satellite, N_THRUSTERS};
+use reference_f64::satellite::Satellite;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -12,7 +12,10 @@ use std::path::PathBuf;
     long_about = "Runs the seed's PWM mixer (section 3.3, Fig. 3.2): mixing matrix from the calibrated \
 thrusters about the CoM, pseudo-inverse, opposing/negative resolution, scaling by the maximum, \
 pulse centring, multi-thruster pressure-drop correction (the model's parameter; 0 for the \
-built-in sph1..sph5), 10 ms minimum pulse, 1 ms resolution. The command is the average force (N) \
+built-in sph1..sph5), 10 ms minimum pulse, 1 ms resolution. A craft without SPHERES' opposing \
+thruster pairs (any other model: planar or 3-D, 1-16 thrusters) gets the smallest-norm \
+non-negative duties instead of the pseudo-inverse and pair rules; a direction its thrusters \
+cannot produce is an error, a planar craft takes Fx, Fy and Tz only. The command is the average force (N) \
 and torque about the CoM (N m) wanted over one control period.",
     group(clap::ArgGroup::new("craft").required(true).args(["satellite", "model"])),
     allow_negative_numbers = true
@@ -94,17 +97,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Mixer::from_satellite(&sat, com, args.period_ms).context("cannot build the mixer")?;
     let force = nalgebra::Vector3::from(args.force);
     let torque = nalgebra::Vector3::from(args.torque);
-    let trace = mixer
-        .mix_traced(force, torque)
-        .context("cannot mix the command")?;
+    let trace = mixer.mix_traced(force, torque).with_context(|| {
+        format!(
+            "--force {:?} --torque {:?}: cannot mix the command for satellite {}",
+            args.force, args.torque, sat.name
+        )
+    })?;
     // A command the thrusters cannot come near (or whose duties overflow) is refused, not
     // "scaled to 0.0000 %" with nothing fired.
     let finite = [
-        &trace.pinv_duty,
-        &trace.resolved_duty,
-        &trace.refined_duty,
-        &trace.on_time_ms,
-        &trace.corrected_ms,
+        &trace.pinv_duty[..],
+        &trace.resolved_duty[..],
+        &trace.refined_duty[..],
+        &trace.on_time_ms[..],
+        &trace.corrected_ms[..],
     ]
     .iter()
     .all(|v| v.iter().all(|x| x.is_finite()));
@@ -120,19 +126,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let firing = &trace.firing;
-    let stages = [
-        ("pinv_duty", trace.pinv_duty),
-        ("resolved_duty", trace.resolved_duty),
-        ("refined_duty", trace.refined_duty),
-        ("on_time_ms", trace.on_time_ms),
-        ("corrected_ms", trace.corrected_ms),
-    ];
+    let n = sat.n_thrusters();
+    let mut stages: Vec<(&str, &[f64])> = if mixer.pinv().is_some() {
+        vec![
+            ("pinv_duty", &trace.pinv_duty[..n]),
+            ("resolved_duty", &trace.resolved_duty[..n]),
+            ("refined_duty", &trace.refined_duty[..n]),
+        ]
+    } else {
+        vec![("allocated_duty", &trace.refined_duty[..n])]
+    };
+    stages.push(("on_time_ms", &trace.on_time_ms[..n]));
+    stages.push(("corrected_ms", &trace.corrected_ms[..n]));
     let (jf, jt) = firing.impulse(mixer.geometry());
     let delivery = reference_f64::mixer_check::check(&mixer, &trace, force, torque);
     let warnings: Vec<String> = delivery.warnings.iter().map(|w| w.to_string()).collect();
     let mut text = String::new();
     if args.json {
-        let thrusters: Vec<_> = (0..N_THRUSTERS)
+        let thrusters: Vec<_> = (0..sat.n_thrusters())
             .map(|i| {
                 serde_json::json!({
                     "thruster": i + 1,
@@ -209,7 +220,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             writeln!(text, "{:>13}: {:.9}", "scale", trace.scale)?;
         }
         writeln!(text, "thruster  on_ms  off_ms  duration_ms")?;
-        for i in 0..N_THRUSTERS {
+        for i in 0..sat.n_thrusters() {
             writeln!(
                 text,
                 "{:>8}  {:>5}  {:>6}  {:>11}",

@@ -26,32 +26,53 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Args::Check { file } => {
             let m = ModelFile::read(&file)?;
             let sat = &m.satellite;
-            // A 3-D SPHERES-layout model is mixed by the PWM mixer: it needs thrusters that
-            // reach every axis, so build it too. Other craft are not mixed (said below).
-            let spheres = !sat.planar && sat.n_thrusters() == reference_f64::satellite::N_THRUSTERS;
-            if spheres {
-                reference_f64::mixer::Mixer::from_satellite(
-                    sat,
-                    None,
-                    reference_f64::mixer::DEFAULT_PERIOD_MS,
+            // Every craft is mixed: the seed's pair rules where thrusters come in SPHERES'
+            // opposing pairs, the non-negative allocation otherwise. Say which, and which
+            // pure axis commands the thrusters cannot produce at all.
+            let mixer = reference_f64::mixer::Mixer::from_satellite(
+                sat,
+                None,
+                reference_f64::mixer::DEFAULT_PERIOD_MS,
+            )
+            .map_err(|e| {
+                anyhow::anyhow!(
+                    "{}: the mixer cannot use this satellite: {e}",
+                    file.display()
                 )
-                .map_err(|e| {
-                    anyhow::anyhow!(
-                        "{}: the mixer cannot use this satellite: {e}",
-                        file.display()
-                    )
-                })?;
-            }
+            })?;
             let kind = if sat.planar {
                 "planar (yaw only: Izz and CoM x, y identifiable)"
             } else {
                 "3-D"
             };
-            let mixer = if spheres {
-                ""
+            let rule = if mixer.pinv().is_some() {
+                "mixer: the seed's opposing-pair rules"
             } else {
-                "; not a 12-thruster 3-D craft: no PWM mixer, no onboard kernel"
+                "mixer: non-negative allocation"
             };
+            let names = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"];
+            let mut unreachable = Vec::new();
+            for &axis in mixer.geometry().axes() {
+                for sign in [1.0, -1.0] {
+                    let mut c = [0.0; 6];
+                    c[axis] = sign * 1e-6;
+                    let f = nalgebra::Vector3::new(c[0], c[1], c[2]);
+                    let t = nalgebra::Vector3::new(c[3], c[4], c[5]);
+                    if mixer.mix_traced(f, t).is_err() {
+                        unreachable.push(format!(
+                            "{}{}",
+                            if sign > 0.0 { "+" } else { "-" },
+                            names[axis]
+                        ));
+                    }
+                }
+            }
+            let reach = if unreachable.is_empty() {
+                "reaches every axis both ways".to_string()
+            } else {
+                format!("cannot produce {}", unreachable.join(", "))
+            };
+            let mixer = format!("; {rule}, {reach}");
             super::mix::emit(&format!(
                 "{}: ok: satellite {}, {kind}, {} thrusters, {} effect(s) for the simulator{mixer}\n",
                 file.display(),

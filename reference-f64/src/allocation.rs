@@ -1,0 +1,246 @@
+//! Non-negative thrust allocation for any thruster geometry: the duties `u >= 0` of smallest
+//! norm whose wrench `B u` is the command `c`, or "out of reach" when no non-negative `u`
+//! gives `c`.
+//!
+//! The seed's mixer (sec. 3.3) takes the pseudo-inverse `u = B^+ c` (the smallest-norm duties)
+//! and then repairs negative duties by moving them to the opposite thruster of a pair. That
+//! repair needs opposing pairs; a cubesat with canted thrusters or an air-bearing craft with
+//! corner thrusters has none. Keeping the seed's smallest-norm rule and adding `u >= 0` as a
+//! constraint gives the same firing as the pair rules when pairs are exactly opposite (one
+//! side of each pair at the pair's net duty) and a well-defined one for every other layout:
+//! the strictly convex problem
+//!
+//! ```text
+//!   minimise |u|^2  subject to  B u = c,  u >= 0
+//! ```
+//!
+//! has one solution whenever `c` is in the cone the thrusters span.
+//!
+//! This f64 reference solves it as a least-distance problem through Lawson-Hanson
+//! non-negative least squares (Lawson & Hanson 1974, ch. 23), then polishes the duties by
+//! the exact smallest-norm solve on the thrusters that fire: an algorithm independent of the
+//! kernel's (a Newton method on the dual), so that the two check each other.
+
+use nalgebra::{DMatrix, DVector, Vector6};
+
+/// A command is out of reach when the best non-negative duties miss it by more than this
+/// fraction of its size (in the row-scaled units).
+pub const REACH_TOLERANCE: f64 = 1e-6;
+
+/// Why no allocation exists.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AllocationError {
+    /// No non-negative duties give the command: it points outside the cone of the thrusters'
+    /// wrenches (e.g. a torque only one-sided thrusters would have to pull).
+    #[error("out of reach: the thrusters cannot produce this force/torque direction (the best non-negative firing misses it by {relative_miss:.1e} of its size)")]
+    OutOfReach { relative_miss: f64 },
+}
+
+/// Smallest-norm non-negative duties for the wrench `command` over the axes `rows` (indices
+/// into `Fx Fy Fz Tx Ty Tz`), one duty per column of `columns`.
+pub fn allocate(
+    columns: &[Vector6<f64>],
+    rows: &[usize],
+    command: &Vector6<f64>,
+) -> Result<Vec<f64>, AllocationError> {
+    let n = columns.len();
+    let m = rows.len();
+    // Each axis scaled by its largest entry so that force and torque rows weigh alike, and
+    // the command scaled to size 1 (the allocation is positively homogeneous).
+    let scale: Vec<f64> = rows
+        .iter()
+        .map(|&r| {
+            let s = columns.iter().map(|c| c[r].abs()).fold(0.0, f64::max);
+            if s > 0.0 {
+                s
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let c = DVector::from_iterator(m, rows.iter().zip(&scale).map(|(&r, s)| command[r] / s));
+    let size = c.amax();
+    if size == 0.0 {
+        return Ok(vec![0.0; n]);
+    }
+    let c = c / size;
+    let b = DMatrix::from_fn(m, n, |k, i| columns[i][rows[k]] / scale[k]);
+    let mut u = least_distance(&b, &c).unwrap_or_else(|| DVector::zeros(n));
+    // Polish: the smallest-norm exact solution on the thrusters that fire, kept when it stays
+    // non-negative (it removes the LDP's rounding, ~1e-12, from the duties).
+    // (Duties below 1e-9 of the largest are the LDP's rounding of a zero.)
+    let top = u.amax();
+    let support: Vec<usize> = (0..n).filter(|&i| u[i] > 1e-9 * top).collect();
+    for i in 0..n {
+        if !support.contains(&i) {
+            u[i] = 0.0;
+        }
+    }
+    if !support.is_empty() {
+        let bs = DMatrix::from_fn(m, support.len(), |k, j| b[(k, support[j])]);
+        if let Ok(pinv) = bs.clone().pseudo_inverse(1e-12) {
+            let us = pinv * &c;
+            let exact = (&bs * &us - &c).amax() <= (&b * &u - &c).amax();
+            if exact && us.iter().all(|v| *v >= 0.0) {
+                u.fill(0.0);
+                for (j, &i) in support.iter().enumerate() {
+                    u[i] = us[j];
+                }
+            }
+        }
+    }
+    let miss = (&b * &u - &c).amax();
+    if miss > REACH_TOLERANCE {
+        return Err(AllocationError::OutOfReach {
+            relative_miss: miss,
+        });
+    }
+    Ok(u.iter().map(|v| v * size).collect())
+}
+
+/// Least-distance programming (Lawson & Hanson ch. 23): the smallest `u` with `B u = c` and
+/// `u >= 0`, written as `G u >= h` with `G = [B; -B; I]`, `h = [c; -c; 0]`, and solved
+/// through one NNLS problem of size `(n + 1) x (2 m + n)`. `None`: infeasible.
+fn least_distance(b: &DMatrix<f64>, c: &DVector<f64>) -> Option<DVector<f64>> {
+    let (m, n) = b.shape();
+    let g = DMatrix::from_fn(2 * m + n, n, |r, i| {
+        if r < m {
+            b[(r, i)]
+        } else if r < 2 * m {
+            -b[(r - m, i)]
+        } else if r - 2 * m == i {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    let h = DVector::from_fn(2 * m + n, |r, _| {
+        if r < m {
+            c[r]
+        } else if r < 2 * m {
+            -c[r - m]
+        } else {
+            0.0
+        }
+    });
+    // E = [G'; h'], f = e_{n+1}.
+    let e = DMatrix::from_fn(
+        n + 1,
+        2 * m + n,
+        |r, j| if r < n { g[(j, r)] } else { h[j] },
+    );
+    let mut f = DVector::zeros(n + 1);
+    f[n] = 1.0;
+    let y = nnls(&e, &f);
+    let r = &e * y - f;
+    if r.norm() <= 1e-12 || r[n].abs() <= 1e-15 {
+        return None;
+    }
+    Some(DVector::from_fn(n, |i, _| -r[i] / r[n]))
+}
+
+/// Lawson-Hanson active-set NNLS: `argmin |A x - b|` over `x >= 0`, with the book's
+/// `3 n` bound on outer steps kept as a hard cap.
+fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
+    let n = a.ncols();
+    let mut x = DVector::<f64>::zeros(n);
+    let mut passive = vec![false; n];
+    let tol = 1e-13 * a.norm() * b.norm().max(1.0);
+    for _ in 0..3 * n.max(1) {
+        let w = a.transpose() * (b - a * &x);
+        let Some((j, wj)) = (0..n)
+            .filter(|&i| !passive[i])
+            .map(|i| (i, w[i]))
+            .max_by(|p, q| p.1.total_cmp(&q.1))
+        else {
+            break;
+        };
+        if wj <= tol {
+            break;
+        }
+        passive[j] = true;
+        // Inner loop: solve on the passive set; step back to feasibility while a component
+        // would turn non-positive (each pass removes at least one index).
+        for _ in 0..=n {
+            let z = solve_on(a, b, &passive);
+            if (0..n).filter(|&i| passive[i]).all(|i| z[i] > 0.0) {
+                x = z;
+                break;
+            }
+            let alpha = (0..n)
+                .filter(|&i| passive[i] && z[i] <= 0.0)
+                .map(|i| x[i] / (x[i] - z[i]))
+                .fold(f64::INFINITY, f64::min);
+            x += (z - &x) * alpha;
+            for i in 0..n {
+                if passive[i] && x[i] <= 0.0 {
+                    passive[i] = false;
+                    x[i] = 0.0;
+                }
+            }
+        }
+    }
+    x
+}
+
+/// Least squares on the passive columns, zeros elsewhere.
+fn solve_on(a: &DMatrix<f64>, b: &DVector<f64>, passive: &[bool]) -> DVector<f64> {
+    let idx: Vec<usize> = (0..a.ncols()).filter(|&i| passive[i]).collect();
+    let mut sub = DMatrix::<f64>::zeros(a.nrows(), idx.len());
+    for (k, &i) in idx.iter().enumerate() {
+        sub.set_column(k, &a.column(i));
+    }
+    let z_p = sub
+        .svd(true, true)
+        .solve(b, 1e-14)
+        .unwrap_or_else(|_| DVector::zeros(idx.len()));
+    let mut z = DVector::<f64>::zeros(a.ncols());
+    for (k, &i) in idx.iter().enumerate() {
+        z[i] = z_p[k];
+    }
+    z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn col(v: [f64; 6]) -> Vector6<f64> {
+        Vector6::from(v)
+    }
+
+    #[test]
+    fn opposite_pair_fires_one_side() {
+        // Two thrusters pushing +x and -x: a +x command fires only the first.
+        let cols = [
+            col([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            col([-1.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        ];
+        let u = allocate(&cols, &[0], &col([0.3, 0.0, 0.0, 0.0, 0.0, 0.0])).unwrap();
+        assert!((u[0] - 0.3).abs() < 1e-9 && u[1] == 0.0, "{u:?}");
+    }
+
+    #[test]
+    fn redundant_thrusters_share_by_smallest_norm() {
+        // Two identical +x thrusters share a +x command equally (smallest norm).
+        let cols = [
+            col([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            col([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        ];
+        let u = allocate(&cols, &[0], &col([0.4, 0.0, 0.0, 0.0, 0.0, 0.0])).unwrap();
+        assert!(
+            (u[0] - 0.2).abs() < 1e-9 && (u[1] - 0.2).abs() < 1e-9,
+            "{u:?}"
+        );
+    }
+
+    #[test]
+    fn a_direction_outside_the_cone_is_out_of_reach() {
+        let cols = [col([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])];
+        let r = allocate(&cols, &[0], &col([-0.1, 0.0, 0.0, 0.0, 0.0, 0.0]));
+        assert!(
+            matches!(r, Err(AllocationError::OutOfReach { .. })),
+            "{r:?}"
+        );
+    }
+}

@@ -48,9 +48,7 @@ const RMS_WORSE_REL: f64 = 0.02;
 const RMS_GAIN_FOR_SHAPE: f64 = 0.02;
 /// Ljung-Box Q of an axis may not grow by more than this factor above the white level.
 const LB_WORSE_REL: f64 = 1.2;
-/// Ljung-Box Q over 20 lags below which a residual counts as white here: the chi-square(20)
-/// 99.9 % quantile, so three axes of a correct model pass together 99.7 % of the time.
-pub const WHITE_BELOW: f64 = 45.31;
+pub use crate::stats::WHITE_BELOW;
 
 /// Physical bounds per effect: why a value is not physics. `theta` is in the family's
 /// own layout (see `select::spec`).

@@ -46,6 +46,9 @@ pub struct Analysis {
     pub tests_after: ResidualTests,
     /// Post-edge residual spectrum of the nominal model (frequency Hz, power).
     pub spectrum_before: Vec<(f64, f64)>,
+    /// The statistic a tone must reach to be named (its parameters' BIC cost plus the
+    /// acceptance margin): the spectrum's significance line.
+    pub spectrum_threshold: f64,
     /// Apparent tone and the true frequencies it could fold from.
     pub alias_marks: (f64, Vec<f64>),
     pub scores: Vec<Score>,
@@ -199,6 +202,7 @@ pub fn diagnose(
     let mut sizes: Vec<usize> = vec![];
     let whitening = noise.ar(4);
     let mut spectrum_before: Vec<(f64, f64)> = vec![];
+    let mut spectrum_threshold = f64::NAN;
     // the ringing fit of the current rigid residual (recomputed only when it changes)
     let mut ringing_cache: Option<Option<RingingFit>> = None;
     // valve latency of the accepted effects: ringing is excited at the actual valve motion
@@ -251,6 +255,7 @@ pub fn diagnose(
                     if spectrum_before.is_empty() {
                         if let Some(r) = &rf {
                             spectrum_before = r.scan.clone();
+                            spectrum_threshold = k_new as f64 * ln_n + settings.accept_margin;
                         }
                     }
                     ringing_cache = Some(rf);
@@ -813,6 +818,7 @@ pub fn diagnose(
         residual_after: residual_cur,
         noise,
         spectrum_before,
+        spectrum_threshold,
         alias_marks,
         scores,
         rejections,

@@ -162,13 +162,12 @@ pub fn summary(a: &Analysis) -> String {
             let _ = writeln!(s, "UNEXPLAINED: {}", u.note);
             let _ = writeln!(
                 s,
-                "     residual RMS {} against noise {} rad/s; Ljung-Box {:.0} {:.0} {:.0} (white below {:.0}); where: {}",
+                "     residual RMS {} against noise {} rad/s; Ljung-Box {:.0} {:.0} {:.0}; where: {}",
                 f(u.rms),
                 f(u.noise_rms),
                 u.ljung_box[0],
                 u.ljung_box[1],
                 u.ljung_box[2],
-                u.white_below,
                 windows_text(&u.windows_ms)
             );
         }
@@ -178,16 +177,21 @@ pub fn summary(a: &Analysis) -> String {
     }
     let lb = |t: &crate::stats::ResidualTests| {
         format!(
-            "Ljung-Box Q {:.0} {:.0} {:.0} (white < {:.0}), input cross-corr z {:.1} {:.1} {:.1}",
+            "Ljung-Box Q {:.0} {:.0} {:.0}, input cross-corr z {:.1} {:.1} {:.1}",
             t.ljung_box_q[0],
             t.ljung_box_q[1],
             t.ljung_box_q[2],
-            crate::stats::LJUNG_BOX_95,
             t.input_xcorr_z[0],
             t.input_xcorr_z[1],
             t.input_xcorr_z[2]
         )
     };
+    let _ = writeln!(
+        s,
+        "residual tests (Ljung-Box Q over {} lags of 50 ms block means: white below {:.0}, the chi-square 99.9 % quantile):",
+        crate::stats::LJUNG_BOX_LAGS,
+        crate::stats::WHITE_BELOW
+    );
     let _ = writeln!(s, "residual tests before: {}", lb(&a.tests_before));
     let _ = writeln!(s, "residual tests after:  {}", lb(&a.tests_after));
     s
@@ -225,6 +229,9 @@ const MEASURED: RGBColor = RGBColor(90, 90, 90);
 const NOMINAL: RGBColor = RGBColor(40, 90, 220);
 const FITTED: RGBColor = RGBColor(220, 60, 20);
 const WINDOW_FILL: RGBColor = RGBColor(255, 236, 170);
+const SIGNIFICANCE: RGBColor = RGBColor(0, 140, 90);
+/// Thruster activity bars under the rates (one row per thruster that fires in view).
+const VALVE_ON: RGBColor = RGBColor(60, 60, 60);
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
@@ -407,9 +414,15 @@ fn window_svg(
     let n = i1 - i0;
     let step = (n / 2000).max(1);
     let idx: Vec<usize> = (i0..i1).step_by(step).collect();
+    let firing = firing_thrusters(series, v0, v1);
+    let strip_px = if firing.is_empty() {
+        0
+    } else {
+        30 + 18 * firing.len() as u32
+    };
     let mut out = String::new();
     {
-        let root = SVGBackend::with_string(&mut out, (900, 520)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut out, (900, 520 + strip_px)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let (top, body) = root.split_vertically(28);
         let mut legend = vec![
@@ -420,7 +433,11 @@ fn window_svg(
         if let Mark::At(_) = mark {
             legend.push(("fitted time", BLACK, 1));
         }
+        if !firing.is_empty() {
+            legend.push(("thruster on", VALVE_ON, 6));
+        }
         title_strip(&top, title, &legend)?;
+        let (body, strip) = body.split_vertically(body.dim_in_pixel().1 - strip_px);
         let shown = measured_axes(series);
         let rows = body.split_evenly((shown.len(), 1));
         let decimals = if v1 - v0 < 2.0 { 3 } else { 1 };
@@ -511,9 +528,89 @@ fn window_svg(
                     .map_err(|e| e.to_string())?;
             }
         }
+        if !firing.is_empty() {
+            valve_strip(&strip, series, &firing, v0, v1)?;
+        }
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(out)
+}
+
+/// The thrusters (0-based) commanded open at some time in `v0..v1` s.
+fn firing_thrusters(series: &Series, v0: f64, v1: f64) -> Vec<usize> {
+    let (k0, k1) = (ms_index(series, v0), ms_index(series, v1));
+    let any = series.word_ms[k0..k1].iter().fold(0u16, |a, &w| a | w);
+    (0..16).filter(|i| any & (1 << i) != 0).collect()
+}
+
+/// The 1 ms command grid's index at `t` s of the recording, inside the grid.
+fn ms_index(series: &Series, t: f64) -> usize {
+    let len = series.word_ms.len();
+    let model_ms = series.model_ms(t * 1e3).round().max(0.0) as usize;
+    model_ms.min(len)
+}
+
+/// One row of on/off bars per thruster under the rate panels, on the same time axis: a
+/// valve latency shows as the rate bending after the bar starts.
+fn valve_strip(
+    area: &Area,
+    series: &Series,
+    firing: &[usize],
+    v0: f64,
+    v1: f64,
+) -> Result<(), String> {
+    let n = firing.len() as f64;
+    let mut chart = ChartBuilder::on(area)
+        .margin_left(8)
+        .margin_right(12)
+        .x_label_area_size(0)
+        .y_label_area_size(72)
+        .build_cartesian_2d(v0..v1, 0.0..n)
+        .map_err(|e| e.to_string())?;
+    let label = |y: &f64| {
+        let row = y.floor() as usize;
+        match firing.get(row) {
+            Some(i) if (y - y.floor() - 0.5).abs() < 1e-9 => format!("T{}", i + 1),
+            _ => String::new(),
+        }
+    };
+    let centres: Vec<f64> = (0..firing.len()).map(|r| r as f64 + 0.5).collect();
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_labels(firing.len() * 2 + 1)
+        .y_label_formatter(&label)
+        .y_desc("valves")
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let (k0, k1) = (ms_index(series, v0), ms_index(series, v1));
+    for (row, &i) in firing.iter().enumerate() {
+        let y = centres[row];
+        // runs of the commanded-open state on the 1 ms grid
+        let mut k = k0;
+        while k < k1 {
+            if series.word_ms[k] & (1 << i) == 0 {
+                k += 1;
+                continue;
+            }
+            let start = k;
+            while k < k1 && series.word_ms[k] & (1 << i) != 0 {
+                k += 1;
+            }
+            let (a, b) = (
+                series.real_ms(start as f64) * 1e-3,
+                series.real_ms(k as f64) * 1e-3,
+            );
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(a.max(v0), y - 0.35), (b.min(v1), y + 0.35)],
+                    VALVE_ON.filled(),
+                )))
+                .map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
 }
 
 fn spectrum_svg(a: &Analysis) -> Result<String, String> {
@@ -528,6 +625,10 @@ fn spectrum_svg(a: &Analysis) -> Result<String, String> {
         let (top, body) = root.split_vertically(28);
         let (fa, _) = &a.alias_marks;
         let mut legend = vec![("tone statistic", BLACK, 1)];
+        let threshold = a.spectrum_threshold;
+        if threshold.is_finite() {
+            legend.push(("significance (named above)", SIGNIFICANCE, 2));
+        }
         if *fa > 0.0 {
             legend.push(("named ringing (apparent)", RED, 2));
         }
@@ -537,7 +638,15 @@ fn spectrum_svg(a: &Analysis) -> Result<String, String> {
             &legend,
         )?;
         let fmax = sp.last().map(|p| p.0).unwrap_or(1.0);
-        let pmax = sp.iter().fold(1e-9f64, |m, p| m.max(p.1));
+        // the line stays in view when every peak is below it
+        let pmax = sp
+            .iter()
+            .fold(1e-9f64, |m, p| m.max(p.1))
+            .max(if threshold.is_finite() {
+                threshold
+            } else {
+                0.0
+            });
         let mut chart = ChartBuilder::on(&body)
             .margin(8)
             .x_label_area_size(34)
@@ -554,6 +663,16 @@ fn spectrum_svg(a: &Analysis) -> Result<String, String> {
         chart
             .draw_series(LineSeries::new(sp.iter().cloned(), BLACK.stroke_width(1)))
             .map_err(|e| e.to_string())?;
+        if threshold.is_finite() {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(0.0, threshold), (fmax, threshold)],
+                    8,
+                    5,
+                    SIGNIFICANCE.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?;
+        }
         if *fa > 0.0 {
             chart
                 .draw_series(LineSeries::new(
@@ -807,6 +926,13 @@ pub fn html(a: &Analysis) -> String {
     match spectrum_svg(a) {
         Ok(svg) if !svg.is_empty() => {
             let _ = write!(h, "<div class=\"panel\">{svg}</div>");
+            if a.spectrum_threshold.is_finite() {
+                let _ = write!(
+                    h,
+                    "<p>Green dashed line: significance, 2 ln LR = {:.0} (the tone's parameters' BIC cost plus the acceptance margin); a tone is named only above it.</p>",
+                    a.spectrum_threshold
+                );
+            }
         }
         _ => h.push_str(
             "<p>No post-edge spectrum (no ringing scan was possible on this recording).</p>",
@@ -924,6 +1050,23 @@ mod tests {
             ] {
                 assert!(p.contains(label), "{title}: no {label}");
             }
+            // the thruster activity under the rates, so a latency can be seen
+            assert!(
+                p.contains("thruster on") && p.contains("valves"),
+                "{title}: no valves"
+            );
+        }
+        // one whiteness threshold, the one the verdicts use
+        let white = format!("white below {:.0}", crate::stats::WHITE_BELOW);
+        assert!(h.contains(&white), "{white}");
+        assert!(
+            !h.contains("white &lt;") && !h.contains("white <"),
+            "a second threshold"
+        );
+        // the post-edge spectrum carries its significance line
+        if !a.spectrum_before.is_empty() {
+            assert!(a.spectrum_threshold > 0.0);
+            assert!(h.contains("significance (named above)"));
         }
         let n_windows = a
             .output

@@ -5,11 +5,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::acceptance::WHITE_BELOW;
 use crate::locate;
 use crate::noise::NoiseModel;
 use crate::series::Series;
 use crate::stats;
+use crate::stats::WHITE_BELOW;
 
 /// A residual RMS above the per-sample noise by more than this factor is not noise: on
 /// the nominal recordings the ratio is within 1 % of 1.

@@ -40,7 +40,6 @@ macro_rules! say {
         $text.line(format_args!($($fmt)*))
     };
 }
-pub(crate) use say;
 
 // The subcommands, after the `say!` macro they use (a macro is in scope below its definition).
 pub mod characterize;

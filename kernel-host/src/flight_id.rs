@@ -2,9 +2,9 @@
 //! [`Flight`]: the model becomes the kernel's thruster table and settings, each sample one
 //! `push`, and the kernel's solution the reference's [`FlightEstimate`] (inertia from the
 //! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
+use crate::craft::{craft, model_error};
 use crate::HostError;
 use massid_kernel::flight_id::consistency::REJECT_ABOVE;
-use massid_kernel::flight_id::craft::{Craft, Thruster, MAX_THRUSTERS};
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
 use massid_kernel::Scalar;
@@ -34,38 +34,6 @@ pub const MAX_WINDOW_TURN_RAD: f64 = 4.0;
 pub const TURN_WINDOW_S: f64 = 8.0;
 /// Shortest window cap, samples.
 const MIN_WINDOW: u32 = 20;
-
-fn model_error(sat: &Satellite, why: String) -> HostError {
-    HostError::Model {
-        name: sat.name.clone(),
-        why,
-    }
-}
-
-/// The kernel's thruster table for `sat`.
-pub fn craft<S: Scalar>(sat: &Satellite) -> Result<Craft<S>, HostError> {
-    let n = sat.n_thrusters();
-    if n == 0 || n > MAX_THRUSTERS {
-        return Err(model_error(
-            sat,
-            format!("{n} thrusters: the kernel takes 1-{MAX_THRUSTERS}"),
-        ));
-    }
-    let thrusters: Vec<Thruster> = (0..n)
-        .map(|i| Thruster {
-            pos_m: sat.thruster_pos_m[i].map(|v| v as f32),
-            dir: sat.dir(i).map(|v| v as f32).into(),
-            thrust_n: sat.thrust_n[i] as f32,
-        })
-        .collect();
-    let com = sat.com_m();
-    Craft::new(
-        &thrusters,
-        [com.x as f32, com.y as f32, com.z as f32],
-        sat.pressure_drop_n_per_extra as f32,
-    )
-    .map_err(|e| model_error(sat, format!("{e:?}")))
-}
 
 fn sensor(s: SensorResponse) -> KSensor {
     match s {

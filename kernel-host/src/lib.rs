@@ -5,6 +5,7 @@
 //! contract's [`Estimate`] (status, unobservable terms, standard errors with the kernel's
 //! variance factor). The CLI's `estimate` and `demo` and the tests all go through here.
 
+pub mod craft;
 pub mod flight_id;
 
 use massid_kernel::model::SatelliteParams;

@@ -47,7 +47,9 @@ typedef enum massid_status {
     MASSID_SINGULAR = 4,
     MASSID_OVERFLOW = 5,
     MASSID_BAD_COMMAND = 6,
-    MASSID_PRESSURE_DROP_EXCEEDS_THRUST = 7
+    MASSID_PRESSURE_DROP_EXCEEDS_THRUST = 7,
+    MASSID_OUT_OF_REACH = 8          /* no non-negative firing gives the command's direction
+                                        (or a planar craft was commanded Fz, Tx or Ty) */
 } massid_status;
 
 /* massid_tick_report.event */

@@ -48,6 +48,9 @@ pub enum MassidStatus {
     BadCommand = 6,
     /// With this many open thrusters the pressure drop exceeds a thruster's thrust.
     PressureDropExceedsThrust = 7,
+    /// No non-negative firing gives the command's direction (or a planar craft was
+    /// commanded off its plane).
+    OutOfReach = 8,
 }
 
 /// Satellite parameters (mirror of [`SatelliteParams`] with C layout).
@@ -201,6 +204,7 @@ impl From<MixerError> for MassidStatus {
             MixerError::BadCommand => MassidStatus::BadCommand,
             MixerError::PressureDropExceedsThrust => MassidStatus::PressureDropExceedsThrust,
             MixerError::Overflow => MassidStatus::Overflow,
+            MixerError::OutOfReach | MixerError::OffPlane => MassidStatus::OutOfReach,
         }
     }
 }

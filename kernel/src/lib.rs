@@ -56,8 +56,11 @@
 )]
 #![warn(missing_docs)]
 
+pub mod allocation;
 #[cfg(feature = "capi")]
 pub mod capi;
+pub mod craft;
+pub mod craft_mixer;
 pub mod flight_id;
 pub mod fold;
 pub mod gyro_filter;

@@ -53,6 +53,11 @@ pub enum MixerError {
     PressureDropExceedsThrust,
     /// A value did not fit the scalar format.
     Overflow,
+    /// No non-negative firing gives the command: its direction is outside what the thrusters
+    /// can push ([`crate::allocation`]).
+    OutOfReach,
+    /// A planar craft was commanded a force along z or a torque about x or y.
+    OffPlane,
 }
 
 /// ON/OFF times of one control period, ms from the period start (`on == off == 0`: not firing).
@@ -83,6 +88,9 @@ const TORQUE_UNIT_LOG2: i32 = 10;
 /// Thrust strengths and the pressure drop in units of 2^-5 N (only their ratios matter).
 const THRUST_UNIT_LOG2: i32 = 5;
 /// The pseudo-inverse is computed from `M / 2^4` so that `M M'` stays O(10).
+/// Stage 5 treats a duty above `-2^-REFINE_ZERO_LOG2` as zero rather than a wrong side
+/// (duties are fractions of the period: 2^-20 is 0.2 microseconds of a 200 ms period).
+const REFINE_ZERO_LOG2: i32 = 20;
 const PINV_SHIFT: i32 = 4;
 
 impl<S: Scalar> Mixer<S> {
@@ -244,23 +252,8 @@ impl<S: Scalar> Mixer<S> {
 
     /// Stage 10: integer ON/OFF times from the pulse fractions.
     pub fn quantise(&self, corrected: &[S; N_THRUSTERS]) -> Result<Firing, MixerError> {
-        // Stage 10.
-        let mut firing = Firing {
-            on_ms: [0; N_THRUSTERS],
-            off_ms: [0; N_THRUSTERS],
-        };
-        for (i, d) in corrected.iter().enumerate() {
-            let dur = quantise_duration(*d, self.cfg.period_ms, self.cfg.min_pulse_ms)
-                .ok_or(MixerError::Overflow)?;
-            if dur > 0 {
-                let on = self.cfg.period_ms.saturating_sub(dur) / 2;
-                if let (Some(o), Some(f)) = (firing.on_ms.get_mut(i), firing.off_ms.get_mut(i)) {
-                    *o = on;
-                    *f = on.saturating_add(dur);
-                }
-            }
-        }
-        Ok(firing)
+        let (on_ms, off_ms) = quantise(corrected, self.cfg.period_ms, self.cfg.min_pulse_ms)?;
+        Ok(Firing { on_ms, off_ms })
     }
 
     /// The scaled mixing matrix (rows: force in 2^-7 N, torque in 2^-10 N m).
@@ -349,15 +342,22 @@ impl<S: Scalar> Mixer<S> {
             else {
                 return *resolved;
             };
-            if v.iter().all(|x| !x.lt(S::ZERO)) {
+            // A pair whose exact duty is zero comes out as a rounding-sized value of either
+            // sign; below -REFINE_ZERO it is a wrong side, above it a zero (clamped). Without
+            // the tolerance f32 flipped such a pair's side on every solve and fell back to the
+            // stage-4 duties: 11 ms on a thruster the f64 reference leaves off (SPHERES, a
+            // command beyond reach, tests/tests/kernel_mixer_any_craft.rs).
+            let neg_tol = S::from_int_pow2(-1, -REFINE_ZERO_LOG2);
+            if v.iter().all(|x| !x.lt(neg_tol)) {
                 let mut out = [S::ZERO; N_THRUSTERS];
                 for (k, &i) in side.iter().enumerate() {
-                    set(&mut out, i, v.get(k).copied().unwrap_or(S::ZERO));
+                    let x = v.get(k).copied().unwrap_or(S::ZERO);
+                    set(&mut out, i, if x.lt(S::ZERO) { S::ZERO } else { x });
                 }
                 return out;
             }
             for (k, sd) in side.iter_mut().enumerate() {
-                if v.get(k).copied().unwrap_or(S::ZERO).lt(S::ZERO) {
+                if v.get(k).copied().unwrap_or(S::ZERO).lt(neg_tol) {
                     let (a, b) = OPPOSING_PAIRS.get(k).copied().unwrap_or((0, 6));
                     *sd = if *sd == a { b } else { a };
                 }
@@ -366,64 +366,95 @@ impl<S: Scalar> Mixer<S> {
         *resolved
     }
 
-    /// Stage 9 on fractions of the period: pulse of rank r (ascending, ties by index) loses
-    /// `p (sum of shorter + (N - r) d_r)` and is stretched by that over `F_r - p (N - r)`.
     fn pressure_correction(&self, frac: &[S; N_THRUSTERS]) -> Result<[S; N_THRUSTERS], MixerError> {
-        let mut out = *frac;
-        let p = self.cfg.pressure_drop_n;
-        if S::ZERO.lt(p) {
-            // Active thrusters sorted ascending (insertion sort is stable: ties keep index order).
-            let mut order = [0usize; N_THRUSTERS];
-            let mut n = 0usize;
-            for (i, d) in frac.iter().enumerate() {
-                if S::ZERO.lt(*d) {
-                    let mut pos = n;
-                    while pos > 0 {
-                        let prev = order.get(pos.saturating_sub(1)).copied().unwrap_or(0);
-                        if d.lt(get(frac, prev)) {
-                            if let Some(slot) = order.get_mut(pos) {
-                                *slot = prev;
-                            }
-                            pos = pos.saturating_sub(1);
-                        } else {
-                            break;
-                        }
-                    }
-                    if let Some(slot) = order.get_mut(pos) {
-                        *slot = i;
-                    }
-                    n = n.saturating_add(1);
-                }
-            }
-            let mut shorter = S::ZERO;
-            for (rank0, &i) in order.iter().take(n).enumerate() {
-                let longer = n.saturating_sub(rank0).saturating_sub(1);
-                let longer_s = S::from_int_pow2(longer as i32, 0);
-                let all_others = S::from_int_pow2(n.saturating_sub(1) as i32, 0);
-                let during = self.thrust(i).minus(p.times(longer_s));
-                let peak = self.thrust(i).minus(p.times(all_others));
-                if !S::ZERO.lt(peak) || !S::ZERO.lt(during) {
-                    return Err(MixerError::PressureDropExceedsThrust);
-                }
-                let d = get(frac, i);
-                let loss = p.times(shorter.mul_add(longer_s, d));
-                set(
-                    &mut out,
-                    i,
-                    d.plus(loss.checked_div(during).ok_or(MixerError::Overflow)?),
-                );
-                shorter = shorter.plus(d);
-            }
-        }
-        for v in out.iter_mut() {
-            if v.lt(S::ZERO) {
-                *v = S::ZERO;
-            } else if S::ONE.lt(*v) {
-                *v = S::ONE;
-            }
-        }
-        Ok(out)
+        pressure_correction(frac, &self.thrust_n, self.cfg.pressure_drop_n)
     }
+}
+
+/// Stage 10: integer ON/OFF times (ms) from pulse fractions of the period, for any number of
+/// thruster slots.
+pub fn quantise<S: Scalar, const N: usize>(
+    corrected: &[S; N],
+    period_ms: u32,
+    min_pulse_ms: u32,
+) -> Result<([u32; N], [u32; N]), MixerError> {
+    let mut on_ms = [0; N];
+    let mut off_ms = [0; N];
+    for (i, d) in corrected.iter().enumerate() {
+        let dur = quantise_duration(*d, period_ms, min_pulse_ms).ok_or(MixerError::Overflow)?;
+        if dur > 0 {
+            let on = period_ms.saturating_sub(dur) / 2;
+            if let (Some(o), Some(f)) = (on_ms.get_mut(i), off_ms.get_mut(i)) {
+                *o = on;
+                *f = on.saturating_add(dur);
+            }
+        }
+    }
+    Ok((on_ms, off_ms))
+}
+
+/// Stage 9 on fractions of the period: pulse of rank r (ascending, ties by index) loses
+/// `p (sum of shorter + (N - r) d_r)` and is stretched by that over `F_r - p (N - r)`.
+/// `thrust` and `p` in one unit (only their ratios matter); then clamped to `[0, 1]`.
+pub fn pressure_correction<S: Scalar, const N: usize>(
+    frac: &[S; N],
+    thrust: &[S; N],
+    p: S,
+) -> Result<[S; N], MixerError> {
+    let mut out = *frac;
+    let thrust_of = |i: usize| thrust.get(i).copied().unwrap_or(S::ONE);
+    if S::ZERO.lt(p) {
+        // Active thrusters sorted ascending (insertion sort is stable: ties keep index order).
+        let mut order = [0usize; N];
+        let mut n = 0usize;
+        for (i, d) in frac.iter().enumerate() {
+            if S::ZERO.lt(*d) {
+                let mut pos = n;
+                while pos > 0 {
+                    let prev = order.get(pos.saturating_sub(1)).copied().unwrap_or(0);
+                    if d.lt(get(frac, prev)) {
+                        if let Some(slot) = order.get_mut(pos) {
+                            *slot = prev;
+                        }
+                        pos = pos.saturating_sub(1);
+                    } else {
+                        break;
+                    }
+                }
+                if let Some(slot) = order.get_mut(pos) {
+                    *slot = i;
+                }
+                n = n.saturating_add(1);
+            }
+        }
+        let mut shorter = S::ZERO;
+        for (rank0, &i) in order.iter().take(n).enumerate() {
+            let longer = n.saturating_sub(rank0).saturating_sub(1);
+            let longer_s = S::from_int_pow2(longer as i32, 0);
+            let all_others = S::from_int_pow2(n.saturating_sub(1) as i32, 0);
+            let during = thrust_of(i).minus(p.times(longer_s));
+            let peak = thrust_of(i).minus(p.times(all_others));
+            if !S::ZERO.lt(peak) || !S::ZERO.lt(during) {
+                return Err(MixerError::PressureDropExceedsThrust);
+            }
+            let d = get(frac, i);
+            let loss = p.times(shorter.mul_add(longer_s, d));
+            set(
+                &mut out,
+                i,
+                d.plus(loss.checked_div(during).ok_or(MixerError::Overflow)?),
+            );
+            shorter = shorter.plus(d);
+        }
+    }
+    for v in out.iter_mut() {
+        if v.lt(S::ZERO) {
+            *v = S::ZERO;
+        } else if S::ONE.lt(*v) {
+            *v = S::ONE;
+        }
+    }
+    Ok(out)
 }
 
 /// Stage 5's solve `S v = cmd`. A command beyond reach can saturate an intermediate of the
@@ -457,12 +488,12 @@ fn solve_in_range<S: Scalar>(lu: &Lu<S, 6>, cmd: &[S; 6]) -> Option<[S; 6]> {
 }
 
 /// Stage 6: if any duty exceeds 1, all are divided by the largest.
-fn scale_by_maximum<S: Scalar>(duty: &[S; N_THRUSTERS]) -> Result<[S; N_THRUSTERS], MixerError> {
+pub fn scale_by_maximum<S: Scalar, const N: usize>(duty: &[S; N]) -> Result<[S; N], MixerError> {
     let max = duty
         .iter()
         .fold(S::ZERO, |m, v| if m.lt(*v) { *v } else { m });
     if S::ONE.lt(max) {
-        let mut out = [S::ZERO; N_THRUSTERS];
+        let mut out = [S::ZERO; N];
         for (o, d) in out.iter_mut().zip(duty.iter()) {
             *o = d.checked_div(max).ok_or(MixerError::Overflow)?;
         }
@@ -494,11 +525,11 @@ pub fn quantise_duration<S: Scalar>(frac: S, period_ms: u32, min_pulse_ms: u32) 
     Some(d)
 }
 
-fn get<S: Scalar>(v: &[S; N_THRUSTERS], i: usize) -> S {
+fn get<S: Scalar, const N: usize>(v: &[S; N], i: usize) -> S {
     v.get(i).copied().unwrap_or(S::ZERO)
 }
 
-fn set<S: Scalar>(v: &mut [S; N_THRUSTERS], i: usize, x: S) {
+fn set<S: Scalar, const N: usize>(v: &mut [S; N], i: usize, x: S) {
     if let Some(e) = v.get_mut(i) {
         *e = x;
     }

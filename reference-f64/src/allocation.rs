@@ -16,10 +16,12 @@
 //!
 //! has one solution whenever `c` is in the cone the thrusters span.
 //!
-//! This f64 reference solves it as a least-distance problem through Lawson-Hanson
-//! non-negative least squares (Lawson & Hanson 1974, ch. 23), then polishes the duties by
-//! the exact smallest-norm solve on the thrusters that fire: an algorithm independent of the
-//! kernel's (a Newton method on the dual), so that the two check each other.
+//! This f64 reference solves it with the Clarabel interior-point QP solver, then polishes the
+//! duties by the exact smallest-norm solve on the thrusters that fire: an algorithm and code
+//! independent of the kernel's (a Newton method on the dual), so that the two check each
+//! other. (A hand-written least-distance NNLS, Lawson & Hanson ch. 23, was tried first: on the
+//! cubesat it cycled into a non-optimal firing with a negative duty, 1 % off the command.)
+//! How far an unreachable command is from reach comes from Lawson-Hanson NNLS on `B` alone.
 
 use nalgebra::{DMatrix, DVector, Vector6};
 
@@ -34,6 +36,9 @@ pub enum AllocationError {
     /// wrenches (e.g. a torque only one-sided thrusters would have to pull).
     #[error("out of reach: the thrusters cannot produce this force/torque direction (the best non-negative firing misses it by {relative_miss:.1e} of its size)")]
     OutOfReach { relative_miss: f64 },
+    /// The QP solver stopped without an answer (iteration limit, numerical trouble).
+    #[error("the allocation's QP solver stopped: {0}")]
+    Solver(String),
 }
 
 /// Smallest-norm non-negative duties for the wrench `command` over the axes `rows` (indices
@@ -65,17 +70,22 @@ pub fn allocate(
     }
     let c = c / size;
     let b = DMatrix::from_fn(m, n, |k, i| columns[i][rows[k]] / scale[k]);
-    let mut u = least_distance(&b, &c).unwrap_or_else(|| DVector::zeros(n));
-    // Polish: the smallest-norm exact solution on the thrusters that fire, kept when it stays
-    // non-negative (it removes the LDP's rounding, ~1e-12, from the duties).
-    // (Duties below 1e-9 of the largest are the LDP's rounding of a zero.)
-    let top = u.amax();
-    let support: Vec<usize> = (0..n).filter(|&i| u[i] > 1e-9 * top).collect();
-    for i in 0..n {
-        if !support.contains(&i) {
-            u[i] = 0.0;
+    let (mut u, idle_multiplier) = match smallest_non_negative(&b, &c) {
+        Ok(r) => r,
+        Err(AllocationError::OutOfReach { .. }) => {
+            // Say by how much: the closest non-negative firing (plain NNLS).
+            let best = nnls(&b, &c);
+            return Err(AllocationError::OutOfReach {
+                relative_miss: (&b * best - &c).amax(),
+            });
         }
-    }
+        Err(e) => return Err(e),
+    };
+    // Polish: the smallest-norm exact solution on the thrusters that fire, kept when it stays
+    // non-negative and is at least as exact. An interior-point duty never reaches 0 (1e-5 of
+    // the largest on the cubesat): a thruster is idle where its bound's multiplier exceeds
+    // its duty (strict complementarity), and exactly 0 after the polish.
+    let support: Vec<usize> = (0..n).filter(|&i| u[i] > idle_multiplier[i]).collect();
     if !support.is_empty() {
         let bs = DMatrix::from_fn(m, support.len(), |k, j| b[(k, support[j])]);
         if let Ok(pinv) = bs.clone().pseudo_inverse(1e-12) {
@@ -98,58 +108,76 @@ pub fn allocate(
     Ok(u.iter().map(|v| v * size).collect())
 }
 
-/// Least-distance programming (Lawson & Hanson ch. 23): the smallest `u` with `B u = c` and
-/// `u >= 0`, written as `G u >= h` with `G = [B; -B; I]`, `h = [c; -c; 0]`, and solved
-/// through one NNLS problem of size `(n + 1) x (2 m + n)`. `None`: infeasible.
-fn least_distance(b: &DMatrix<f64>, c: &DVector<f64>) -> Option<DVector<f64>> {
+/// `min |u|^2` subject to `B u = c`, `u >= 0`, by Clarabel's interior-point method (a
+/// maintained conic solver: the oracle's confidence does not rest on code written here).
+/// Bounded by its iteration limit, not by time.
+fn smallest_non_negative(
+    b: &DMatrix<f64>,
+    c: &DVector<f64>,
+) -> Result<(DVector<f64>, Vec<f64>), AllocationError> {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
+    };
     let (m, n) = b.shape();
-    let g = DMatrix::from_fn(2 * m + n, n, |r, i| {
-        if r < m {
-            b[(r, i)]
-        } else if r < 2 * m {
-            -b[(r - m, i)]
-        } else if r - 2 * m == i {
-            1.0
-        } else {
-            0.0
+    let p = CscMatrix::identity(n);
+    let q = vec![0.0; n];
+    let rows: Vec<Vec<f64>> = (0..m + n)
+        .map(|r| {
+            (0..n)
+                .map(|i| {
+                    if r < m {
+                        b[(r, i)]
+                    } else if r - m == i {
+                        -1.0
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let a = CscMatrix::from(rows.iter().map(|r| r.as_slice()));
+    let rhs: Vec<f64> = (0..m + n).map(|r| if r < m { c[r] } else { 0.0 }).collect();
+    let cones = [ZeroConeT(m), NonnegativeConeT(n)];
+    let settings = DefaultSettings {
+        verbose: false,
+        tol_gap_abs: 1e-12,
+        tol_gap_rel: 1e-12,
+        tol_feas: 1e-12,
+        ..DefaultSettings::default()
+    };
+    let mut solver = DefaultSolver::new(&p, &q, &a, &rhs, &cones, settings)
+        .map_err(|e| AllocationError::Solver(format!("{e:?}")))?;
+    solver.solve();
+    match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok((
+            DVector::from_column_slice(&solver.solution.x),
+            solver.solution.z[m..].to_vec(),
+        )),
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+            Err(AllocationError::OutOfReach {
+                relative_miss: f64::NAN,
+            })
         }
-    });
-    let h = DVector::from_fn(2 * m + n, |r, _| {
-        if r < m {
-            c[r]
-        } else if r < 2 * m {
-            -c[r - m]
-        } else {
-            0.0
-        }
-    });
-    // E = [G'; h'], f = e_{n+1}.
-    let e = DMatrix::from_fn(
-        n + 1,
-        2 * m + n,
-        |r, j| if r < n { g[(j, r)] } else { h[j] },
-    );
-    let mut f = DVector::zeros(n + 1);
-    f[n] = 1.0;
-    let y = nnls(&e, &f);
-    let r = &e * y - f;
-    if r.norm() <= 1e-12 || r[n].abs() <= 1e-15 {
-        return None;
+        other => Err(AllocationError::Solver(format!("{other:?}"))),
     }
-    Some(DVector::from_fn(n, |i, _| -r[i] / r[n]))
 }
 
 /// Lawson-Hanson active-set NNLS: `argmin |A x - b|` over `x >= 0`, with the book's
-/// `3 n` bound on outer steps kept as a hard cap.
+/// `3 n` bound on outer steps kept as a hard cap (here only for the size of a miss).
 fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
     let n = a.ncols();
     let mut x = DVector::<f64>::zeros(n);
     let mut passive = vec![false; n];
+    // An index whose own solve would put it at <= 0 cannot enter (rounding of a zero
+    // multiplier); it is skipped until another index enters, else the method cycles on it.
+    let mut skipped = vec![false; n];
     let tol = 1e-13 * a.norm() * b.norm().max(1.0);
     for _ in 0..3 * n.max(1) {
         let w = a.transpose() * (b - a * &x);
         let Some((j, wj)) = (0..n)
-            .filter(|&i| !passive[i])
+            .filter(|&i| !passive[i] && !skipped[i])
             .map(|i| (i, w[i]))
             .max_by(|p, q| p.1.total_cmp(&q.1))
         else {
@@ -159,10 +187,16 @@ fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
             break;
         }
         passive[j] = true;
-        // Inner loop: solve on the passive set; step back to feasibility while a component
-        // would turn non-positive (each pass removes at least one index).
+        let mut z = solve_on(a, b, &passive);
+        if z[j] <= 0.0 {
+            passive[j] = false;
+            skipped[j] = true;
+            continue;
+        }
+        skipped.fill(false);
+        // Inner loop: step back to feasibility while a component would turn non-positive
+        // (each pass removes at least one index).
         for _ in 0..=n {
-            let z = solve_on(a, b, &passive);
             if (0..n).filter(|&i| passive[i]).all(|i| z[i] > 0.0) {
                 x = z;
                 break;
@@ -171,13 +205,14 @@ fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
                 .filter(|&i| passive[i] && z[i] <= 0.0)
                 .map(|i| x[i] / (x[i] - z[i]))
                 .fold(f64::INFINITY, f64::min);
-            x += (z - &x) * alpha;
+            x += (&z - &x) * alpha;
             for i in 0..n {
                 if passive[i] && x[i] <= 0.0 {
                     passive[i] = false;
                     x[i] = 0.0;
                 }
             }
+            z = solve_on(a, b, &passive);
         }
     }
     x

@@ -64,6 +64,7 @@ fn mixer_status(e: MixerError) -> i32 {
         MixerError::Overflow => 5,
         MixerError::BadCommand => 6,
         MixerError::PressureDropExceedsThrust => 7,
+        MixerError::OutOfReach | MixerError::OffPlane => 8,
     }
 }
 

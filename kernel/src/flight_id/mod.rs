@@ -18,7 +18,6 @@
 //! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and there are
 //! no score tests.
 pub mod consistency;
-pub mod craft;
 pub mod delay;
 pub mod solve;
 pub mod sums;
@@ -134,7 +133,7 @@ impl<S: Scalar> FlightId<S> {
 
     /// One sample: `dt_s` since the previous sample, the measured `rate` (rad/s; `valid` false
     /// for a missing or railed sample) and the commanded `wrench` (torque about the model's
-    /// CoM N m, force N; [`craft::Craft::wrench`] of the thruster word) held until the next.
+    /// CoM N m, force N; [`crate::craft::Craft::wrench`] of the thruster word) held until the next.
     pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; 6]) {
         // The command history runs on whatever happens to the rate samples.
         let wrench = self.delay.push(command);

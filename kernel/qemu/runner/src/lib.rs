@@ -142,7 +142,7 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
 /// `info` lines: the host and QEMU runs are not compared on it.
 #[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
 pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
-    use massid_kernel::flight_id::craft::{Craft, Thruster};
+    use massid_kernel::craft::{Craft, Thruster};
     use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
     use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
     use massid_kernel::model::{N_THRUSTERS, SPH2_GYRO_BIAS_COUNTS};

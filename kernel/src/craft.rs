@@ -1,4 +1,4 @@
-//! Any thruster craft as the identification sees it: each thruster's body wrench when open
+//! Any thruster craft as the kernel sees it (identification and mixer): each thruster's body wrench when open
 //! (torque about the model's CoM and force), up to [`MAX_THRUSTERS`] slots with a mask, so
 //! that one fixed-size table serves a 4-thruster cubesat and a 16-thruster free-flyer alike
 //! (a const-generic count would make every craft a different type for the C ABI).

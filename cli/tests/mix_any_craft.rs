@@ -104,3 +104,35 @@ fn unreachable_and_off_plane_commands_are_refused_clearly() {
         "{err}"
     );
 }
+
+#[test]
+fn model_check_says_whether_the_kernel_flies_the_craft() {
+    for name in ["airbearing-mpc", "cubesat8", "freeflyer16", "sph2"] {
+        let out = ok(&["model", "check", &model(name)]);
+        assert!(
+            out.contains("onboard kernel: mixer vs f64 reference") && !out.contains("CANNOT"),
+            "{out}"
+        );
+    }
+    // Two thrusters 1e-5 as strong as the others: the kernel cannot balance them in its
+    // formats and says which command it refuses.
+    let text = std::fs::read_to_string(model("airbearing-mpc")).unwrap();
+    let weak: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("thrust_n") {
+                "thrust_n = [0.441450, 0.430659, 0.427716, 0.438017, 0.00000469, 0.00000447, 0.466956, 0.484124]".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let path = common::tmp("weak", "mix_any_craft").join("weak.toml");
+    std::fs::write(&path, weak).unwrap();
+    let out = ok(&["model", "check", &s(&path)]);
+    assert!(
+        out.contains("Q8.24 CANNOT") && out.contains("refuses force"),
+        "{out}"
+    );
+}

@@ -82,21 +82,31 @@ pub fn allocate(
         Err(e) => return Err(e),
     };
     // Polish: the smallest-norm exact solution on the thrusters that fire, kept when it stays
-    // non-negative and is at least as exact. An interior-point duty never reaches 0 (1e-5 of
-    // the largest on the cubesat): a thruster is idle where its bound's multiplier exceeds
-    // its duty (strict complementarity), and exactly 0 after the polish.
-    let support: Vec<usize> = (0..n).filter(|&i| u[i] > idle_multiplier[i]).collect();
-    if !support.is_empty() {
+    // non-negative and exact. An interior-point duty never reaches 0 (1e-5 of the largest on
+    // the cubesat), so which thrusters fire is decided first by strict complementarity (idle
+    // where the bound's multiplier exceeds the duty), else by size (1e-9, then 1e-6 of the
+    // largest duty); the first candidate set that gives an exact non-negative firing wins.
+    // If none does, the solver's duties stand.
+    let top = u.amax();
+    let candidates: [Vec<usize>; 3] = [
+        (0..n)
+            .filter(|&i| u[i] > idle_multiplier[i] && u[i] > 1e-9 * top)
+            .collect(),
+        (0..n).filter(|&i| u[i] > 1e-9 * top).collect(),
+        (0..n).filter(|&i| u[i] > 1e-6 * top).collect(),
+    ];
+    for support in candidates.iter().filter(|s| !s.is_empty()) {
         let bs = DMatrix::from_fn(m, support.len(), |k, j| b[(k, support[j])]);
-        if let Ok(pinv) = bs.clone().pseudo_inverse(1e-12) {
-            let us = pinv * &c;
-            let exact = (&bs * &us - &c).amax() <= (&b * &u - &c).amax();
-            if exact && us.iter().all(|v| *v >= 0.0) {
-                u.fill(0.0);
-                for (j, &i) in support.iter().enumerate() {
-                    u[i] = us[j];
-                }
+        let Ok(pinv) = bs.clone().pseudo_inverse(1e-12) else {
+            continue;
+        };
+        let us = pinv * &c;
+        if (&bs * &us - &c).amax() <= 1e-12 && us.iter().all(|v| *v >= 0.0) {
+            u.fill(0.0);
+            for (j, &i) in support.iter().enumerate() {
+                u[i] = us[j];
             }
+            break;
         }
     }
     let miss = (&b * &u - &c).amax();

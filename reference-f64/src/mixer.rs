@@ -77,7 +77,7 @@ pub enum MixerError {
     NonFiniteCommand { force: [f64; 3], torque: [f64; 3] },
     #[error("thruster {thruster}: pressure drop with {open} open thrusters exceeds its thrust")]
     PressureDropExceedsThrust { thruster: usize, open: usize },
-    #[error("{0}")]
+    #[error(transparent)]
     OutOfReach(#[from] AllocationError),
     #[error("a planar craft has no {axis}: its command must be 0 (got {value})")]
     OffPlane { axis: &'static str, value: f64 },

@@ -72,7 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 format!("cannot produce {}", unreachable.join(", "))
             };
-            let mixer = format!("; {rule}, {reach}");
+            let mixer = format!("; {rule}, {reach}; {}", kernel_fit(sat));
             super::mix::emit(&format!(
                 "{}: ok: satellite {}, {kind}, {} thrusters, {} effect(s) for the simulator{mixer}\n",
                 file.display(),
@@ -82,4 +82,53 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ))
         }
     }
+}
+
+/// Whether the onboard kernel flies this craft: its mixer in f32 and Q8.24 against the f64
+/// reference on pure-axis commands (budgets `massid_kernel_host::craft::MIXER_BUDGET_*`),
+/// and which identification it runs.
+fn kernel_fit(sat: &reference_f64::satellite::Satellite) -> String {
+    use massid_kernel::scalar::Q8_24;
+    use massid_kernel_host::craft::{
+        axis_probes, mixer_deviation, MIXER_BUDGET_F32, MIXER_BUDGET_Q8_24,
+    };
+    let period = reference_f64::mixer::DEFAULT_PERIOD_MS;
+    let probes = axis_probes(sat, period);
+    let names = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"];
+    let probe_name = |j: usize| {
+        probes
+            .get(j)
+            .map(|(f, t)| {
+                let c = [f[0], f[1], f[2], t[0], t[1], t[2]];
+                let k = c.iter().position(|v| *v != 0.0).unwrap_or(0);
+                format!("{}{}", if c[k] > 0.0 { "+" } else { "-" }, names[k])
+            })
+            .unwrap_or_default()
+    };
+    let mut parts = Vec::new();
+    for (flavour, dev, budget) in [
+        (
+            "f32",
+            mixer_deviation::<f32>(sat, &probes, period),
+            MIXER_BUDGET_F32,
+        ),
+        (
+            "Q8.24",
+            mixer_deviation::<Q8_24>(sat, &probes, period),
+            MIXER_BUDGET_Q8_24,
+        ),
+    ] {
+        parts.push(match dev {
+            Ok((d, _)) if d <= budget => format!("{flavour} {d:.1e}"),
+            Ok((d, j)) => format!(
+                "{flavour} CANNOT: pulses {d:.1e} of the period off the reference on {} (budget {budget:.0e})",
+                probe_name(j)
+            ),
+            Err(e) => format!("{flavour} CANNOT: {e}"),
+        });
+    }
+    format!(
+        "onboard kernel: mixer vs f64 reference (worst pulse error, of the period) {}; identification f32 (Q8.24 not available)",
+        parts.join(", ")
+    )
 }

@@ -48,8 +48,10 @@ typedef enum massid_status {
     MASSID_OVERFLOW = 5,
     MASSID_BAD_COMMAND = 6,
     MASSID_PRESSURE_DROP_EXCEEDS_THRUST = 7,
-    MASSID_OUT_OF_REACH = 8          /* no non-negative firing gives the command's direction
+    MASSID_OUT_OF_REACH = 8,         /* no non-negative firing gives the command's direction
                                         (or a planar craft was commanded Fz, Tx or Ty) */
+    MASSID_NO_DATA = 9,              /* identification: no usable window yet */
+    MASSID_NOT_CONVERGED = 10        /* identification: the fit did not settle */
 } massid_status;
 
 /* massid_tick_report.event */
@@ -204,6 +206,114 @@ massid_status massid_f32_mixer_from_pipeline(massid_mixer *m, const massid_satel
                                              uint32_t min_pulse_ms);
 massid_status massid_f32_mix(massid_mixer *m, const float force_n[3], const float torque_nm[3],
                              massid_firing *out);
+
+/* ==== Any craft: 1-16 thrusters, 3-D or planar (kernel/src/capi/craft.rs) ==== */
+
+#define MASSID_MAX_THRUSTERS 16
+/* Bytes reserved for the opaque blocks (capi/craft.rs: CRAFT_MIXER_BYTES, FLIGHT_ID_BYTES). */
+#define MASSID_CRAFT_MIXER_BYTES 2048
+#define MASSID_FLIGHT_ID_BYTES 20480
+/* Terms of the identification: inverse inertia xx yy zz xy xz yz, CoM x y z. */
+#define MASSID_ID_TERMS 9
+#define MASSID_ID_MAX_NOISE_ORDER 2
+
+/* A craft's thruster table: `count` thrusters in the first slots, the rest ignored. */
+typedef struct massid_craft {
+    uint32_t count;                                  /* 1-16 */
+    uint32_t planar;                                 /* non-zero: air-bearing (Fx Fy Tz only) */
+    float thruster_pos_m[MASSID_MAX_THRUSTERS][3];   /* from the geometric centre, m */
+    float thrust_dir[MASSID_MAX_THRUSTERS][3];       /* force directions (unit) */
+    float thrust_n[MASSID_MAX_THRUSTERS];            /* thrust, N (> 0) */
+    float pressure_drop_n_per_extra;                 /* N lost per extra open thruster (>= 0) */
+} massid_craft;
+
+/* ON/OFF times per thruster slot, ms from the period start (on == off == 0: off). */
+typedef struct massid_craft_firing {
+    uint32_t on_ms[MASSID_MAX_THRUSTERS];
+    uint32_t off_ms[MASSID_MAX_THRUSTERS];
+} massid_craft_firing;
+
+typedef struct massid_craft_mixer {
+    uint64_t opaque[MASSID_CRAFT_MIXER_BYTES / 8];
+} massid_craft_mixer;
+
+typedef struct massid_flight_id {
+    uint64_t opaque[MASSID_FLIGHT_ID_BYTES / 8];
+} massid_flight_id;
+
+/* Identification settings (massid_flight_id_settings_default fills the ground tool's). */
+typedef struct massid_flight_id_settings {
+    float inertia_kgm2[6];        /* nominal, about the CoM: xx yy zz xy xz yz */
+    float com_m[3];               /* the model's CoM from the geometric centre, m */
+    float period_s;               /* nominal sample period; a step over 1.5 of it starts a window */
+    float delay_periods;          /* known command-to-thrust delay, sample periods */
+    float max_window_turn_rad;    /* past turn_window samples, cut a window after this turn (INFINITY: never) */
+    float scale[MASSID_ID_TERMS]; /* per term, the standard error beyond which it is held */
+    uint32_t max_window;          /* samples */
+    uint32_t turn_window;         /* samples */
+    uint32_t skip;                /* samples left out at each window start (= max_noise_order) */
+    uint8_t sensor;               /* 0 gyro (point), 1 backward mean, 2 central mean */
+    uint8_t cut_at_changes;       /* non-zero: cut windows where the acting wrench changes */
+    uint8_t gyroscopic;           /* non-zero: Euler's gyroscopic term (3-D craft) */
+    uint8_t max_noise_order;      /* 0-2 */
+    uint8_t free[MASSID_ID_TERMS];/* non-zero: the fit may move the term */
+    uint8_t axes[3];              /* non-zero: the axis' rate enters the fit */
+} massid_flight_id_settings;
+
+/* Identification result (f32). */
+typedef struct massid_flight_id_result {
+    float theta[MASSID_ID_TERMS];   /* inverse inertia 1/(kg m^2), then CoM minus settings.com_m, m */
+    float covariance[MASSID_ID_TERMS][MASSID_ID_TERMS];
+    float noise_phi[3][MASSID_ID_MAX_NOISE_ORDER];   /* per axis AR coefficients */
+    float noise_sigma2[3];          /* per axis innovation variance, (rad/s)^2 */
+    float timing_statistic;         /* chi-square (1 dof) of a command delay, if has_timing_statistic */
+    uint32_t steps;                 /* Gauss-Newton steps */
+    uint8_t held[MASSID_ID_TERMS];  /* non-zero: held at the nominal */
+    uint8_t noise_order[3];
+    uint8_t positive_definite;
+    uint8_t has_timing_statistic;
+} massid_flight_id_result;
+
+/* Layout checks (0 craft, 1 craft firing, 2 craft mixer block, 3 flight_id block,
+ * 4 flight_id settings, 5 flight_id result). */
+uint32_t massid_craft_type_size(uint32_t which);
+/* Kernel state inside a block: 1 fixed craft mixer, 0 f32 craft mixer, 2 identification. */
+uint32_t massid_craft_state_bytes(uint8_t which);
+/* The SPHERES parameters as a craft (12 thrusters, 3-D). */
+massid_status massid_craft_from_params(const massid_satellite_params *params, massid_craft *out);
+
+/* Craft mixer: SPHERES' layout gets the seed's pair rules, any other craft the smallest
+ * non-negative duties; com_m = CoM from the geometric centre, m (NULL: the centre). */
+massid_status massid_fixed_craft_mixer_init(massid_craft_mixer *m, const massid_craft *craft,
+                                            const int32_t com_m[3], uint32_t period_ms,
+                                            uint32_t min_pulse_ms);
+massid_status massid_fixed_craft_mix(massid_craft_mixer *m, const int32_t force_n[3],
+                                     const int32_t torque_nm[3], massid_craft_firing *out);
+massid_status massid_fixed_craft_mixer_rule(massid_craft_mixer *m, uint8_t *opposing_pairs);
+massid_status massid_f32_craft_mixer_init(massid_craft_mixer *m, const massid_craft *craft,
+                                          const float com_m[3], uint32_t period_ms,
+                                          uint32_t min_pulse_ms);
+massid_status massid_f32_craft_mix(massid_craft_mixer *m, const float force_n[3],
+                                   const float torque_nm[3], massid_craft_firing *out);
+massid_status massid_f32_craft_mixer_rule(massid_craft_mixer *m, uint8_t *opposing_pairs);
+
+/* Identification from any flight (f32 only: Q8.24 cannot hold its sums). */
+massid_status massid_flight_id_settings_default(const massid_craft *craft, const float inertia_kgm2[6],
+                                                const float com_m[3], float period_s,
+                                                massid_flight_id_settings *out);
+massid_status massid_f32_flight_id_init(massid_flight_id *id, const massid_craft *craft,
+                                        const massid_flight_id_settings *settings);
+/* One sample: dt since the previous one, body rate rad/s, valid (0: missing/railed), and the
+ * thruster word (bit i = thruster i+1) or body wrench (torque N m about the model CoM, force N)
+ * commanded from this sample on. */
+massid_status massid_f32_flight_id_push(massid_flight_id *id, float dt_s, const float rate_rad_s[3],
+                                        uint8_t valid, uint16_t thrusters);
+massid_status massid_f32_flight_id_push_wrench(massid_flight_id *id, float dt_s,
+                                               const float rate_rad_s[3], uint8_t valid,
+                                               const float wrench[6]);
+massid_status massid_f32_flight_id_finish(massid_flight_id *id);
+/* Outside the tick (copies the sums: ~14 KB of stack). */
+massid_status massid_f32_flight_id_solve(massid_flight_id *id, massid_flight_id_result *out);
 
 #ifdef __cplusplus
 }

@@ -19,6 +19,8 @@
 //!   gyroscopic correction), and a long telemetry gap is one O(1) call (`*_tick_gaps`).
 #![allow(unsafe_code)]
 
+pub mod craft;
+
 use core::mem::{align_of, size_of};
 
 use crate::mixer::{Firing, Mixer, MixerConfig, MixerError};
@@ -51,6 +53,10 @@ pub enum MassidStatus {
     /// No non-negative firing gives the command's direction (or a planar craft was
     /// commanded off its plane).
     OutOfReach = 8,
+    /// The identification has no usable window yet (no run of consecutive valid samples).
+    NoData = 9,
+    /// The identification's fit did not settle.
+    NotConverged = 10,
 }
 
 /// Satellite parameters (mirror of [`SatelliteParams`] with C layout).

@@ -323,3 +323,466 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
         );
     }
 }
+
+// ---- any craft: the craft mixer and the identification through the C ABI ----
+
+use massid_kernel::craft::Thruster;
+use massid_kernel::craft_mixer::CraftMixer;
+use rand::{Rng, SeedableRng};
+use reference_f64::satellite::Satellite;
+
+fn example_satellite(name: &str) -> Satellite {
+    massid_sim::model_file::ModelFile::read(&massid_tests::allocation_check::example_model(name))
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .satellite
+}
+
+/// The `craft` and `thruster` lines of a craft file (`run_craft_file` in capi_run.c).
+fn craft_lines(sat: &Satellite, thrusters: &[Thruster]) -> String {
+    let mut s = format!(
+        "craft {} {} {:08x}\n",
+        thrusters.len(),
+        u8::from(sat.planar),
+        (sat.pressure_drop_n_per_extra as f32).to_bits()
+    );
+    for t in thrusters {
+        s.push_str("thruster");
+        for v in t
+            .pos_m
+            .iter()
+            .chain(t.dir.iter())
+            .chain([t.thrust_n].iter())
+        {
+            let _ = write!(s, " {:08x}", v.to_bits());
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Q8.24 bits of `v` (rounded).
+fn q24(v: f64) -> i32 {
+    (v * 16_777_216.0).round() as i32
+}
+
+/// Commands for a craft, as Q8.24 bits (force N, torque N m): random non-negative
+/// combinations of its thrusters' wrenches (some beyond its reach, which the mixer scales
+/// down), a zero command, and for a planar craft one off its plane (status 8).
+fn craft_commands(sat: &Satellite, seed: u64) -> Vec<[i32; 6]> {
+    let n = sat.n_thrusters();
+    let cols: Vec<[f64; 6]> = (0..n)
+        .map(|i| {
+            let f = sat.dir(i) * sat.thrust_n[i];
+            let t = sat.lever_arm_m(i).cross(&f);
+            [f.x, f.y, f.z, t.x, t.y, t.z]
+        })
+        .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut out = vec![[0; 6]];
+    for k in 0..60 {
+        let mut c = [0.0f64; 6];
+        for col in &cols {
+            if rng.gen_bool(0.5) {
+                let d = rng.gen_range(0.0..if k % 10 == 9 { 3.0 } else { 1.0 });
+                for (ci, v) in c.iter_mut().zip(col) {
+                    *ci += d * v;
+                }
+            }
+        }
+        if sat.planar {
+            c[2] = 0.0;
+            c[3] = 0.0;
+            c[4] = 0.0;
+        }
+        out.push(c.map(q24));
+    }
+    if sat.planar {
+        out.push([0, 0, q24(0.1), 0, 0, 0]);
+    }
+    out
+}
+
+/// What `capi_run --craft` prints for this craft, made through the Rust API.
+fn rust_craft_run(
+    thrusters: &[Thruster],
+    planar: bool,
+    pdrop: f32,
+    com: [i32; 3],
+    cmds: &[[i32; 6]],
+) -> String {
+    fn one<S: Flavour>(
+        out: &mut String,
+        thrusters: &[Thruster],
+        planar: bool,
+        pdrop: f32,
+        com: [i32; 3],
+        cmds: &[[i32; 6]],
+    ) {
+        let cfg = MixerConfig {
+            period_ms: PERIOD_MS,
+            min_pulse_ms: MIN_PULSE_MS,
+            pressure_drop_n: S::from_f32(pdrop),
+        };
+        let m = match CraftMixer::<S>::new(thrusters, com.map(S::command), planar, cfg) {
+            Ok(m) => m,
+            Err(e) => {
+                let _ = writeln!(out, "{} init status={} pairs=0", S::NAME, mixer_status(e));
+                return;
+            }
+        };
+        let pairs = u8::from(matches!(m, CraftMixer::OpposingPairs(_)));
+        let _ = writeln!(out, "{} init status=0 pairs={pairs}", S::NAME);
+        for (k, c) in cmds.iter().enumerate() {
+            let cmd = c.map(S::command);
+            let (status, on, off) = match m.mix([cmd[0], cmd[1], cmd[2]], [cmd[3], cmd[4], cmd[5]])
+            {
+                Ok(f) => (0, f.on_ms, f.off_ms),
+                Err(e) => (mixer_status(e), [0; 16], [0; 16]),
+            };
+            let _ = write!(out, "{} cmd{k} status={status} on", S::NAME);
+            for v in on {
+                let _ = write!(out, " {v}");
+            }
+            out.push_str(" off");
+            for v in off {
+                let _ = write!(out, " {v}");
+            }
+            out.push('\n');
+        }
+    }
+    let mut out = String::new();
+    one::<Q8_24>(&mut out, thrusters, planar, pdrop, com, cmds);
+    one::<f32>(&mut out, thrusters, planar, pdrop, com, cmds);
+    out
+}
+
+fn compare_lines(what: &str, c_out: &str, expected: &str) {
+    for (n, (c, r)) in c_out.lines().zip(expected.lines()).enumerate() {
+        assert_eq!(c, r, "{what}: line {} differs (C vs Rust)", n + 1);
+    }
+    assert_eq!(
+        c_out.lines().count(),
+        expected.lines().count(),
+        "{what}: line counts differ"
+    );
+}
+
+/// The 8-thruster planar air-bearing craft, the 16-thruster 3-D free-flyer and SPHERES
+/// through `massid_craft` / `massid_*_craft_mix*`: the C program's firing times equal the
+/// Rust `CraftMixer`'s bit for bit, in Q8.24 and f32, for every command, errors included.
+#[test]
+fn c_craft_mixer_matches_the_rust_craft_mixer() {
+    let exe = build_c_program();
+    let selftest = run(Command::new(&exe).arg("--selftest"), "capi_run --selftest");
+    assert!(String::from_utf8_lossy(&selftest.stdout).contains("all checks passed"));
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("capi");
+    for (k, (name, expect_pairs)) in [("airbearing-mpc", 0), ("freeflyer16", 0), ("sph2", 1)]
+        .into_iter()
+        .enumerate()
+    {
+        let sat = example_satellite(name);
+        let thrusters = massid_kernel_host::craft::thrusters(&sat).expect("1-16 thrusters");
+        let c = sat.com_m();
+        let com = [q24(c.x), q24(c.y), q24(c.z)];
+        let cmds = craft_commands(&sat, 2300 + k as u64);
+        let mut file = craft_lines(&sat, &thrusters);
+        let _ = writeln!(file, "com {} {} {}", com[0], com[1], com[2]);
+        for c in &cmds {
+            let _ = writeln!(
+                file,
+                "cmd {} {} {} {} {} {}",
+                c[0], c[1], c[2], c[3], c[4], c[5]
+            );
+        }
+        let path = dir.join(format!("{name}.craft"));
+        std::fs::write(&path, file).expect("write craft file");
+        let c_out =
+            String::from_utf8(run(Command::new(&exe).arg("--craft").arg(&path), name).stdout)
+                .expect("utf-8");
+        let expected = rust_craft_run(
+            &thrusters,
+            sat.planar,
+            sat.pressure_drop_n_per_extra as f32,
+            com,
+            &cmds,
+        );
+        compare_lines(name, &c_out, &expected);
+        // What the run exercised.
+        assert!(
+            expected.contains(&format!("fixed init status=0 pairs={expect_pairs}")),
+            "{name}: {}",
+            expected.lines().next().unwrap_or("")
+        );
+        let ok = expected
+            .lines()
+            .filter(|l| l.contains(" status=0 on"))
+            .count();
+        let firing = expected
+            .lines()
+            .filter(|l| {
+                l.contains(" status=0 on")
+                    && l.split(" off ")
+                        .nth(1)
+                        .is_some_and(|o| o.split(' ').any(|v| v != "0"))
+            })
+            .count();
+        let out_of_reach = expected
+            .lines()
+            .filter(|l| l.contains(" status=8 "))
+            .count();
+        println!(
+            "{name}: {} commands x 2 formats, {ok} mixed ({firing} firing), {out_of_reach} out of reach (status 8)",
+            cmds.len()
+        );
+        assert!(firing >= 2 * (cmds.len() - 2), "{name}: too few firings");
+        if sat.planar {
+            assert_eq!(
+                out_of_reach, 2,
+                "{name}: the off-plane command is status 8 in both formats"
+            );
+        }
+    }
+}
+
+/// Hex of an f32's bits.
+fn hx(v: f32) -> String {
+    format!("{:08x}", v.to_bits())
+}
+
+/// Parses the hex floats of `capi_run --flight-id`'s settings line.
+fn settings_from_line(
+    line: &str,
+) -> ([f32; 9], u32, u32, u32, f32, bool, u8, [bool; 9], [bool; 3]) {
+    let f: Vec<&str> = line.split_whitespace().collect();
+    let hexf = |s: &str| f32::from_bits(u32::from_str_radix(s, 16).expect("hex"));
+    let after = |key: &str| -> &str {
+        f.iter()
+            .find_map(|t| t.strip_prefix(key))
+            .unwrap_or_else(|| panic!("{key} in {line}"))
+    };
+    let scale: [f32; 9] = std::array::from_fn(|i| hexf(f[2 + i]));
+    let flags = |key: &str| -> Vec<bool> {
+        let i = f.iter().position(|t| *t == key).expect(key);
+        f[i + 1].chars().map(|c| c == '1').collect()
+    };
+    let turn = hexf(f[f.iter().position(|t| *t == "turn").expect("turn") + 1]);
+    let free = flags("free");
+    let axes = flags("axes");
+    (
+        scale,
+        after("window=").parse().expect("window"),
+        after("turn_window=").parse().expect("turn_window"),
+        after("skip=").parse().expect("skip"),
+        turn,
+        after("gyro=") == "1",
+        after("order=").parse().expect("order"),
+        std::array::from_fn(|i| free[i]),
+        std::array::from_fn(|i| axes[i]),
+    )
+}
+
+/// The onboard identification through `massid_f32_flight_id_*` on a simulated SPHERES flight
+/// (3-D, gyroscopic term) and a planar air-bearing one: the C result (estimate, covariance,
+/// noise model, held terms, timing statistic) equals the Rust `FlightId`'s bit for bit, and
+/// `massid_flight_id_settings_default` gives the ground tool's settings.
+#[test]
+fn c_flight_id_matches_the_rust_flight_id() {
+    use massid_kernel::craft::Craft;
+    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, MAX_ORDER};
+    use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+    use massid_tests::identification_mc::{fly, Condition};
+    use reference_f64::flight_id::flight::Command as Cmd;
+
+    let exe = build_c_program();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("capi");
+    let conditions = [
+        (
+            // 1 kHz: below it the ground tool treats v1 words as coarse (windows cut at
+            // every change, no noise model), which the defaults do not choose.
+            "sph2-combo-1khz",
+            Condition::Spheres {
+                maneuver: massid_sim::Maneuver::Combo,
+                rate_hz: 1000.0,
+                noise: 1.0,
+            },
+        ),
+        (
+            "airbearing-planar-25hz",
+            Condition::PlanarMocap {
+                step_ms: 40,
+                control_ms: 80,
+                closed_loop: false,
+            },
+        ),
+    ];
+    for (name, cond) in conditions {
+        let sim = fly(&cond, 2323);
+        let (sat, flight) = (&sim.model, &sim.flight);
+        let thrusters = massid_kernel_host::craft::thrusters(sat).expect("thrusters");
+        let c = sat.com_m();
+        let com = [c.x as f32, c.y as f32, c.z as f32];
+        let inertia = sat.inertia_kgm2.map(|v| v as f32);
+        let period = flight.period_s as f32;
+        let mut file = craft_lines(sat, &thrusters);
+        file.push_str("id");
+        for v in inertia.iter().chain(com.iter()).chain([period].iter()) {
+            let _ = write!(file, " {}", hx(*v));
+        }
+        file.push('\n');
+        // The samples as the ground tool pushes them (kernel-host/src/flight_id.rs).
+        let mut samples: Vec<(f32, [f32; 3], bool, u16)> = Vec::new();
+        let mut prev: Option<f64> = None;
+        for ((t, rate), cmd) in flight.time_s.iter().zip(&flight.rate).zip(&flight.commands) {
+            let dt = prev.map_or(0.0, |p| t - p) as f32;
+            prev = Some(*t);
+            let axes = if sat.planar {
+                [false, false, true]
+            } else {
+                flight.axes
+            };
+            let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
+            let r = rate.map(|v| if v.is_finite() { v as f32 } else { 0.0 });
+            let Cmd::Word(w) = cmd else {
+                panic!("{name}: the test flights command thruster words")
+            };
+            samples.push((dt, r, valid, *w));
+            let _ = writeln!(
+                file,
+                "s {} {} {} {} {} {}",
+                hx(dt),
+                hx(r[0]),
+                hx(r[1]),
+                hx(r[2]),
+                u8::from(valid),
+                w
+            );
+        }
+        let path = dir.join(format!("{name}.flight"));
+        std::fs::write(&path, file).expect("write flight file");
+        let c_out =
+            String::from_utf8(run(Command::new(&exe).arg("--flight-id").arg(&path), name).stdout)
+                .expect("utf-8");
+        let mut lines = c_out.lines();
+        let settings_line = lines.next().expect("settings line");
+        assert!(
+            settings_line.starts_with("settings status=0 "),
+            "{name}: {settings_line}"
+        );
+        assert_eq!(lines.next(), Some("init status=0"), "{name}");
+        let (scale, max_window, turn_window, skip, turn, gyro, order, free, axes) =
+            settings_from_line(settings_line);
+
+        // The defaults are the ground tool's choices (kernel-host/src/flight_id.rs; its scale
+        // is computed in f64, so compared to f32 rounding).
+        let j_nom = sat.inertia_matrix().try_inverse().expect("inertia");
+        let duration = flight.time_s.last().unwrap() - flight.time_s[0];
+        for (m, s) in scale.iter().enumerate() {
+            let term = if m < 6 {
+                reference_f64::flight_id::rigid::Term::InvInertia(m)
+            } else {
+                reference_f64::flight_id::rigid::Term::Com(m - 6)
+            };
+            let host = reference_f64::flight_id::term_scale(sat, &j_nom, term, duration);
+            assert!(
+                (f64::from(*s) - host).abs() <= 1e-5 * host,
+                "{name}: scale {m}: C default {s} vs ground {host}"
+            );
+        }
+        assert_eq!(
+            max_window,
+            (60.0 / flight.period_s).round() as u32,
+            "{name}"
+        );
+        assert_eq!(
+            turn_window,
+            (8.0 / flight.period_s).round() as u32,
+            "{name}"
+        );
+        assert_eq!((skip, order), (MAX_ORDER as u32, MAX_ORDER as u8), "{name}");
+        assert_eq!(gyro, !sat.planar, "{name}");
+        assert_eq!(turn, if sat.planar { f32::INFINITY } else { 4.0 }, "{name}");
+        let host_free: [bool; 9] = std::array::from_fn(|m| !sat.planar || matches!(m, 2 | 6 | 7));
+        assert_eq!(free, host_free, "{name}");
+        assert_eq!(
+            axes,
+            if sat.planar {
+                [false, false, true]
+            } else {
+                [true; 3]
+            },
+            "{name}"
+        );
+
+        // The same run through the Rust API.
+        let cfg = FlightIdConfig {
+            period_s: period,
+            sensor: SensorResponse::Point,
+            delay_periods: 0.0,
+            cut_at_changes: false,
+            max_window,
+            max_window_turn_rad: turn,
+            turn_window,
+            skip,
+            solve: SolveConfig {
+                j_nominal: inverse_inertia(&inertia).expect("inertia"),
+                free,
+                axes,
+                gyroscopic: gyro,
+                max_noise_order: order,
+                scale,
+            },
+        };
+        let table = Craft::<f32>::new(&thrusters, com, sat.pressure_drop_n_per_extra as f32)
+            .expect("craft");
+        let mut id = FlightId::new(cfg).expect("flight id");
+        for (dt, r, valid, w) in &samples {
+            id.push(*dt, *r, *valid, table.wrench(*w));
+        }
+        id.finish();
+        let mut expected = String::new();
+        match id.solve() {
+            Ok(s) => {
+                let _ = write!(
+                    expected,
+                    "solve status=0 samples={} steps={} pd={} timing={} {}",
+                    samples.len(),
+                    s.steps,
+                    u8::from(s.positive_definite),
+                    u8::from(s.timing_statistic.is_some()),
+                    hx(s.timing_statistic.unwrap_or(0.0))
+                );
+                expected.push_str(" theta");
+                for v in s.theta {
+                    let _ = write!(expected, " {}", hx(v));
+                }
+                expected.push_str(" held ");
+                for h in s.held {
+                    expected.push(if h { '1' } else { '0' });
+                }
+                expected.push_str(" noise");
+                for n in s.noise {
+                    let _ = write!(expected, " {}", n.order);
+                    for p in n.phi {
+                        let _ = write!(expected, " {}", hx(p));
+                    }
+                    let _ = write!(expected, " {}", hx(n.sigma2));
+                }
+                expected.push_str(" cov");
+                for row in s.covariance {
+                    for v in row {
+                        let _ = write!(expected, " {}", hx(v));
+                    }
+                }
+                println!(
+                    "{name}: {} samples, theta {:?}, held {:?}, timing {:?}",
+                    samples.len(),
+                    s.theta,
+                    s.held,
+                    s.timing_statistic
+                );
+            }
+            Err(e) => panic!("{name}: the Rust FlightId gives {e:?}"),
+        }
+        compare_lines(name, &lines.collect::<Vec<_>>().join("\n"), &expected);
+    }
+}

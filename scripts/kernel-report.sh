@@ -190,13 +190,15 @@ deferred = ticks 1-8 after a word change (thrusters off or valve transient) that
 deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending_stage\`; the last stage, the inverse-inertia solve, is \`solve\`);"
   echo "kf = Kalman update during the batch firings; kf_rls = Kalman update + RLS measurement (firing 3 on);"
   echo "solve = end of firing with the batch/RLS LU solve; mixer_build = mixer rebuilt from the CoM estimate; mixer = one mix;"
+  echo "craft_mixer_<craft> = one mix by the any-craft mixer (\`massid_kernel::craft_mixer\`: pair rules for sph2, non-negative allocation for"
+  echo "the 8-thruster planar air-bearing craft and the 16-thruster free-flyer of \`examples/models/\`), once per control period, not per tick;"
   echo "flight_id_push = one sample of the output-error identification (\`massid_kernel::flight_id\`, f32, hard-float targets only:"
   echo "its fit runs outside the tick and is not counted; the min is a window's first samples, left out of the sums)."
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"
   for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_detect deferred_detect_finish \
-           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push mixer_build mixer other; do
+           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
     [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
     echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
   done

@@ -168,3 +168,57 @@ fn kernel_refuses_unreachable_and_off_plane_commands() {
         assert_eq!(r, (MixerError::OutOfReach, true), "fixed {fixed}");
     }
 }
+
+/// The QEMU run's compiled-in craft tables (`kernel/qemu/runner/src/crafts.rs`: the firmware
+/// reads no files) are the example model files' thrusters and CoM.
+#[test]
+fn the_qemu_craft_tables_are_the_model_files() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../kernel/qemu/runner/src/crafts.rs"),
+    )
+    .unwrap();
+    let numbers = |s: &str| -> Vec<f64> {
+        s.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+            .filter_map(|t| t.parse().ok())
+            .collect()
+    };
+    for (name, konst) in [
+        ("airbearing-mpc", "AIRBEARING"),
+        ("freeflyer16", "FREEFLYER16"),
+    ] {
+        let sat = satellite(name);
+        let start = text.find(&format!("pub const {konst}:")).unwrap();
+        let block = &text[start..];
+        let body = &block[..block.find("];").unwrap()];
+        let rows: Vec<Vec<f64>> = body.split("Thruster {").skip(1).map(numbers).collect();
+        assert_eq!(rows.len(), sat.n_thrusters(), "{name}");
+        for (i, r) in rows.iter().enumerate() {
+            let want: Vec<f64> = sat.thruster_pos_m[i]
+                .iter()
+                .chain(sat.thrust_dir[i].iter())
+                .copied()
+                .chain([sat.thrust_n[i]])
+                .collect();
+            assert_eq!(r.len(), 7, "{name} thruster {i}: {r:?}");
+            for (a, b) in r.iter().zip(&want) {
+                assert!(
+                    (a - b).abs() <= 1e-9 * b.abs().max(1.0),
+                    "{name} thruster {i}: {r:?} vs {want:?}"
+                );
+            }
+        }
+        let com_line = text[start..]
+            .lines()
+            .find(|l| l.starts_with(&format!("pub const {konst}_COM_M")))
+            .unwrap();
+        let com: Vec<f64> = numbers(com_line.split('=').nth(1).unwrap());
+        let want = sat.com_m();
+        for k in 0..3 {
+            assert!(
+                (com[k] - want[k]).abs() < 1e-9,
+                "{name} CoM {com:?} vs {want:?}"
+            );
+        }
+    }
+}

@@ -11,6 +11,7 @@
 //! can be cut into per-call instruction counts (see `massid-qemu-host count`).
 #![no_std]
 
+pub mod crafts;
 pub mod markers;
 pub mod sequence;
 
@@ -66,6 +67,8 @@ pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
     markers::kind(Kind::Calibration);
     run::<Q8_24, W>(out)?;
     run::<f32, W>(out)?;
+    run_craft_mixers::<Q8_24, W>(out)?;
+    run_craft_mixers::<f32, W>(out)?;
     // Hard-float targets and the host only: on the M0 its f32 is soft-float, and a trace of
     // it would run to hundreds of millions of instructions.
     #[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
@@ -84,8 +87,18 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
         return writeln!(out, "{} init-error", S::NAME);
     };
     // Target-dependent (alignment of 64-bit fields): not compared, see `compare`.
-    writeln!(out, "info {} state-bytes {}", S::NAME, core::mem::size_of::<Pipeline<S>>())?;
-    writeln!(out, "info {} mixer-bytes {}", S::NAME, core::mem::size_of::<Mixer<S>>())?;
+    writeln!(
+        out,
+        "info {} state-bytes {}",
+        S::NAME,
+        core::mem::size_of::<Pipeline<S>>()
+    )?;
+    writeln!(
+        out,
+        "info {} mixer-bytes {}",
+        S::NAME,
+        core::mem::size_of::<Mixer<S>>()
+    )?;
     markers::flavour(S::EXACT);
     let mut prev_word = 0u16;
     let mut firings = 0u32;
@@ -109,11 +122,19 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
         markers::end();
         let rls_active = firings > 2;
         let edge = word != prev_word;
-        since_edge = if edge { 0 } else { since_edge.saturating_add(1) };
+        since_edge = if edge {
+            0
+        } else {
+            since_edge.saturating_add(1)
+        };
         markers::kind(match report.event {
             TickEvent::Coasting | TickEvent::Transient if edge => Kind::Edge,
-            TickEvent::Coasting | TickEvent::Transient if stage.is_some() => Kind::Stage(stage.unwrap_or(DeferredStage::Measure)),
-            TickEvent::Coasting | TickEvent::Transient if since_edge <= markers::DEFERRED_TICKS => Kind::Deferred,
+            TickEvent::Coasting | TickEvent::Transient if stage.is_some() => {
+                Kind::Stage(stage.unwrap_or(DeferredStage::Measure))
+            }
+            TickEvent::Coasting | TickEvent::Transient if since_edge <= markers::DEFERRED_TICKS => {
+                Kind::Deferred
+            }
             TickEvent::Coasting | TickEvent::Transient => Kind::Idle,
             TickEvent::Updated if rls_active => Kind::KfRls,
             TickEvent::Updated => Kind::Kf,
@@ -125,8 +146,17 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
             write_estimates(out, t, &pipeline.estimates())?;
             write_mixes(out, t, &pipeline)?;
         }
-        if !matches!(report.event, TickEvent::Coasting | TickEvent::Transient | TickEvent::Updated | TickEvent::Solved) {
-            writeln!(out, "{} t={t} event={:?} status={:?}", S::NAME, report.event, report.status)?;
+        if !matches!(
+            report.event,
+            TickEvent::Coasting | TickEvent::Transient | TickEvent::Updated | TickEvent::Solved
+        ) {
+            writeln!(
+                out,
+                "{} t={t} event={:?} status={:?}",
+                S::NAME,
+                report.event,
+                report.status
+            )?;
         }
     }
     let status = pipeline.finish();
@@ -185,7 +215,11 @@ pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
     let Some(mut id) = FlightId::new(cfg) else {
         return writeln!(out, "info f32 flight_id init-error");
     };
-    writeln!(out, "info f32 flight-id-bytes {}", core::mem::size_of::<FlightId<f32>>())?;
+    writeln!(
+        out,
+        "info f32 flight-id-bytes {}",
+        core::mem::size_of::<FlightId<f32>>()
+    )?;
     for (gyro, word) in sequence::samples() {
         let valid = gyro.iter().all(|&c| c != 0 && c < 4095);
         let rate: [f32; 3] = core::array::from_fn(|a| {
@@ -222,7 +256,11 @@ pub const COMMANDS: [[i32; 6]; 4] = [
 /// Rebuilds the mixer from the current CoM estimate (200 ms period, 10 ms minimum pulse) and
 /// mixes [`COMMANDS`], printing the ON/OFF times; both calls are measured.
 fn write_mixes<S: RawBits, W: Write>(out: &mut W, t: usize, pipeline: &Pipeline<S>) -> fmt::Result {
-    let cfg = MixerConfig { period_ms: 200, min_pulse_ms: 10, pressure_drop_n: S::from_f32(SPH2.pressure_drop_n_per_extra) };
+    let cfg = MixerConfig {
+        period_ms: 200,
+        min_pulse_ms: 10,
+        pressure_drop_n: S::from_f32(SPH2.pressure_drop_n_per_extra),
+    };
     let delta = pipeline.estimates().delta_com_m;
     markers::begin();
     let mixer = Mixer::<S>::new(&SPH2, delta, cfg);
@@ -239,19 +277,115 @@ fn write_mixes<S: RawBits, W: Write>(out: &mut W, t: usize, pipeline: &Pipeline<
         markers::end();
         markers::kind(Kind::Mixer);
         match firing {
-            Ok(f) => writeln!(out, "{} t={t} mix{k} on {:?} off {:?}", S::NAME, f.on_ms, f.off_ms)?,
+            Ok(f) => writeln!(
+                out,
+                "{} t={t} mix{k} on {:?} off {:?}",
+                S::NAME,
+                f.on_ms,
+                f.off_ms
+            )?,
             Err(e) => writeln!(out, "{} t={t} mix{k} error {:?}", S::NAME, e)?,
         }
     }
     Ok(())
 }
 
+/// The any-craft mixer (`massid_kernel::craft_mixer`) for SPHERES, the air-bearing craft and
+/// the 16-thruster free-flyer ([`crafts`]), model CoM, 200 ms period, 10 ms minimum pulse:
+/// mixes [`COMMANDS`] (scaled to the craft, a planar craft's off-plane components zeroed),
+/// prints the firings
+/// (compared host vs QEMU) and counts each mix under its craft's kind.
+pub fn run_craft_mixers<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
+    use massid_kernel::craft::Thruster;
+    use massid_kernel::craft_mixer::CraftMixer;
+    use massid_kernel::model::N_THRUSTERS;
+    markers::flavour(S::EXACT);
+    let sph2: [Thruster; N_THRUSTERS] = core::array::from_fn(|i| Thruster {
+        pos_m: SPH2.thruster_pos_m.get(i).copied().unwrap_or([0.0; 3]),
+        dir: SPH2.thrust_dir.get(i).copied().unwrap_or([1.0, 0.0, 0.0]),
+        thrust_n: SPH2.thrust_n.get(i).copied().unwrap_or(1.0),
+    });
+    let sph2_com = SPH2.com_offset_mm.map(|v| v * 1e-3);
+    // The commands scaled by 2^up to each craft's thrusters (0.11 N, 0.44 N, 0.6 N), so that
+    // pulses are above the minimum.
+    let craft: [(&str, &[Thruster], [f32; 3], bool, i32, Kind); 3] = [
+        ("sph2", &sph2, sph2_com, false, 0, Kind::CraftMixerSph2),
+        (
+            "airbearing",
+            &crafts::AIRBEARING,
+            crafts::AIRBEARING_COM_M,
+            true,
+            2,
+            Kind::CraftMixerAirbearing,
+        ),
+        (
+            "freeflyer16",
+            &crafts::FREEFLYER16,
+            crafts::FREEFLYER16_COM_M,
+            false,
+            3,
+            Kind::CraftMixerFreeflyer16,
+        ),
+    ];
+    for (name, thrusters, com, planar, up, kind) in craft {
+        let cfg = MixerConfig {
+            period_ms: 200,
+            min_pulse_ms: 10,
+            pressure_drop_n: S::ZERO,
+        };
+        let mixer = match CraftMixer::<S>::new(thrusters, com.map(S::from_f32), planar, cfg) {
+            Ok(m) => m,
+            Err(e) => {
+                writeln!(out, "{} craft={name} mixer-error {:?}", S::NAME, e)?;
+                continue;
+            }
+        };
+        for (k, c) in COMMANDS.iter().enumerate() {
+            let mut cmd: [S; 6] = c.map(|bits| S::from_int_pow2(bits, up.saturating_sub(24)));
+            if planar {
+                for off in [2, 3, 4] {
+                    if let Some(v) = cmd.get_mut(off) {
+                        *v = S::ZERO;
+                    }
+                }
+            }
+            markers::begin();
+            let firing = mixer.mix([cmd[0], cmd[1], cmd[2]], [cmd[3], cmd[4], cmd[5]]);
+            markers::end();
+            markers::kind(kind);
+            match firing {
+                Ok(f) => writeln!(
+                    out,
+                    "{} craft={name} mix{k} on {:?} off {:?}",
+                    S::NAME,
+                    f.on_ms,
+                    f.off_ms
+                )?,
+                Err(e) => writeln!(out, "{} craft={name} mix{k} error {:?}", S::NAME, e)?,
+            }
+        }
+    }
+    Ok(())
+}
+
 fn write_estimates<S: RawBits, W: Write>(out: &mut W, t: usize, e: &Estimates<S>) -> fmt::Result {
-    write!(out, "{} t={t} estimates status={:?} firings={} updates={} resets={} com", S::NAME, e.status, e.firings, e.updates, e.resets)?;
+    write!(
+        out,
+        "{} t={t} estimates status={:?} firings={} updates={} resets={} com",
+        S::NAME,
+        e.status,
+        e.firings,
+        e.updates,
+        e.resets
+    )?;
     write_bits(out, &e.delta_com_m)?;
     write!(out, " theta")?;
     write_bits(out, &e.theta_inertia)?;
-    writeln!(out, " unobs={:?}{:?}", e.unobservable_com, e.unobservable_inertia)
+    writeln!(
+        out,
+        " unobs={:?}{:?}",
+        e.unobservable_com, e.unobservable_inertia
+    )
 }
 
 fn write_bits<S: RawBits, W: Write>(out: &mut W, v: &[S]) -> fmt::Result {

@@ -74,6 +74,12 @@ marker!(/// A deferred tick that ran the `SolveCom` stage (CoM LU solve).
     massid_mark_kind_deferred_solve_com = 0x4d42_0036);
 marker!(/// A deferred tick that ran the `FactorInertia` stage (inverse-inertia LU factorisation).
     massid_mark_kind_deferred_factor_inertia = 0x4d42_0039);
+marker!(/// One mix by the any-craft mixer for SPHERES (the seed's pair rules).
+    massid_mark_kind_craft_mixer_sph2 = 0x4d42_0040);
+marker!(/// One mix by the any-craft mixer for the 8-thruster planar air-bearing craft.
+    massid_mark_kind_craft_mixer_airbearing = 0x4d42_0041);
+marker!(/// One mix by the any-craft mixer for the 16-thruster 3-D free-flyer.
+    massid_mark_kind_craft_mixer_freeflyer16 = 0x4d42_0042);
 marker!(/// The following calls run the fixed-point kernel.
     massid_mark_flavour_fixed = 0x4d42_0020);
 marker!(/// The following calls run the f32 kernel.
@@ -108,6 +114,12 @@ pub enum Kind {
     Stage(DeferredStage),
     /// One sample of the output-error identification.
     FlightIdPush,
+    /// One mix by `massid_kernel::craft_mixer` for SPHERES.
+    CraftMixerSph2,
+    /// One mix by `massid_kernel::craft_mixer` for the air-bearing craft.
+    CraftMixerAirbearing,
+    /// One mix by `massid_kernel::craft_mixer` for the 16-thruster free-flyer.
+    CraftMixerFreeflyer16,
 }
 
 /// Ticks after a thruster-word change counted as [`Kind::Deferred`] (fewer than the 10 ms
@@ -154,6 +166,9 @@ pub fn kind(k: Kind) {
         // the final stage reports `TickEvent::Solved`: filed as `Kind::Solve`
         Kind::Stage(DeferredStage::SolveInertia) => massid_mark_kind_solve(),
         Kind::FlightIdPush => massid_mark_kind_flight_id_push(),
+        Kind::CraftMixerSph2 => massid_mark_kind_craft_mixer_sph2(),
+        Kind::CraftMixerAirbearing => massid_mark_kind_craft_mixer_airbearing(),
+        Kind::CraftMixerFreeflyer16 => massid_mark_kind_craft_mixer_freeflyer16(),
     }
 }
 

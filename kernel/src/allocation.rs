@@ -27,7 +27,7 @@
 
 use crate::craft::{Thruster, MAX_THRUSTERS};
 use crate::lu::Lu;
-use crate::mixer::{pressure_correction, quantise, MixerConfig, MixerError};
+use crate::mixer::{cross, pressure_correction, quantise, MixerConfig, MixerError};
 use crate::scalar::{max_abs, Scalar};
 
 /// Newton steps on the dual at most.
@@ -422,12 +422,7 @@ impl<S: Scalar> AllocationMixer<S> {
         planar: bool,
         cfg: MixerConfig<S>,
     ) -> Result<Self, MixerError> {
-        if cfg.min_pulse_ms == 0 || cfg.period_ms < cfg.min_pulse_ms.saturating_mul(2) {
-            return Err(MixerError::BadPeriod);
-        }
-        if cfg.pressure_drop_n.lt(S::ZERO) || !cfg.pressure_drop_n.is_valid() {
-            return Err(MixerError::BadThruster);
-        }
+        cfg.check()?;
         let allocator = Allocator::new(thrusters, com_m, planar)?;
         let unit = allocator.force_log2();
         let mut thrust = [S::ZERO; MAX_THRUSTERS];
@@ -475,14 +470,4 @@ fn dot<S: Scalar>(a: &[S; 6], b: &[S; 6]) -> S {
 
 fn norm_inf<S: Scalar>(v: &[S; 6]) -> S {
     v.iter().fold(S::ZERO, |m, x| max_abs(m, *x))
-}
-
-fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
-    let [a0, a1, a2] = *a;
-    let [b0, b1, b2] = *b;
-    [
-        a1.times(b2).minus(a2.times(b1)),
-        a2.times(b0).minus(a0.times(b2)),
-        a0.times(b1).minus(a1.times(b0)),
-    ]
 }

@@ -38,6 +38,20 @@ pub struct MixerConfig<S> {
     pub pressure_drop_n: S,
 }
 
+impl<S: Scalar> MixerConfig<S> {
+    /// A period of at least two minimum pulses (and a minimum pulse) and a finite,
+    /// non-negative pressure drop: what every mixer needs.
+    pub fn check(&self) -> Result<(), MixerError> {
+        if self.min_pulse_ms == 0 || self.period_ms < self.min_pulse_ms.saturating_mul(2) {
+            return Err(MixerError::BadPeriod);
+        }
+        if self.pressure_drop_n.lt(S::ZERO) || !self.pressure_drop_n.is_valid() {
+            return Err(MixerError::BadThruster);
+        }
+        Ok(())
+    }
+}
+
 /// Why a mixer could not be built or a command not mixed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MixerError {
@@ -101,12 +115,7 @@ impl<S: Scalar> Mixer<S> {
         com_delta_m: [S; 3],
         cfg: MixerConfig<S>,
     ) -> Result<Self, MixerError> {
-        if cfg.min_pulse_ms == 0 || cfg.period_ms < cfg.min_pulse_ms.saturating_mul(2) {
-            return Err(MixerError::BadPeriod);
-        }
-        if cfg.pressure_drop_n.lt(S::ZERO) || !cfg.pressure_drop_n.is_valid() {
-            return Err(MixerError::BadThruster);
-        }
+        cfg.check()?;
         let milli = S::from_f32(1e-3);
         let com: [S; 3] = core::array::from_fn(|k| {
             let nominal = params
@@ -535,7 +544,8 @@ fn set<S: Scalar, const N: usize>(v: &mut [S; N], i: usize, x: S) {
     }
 }
 
-fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
+/// `a x b`.
+pub(crate) fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
     let [a0, a1, a2] = *a;
     let [b0, b1, b2] = *b;
     [

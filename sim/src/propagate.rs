@@ -129,7 +129,9 @@ impl<'a> Propagator<'a> {
     /// opens `open_delay_ms` after a commanded rising edge and closes `close_delay_ms` after
     /// a falling one; a close that would come before its pending open cancels that open).
     pub fn command(&mut self, word: u16) {
-        let changed = (word ^ self.command) & 0x0fff;
+        // Every bit of the 16-bit word (a 0x0fff mask here kept thrusters 13-16 of a
+        // 16-thruster craft shut: its flights came out 35 % "heavier" and inconsistent).
+        let changed = word ^ self.command;
         if changed != 0 {
             let cfg = &self.plant.cfg;
             for th in 0..MAX_THRUSTERS {

@@ -276,6 +276,66 @@ pub struct PlaneInertia {
     pub pyz: f64,
     /// Root-mean-square residual of the fit, kg m^2 (0 for exactly three angles).
     pub rms_residual: f64,
+    /// Standard errors of `iyy`, `izz`, `pyz` (kg m^2): the residual variance
+    /// `|r|^2 / (n - 3)` times the diagonal of `(A^T A)^-1`, the usual least-squares
+    /// covariance for measurements with equal, independent errors. `None` with exactly three
+    /// angles (no residual degree of freedom to estimate the error from).
+    #[serde(default)]
+    pub standard_errors: Option<[f64; 3]>,
+    /// Residual degrees of freedom, `n - 3`.
+    #[serde(default)]
+    pub dof: usize,
+}
+
+/// A linear least-squares solution with its standard errors (see [`least_squares`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LeastSquares {
+    pub x: DVector<f64>,
+    /// Residual `A x - b`.
+    pub residual: DVector<f64>,
+    /// Residual degrees of freedom, rows minus unknowns.
+    pub dof: usize,
+    /// `sqrt(s^2 diag((A^T A)^-1))` with `s^2 = |r|^2 / dof`; `None` when `dof == 0`.
+    pub standard_errors: Option<DVector<f64>>,
+}
+
+/// Least squares `A x ~ b` by SVD with the parameter standard errors from the residual
+/// variance and `(A^T A)^-1 = V S^-2 V^T` (equal, independent errors on every row assumed).
+/// Err when `A` is rank deficient (smallest singular value below `1e-9` of the largest).
+pub fn least_squares(a: &DMatrix<f64>, b: &DVector<f64>, what: &str) -> Result<LeastSquares> {
+    let (m, p) = a.shape();
+    if m < p {
+        return Err(CharacterizeError::Invalid(format!(
+            "{what}: {m} equations for {p} unknowns"
+        )));
+    }
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    if svd.singular_values.len() < p || svd.singular_values.min() <= 1e-9 * smax {
+        return Err(CharacterizeError::Invalid(what.to_string()));
+    }
+    let x = svd
+        .solve(b, 0.0)
+        .map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
+    let residual = a * &x - b;
+    let dof = m - p;
+    let standard_errors = (dof > 0).then(|| {
+        let s2 = residual.norm_squared() / dof as f64;
+        let v_t = svd.v_t.as_ref().expect("svd computed with V");
+        // (A^T A)^-1 = V diag(1/s_i^2) V^T; its diagonal entry j is sum_i V_ji^2 / s_i^2
+        DVector::from_fn(p, |j, _| {
+            let d: f64 = (0..p)
+                .map(|i| v_t[(i, j)].powi(2) / svd.singular_values[i].powi(2))
+                .sum();
+            (s2 * d).sqrt()
+        })
+    });
+    Ok(LeastSquares {
+        x,
+        residual,
+        dof,
+        standard_errors,
+    })
 }
 
 /// Seed 2.3.3: least-squares fit of eq. 2.7 to inertias measured about axes rotated by `B`
@@ -299,23 +359,19 @@ pub fn products_of_inertia_from_rotations(measurements: &[(f64, f64)]) -> Result
         a[(k, 2)] = -(2.0 * angle).sin();
         b[k] = inertia;
     }
-    let svd = a.clone().svd(true, true);
-    let smax = svd.singular_values.max();
-    let smin = svd.singular_values.min();
-    if smin <= 1e-9 * smax {
-        return Err(CharacterizeError::Invalid(
-            "rotation angles do not determine Iyy, Izz and Pyz (need 3 angles distinct modulo 180 deg)".into(),
-        ));
-    }
-    let x = svd
-        .solve(&b, 0.0)
-        .map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
-    let r = &a * &x - &b;
+    let fit = least_squares(
+        &a,
+        &b,
+        "rotation angles do not determine Iyy, Izz and Pyz (need 3 angles distinct modulo 180 deg)",
+    )?;
+    let x = &fit.x;
     Ok(PlaneInertia {
         iyy: x[0],
         izz: x[1],
         pyz: x[2],
-        rms_residual: (r.norm_squared() / n as f64).sqrt(),
+        rms_residual: (fit.residual.norm_squared() / n as f64).sqrt(),
+        standard_errors: fit.standard_errors.map(|se| [se[0], se[1], se[2]]),
+        dof: fit.dof,
     })
 }
 
@@ -373,6 +429,15 @@ pub fn com_from_load_cell(
     mass_kg: f64,
     g_m_s2: f64,
 ) -> Result<Vector3<f64>> {
+    Ok(com_from_load_cell_with_uncertainty(tests, mass_kg, g_m_s2)?.com_m)
+}
+
+/// [`com_from_load_cell`] with the standard errors of the least-squares solution.
+pub fn com_from_load_cell_with_uncertainty(
+    tests: &[LoadCellMoments],
+    mass_kg: f64,
+    g_m_s2: f64,
+) -> Result<ComEstimate> {
     let w = positive("mass", mass_kg)? * positive("gravity", g_m_s2)?;
     if tests.is_empty() {
         return Err(CharacterizeError::Invalid(
@@ -410,17 +475,32 @@ pub fn com_from_load_cell(
         b[2 * k] = m.x;
         b[2 * k + 1] = m.y;
     }
-    let svd = a.clone().svd(true, true);
-    let smax = svd.singular_values.max();
-    if svd.singular_values.len() < 3 || svd.singular_values.min() <= 1e-9 * smax {
-        return Err(CharacterizeError::Invalid(
-            "mountings leave a CoM axis unobserved (the vertical axis of every mounting); add a mounting on its side".into(),
-        ));
+    if 2 * n < 3 {
+        return Err(CharacterizeError::Invalid(UNOBSERVED_COM.into()));
     }
-    let x = svd
-        .solve(&b, 0.0)
-        .map_err(|e| CharacterizeError::Invalid(e.to_string()))?;
-    Ok(Vector3::new(x[0], x[1], x[2]))
+    let fit = least_squares(&a, &b, UNOBSERVED_COM)?;
+    let x = &fit.x;
+    Ok(ComEstimate {
+        com_m: Vector3::new(x[0], x[1], x[2]),
+        standard_errors_m: fit
+            .standard_errors
+            .map(|se| Vector3::new(se[0], se[1], se[2])),
+        dof: fit.dof,
+    })
+}
+
+const UNOBSERVED_COM: &str = "mountings leave a CoM axis unobserved (the vertical axis of every mounting); add a mounting on its side";
+
+/// CoM from load-cell moments with its least-squares standard errors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ComEstimate {
+    /// CoM offset from the geometric centre, body axes, m.
+    pub com_m: Vector3<f64>,
+    /// Standard errors (m) from the residual of the redundant equations (equal, independent
+    /// errors on every averaged moment); `None` when no equation is redundant.
+    pub standard_errors_m: Option<Vector3<f64>>,
+    /// Residual degrees of freedom: equations (2 per mounting) minus 3.
+    pub dof: usize,
 }
 
 /// A thruster's nominal thrust: magnitude (N) and direction (the seed's `Dx Dy Dz`).
@@ -466,6 +546,61 @@ pub fn thrust_from_load_cell(
         magnitude_n: mag,
         direction: (f / mag).into(),
     })
+}
+
+/// [`thrust_from_load_cell`] with the standard uncertainties that the spread of the samples
+/// gives.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ThrustEstimate {
+    pub thrust: ThrustVector,
+    /// Number of load-cell samples averaged.
+    pub samples: usize,
+    /// Standard errors of the mean force components FX, FY, FZ (N): sample standard deviation
+    /// (n - 1) over `sqrt(n)`. `None` for a single sample.
+    pub mean_force_se_n: Option<[f64; 3]>,
+    /// Standard error of the magnitude (N), the mean's covariance `C / n` propagated to first
+    /// order: `sqrt(d^T (C / n) d)` with `d` the unit direction.
+    pub magnitude_se_n: Option<f64>,
+    /// Standard errors of the unit direction's components, through the Jacobian
+    /// `(I - d d^T) / |f|` of `f / |f|`.
+    pub direction_se: Option<[f64; 3]>,
+}
+
+/// Seed 3.5 with uncertainties: the mean force's standard error from the spread of the
+/// samples (sample covariance over n; the samples are taken as independent, the bias as
+/// exact), propagated to the magnitude and direction to first order.
+pub fn thrust_from_load_cell_with_uncertainty(
+    forces_during_pulse_n: &[Vector3<f64>],
+    bias_n: Vector3<f64>,
+) -> Result<ThrustEstimate> {
+    let thrust = thrust_from_load_cell(forces_during_pulse_n, bias_n)?;
+    let n = forces_during_pulse_n.len();
+    let mut out = ThrustEstimate {
+        thrust,
+        samples: n,
+        mean_force_se_n: None,
+        magnitude_se_n: None,
+        direction_se: None,
+    };
+    if n < 2 {
+        return Ok(out);
+    }
+    let nf = n as f64;
+    let mean = forces_during_pulse_n
+        .iter()
+        .fold(Vector3::zeros(), |s, v| s + v)
+        / nf;
+    let cov = forces_during_pulse_n.iter().fold(Matrix3::zeros(), |s, v| {
+        s + (v - mean) * (v - mean).transpose()
+    }) / (nf - 1.0);
+    let cov_mean = cov / nf;
+    let d = Vector3::from(thrust.direction);
+    let j = (Matrix3::identity() - d * d.transpose()) / thrust.magnitude_n;
+    let cov_dir = j * cov_mean * j.transpose();
+    out.mean_force_se_n = Some(std::array::from_fn(|k| cov_mean[(k, k)].sqrt()));
+    out.magnitude_se_n = Some((d.transpose() * cov_mean * d)[0].max(0.0).sqrt());
+    out.direction_se = Some(std::array::from_fn(|k| cov_dir[(k, k)].max(0.0).sqrt()));
+    Ok(out)
 }
 
 /// Seed 3.5 with the mounting taken into account ("change coordinate frames"; the two
@@ -646,6 +781,83 @@ mod tests {
             let got = com_from_load_cell(&[meas(Matrix3::identity()), meas(r2)], 3.5, SEED_G).unwrap();
             proptest::prop_assert!((got - c).norm() < 1e-10);
         }
+    }
+
+    /// Spread of `xs` (sample standard deviation).
+    fn stdev(xs: &[f64]) -> f64 {
+        let n = xs.len() as f64;
+        let m = xs.iter().sum::<f64>() / n;
+        (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    }
+
+    #[test]
+    fn thrust_standard_errors_match_the_spread_of_repeated_pulses() {
+        // 400 simulated pulses of 50 samples each, noise 0.02 N per component: the reported
+        // standard errors (mean over pulses) equal the spread of the estimates to ~10 %.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(26);
+        let noise = Normal::new(0.0, 0.02).unwrap();
+        let f = Vector3::new(0.12, 0.03, -0.01);
+        let (mut mags, mut dys, mut se_mag, mut se_dy) = (vec![], vec![], 0.0, 0.0);
+        for _ in 0..400 {
+            let s: Vec<Vector3<f64>> = (0..50)
+                .map(|_| f + Vector3::from_fn(|_, _| noise.sample(&mut rng)))
+                .collect();
+            let t = thrust_from_load_cell_with_uncertainty(&s, Vector3::zeros()).unwrap();
+            mags.push(t.thrust.magnitude_n);
+            dys.push(t.thrust.direction[1]);
+            se_mag += t.magnitude_se_n.unwrap() / 400.0;
+            se_dy += t.direction_se.unwrap()[1] / 400.0;
+        }
+        let (sm, sd) = (stdev(&mags), stdev(&dys));
+        assert!(
+            (se_mag / sm - 1.0).abs() < 0.1,
+            "magnitude: se {se_mag} spread {sm}"
+        );
+        assert!(
+            (se_dy / sd - 1.0).abs() < 0.1,
+            "direction y: se {se_dy} spread {sd}"
+        );
+        assert!((se_mag / (0.02 / 50f64.sqrt()) - 1.0).abs() < 0.05);
+        let one = thrust_from_load_cell_with_uncertainty(&[f], Vector3::zeros()).unwrap();
+        assert!(one.magnitude_se_n.is_none() && one.direction_se.is_none());
+    }
+
+    #[test]
+    fn plane_fit_standard_errors_match_the_spread_of_repeated_fits() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(27);
+        let noise = Normal::new(0.0, 2e-4).unwrap();
+        let (iyy, izz, pyz) = (0.0242, 0.0214, 3.1e-4);
+        let mut est: [Vec<f64>; 3] = Default::default();
+        let mut se = [0.0; 3];
+        for _ in 0..400 {
+            let ms: Vec<(f64, f64)> = (0..6)
+                .map(|k| {
+                    let b = (k as f64 * 30.0).to_radians();
+                    (
+                        b,
+                        rotated_inertia(iyy, izz, pyz, b) + noise.sample(&mut rng),
+                    )
+                })
+                .collect();
+            let fit = products_of_inertia_from_rotations(&ms).unwrap();
+            assert_eq!(fit.dof, 3);
+            for (k, v) in [fit.iyy, fit.izz, fit.pyz].into_iter().enumerate() {
+                est[k].push(v);
+                se[k] += fit.standard_errors.unwrap()[k] / 400.0;
+            }
+        }
+        for k in 0..3 {
+            // the mean of s over 3 dof is c4(4) = 0.921 of sigma
+            let ratio = se[k] / stdev(&est[k]);
+            assert!((0.8..1.05).contains(&ratio), "term {k}: se/spread {ratio}");
+        }
+        let three =
+            products_of_inertia_from_rotations(&[(0.0, 0.02), (1.0, 0.021), (2.0, 0.022)]).unwrap();
+        assert!(three.standard_errors.is_none() && three.dof == 0);
     }
 
     #[test]

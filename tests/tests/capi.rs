@@ -225,8 +225,15 @@ fn run(cmd: &mut Command, what: &str) -> std::process::Output {
     out
 }
 
-/// Builds the static library and the C program; returns the program's path.
+/// Builds the static library and the C program once per test process; returns the
+/// program's path. (Each test building its own copy at the same path raced: gcc rewrote the
+/// program while another test ran it, "Text file busy", CI at d493707.)
 fn build_c_program() -> PathBuf {
+    static BUILT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    BUILT.get_or_init(build_c_program_now).clone()
+}
+
+fn build_c_program_now() -> PathBuf {
     let root = repo_root();
     let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("capi");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());

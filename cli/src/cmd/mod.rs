@@ -43,6 +43,7 @@ macro_rules! say {
 
 // The subcommands, after the `say!` macro they use (a macro is in scope below its definition).
 pub mod characterize;
+pub mod batch;
 pub mod demo;
 pub mod diagnose;
 pub mod estimate;

@@ -1,0 +1,573 @@
+//! `massid diagnose --out DIR`: a folder or a list of recordings, diagnosed in parallel over
+//! recordings (rayon), one massid-diagnosis/1 JSON per recording plus a summary row each.
+//!
+//! The unit of work is [`super::diagnose::diagnose_file`], the function `massid diagnose
+//! FILE` runs too; the unit of summary is [`Row`], built from the JSON text alone, so that
+//! the batch, `massid diagnose FILE --summary-row` and an external engine mapping that
+//! command over files (`scripts/batch_ray.py`) give the same rows.
+//!
+//! Resumable: each JSON is written to a temporary file and renamed into place, so a JSON in
+//! DIR is always whole; a rerun skips the recordings whose JSON is there (unless --force)
+//! and rebuilds `summary.jsonl` / `summary.csv` from the JSONs present, sorted by file,
+//! whatever order the jobs finished in. The seconds each diagnosis took are kept beside its
+//! JSON (`NAME.seconds`), so the JSON stays the exact bytes `--json` writes.
+use std::collections::BTreeMap;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::diagnose::{diagnose_file, to_json, Options};
+
+/// The summary files in the output directory.
+pub const SUMMARY_JSONL: &str = "summary.jsonl";
+pub const SUMMARY_CSV: &str = "summary.csv";
+
+/// What `--out` asks for.
+pub struct Batch {
+    pub recordings: Vec<PathBuf>,
+    pub list: Option<PathBuf>,
+    pub out: PathBuf,
+    pub jobs: Option<usize>,
+    pub force: bool,
+    pub options: Options,
+}
+
+/// One recording's line of the summary (`summary.jsonl`; `summary.csv` holds the same
+/// fields). Everything but `seconds` comes from the recording's massid-diagnosis/1 JSON, so
+/// two runs that wrote the same JSONs have the same rows but for `seconds`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Row {
+    /// The recording as given (a folder's recordings as FOLDER/NAME.csv).
+    pub file: String,
+    /// `ok`, or `error` when the recording could not be diagnosed.
+    pub status: String,
+    pub model: Option<String>,
+    pub samples: Option<u64>,
+    /// The named effects, in the order the diagnosis accepted them.
+    pub effects: Vec<String>,
+    /// Each named effect's fitted parameters (contract units), in the order of `effects`.
+    pub params: Vec<Value>,
+    /// Per axis, rad/s: before any effect and after the named ones.
+    pub residual_rms_before: Option<Value>,
+    pub residual_rms_after: Option<Value>,
+    /// What no named effect explains (axes, condition, apparent_hz, note), or null.
+    pub unexplained: Option<Value>,
+    /// Why the recording could not be diagnosed (`file:line: reason`).
+    pub error: Option<String>,
+    /// Wall time of the recording's diagnosis (reading included); null when unknown (a
+    /// JSON written by another run).
+    pub seconds: Option<f64>,
+}
+
+fn seconds_rounded(s: Option<f64>) -> Option<f64> {
+    s.map(|s| (s * 1000.0).round() / 1000.0)
+}
+
+impl Row {
+    /// The row of a recording whose diagnosis is `json` (the massid-diagnosis/1 text).
+    pub fn from_json(file: &Path, json: &str, seconds: Option<f64>) -> anyhow::Result<Row> {
+        let doc: Value =
+            serde_json::from_str(json).map_err(|e| anyhow::anyhow!("not a JSON document ({e})"))?;
+        if doc.get("format").and_then(Value::as_str) != Some(massid_diagnose::output::FORMAT) {
+            bail!("not a {} document", massid_diagnose::output::FORMAT);
+        }
+        let effects = doc
+            .get("effects")
+            .and_then(Value::as_array)
+            .context("no `effects` list")?;
+        let unexplained = doc.get("unexplained").filter(|u| !u.is_null()).map(|u| {
+            let mut m = serde_json::Map::new();
+            for k in ["axes", "condition", "apparent_hz", "note"] {
+                m.insert(k.into(), u.get(k).cloned().unwrap_or(Value::Null));
+            }
+            Value::Object(m)
+        });
+        Ok(Row {
+            file: file.display().to_string(),
+            status: "ok".into(),
+            model: doc.get("model").and_then(Value::as_str).map(str::to_string),
+            samples: doc.get("samples").and_then(Value::as_u64),
+            effects: effects
+                .iter()
+                .map(|e| {
+                    e.get("effect")
+                        .and_then(Value::as_str)
+                        .unwrap_or("?")
+                        .to_string()
+                })
+                .collect(),
+            params: effects
+                .iter()
+                .map(|e| e.get("params").cloned().unwrap_or(Value::Null))
+                .collect(),
+            residual_rms_before: doc.get("residual_rms_before").cloned(),
+            residual_rms_after: doc.get("residual_rms_after").cloned(),
+            unexplained,
+            error: None,
+            seconds: seconds_rounded(seconds),
+        })
+    }
+
+    /// The row of a recording that could not be diagnosed.
+    pub fn error(file: &Path, error: &str, seconds: Option<f64>) -> Row {
+        Row {
+            file: file.display().to_string(),
+            status: "error".into(),
+            model: None,
+            samples: None,
+            effects: Vec::new(),
+            params: Vec::new(),
+            residual_rms_before: None,
+            residual_rms_after: None,
+            unexplained: None,
+            error: Some(error.to_string()),
+            seconds: seconds_rounded(seconds),
+        }
+    }
+
+    /// The row as one JSON line (with its newline).
+    pub fn line(&self) -> String {
+        serde_json::to_string(self).expect("a row serialises") + "\n"
+    }
+
+    /// The row as one CSV line (with its newline), columns as [`CSV_HEADER`].
+    pub fn csv(&self) -> String {
+        let nums = |v: &Option<Value>| match v.as_ref().and_then(Value::as_array) {
+            Some(a) => a.iter().map(Value::to_string).collect::<Vec<_>>().join(" "),
+            None => String::new(),
+        };
+        let fields = [
+            self.file.clone(),
+            self.status.clone(),
+            self.model.clone().unwrap_or_default(),
+            self.samples.map(|n| n.to_string()).unwrap_or_default(),
+            self.effects.join(";"),
+            if self.params.is_empty() {
+                String::new()
+            } else {
+                Value::Array(self.params.clone()).to_string()
+            },
+            nums(&self.residual_rms_before),
+            nums(&self.residual_rms_after),
+            self.unexplained
+                .as_ref()
+                .and_then(|u| u.get("note"))
+                .and_then(Value::as_str)
+                .unwrap_or_default()
+                .to_string(),
+            self.error.clone().unwrap_or_default(),
+            self.seconds.map(|s| s.to_string()).unwrap_or_default(),
+        ];
+        fields
+            .iter()
+            .map(|f| csv_field(f))
+            .collect::<Vec<_>>()
+            .join(",")
+            + "\n"
+    }
+}
+
+/// The columns of `summary.csv` (effects `;`-separated, params the JSON list of each
+/// effect's parameters, residuals space-separated x y z, unexplained its note).
+pub const CSV_HEADER: &str = "file,status,model,samples,effects,params,residual_rms_before,residual_rms_after,unexplained,error,seconds\n";
+
+fn csv_field(f: &str) -> String {
+    if f.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", f.replace('"', "\"\""))
+    } else {
+        f.to_string()
+    }
+}
+
+/// Whether a path names a recording when it is found in a folder.
+fn is_csv(p: &Path) -> bool {
+    p.is_file()
+        && p.extension()
+            .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("csv"))
+}
+
+/// A folder's recordings: its `*.csv` files, sorted (not its subfolders).
+fn folder(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| anyhow::anyhow!("{}: cannot read the folder: {e}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| is_csv(p))
+        .collect();
+    found.sort();
+    if found.is_empty() {
+        bail!("{}: a folder with no *.csv recording", dir.display());
+    }
+    Ok(found)
+}
+
+/// Every recording the batch names, in the order given: positional paths (a folder: its
+/// `*.csv` files), then the list's lines. Missing paths are refused before any work.
+pub fn recordings(given: &[PathBuf], list: Option<&Path>) -> anyhow::Result<Vec<PathBuf>> {
+    let mut all = Vec::new();
+    for p in given {
+        if p.is_dir() {
+            all.extend(folder(p)?);
+        } else if p.exists() {
+            all.push(p.clone());
+        } else {
+            bail!("{}: no such file or folder", p.display());
+        }
+    }
+    if let Some(list) = list {
+        let text = std::fs::read_to_string(list)
+            .map_err(|e| anyhow::anyhow!("{}: cannot read the list: {e}", list.display()))?;
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let p = PathBuf::from(line);
+            if p.is_dir() {
+                all.extend(folder(&p)?);
+            } else if p.exists() {
+                all.push(p);
+            } else {
+                bail!(
+                    "{}:{}: {line}: no such file or folder",
+                    list.display(),
+                    i + 1
+                );
+            }
+        }
+    }
+    // The same path twice is one recording.
+    let mut seen = std::collections::HashSet::new();
+    all.retain(|p| seen.insert(p.clone()));
+    if all.is_empty() {
+        bail!("no recordings given (name files or folders, or --list FILE)");
+    }
+    Ok(all)
+}
+
+/// The JSON a recording's diagnosis goes to in `out`: NAME.json for NAME.csv.
+pub fn json_name(recording: &Path) -> String {
+    let stem = recording
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "recording".into());
+    format!("{stem}.json")
+}
+
+fn seconds_path(json: &Path) -> PathBuf {
+    json.with_extension("seconds")
+}
+
+/// Writes `text` to `path` through a temporary file in the same folder and a rename: an
+/// interrupted run leaves the old file or the new one, never a half-written one.
+pub fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, text)
+        .and_then(|_| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            std::fs::remove_file(&tmp).ok();
+            anyhow::anyhow!("{}: cannot write: {e}", path.display())
+        })
+}
+
+fn duration(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{} h {:02} min", s / 3600, (s % 3600) / 60)
+    } else if s >= 60 {
+        format!("{} min {:02} s", s / 60, s % 60)
+    } else {
+        format!("{s} s")
+    }
+}
+
+/// Progress on stderr: a bar with the time left on a terminal, else a plain line now and
+/// then (at most one every 10 s, and the last) so that a log shows how far a long batch is.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    start: Instant,
+    total: usize,
+    /// Recordings done, and when a plain line was last printed.
+    state: Mutex<(usize, Instant)>,
+}
+
+impl Progress {
+    fn new(total: usize) -> Progress {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = indicatif::ProgressBar::new(total as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} recordings, about {eta} left {msg}",
+                )
+                .expect("a valid template"),
+            );
+            bar.enable_steady_tick(Duration::from_millis(200));
+            bar
+        });
+        Progress {
+            bar,
+            start: Instant::now(),
+            total,
+            state: Mutex::new((0, Instant::now())),
+        }
+    }
+
+    fn finished(&self, file: &Path, failed: Option<&str>) {
+        let mut state = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        state.0 += 1;
+        let done = state.0;
+        if let Some(e) = failed {
+            let line = format!("massid: {}: failed: {e}", file.display());
+            match &self.bar {
+                Some(b) => b.println(line),
+                None => eprintln!("{line}"),
+            }
+        }
+        if let Some(b) = &self.bar {
+            b.inc(1);
+            b.set_message(format!("(last: {})", file.display()));
+            return;
+        }
+        if done == self.total || state.1.elapsed() >= Duration::from_secs(10) {
+            state.1 = Instant::now();
+            let elapsed = self.start.elapsed();
+            let left = elapsed.mul_f64((self.total - done) as f64 / done as f64);
+            eprintln!(
+                "diagnose: {done}/{} recordings done, {} elapsed, about {} left",
+                self.total,
+                duration(elapsed),
+                duration(left)
+            );
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Diagnoses one recording of the batch into `json`: the JSON and its seconds written
+/// atomically; on failure (bad recording, write error, a panic) the error row.
+fn job(recording: &Path, json: &Path, options: &Options) -> Result<(), Row> {
+    let started = Instant::now();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        diagnose_file(recording, options, false).and_then(|d| to_json(&d.analysis))
+    }));
+    let seconds = started.elapsed().as_secs_f64();
+    let fail = |e: String| Row::error(recording, &e, Some(seconds));
+    match result {
+        Ok(Ok(text)) => {
+            write_atomic(json, &text).map_err(|e| fail(format!("{e:#}")))?;
+            write_atomic(&seconds_path(json), &format!("{seconds:.3}\n"))
+                .map_err(|e| fail(format!("{e:#}")))
+        }
+        Ok(Err(e)) => Err(fail(format!("{e:#}"))),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(fail(format!(
+                "{}: internal error (panic: {what})",
+                recording.display()
+            )))
+        }
+    }
+}
+
+/// The summary rows of `files`, sorted by file: a failure of this run gives its error row,
+/// a JSON present in `out` its row (seconds from its `.seconds` file, if any).
+pub fn summary_rows(files: &[PathBuf], out: &Path, failed: &BTreeMap<String, Row>) -> Vec<Row> {
+    let mut rows: Vec<Row> = files
+        .iter()
+        .map(|f| {
+            if let Some(row) = failed.get(&f.display().to_string()) {
+                return row.clone();
+            }
+            let json = out.join(json_name(f));
+            let seconds = std::fs::read_to_string(seconds_path(&json))
+                .ok()
+                .and_then(|s| s.trim().parse::<f64>().ok());
+            match std::fs::read_to_string(&json) {
+                Ok(text) => Row::from_json(f, &text, seconds).unwrap_or_else(|e| {
+                    Row::error(
+                        f,
+                        &format!(
+                            "{}: {e:#} (delete it, or rerun with --force)",
+                            json.display()
+                        ),
+                        None,
+                    )
+                }),
+                Err(e) => Row::error(f, &format!("{}: {e}", json.display()), None),
+            }
+        })
+        .collect();
+    rows.sort_by(|a, b| a.file.cmp(&b.file));
+    rows
+}
+
+/// `massid diagnose --out DIR ...`.
+pub fn run(b: Batch) -> anyhow::Result<()> {
+    let out = &b.out;
+    if super::is_stdout(out) {
+        bail!("--out -: the batch writes a folder (one JSON per recording and a summary), not a stream; for one recording use --json -");
+    }
+    if out.exists() && !out.is_dir() {
+        bail!(
+            "{}: exists and is not a directory (--out names a directory)",
+            out.display()
+        );
+    }
+    let threads = match b.jobs {
+        Some(0) => bail!("--jobs 0: at least one recording at a time"),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let files = recordings(&b.recordings, b.list.as_deref())?;
+    // A bad model file fails every recording: say so once, before any work.
+    if let Some(m) = &b.options.model {
+        massid_sim::model_file::ModelFile::read(m)?;
+    }
+    // Every output is checked before any work: distinct names, never an input.
+    let mut inputs: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
+    if let Some(m) = &b.options.model {
+        inputs.push(m);
+    }
+    if let Some(l) = &b.list {
+        inputs.push(l);
+    }
+    let mut outputs: BTreeMap<String, &PathBuf> = BTreeMap::new();
+    for f in &files {
+        let name = json_name(f);
+        if let Some(other) = outputs.insert(name.clone(), f) {
+            bail!(
+                "{} and {}: both would be diagnosed into {} (diagnose them into different --out folders)",
+                other.display(),
+                f.display(),
+                out.join(&name).display()
+            );
+        }
+    }
+    if !out.exists() {
+        std::fs::create_dir_all(out)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create directory: {e}", out.display()))?;
+        eprintln!("note: created directory {}", out.display());
+    }
+    for name in outputs.keys() {
+        super::check_output(&out.join(name), &inputs, true)?;
+    }
+    for name in [SUMMARY_JSONL, SUMMARY_CSV] {
+        super::check_output(&out.join(name), &inputs, true)?;
+    }
+    let todo: Vec<&PathBuf> = files
+        .iter()
+        .filter(|f| b.force || !out.join(json_name(f)).exists())
+        .collect();
+    let skipped = files.len() - todo.len();
+    eprintln!(
+        "diagnose: {} recordings into {}: {} to do on {threads} thread{}{}",
+        files.len(),
+        out.display(),
+        todo.len(),
+        if threads == 1 { "" } else { "s" },
+        if skipped > 0 {
+            format!(", {skipped} already diagnosed there (skipped; --force redoes them)")
+        } else {
+            String::new()
+        }
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        // the main thread's stack, not rayon's 2 MiB default
+        .stack_size(8 << 20)
+        .build()
+        .context("cannot start the worker threads")?;
+    let progress = Progress::new(todo.len());
+    let started = Instant::now();
+    let failed: Vec<Row> = pool.install(|| {
+        todo.par_iter()
+            .with_max_len(1)
+            .filter_map(|f| {
+                let result = job(f, &out.join(json_name(f)), &b.options);
+                progress.finished(f, result.as_ref().err().and_then(|r| r.error.as_deref()));
+                result.err()
+            })
+            .collect()
+    });
+    progress.finish();
+    let failed: BTreeMap<String, Row> = failed.into_iter().map(|r| (r.file.clone(), r)).collect();
+    let rows = summary_rows(&files, out, &failed);
+    write_atomic(
+        &out.join(SUMMARY_JSONL),
+        &rows.iter().map(Row::line).collect::<String>(),
+    )?;
+    write_atomic(
+        &out.join(SUMMARY_CSV),
+        &(CSV_HEADER.to_string() + &rows.iter().map(Row::csv).collect::<String>()),
+    )?;
+    let errors = rows.iter().filter(|r| r.status != "ok").count();
+    super::mix::emit(&format!(
+        "diagnosed {} of {} recordings in {:.1} s ({skipped} skipped, {errors} failed); summary: {}\n",
+        todo.len() - failed.len(),
+        files.len(),
+        started.elapsed().as_secs_f64(),
+        out.join(SUMMARY_JSONL).display()
+    ))?;
+    if errors > 0 {
+        bail!(
+            "{errors} of {} recordings could not be diagnosed (their error rows are in {})",
+            files.len(),
+            out.join(SUMMARY_JSONL).display()
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_come_from_the_json_alone_and_csv_quotes() {
+        let json = r#"{"format":"massid-diagnosis/1","recording":"a.csv","model":"sph2","samples":100,
+            "residual_rms_before":[0.1,0.2,0.3],"residual_rms_after":[0.01,0.02,0.03],
+            "effects":[{"effect":"thruster_latency","params":{"open_ms":6.1,"close_ms":5.8}}],
+            "unexplained":{"axes":["x"],"condition":"c, d","apparent_hz":null,"note":"n \"q\""},
+            "data_issues":{}}"#;
+        let r = Row::from_json(Path::new("d/a.csv"), json, Some(1.23456)).unwrap();
+        assert_eq!(r.effects, vec!["thruster_latency"]);
+        assert_eq!(r.params[0]["open_ms"], 6.1);
+        assert_eq!(r.seconds, Some(1.235));
+        assert_eq!(r.unexplained.as_ref().unwrap()["condition"], "c, d");
+        let back: Row = serde_json::from_str(&r.line()).unwrap();
+        assert_eq!(back, r);
+        let csv = r.csv();
+        assert!(
+            csv.starts_with("d/a.csv,ok,sph2,100,thruster_latency,"),
+            "{csv}"
+        );
+        assert!(csv.contains("\"n \"\"q\"\"\""), "{csv}");
+        assert!(csv.contains(",0.1 0.2 0.3,"), "{csv}");
+        assert!(Row::from_json(Path::new("x"), "{}", None).is_err());
+        assert!(Row::from_json(Path::new("x"), "nope", None).is_err());
+    }
+
+    #[test]
+    fn json_names() {
+        assert_eq!(json_name(Path::new("a/b/o01.csv")), "o01.json");
+        assert_eq!(json_name(Path::new("x.y.csv")), "x.y.json");
+    }
+}

@@ -1,0 +1,355 @@
+//! `massid diagnose --out DIR` over many recordings (issue 25 item 3): the same JSON bytes
+//! as one `massid diagnose FILE --json` per recording whatever --jobs, a summary row per
+//! recording sorted by file, resumable, a bad recording an error row that stops nothing.
+//! Each check is a function returning what differs, and one test plants a fault for each
+//! to show it is caught.
+mod common;
+use common::{massid, ok, repo, s, tmp};
+use std::path::{Path, PathBuf};
+
+/// Three short recordings (100 Hz, a few seconds) in `dir/recs`: nominal, with latency, and
+/// another maneuver; returns the folder.
+fn recordings(dir: &Path) -> PathBuf {
+    let recs = dir.join("recs");
+    let latency = repo().join("examples/models/sph2_latency.toml");
+    let runs: [(&str, &[&str]); 3] = [
+        (
+            "a_nominal",
+            &["--maneuver", "single", "--seconds", "3", "--seed", "1"],
+        ),
+        (
+            "b_latency",
+            &[
+                "--maneuver",
+                "single",
+                "--seconds",
+                "3",
+                "--seed",
+                "2",
+                "--model",
+                &s(&latency),
+            ],
+        ),
+        (
+            "c_combo",
+            &["--maneuver", "combo", "--seconds", "3", "--seed", "3"],
+        ),
+    ];
+    for (name, extra) in runs {
+        let out = recs.join(format!("{name}.csv"));
+        let mut args = vec!["simulate", "--rate", "100", "--out"];
+        let o = s(&out);
+        args.push(&o);
+        args.extend_from_slice(extra);
+        ok(&args);
+    }
+    recs
+}
+
+/// The summary rows without their `seconds` (the one field that differs between runs).
+fn rows(dir: &Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(dir.join("summary.jsonl")).expect("summary.jsonl");
+    text.lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).expect("a JSON row");
+            v.as_object_mut().unwrap().remove("seconds");
+            v
+        })
+        .collect()
+}
+
+/// What differs between two output folders: the set of JSONs, any JSON's bytes, the
+/// summary rows (but for seconds).
+fn differences(a: &Path, b: &Path) -> Vec<String> {
+    let jsons = |d: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".json"))
+            .collect();
+        v.sort();
+        v
+    };
+    let mut diffs = Vec::new();
+    if jsons(a) != jsons(b) {
+        diffs.push(format!("JSON files {:?} vs {:?}", jsons(a), jsons(b)));
+    }
+    for n in jsons(a) {
+        if std::fs::read(a.join(&n)).ok() != std::fs::read(b.join(&n)).ok() {
+            diffs.push(format!("{n} differs"));
+        }
+    }
+    if rows(a) != rows(b) {
+        diffs.push("summary rows differ".into());
+    }
+    diffs
+}
+
+fn batch(args: &[&str]) -> std::process::Output {
+    let mut all = vec!["diagnose"];
+    all.extend_from_slice(args);
+    massid(&all)
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn jobs_1_and_2_write_the_single_run_bytes_and_the_same_summary() {
+    let dir = tmp("diagnose_batch", "jobs");
+    let recs = recordings(&dir);
+    let (d1, d2) = (dir.join("j1"), dir.join("j2"));
+    for (d, jobs) in [(&d1, "1"), (&d2, "2")] {
+        let o = batch(&[&s(&recs), "--out", &s(d), "--jobs", jobs]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("3 to do"), "{}", stderr(&o));
+    }
+    assert_eq!(differences(&d1, &d2), Vec::<String>::new());
+    let rows1 = rows(&d1);
+    assert_eq!(rows1.len(), 3);
+    let files: Vec<&str> = rows1.iter().map(|r| r["file"].as_str().unwrap()).collect();
+    let mut sorted = files.clone();
+    sorted.sort();
+    assert_eq!(files, sorted, "rows sorted by file");
+    assert!(rows1.iter().all(|r| r["status"] == "ok"), "{rows1:?}");
+    // the latency recording names an effect (at 100 Hz over 3 s: a thrust rise or the
+    // latency), with its parameters, in its row
+    let b = &rows1[1];
+    assert!(b["effects"][0].is_string(), "{b}");
+    assert!(b["params"][0].is_object(), "{b}");
+    // CSV: header plus a line per recording
+    let csv = std::fs::read_to_string(d1.join("summary.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4, "{csv}");
+    assert!(csv.starts_with("file,status,"));
+    // each JSON is the single run's bytes, and each row the single run's --summary-row
+    // (one run each: `--json FILE --summary-row` writes both)
+    for (i, f) in files.iter().enumerate() {
+        let name = Path::new(f)
+            .file_stem()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        let single_json = dir.join(format!("single-{name}.json"));
+        let row = ok(&["diagnose", f, "--json", &s(&single_json), "--summary-row"]);
+        let batch_json = std::fs::read_to_string(d2.join(format!("{name}.json"))).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&single_json).unwrap(),
+            batch_json,
+            "{f}: batch JSON = single run's"
+        );
+        let mut row: serde_json::Value = serde_json::from_str(row.trim()).unwrap();
+        assert!(row["seconds"].as_f64().unwrap() > 0.0);
+        row.as_object_mut().unwrap().remove("seconds");
+        assert_eq!(row, rows1[i], "{f}: --summary-row = the batch's row");
+    }
+
+    // The check catches a planted fault: one changed byte in a JSON, one changed row.
+    let planted = dir.join("planted");
+    std::fs::create_dir_all(&planted).unwrap();
+    for e in std::fs::read_dir(&d1).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), planted.join(e.file_name())).unwrap();
+    }
+    let a = planted.join("a_nominal.json");
+    let text = std::fs::read_to_string(&a).unwrap();
+    std::fs::write(&a, text.replacen("\"samples\": 3", "\"samples\": 4", 1)).unwrap();
+    assert_eq!(
+        differences(&d1, &planted),
+        vec!["a_nominal.json differs".to_string()]
+    );
+    let summary = planted.join("summary.jsonl");
+    let text = std::fs::read_to_string(&summary).unwrap();
+    std::fs::write(
+        &summary,
+        text.replacen("\"status\":\"ok\"", "\"status\":\"okay\"", 1),
+    )
+    .unwrap();
+    assert_eq!(differences(&d1, &planted).len(), 2);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_interrupted_batch_resumes_and_its_summary_is_complete() {
+    let dir = tmp("diagnose_batch", "resume");
+    let recs = recordings(&dir);
+    let full = dir.join("full");
+    ok(&["diagnose", &s(&recs), "--out", &s(&full), "--jobs", "2"]);
+    // An interrupted run: two JSONs written (one by a single run, without its seconds), a
+    // stray temporary file, no summary. The JSON of a_nominal is planted with another
+    // residual so that a recomputation would show.
+    let part = dir.join("part");
+    std::fs::create_dir_all(&part).unwrap();
+    let a = std::fs::read_to_string(full.join("a_nominal.json")).unwrap();
+    let planted = a.replacen(
+        "\"residual_rms_before\": [",
+        "\"residual_rms_before\": [\n    7.0,\n    7.0,\n    7.0\n  ],\n  \"was\": [",
+        1,
+    );
+    assert_ne!(planted, a);
+    std::fs::write(part.join("a_nominal.json"), &planted).unwrap();
+    std::fs::copy(
+        full.join("a_nominal.seconds"),
+        part.join("a_nominal.seconds"),
+    )
+    .unwrap();
+    ok(&[
+        "diagnose",
+        &s(&recs.join("b_latency.csv")),
+        "--json",
+        &s(&part.join("b_latency.json")),
+    ]);
+    std::fs::write(part.join(".c_combo.json.tmp99999"), "{ half").unwrap();
+    let o = batch(&[&s(&recs), "--out", &s(&part), "--jobs", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("1 to do") && err.contains("2 already diagnosed"),
+        "{err}"
+    );
+    // skipped, not recomputed: the planted JSON is still there and its row shows it
+    assert_eq!(
+        std::fs::read_to_string(part.join("a_nominal.json")).unwrap(),
+        planted
+    );
+    let r = rows(&part);
+    assert_eq!(r.len(), 3, "one row per recording");
+    assert_eq!(r[0]["residual_rms_before"][0], 7.0);
+    // the JSON without its seconds file: row with seconds null
+    let raw = std::fs::read_to_string(part.join("summary.jsonl")).unwrap();
+    assert!(
+        raw.lines().nth(1).unwrap().contains("\"seconds\":null"),
+        "{raw}"
+    );
+    // and the whole folder differs from an uninterrupted run only by the planted JSON
+    assert_eq!(
+        differences(&full, &part),
+        vec![
+            "a_nominal.json differs".to_string(),
+            "summary rows differ".to_string()
+        ]
+    );
+    // --force diagnoses everything again: then identical
+    let o = batch(&[&s(&recs), "--out", &s(&part), "--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("3 to do"), "{}", stderr(&o));
+    assert_eq!(differences(&full, &part), Vec::<String>::new());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_bad_recording_gets_an_error_row_and_the_others_succeed() {
+    let dir = tmp("diagnose_batch", "bad");
+    let recs = recordings(&dir);
+    std::fs::write(
+        recs.join("b_bad.csv"),
+        "# format = massid-recording/1\nnot,a,recording\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    // a list as well as a folder: the list names the folder's bad file again (one row)
+    let list = dir.join("list.txt");
+    std::fs::write(
+        &list,
+        format!("# the bad one\n\n{}\n", s(&recs.join("b_bad.csv"))),
+    )
+    .unwrap();
+    let o = batch(&[
+        &s(&recs),
+        "--list",
+        &s(&list),
+        "--out",
+        &s(&out),
+        "--jobs",
+        "2",
+    ]);
+    assert!(
+        !o.status.success(),
+        "a failed recording makes the exit status non-zero"
+    );
+    let err = stderr(&o);
+    assert!(
+        err.contains("1 of 4 recordings could not be diagnosed"),
+        "{err}"
+    );
+    let r = rows(&out);
+    assert_eq!(r.len(), 4, "{r:?}");
+    let bad = &r[1];
+    assert_eq!(bad["file"], s(&recs.join("b_bad.csv")));
+    assert_eq!(bad["status"], "error");
+    let msg = bad["error"].as_str().unwrap();
+    assert!(msg.contains("b_bad.csv:"), "file:line: reason: {msg}");
+    assert!(!out.join("b_bad.json").exists());
+    for (i, name) in [(0, "a_nominal"), (2, "b_latency"), (3, "c_combo")] {
+        assert_eq!(r[i]["status"], "ok", "{:?}", r[i]);
+        assert!(out.join(format!("{name}.json")).exists());
+    }
+    // the same row from the per-recording command, with a non-zero status
+    let single = massid(&["diagnose", &s(&recs.join("b_bad.csv")), "--summary-row"]);
+    assert!(!single.status.success());
+    let mut row: serde_json::Value =
+        serde_json::from_str(String::from_utf8_lossy(&single.stdout).trim()).unwrap();
+    row.as_object_mut().unwrap().remove("seconds");
+    assert_eq!(&row, bad);
+    // The check catches a planted fault: a batch that dropped the bad row.
+    let text = std::fs::read_to_string(out.join("summary.jsonl")).unwrap();
+    let dropped: String = text
+        .lines()
+        .filter(|l| !l.contains("b_bad"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(out.join("summary.jsonl"), dropped).unwrap();
+    assert_eq!(rows(&out).len(), 3, "a dropped row shows");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn batch_inputs_and_outputs_are_checked_before_any_work() {
+    let dir = tmp("diagnose_batch", "checks");
+    let rec = dir.join("r.csv");
+    ok(&[
+        "simulate",
+        "--maneuver",
+        "single",
+        "--seconds",
+        "2",
+        "--rate",
+        "100",
+        "--out",
+        &s(&rec),
+    ]);
+    let refuse = |args: &[&str], says: &str| {
+        let o = batch(args);
+        assert!(!o.status.success(), "{args:?} refused");
+        assert!(stderr(&o).contains(says), "{args:?}: {}", stderr(&o));
+    };
+    let out = dir.join("out");
+    refuse(&[&s(&rec), "--out", "-"], "--out -");
+    refuse(&[&s(&rec), &s(&rec), "--json", "x.json"], "--out DIR");
+    refuse(&[&s(&dir)], "--out DIR");
+    refuse(&[&s(&rec), "--jobs", "2"], "--out");
+    refuse(&[&s(&rec), "--out", &s(&out), "--jobs", "0"], "--jobs 0");
+    let list = dir.join("list.txt");
+    std::fs::write(&list, format!("{}\n\nmissing.csv\n", s(&rec))).unwrap();
+    refuse(
+        &["--list", &s(&list), "--out", &s(&out)],
+        "list.txt:3: missing.csv: no such file",
+    );
+    // two recordings named alike would write one JSON: refused, nothing written
+    let other = dir.join("sub");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::copy(&rec, other.join("r.csv")).unwrap();
+    refuse(
+        &[&s(&rec), &s(&other), "--out", &s(&out)],
+        "both would be diagnosed into",
+    );
+    assert!(!out.exists(), "nothing written");
+    // a JSON that would replace an input (the recording r.json in its own folder as output)
+    let json_rec = dir.join("in.json");
+    std::fs::copy(&rec, &json_rec).unwrap();
+    refuse(
+        &[&s(&json_rec), "--out", &s(&dir)],
+        "refusing to overwrite an input",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,121 @@
+#!/usr/bin/env python3
+"""Diagnose many recordings with Ray: the recipe of issue 25 item 4 ("past one machine").
+
+Ray maps the per-recording command over the files; nothing here schedules anything.
+Each task runs
+
+    massid diagnose FILE [options] --json TMP/NAME.json --summary-row
+
+on whichever Ray worker it lands, and returns the recording's massid-diagnosis/1 JSON
+text (the exact bytes `massid diagnose FILE --json` writes) and its summary row (the row
+`massid diagnose --out DIR` puts in summary.jsonl). The driver writes DIR/NAME.json and
+DIR/summary.jsonl (rows sorted by file), so the workers need no shared output folder;
+they need `massid` on their PATH (or --massid) and the recordings at the same paths.
+
+    python3 scripts/batch_ray.py --out DIR [--massid BIN] [--address auto] \
+        [--num-cpus N] [-- extra massid diagnose options] RECORDING_OR_FOLDER...
+
+Local mode (the default) starts a Ray instance on this machine with --num-cpus workers;
+`--address auto` (or ray://HOST:10001) joins a running cluster instead.
+Exit status 1 when any recording could not be diagnosed (its row says why), like
+`massid diagnose --out`.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import ray
+
+
+def recordings(paths):
+    """The recordings named: a folder gives its *.csv files, sorted (as massid does)."""
+    found = []
+    for p in paths:
+        if os.path.isdir(p):
+            names = sorted(n for n in os.listdir(p) if n.lower().endswith(".csv"))
+            found.extend(os.path.join(p, n) for n in names
+                         if os.path.isfile(os.path.join(p, n)))
+        else:
+            found.append(p)
+    seen = set()
+    return [f for f in found if not (f in seen or seen.add(f))]
+
+
+def json_name(recording):
+    stem, _ = os.path.splitext(os.path.basename(recording))
+    return stem + ".json"
+
+
+@ray.remote
+def diagnose(massid, recording, extra):
+    """The unit of work: one `massid diagnose --summary-row` run."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, json_name(recording))
+        proc = subprocess.run(
+            [massid, "diagnose", recording, *extra, "--json", out, "--summary-row"],
+            capture_output=True, text=True)
+        text = None
+        if proc.returncode == 0 and os.path.exists(out):
+            with open(out, encoding="utf-8") as f:
+                text = f.read()
+        lines = proc.stdout.strip().splitlines()
+        if lines:  # the row exactly as massid printed it
+            line = lines[-1]
+        else:  # massid refused before diagnosing (a bad option): no row printed
+            line = json.dumps({"file": recording, "status": "error",
+                               "error": proc.stderr.strip()}, separators=(",", ":"))
+        return recording, text, line
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", required=True, help="output folder")
+    ap.add_argument("--massid", default="massid", help="the massid binary")
+    ap.add_argument("--address", default=None,
+                    help="a Ray cluster to join (default: local mode on this machine)")
+    ap.add_argument("--num-cpus", type=int, default=None,
+                    help="local mode: workers (default: every core)")
+    ap.add_argument("--force", action="store_true",
+                    help="replace JSONs already in --out")
+    ap.add_argument("paths", nargs="+", help="recordings and folders")
+    args, extra = ap.parse_known_args()
+    extra = [a for a in extra if a != "--"]
+    files = recordings(args.paths)
+    os.makedirs(args.out, exist_ok=True)
+    massid = os.path.abspath(args.massid) if os.path.sep in args.massid else args.massid
+    if args.address:
+        ray.init(address=args.address)
+    else:
+        ray.init(num_cpus=args.num_cpus, include_dashboard=False, log_to_driver=False)
+    results = ray.get([diagnose.remote(massid, f, extra) for f in files])
+    ray.shutdown()
+    rows = []
+    for recording, text, line in results:
+        if text is not None:
+            path = os.path.join(args.out, json_name(recording))
+            if os.path.exists(path) and not args.force:
+                sys.exit(f"{path}: exists; refusing to overwrite it (pass --force)")
+            tmp = path + f".tmp{os.getpid()}"
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(text)
+            os.replace(tmp, path)
+        rows.append((json.loads(line), line))
+    rows.sort(key=lambda r: r[0]["file"])
+    summary = os.path.join(args.out, "summary.jsonl")
+    with open(summary, "w", encoding="utf-8") as f:
+        for _, line in rows:
+            f.write(line + "\n")
+    rows = [row for row, _ in rows]
+    failed = [r for r in rows if r.get("status") != "ok"]
+    print(f"diagnosed {len(rows) - len(failed)} of {len(rows)} recordings with Ray; "
+          f"summary: {summary}")
+    for r in failed:
+        print(f"failed: {r['file']}: {r.get('error')}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

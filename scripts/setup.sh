@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the tests need on a fresh machine: rustup targets, nightly rust-src for the
 # Hexagon DSP build, QEMU for the emulated Cortex-M runs, gcc for the C ABI test, Z3 for the
-# solver proofs.
+# solver proofs, Python's venv for the Ray recipe check.
 # Idempotent: skips what is already there.
 set -euo pipefail
 
@@ -15,6 +15,8 @@ command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 # Z3 for proofs-solver (the z3 crate links Debian's libz3; its bindgen needs libclang 14).
 { [ -e /usr/include/z3.h ] && ls /usr/lib/llvm-14/lib/libclang*.so* >/dev/null 2>&1 && [ -d /usr/lib/llvm-14/lib/clang ]; } || \
   need_apt+=(libz3-dev libclang1-14 libclang-common-14-dev)
+# Python with venv for scripts/batch-engine-check.sh (Ray from PyPI into a venv).
+{ command -v python3 >/dev/null && python3 -c 'import venv, ensurepip' 2>/dev/null; } || need_apt+=(python3 python3-venv)
 if [ ${#need_apt[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq

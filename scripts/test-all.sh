@@ -17,6 +17,9 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 step "workspace tests (host)"
 cargo test --workspace --locked
 
+step "diagnose over many recordings through Ray, local mode (issue 25 item 4: Ray into a venv from PyPI, ~35 s the first time)"
+MASSID=${CARGO_TARGET_DIR:-target}/debug/massid scripts/batch-engine-check.sh
+
 step "the cfg(kani) side of the proof harnesses type-checks (Kani itself cannot be installed here)"
 proofs/kani-stub/check.sh
 

@@ -77,7 +77,11 @@ info() { awk -v k="$2" -v f="$3" '$1 == "info" && $2 == f && $3 == k { print $4 
 ENTRIES=(massid_fixed_init massid_fixed_tick massid_fixed_finish massid_fixed_estimates
          massid_fixed_mixer_from_pipeline massid_fixed_mix
          massid_f32_init massid_f32_tick massid_f32_finish massid_f32_estimates
-         massid_f32_mixer_from_pipeline massid_f32_mix)
+         massid_f32_mixer_from_pipeline massid_f32_mix
+         massid_fixed_craft_mixer_init massid_fixed_craft_mix
+         massid_f32_craft_mixer_init massid_f32_craft_mix
+         massid_f32_flight_id_init massid_f32_flight_id_push massid_f32_flight_id_push_wrench
+         massid_f32_flight_id_finish massid_f32_flight_id_solve)
 SBASE=$BASE/qemu-stack
 for t in thumbv6m-none-eabi thumbv7em-none-eabihf; do
   log "stack: $t (nightly, -Zemit-stack-sizes)"

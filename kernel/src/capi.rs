@@ -609,6 +609,27 @@ fn mixer_mix<S: CScalar>(
     torque_nm: *const S::C,
     out: *mut MassidFiring,
 ) -> MassidStatus {
+    mix_block::<S, Mixer<S>, _, _>(
+        block.cast::<u8>(),
+        magic,
+        force_n,
+        torque_nm,
+        out,
+        |m, f, t| m.mix(f, t),
+    )
+}
+
+/// The C side of every mixer block: checks the pointers, reads the command, finds the mixer
+/// stored under `magic` and writes its firing (or the error's status). One copy for the
+/// SPHERES mixer and the craft mixer.
+fn mix_block<S: CScalar, M, F, O: From<F>>(
+    block: *mut u8,
+    magic: u32,
+    force_n: *const S::C,
+    torque_nm: *const S::C,
+    out: *mut O,
+    mix: impl FnOnce(&M, [S; 3], [S; 3]) -> Result<F, MixerError>,
+) -> MassidStatus {
     if block.is_null() || force_n.is_null() || torque_nm.is_null() || out.is_null() {
         return MassidStatus::NullPointer;
     }
@@ -619,11 +640,11 @@ fn mixer_mix<S: CScalar>(
             torque_nm.cast::<[S::C; 3]>().read_unaligned(),
         )
     };
-    // SAFETY: non-NULL MassidMixer; only a block written by `mixer_store` has the magic.
-    match unsafe { load::<Mixer<S>>(block.cast::<u8>(), magic) } {
-        Some(slot) => match slot.value.mix(f.map(S::from_c), t.map(S::from_c)) {
+    // SAFETY: non-NULL mixer block; only a block written by its init function has the magic.
+    match unsafe { load::<M>(block, magic) } {
+        Some(slot) => match mix(&slot.value, f.map(S::from_c), t.map(S::from_c)) {
             Ok(firing) => {
-                write_out(out, MassidFiring::from(firing));
+                write_out(out, O::from(firing));
                 MassidStatus::Ok
             }
             Err(e) => MassidStatus::from(e),

@@ -6,7 +6,7 @@
 
 use core::mem::{align_of, size_of};
 
-use super::{load, store, write_out, CScalar, MassidSatelliteParams, MassidStatus};
+use super::{load, mix_block, store, write_out, CScalar, MassidSatelliteParams, MassidStatus};
 use crate::allocation::CraftFiring;
 use crate::craft::{Craft, Thruster, MAX_THRUSTERS};
 use crate::craft_mixer::CraftMixer;
@@ -263,27 +263,14 @@ fn craft_mix<S: CScalar>(
     torque_nm: *const S::C,
     out: *mut MassidCraftFiring,
 ) -> MassidStatus {
-    if block.is_null() || force_n.is_null() || torque_nm.is_null() || out.is_null() {
-        return MassidStatus::NullPointer;
-    }
-    // SAFETY: non-NULL; the caller passes three values each.
-    let (f, t) = unsafe {
-        (
-            force_n.cast::<[S::C; 3]>().read_unaligned(),
-            torque_nm.cast::<[S::C; 3]>().read_unaligned(),
-        )
-    };
-    // SAFETY: non-NULL MassidCraftMixer; only a block written by `craft_mixer_init` has the magic.
-    match unsafe { load::<CraftMixer<S>>(block.cast::<u8>(), magic) } {
-        Some(slot) => match slot.value.mix(f.map(S::from_c), t.map(S::from_c)) {
-            Ok(firing) => {
-                write_out(out, MassidCraftFiring::from(firing));
-                MassidStatus::Ok
-            }
-            Err(e) => MassidStatus::from(e),
-        },
-        None => MassidStatus::NotInitialised,
-    }
+    mix_block::<S, CraftMixer<S>, _, _>(
+        block.cast::<u8>(),
+        magic,
+        force_n,
+        torque_nm,
+        out,
+        |m, f, t| m.mix(f, t),
+    )
 }
 
 fn craft_mixer_rule<S: CScalar>(

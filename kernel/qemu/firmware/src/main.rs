@@ -48,7 +48,7 @@ mod keep_capi {
 
     /// Addresses of functions (only stored, never dereferenced).
     #[allow(dead_code)]
-    pub struct Keep(pub [*const (); 16]);
+    pub struct Keep(pub [*const (); 25]);
     // SAFETY: the array is immutable and only holds code addresses.
     unsafe impl Sync for Keep {}
 
@@ -70,6 +70,15 @@ mod keep_capi {
         c::massid_f32_mixer_init as *const (),
         c::massid_f32_mixer_from_pipeline as *const (),
         c::massid_f32_mix as *const (),
+        c::craft::massid_fixed_craft_mixer_init as *const (),
+        c::craft::massid_fixed_craft_mix as *const (),
+        c::craft::massid_f32_craft_mixer_init as *const (),
+        c::craft::massid_f32_craft_mix as *const (),
+        c::craft::massid_f32_flight_id_init as *const (),
+        c::craft::massid_f32_flight_id_push as *const (),
+        c::craft::massid_f32_flight_id_push_wrench as *const (),
+        c::craft::massid_f32_flight_id_finish as *const (),
+        c::craft::massid_f32_flight_id_solve as *const (),
     ]);
 }
 

@@ -302,8 +302,6 @@ pub fn predict(
     };
     let mut k = t0.max(0) as usize;
     let mut last_tau = dist;
-    // first sample of the stretch the model has predicted since its last reset or anchor
-    let mut segment_start = 0usize;
     while si < series.len() {
         let ts = series.t_ms[si] as usize;
         while k < ts {
@@ -390,10 +388,6 @@ pub fn predict(
             if let Some(d) = p.resets.get(g) {
                 w += Vector3::from(*d);
             }
-            segment_start = si;
-        } else if series.anchors.contains(&si) {
-            w += anchor_correction(series, &out, segment_start, si, &p.gyro_scale, &w, &emit);
-            segment_start = si;
         }
         if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) || w.norm() > 1e3 {
             return None;
@@ -402,46 +396,6 @@ pub fn predict(
         si += 1;
     }
     Some(out)
-}
-
-/// Samples (at most) whose residual sets an anchor: the measured rate's noise averaged down
-/// by about 2.2x, over a stretch short enough that the model's error is nearly constant.
-pub const ANCHOR_SAMPLES: usize = 5;
-
-/// The state correction that makes the model's rate at sample `si` equal the measured
-/// rate there, filtered: the mean residual (measured minus predicted) of the last
-/// [`ANCHOR_SAMPLES`] valid samples of the current stretch, `si` included, on each axis.
-/// The predictions before `si` are in `out`; sample `si`'s is `emit(w)`. An axis with no
-/// valid sample (a planar craft's x and y) is left as the model has it.
-fn anchor_correction(
-    series: &Series,
-    out: &[[f64; 3]],
-    segment_start: usize,
-    si: usize,
-    gyro_scale: &[f64; 3],
-    w: &Vector3<f64>,
-    emit: &impl Fn(&Vector3<f64>, &mut Vec<[f64; 3]>),
-) -> Vector3<f64> {
-    let mut here = Vec::with_capacity(1);
-    emit(w, &mut here);
-    let mut correction = Vector3::zeros();
-    for a in 0..3 {
-        let (mut sum, mut n) = (0.0, 0usize);
-        for j in (segment_start..=si).rev() {
-            if n == ANCHOR_SAMPLES {
-                break;
-            }
-            let predicted = if j == si { here[0][a] } else { out[j][a] };
-            if series.valid[j][a] {
-                sum += series.rate[j][a] - predicted;
-                n += 1;
-            }
-        }
-        if n > 0 && gyro_scale[a] != 0.0 {
-            correction[a] = sum / n as f64 / gyro_scale[a];
-        }
-    }
-    correction
 }
 
 #[cfg(test)]
@@ -507,66 +461,5 @@ mod tests {
         let d = duty_grid(&series, 0.25, 0.5, 0.0);
         let on: Vec<f32> = d.iter().map(|x| x[0]).collect();
         assert_eq!(on, vec![0.0, 0.0, 0.0, 0.75, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0]);
-    }
-
-    /// At every `--horizon` start the prediction is re-anchored to the measured rate (a
-    /// filtered value, not a jump fitted over the stretch after it): a craft whose rate drifts
-    /// under an unmodelled torque is predicted from the measured rate at each anchor, and
-    /// without the anchors the same prediction drifts away.
-    #[test]
-    fn horizon_starts_are_anchored_at_the_measured_rate() {
-        let sat = Satellite::builtin("sph2").unwrap();
-        let plant = Plant::new(&sat);
-        let n = 5000usize;
-        let t: Vec<i64> = (0..n as i64).collect();
-        // an unmodelled constant torque: the z rate ramps 0.02 rad/s per second
-        let truth = |k: usize| 0.1 + 0.02 * k as f64 * 1e-3;
-        let mut state = 12345u64;
-        let counts: Vec<[i32; 3]> = (0..n)
-            .map(|k| {
-                let mut c = [0; 3];
-                for (a, ca) in c.iter_mut().enumerate() {
-                    // uniform noise of +-2 counts
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    let u = (state >> 33) as f64 / (1u64 << 31) as f64 * 4.0 - 2.0;
-                    let w = if a == 2 { truth(k) } else { 0.0 };
-                    *ca = (sat.gyro_bias_counts[a] + sat.gyro_counts_per_rad_s[a] * w + u).round()
-                        as i32;
-                }
-                c
-            })
-            .collect();
-        let words = vec![0u16; n];
-        let mut series = Series::from_counts(
-            &t,
-            &counts,
-            &words,
-            sat.gyro_bias_counts,
-            sat.gyro_counts_per_rad_s,
-            Some(1000.0),
-        )
-        .unwrap();
-        let duty = duty_grid(&series, 0.0, 0.0, 0.0);
-        let p = Params {
-            omega0: [0.0, 0.0, truth(0)],
-            ..Params::default()
-        };
-        let open_loop = predict(&plant, &series, &duty, &p).unwrap();
-        series.reset_every(1.0);
-        assert_eq!(series.anchors, vec![1000, 2000, 3000, 4000]);
-        let anchored = predict(&plant, &series, &duty, &p).unwrap();
-        // noise sd of one sample: 2 / sqrt(3) counts (+ rounding), averaged over 5 samples
-        let sd = (4.0 / 3.0 + 1.0 / 12.0f64).sqrt() / sat.gyro_counts_per_rad_s[2];
-        let bound = 4.0 * sd / (ANCHOR_SAMPLES as f64).sqrt() + 0.02 * 3e-3;
-        for &si in &series.anchors {
-            let e = (anchored[si][2] - truth(si)).abs();
-            assert!(e < bound, "anchor {si}: {e} > {bound}");
-            assert!((open_loop[si][2] - truth(si)).abs() > 10.0 * bound);
-        }
-        // between anchors the model predicts (no torque: the anchored rate, up to the
-        // gyroscopic coupling of the small x and y rates the anchors took from the noise)
-        assert!((anchored[2999][2] - anchored[2000][2]).abs() < 1e-5);
     }
 }

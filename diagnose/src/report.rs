@@ -232,6 +232,8 @@ const WINDOW_FILL: RGBColor = RGBColor(255, 236, 170);
 const SIGNIFICANCE: RGBColor = RGBColor(0, 140, 90);
 /// Thruster activity bars under the rates (one row per thruster that fires in view).
 const VALVE_ON: RGBColor = RGBColor(60, 60, 60);
+/// Where the model's rate is re-fitted (a `--horizon` stretch or a telemetry gap starts).
+const REFIT: RGBColor = RGBColor(20, 150, 150);
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
@@ -436,6 +438,10 @@ fn window_svg(
         if !firing.is_empty() {
             legend.push(("thruster on", VALVE_ON, 6));
         }
+        let refits = refit_times(series, t, v0, v1);
+        if !refits.is_empty() {
+            legend.push(("rate re-fitted", REFIT, 2));
+        }
         title_strip(&top, title, &legend)?;
         let (body, strip) = body.split_vertically(body.dim_in_pixel().1 - strip_px);
         let shown = measured_axes(series);
@@ -509,6 +515,16 @@ fn window_svg(
                         .map_err(|e| e.to_string())?;
                 }
             }
+            for &at in &refits {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        vec![(at, lo), (at, hi)],
+                        3,
+                        3,
+                        REFIT.stroke_width(2),
+                    ))
+                    .map_err(|e| e.to_string())?;
+            }
             // the models first, the measurement on top of them (thin, so both stay visible)
             chart
                 .draw_series(LineSeries::new(nom, NOMINAL.stroke_width(2)))
@@ -534,6 +550,19 @@ fn window_svg(
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(out)
+}
+
+/// Times (s) in `v0..=v1` where the models' rate is re-fitted: the first sample of every
+/// `--horizon` stretch and after every telemetry gap. The rate there is a jump fitted by
+/// least squares over the whole stretch that follows, so where the model misses physics the
+/// curves start away from the measurement; the marker says why.
+fn refit_times(series: &Series, t: &[f64], v0: f64, v1: f64) -> Vec<f64> {
+    series
+        .gap_resets
+        .iter()
+        .filter_map(|&i| t.get(i).copied())
+        .filter(|&x| (v0..=v1).contains(&x))
+        .collect()
 }
 
 /// The thrusters (0-based) commanded open at some time in `v0..v1` s.
@@ -1019,7 +1048,7 @@ mod tests {
             r#"{"effect":"thruster_latency","params":{"open_ms":6.0,"close_ms":6.0}}"#,
         );
         let s = synth::make("sph4", Maneuver::Combo { seconds: 20 }, 100, vec![eff], 104);
-        let a = diagnose_recording(&s.recording, &s.satellite, &Settings::default())
+        let mut a = diagnose_recording(&s.recording, &s.satellite, &Settings::default())
             .expect("diagnosis");
         assert!(
             a.output
@@ -1108,6 +1137,21 @@ mod tests {
             assert!(h.contains(section), "{section}");
         }
         assert!(!h.contains("1000000000"));
+        // where the models' rate is re-fitted (a --horizon stretch or a gap starts) the panel
+        // marks it, so a curve that starts away from the measurement there is explained
+        let t = times_s(&a.series);
+        let w = merge_windows(&e.windows_ms)[0];
+        let marked = |a: &Analysis| {
+            window_svg(a, &t, w, "w", Mark::Shade)
+                .expect("panel")
+                .contains("rate re-fitted")
+        };
+        assert!(a.series.gap_resets.is_empty() && !marked(&a));
+        let inside = t.partition_point(|&x| x < (w[0] + w[1]) as f64 * 0.5e-3);
+        a.series.gap_resets = vec![inside];
+        assert!(marked(&a));
+        a.series.gap_resets = vec![t.len() - 1];
+        assert!(!marked(&a), "a re-fit outside the window is not drawn");
     }
 
     #[test]

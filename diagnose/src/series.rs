@@ -32,11 +32,6 @@ pub struct Series {
     /// [`MAX_GAP_RESETS`]): the commands inside a gap are unknown, so the model's state is
     /// re-estimated there instead of trusting the held command.
     pub gap_resets: Vec<usize>,
-    /// Indices of the samples where the model's state is re-anchored to the measured rate
-    /// ([`Series::reset_every`]): the start of every `--horizon` stretch. Unlike a gap reset
-    /// nothing is fitted there: the rate is known from the samples just before, so a fitted
-    /// jump would only let the horizon's later samples pull the anchor away from them.
-    pub anchors: Vec<usize>,
     /// Where the model's clock was shortened: (model ms from which it applies, real minus
     /// model ms from there on), increasing.
     pub clock_shifts: Vec<(i64, i64)>,
@@ -258,7 +253,6 @@ impl Series {
             word_ms,
             sample_rate_hz,
             gap_resets,
-            anchors: Vec::new(),
             clock_shifts,
             railed,
             warnings,
@@ -281,22 +275,19 @@ impl Series {
         part.rate = self.rate[range.clone()].to_vec();
         part.valid = self.valid[range.clone()].to_vec();
         part.word_ms.truncate(last + 1);
-        let within = |at: &[usize]| -> Vec<usize> {
-            at.iter()
-                .filter(|&&i| range.contains(&i) && i > range.start)
-                .map(|&i| i - range.start)
-                .collect()
-        };
-        part.gap_resets = within(&self.gap_resets);
-        part.anchors = within(&self.anchors);
+        part.gap_resets = self
+            .gap_resets
+            .iter()
+            .filter(|&&i| range.contains(&i) && i > range.start)
+            .map(|&i| i - range.start)
+            .collect();
         Some(part)
     }
 
-    /// Re-anchors the model's state to the measured rate at the first sample of every
-    /// `horizon_s` stretch (on the model's clock; [`Series::anchors`]): the model is then
-    /// compared with the craft over that horizon, not open loop over the whole recording.
-    /// At most [`MAX_HORIZON_RESETS`] (the horizon widens to fit); a gap reset keeps its
-    /// fitted jump.
+    /// Adds a state re-estimate at the first sample of every `horizon_s` stretch (on the
+    /// model's clock), on top of the gap resets: the model is then compared with the craft
+    /// over that horizon, not open loop over the whole recording. At most
+    /// [`MAX_HORIZON_RESETS`] (the horizon widens to fit).
     pub fn reset_every(&mut self, horizon_s: f64) {
         let (Some(&t0), Some(&t1)) = (self.t_ms.first(), self.t_ms.last()) else {
             return;
@@ -318,8 +309,10 @@ impl Series {
                 }
             }
         }
-        at.retain(|i| !self.gap_resets.contains(i));
-        self.anchors = at;
+        at.extend_from_slice(&self.gap_resets);
+        at.sort_unstable();
+        at.dedup();
+        self.gap_resets = at;
     }
 
     /// Number of samples.

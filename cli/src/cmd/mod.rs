@@ -42,8 +42,8 @@ macro_rules! say {
 }
 
 // The subcommands, after the `say!` macro they use (a macro is in scope below its definition).
-pub mod characterize;
 pub mod batch;
+pub mod characterize;
 pub mod demo;
 pub mod diagnose;
 pub mod estimate;

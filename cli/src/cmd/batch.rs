@@ -358,14 +358,15 @@ impl Progress {
 }
 
 /// Diagnoses one recording of the batch into `json`: the JSON and its seconds written
-/// atomically; on failure (bad recording, write error, a panic) the error row.
-fn job(recording: &Path, json: &Path, options: &Options) -> Result<(), Row> {
+/// atomically; on failure (bad recording, write error, a panic) the error row (boxed: a row
+/// is large and the success path carries nothing).
+fn job(recording: &Path, json: &Path, options: &Options) -> Result<(), Box<Row>> {
     let started = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         diagnose_file(recording, options, false).and_then(|d| to_json(&d.analysis))
     }));
     let seconds = started.elapsed().as_secs_f64();
-    let fail = |e: String| Row::error(recording, &e, Some(seconds));
+    let fail = |e: String| Box::new(Row::error(recording, &e, Some(seconds)));
     match result {
         Ok(Ok(text)) => {
             write_atomic(json, &text).map_err(|e| fail(format!("{e:#}")))?;
@@ -503,7 +504,7 @@ pub fn run(b: Batch) -> anyhow::Result<()> {
             .filter_map(|f| {
                 let result = job(f, &out.join(json_name(f)), &b.options);
                 progress.finished(f, result.as_ref().err().and_then(|r| r.error.as_deref()));
-                result.err()
+                result.err().map(|row| *row)
             })
             .collect()
     });

@@ -13,7 +13,7 @@ DIR/summary.jsonl (rows sorted by file), so the workers need no shared output fo
 they need `massid` on their PATH (or --massid) and the recordings at the same paths.
 
     python3 scripts/batch_ray.py --out DIR [--massid BIN] [--address auto] \
-        [--num-cpus N] [-- extra massid diagnose options] RECORDING_OR_FOLDER...
+        [--num-cpus N] RECORDING_OR_FOLDER... [-- extra massid diagnose options]
 
 Local mode (the default) starts a Ray instance on this machine with --num-cpus workers;
 `--address auto` (or ray://HOST:10001) joins a running cluster instead.
@@ -81,10 +81,24 @@ def main():
     ap.add_argument("--force", action="store_true",
                     help="replace JSONs already in --out")
     ap.add_argument("paths", nargs="+", help="recordings and folders")
-    args, extra = ap.parse_known_args()
-    extra = [a for a in extra if a != "--"]
+    # everything after `--` goes to massid diagnose untouched (argparse would take an
+    # option's value, `--horizon 10`, for a path)
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1:] if "--" in argv else []
+    own = argv[:argv.index("--")] if "--" in argv else argv
+    args = ap.parse_args(own)
     files = recordings(args.paths)
     os.makedirs(args.out, exist_ok=True)
+    # the output names are checked before any work, as massid diagnose --out does
+    names = {}
+    for f in files:
+        name = json_name(f)
+        if name in names:
+            sys.exit(f"{f} and {names[name]} would both write {name}; rename one")
+        names[name] = f
+        path = os.path.join(args.out, name)
+        if os.path.exists(path) and not args.force:
+            sys.exit(f"{path}: exists; refusing to overwrite it (pass --force)")
     massid = os.path.abspath(args.massid) if os.path.sep in args.massid else args.massid
     if args.address:
         ray.init(address=args.address)

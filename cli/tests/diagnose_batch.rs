@@ -300,6 +300,36 @@ fn a_bad_recording_gets_an_error_row_and_the_others_succeed() {
         .collect();
     std::fs::write(out.join("summary.jsonl"), dropped).unwrap();
     assert_eq!(rows(&out).len(), 3, "a dropped row shows");
+
+    // A forced rerun where a recording now fails leaves no stale JSON behind, so the run
+    // after it does not skip the recording as diagnosed (its row stays an error).
+    let nominal = recs.join("a_nominal.csv");
+    let good = std::fs::read(&nominal).unwrap();
+    std::fs::write(&nominal, "# format = massid-recording/1\nbroken\n").unwrap();
+    let forced = [s(&recs), "--out".into(), s(&out), "--force".into()];
+    let forced: Vec<&str> = forced.iter().map(String::as_str).collect();
+    assert!(!batch(&forced).status.success());
+    assert!(!out.join("a_nominal.json").exists(), "a stale JSON stays");
+    assert!(!out.join("a_nominal.seconds").exists());
+    assert!(!batch(&[&s(&recs), "--out", &s(&out)]).status.success());
+    let row = rows(&out)
+        .into_iter()
+        .find(|r| {
+            r["file"]
+                .as_str()
+                .is_some_and(|f| f.ends_with("a_nominal.csv"))
+        })
+        .expect("a row for the broken recording");
+    assert_eq!(row["status"], "error", "{row}");
+    std::fs::write(&nominal, good).unwrap();
+
+    // --out may be the recordings' own folder: its summary.csv is not taken for a
+    // recording, so a rerun there resumes instead of refusing to overwrite an input.
+    for _ in 0..2 {
+        let o = batch(&[&s(&recs), "--out", &s(&recs)]);
+        assert!(!stderr(&o).contains("input"), "{}", stderr(&o));
+        assert_eq!(rows(&recs).len(), 4, "three recordings and the bad one");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -198,6 +198,8 @@ fn folder(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         .map_err(|e| anyhow::anyhow!("{}: cannot read the folder: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| is_csv(p))
+        // a batch's own summary in the folder is not a recording (--out may be the folder)
+        .filter(|p| p.file_name().is_none_or(|n| n != SUMMARY_CSV))
         .collect();
     found.sort();
     if found.is_empty() {
@@ -366,12 +368,19 @@ fn job(recording: &Path, json: &Path, options: &Options) -> Result<(), Box<Row>>
         diagnose_file(recording, options, false).and_then(|d| to_json(&d.analysis))
     }));
     let seconds = started.elapsed().as_secs_f64();
-    let fail = |e: String| Box::new(Row::error(recording, &e, Some(seconds)));
+    // a failed job leaves no JSON behind (a --force rerun's old one included), so a later
+    // run does not skip the recording as diagnosed
+    let fail = |e: String| {
+        let _ = std::fs::remove_file(json);
+        let _ = std::fs::remove_file(seconds_path(json));
+        Box::new(Row::error(recording, &e, Some(seconds)))
+    };
     match result {
         Ok(Ok(text)) => {
-            write_atomic(json, &text).map_err(|e| fail(format!("{e:#}")))?;
+            // the seconds first: a JSON present is a finished job with its seconds
             write_atomic(&seconds_path(json), &format!("{seconds:.3}\n"))
-                .map_err(|e| fail(format!("{e:#}")))
+                .map_err(|e| fail(format!("{e:#}")))?;
+            write_atomic(json, &text).map_err(|e| fail(format!("{e:#}")))
         }
         Ok(Err(e)) => Err(fail(format!("{e:#}"))),
         Err(panic) => {

@@ -226,14 +226,8 @@ pub fn diagnose(
             if accepted.iter().any(|a| a.kind == kind) {
                 continue;
             }
-            // mechanisms that share parameters cannot be combined
-            if matches!(
-                kind,
-                Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset
-            ) && accepted
-                .iter()
-                .any(|a| matches!(a.kind, Kind::MassPropertyChange))
-            {
+            // mechanisms that share parameters (or give the same rates) cannot be combined
+            if !accepted.iter().all(|a| combinable(a.kind, kind)) {
                 continue;
             }
             let k_new = effects::n_params(kind, &fired);

@@ -49,7 +49,7 @@ impl<'a> Problem<'a> {
 
     /// Predicted gyro output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
-        let d = self.duty(p.open_ms, p.close_ms, p.rise_ms);
+        let d = self.duty(p.open_ms + p.delay_ms, p.close_ms + p.delay_ms, p.rise_ms);
         model::predict(self.plant, self.series, &d, p)
     }
 

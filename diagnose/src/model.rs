@@ -46,6 +46,9 @@ pub struct Params {
     /// First-order thrust rise and decay time constant at every valve edge, ms (0: the
     /// valve's force steps).
     pub rise_ms: f64,
+    /// The recorded rate is the body rate this long ago, ms (`measurement_delay`): applied
+    /// as a shift of every valve edge, its exact equal on rates.
+    pub delay_ms: f64,
     /// Body rate at the first sample, rad/s (a nuisance parameter, always fitted).
     pub omega0: [f64; 3],
     /// Rate jumps (rad/s) at the first sample after each telemetry gap: the commands
@@ -71,6 +74,7 @@ impl Default for Params {
             disturbance_nm: [0.0; 3],
             damping_nms: [0.0; 3],
             rise_ms: 0.0,
+            delay_ms: 0.0,
             omega0: [0.0; 3],
             resets: Vec::new(),
         }

@@ -92,7 +92,26 @@ pub fn context<'a>(prob: &Problem, fired: &'a [bool; NT], slosh_hint_hz: &'a [f6
         fired,
         slosh_hint_hz,
         sample_rate_hz: prob.series.sample_rate_hz,
+        command_step_ms: command_step_ms(&prob.series.word_ms),
     }
+}
+
+/// Median time one thruster word holds, ms (runs of the 1 ms command grid; 1000 when the
+/// words never change).
+fn command_step_ms(word_ms: &[u16]) -> f64 {
+    let mut runs = vec![];
+    let mut start = 0usize;
+    for k in 1..word_ms.len() {
+        if word_ms[k] != word_ms[k - 1] {
+            runs.push(k - start);
+            start = k;
+        }
+    }
+    if runs.is_empty() {
+        return 1000.0;
+    }
+    runs.sort_unstable();
+    runs[runs.len() / 2] as f64
 }
 
 /// Parameter space of `kind` for this recording.
@@ -309,12 +328,20 @@ pub(crate) fn wald(kind: Kind, theta: &[f64], se: &[f64], prob: &Problem) -> f64
 }
 
 /// The valve latency (open, close ms) among `pairs`, zero when none.
+/// A measurement delay counts as a latency on both edges (it shifts every edge as the rate
+/// sensor sees it).
 pub(crate) fn latency_of(pairs: &[(Kind, Vec<f64>)]) -> (f64, f64) {
-    pairs
+    let (open, close) = pairs
         .iter()
         .find(|a| a.0 == Kind::ThrusterLatency)
         .map(|a| (a.1[0], a.1[1]))
-        .unwrap_or((0.0, 0.0))
+        .unwrap_or((0.0, 0.0));
+    let delay = pairs
+        .iter()
+        .find(|a| a.0 == Kind::MeasurementDelay)
+        .map(|a| a.1[0])
+        .unwrap_or(0.0);
+    (open + delay, close + delay)
 }
 
 /// Mechanisms that share parameters cannot be fitted together.
@@ -325,5 +352,7 @@ pub(crate) fn combinable(a: Kind, b: Kind) -> bool {
             Kind::MassPropertyChange | Kind::Inertia | Kind::ComOffset
         )
     };
+    let timing = |k: Kind| matches!(k, Kind::ThrusterLatency | Kind::MeasurementDelay);
     !(mass(a) && mass(b) && (a == Kind::MassPropertyChange || b == Kind::MassPropertyChange))
+        && !(timing(a) && timing(b) && a != b)
 }

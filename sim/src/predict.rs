@@ -106,16 +106,63 @@ impl Predictor {
             |_, _, _| 0.0,
         );
         let cfg = &self.plant.cfg;
+        let seen = delayed(
+            &times_ms[..n],
+            &p.body_rate,
+            &p.angular_accel,
+            cfg.measurement_delay_ms,
+        );
         p.gyro_rad_s = (0..n)
             .map(|k| {
                 std::array::from_fn(|a| {
-                    cfg.gyro_scale[a] * (p.body_rate[k][a] + ringing[k][a])
+                    cfg.gyro_scale[a] * (seen[k][a] + ringing[k][a])
                         + cfg.gyro_bias_counts[a] / self.counts_per_rad_s[a]
                 })
             })
             .collect();
         p
     }
+}
+
+/// The body rate `delay_ms` before each sample instant (a `measurement_delay`), by cubic
+/// Hermite interpolation between the sample instants from the rates and accelerations there;
+/// before the first instant the first rate is held (as the simulator's delay line does).
+fn delayed(
+    times_ms: &[u64],
+    rate: &[[f64; 3]],
+    accel: &[[f64; 3]],
+    delay_ms: f64,
+) -> Vec<[f64; 3]> {
+    if delay_ms <= 0.0 || times_ms.is_empty() {
+        return rate.to_vec();
+    }
+    let mut j = 0usize;
+    times_ms
+        .iter()
+        .map(|&t| {
+            let tq = t as f64 - delay_ms;
+            if tq <= times_ms[0] as f64 {
+                return rate[0];
+            }
+            while j + 1 < times_ms.len() && (times_ms[j + 1] as f64) < tq {
+                j += 1;
+            }
+            let (t0, t1) = (times_ms[j] as f64, times_ms[j + 1] as f64);
+            let h = (t1 - t0) * 1e-3;
+            let u = (tq - t0) / (t1 - t0);
+            let (h00, h10) = (
+                1.0 - 3.0 * u * u + 2.0 * u * u * u,
+                u - 2.0 * u * u + u * u * u,
+            );
+            let (h01, h11) = (3.0 * u * u - 2.0 * u * u * u, u * u * u - u * u);
+            std::array::from_fn(|a| {
+                h00 * rate[j][a]
+                    + h10 * h * accel[j][a]
+                    + h01 * rate[j + 1][a]
+                    + h11 * h * accel[j + 1][a]
+            })
+        })
+        .collect()
 }
 
 /// The distinct instants (ms) at which valves actually open or close: each is one shock.

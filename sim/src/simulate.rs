@@ -2,7 +2,7 @@
 //! Deterministic: the same spec and seed give the same bytes (ChaCha8 streams, fixed order).
 //! A craft whose rates v1 cannot hold (see [`needs_v2`]) is also recorded in format v2.
 use crate::dynamics::{Plant, State};
-use crate::effects::{Effect, PlantConfig, Truth};
+use crate::effects::{DelayLine, Effect, PlantConfig, Truth};
 use crate::maneuvers;
 use crate::predict::{ringing_at, shock_times_ms};
 use crate::propagate::{Propagator, StepOptions};
@@ -283,8 +283,12 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     // sample instants: its file then says exactly what was flown (a 1 ms pulse edge between
     // two rows would read as up to a sample period of valve latency).
     let hold = needs_v2(sat);
+    let mut delay = DelayLine::new(c.measurement_delay_ms);
+    let mut measured: Vec<[f64; 3]> = Vec::new();
     for t in 0..total_ms {
         prop.advance_to(t as f64);
+        // what the rate sensor sees now (the body rate a measurement delay ago)
+        let seen = delay.push(prop.state().w.into());
         let is_sample = t % period_ms == 0;
         let noise = if is_sample {
             Some(gyro_noise.sample(t as f64, &mut gyro_rng))
@@ -298,7 +302,7 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
                 let n = noise.unwrap_or_else(|| ctrl_noise.sample(t as f64, &mut ctrl_rng));
                 let x = prop.state();
                 let sensed = Vector3::from(std::array::from_fn::<f64, 3, _>(|a| {
-                    c.gyro_scale[a] * (x.w[a] + n[a])
+                    c.gyro_scale[a] * (seen[a] + n[a])
                         + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
                 }));
                 ctl.plan(t, &sensed, &x.attitude())?;
@@ -321,6 +325,7 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             times.push(t as u64);
             words.push(word);
             rates.push(x.w.into());
+            measured.push(seen);
             accel.push(f.into());
             gyro_n.push(n);
         }
@@ -339,8 +344,9 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let mut samples = Vec::with_capacity(times.len());
     let mut sensed_rad_s = Vec::with_capacity(times.len());
     for k in 0..times.len() {
-        let sensed: [f64; 3] =
-            std::array::from_fn(|a| c.gyro_scale[a] * (rates[k][a] + ringing[k][a] + gyro_n[k][a]));
+        let sensed: [f64; 3] = std::array::from_fn(|a| {
+            c.gyro_scale[a] * (measured[k][a] + ringing[k][a] + gyro_n[k][a])
+        });
         // What a rad/s sensor reports: a gyro bias effect (counts) in the sensor's units.
         sensed_rad_s.push(std::array::from_fn::<f64, 3, _>(|a| {
             sensed[a] + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]

@@ -14,6 +14,7 @@ mod gyro_ringing;
 mod gyro_scale;
 mod inertia;
 mod mass_property_change;
+mod measurement_delay;
 mod pressure_drop;
 mod rate_damping;
 mod thrust_rise;
@@ -46,10 +47,11 @@ pub enum Kind {
     RateDamping,
     /// Extra (beyond the contract's list): first-order thrust rise at valve edges.
     ThrustRise,
+    MeasurementDelay,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 14] = [
+    pub const ALL: [Kind; 15] = [
         Kind::ThrusterLatency,
         Kind::PressureDrop,
         Kind::Blowdown,
@@ -64,6 +66,7 @@ impl Kind {
         Kind::DisturbanceTorque,
         Kind::RateDamping,
         Kind::ThrustRise,
+        Kind::MeasurementDelay,
     ];
 
     /// The effect's description: the one registry of the vocabulary.
@@ -83,6 +86,7 @@ impl Kind {
             Kind::DisturbanceTorque => &disturbance_torque::DisturbanceTorque,
             Kind::RateDamping => &rate_damping::RateDamping,
             Kind::ThrustRise => &thrust_rise::ThrustRise,
+            Kind::MeasurementDelay => &measurement_delay::MeasurementDelay,
         }
     }
 
@@ -120,6 +124,9 @@ pub struct Context<'a> {
     pub slosh_hint_hz: &'a [f64],
     /// The recording's sample rate, Hz.
     pub sample_rate_hz: f64,
+    /// The typical time a thruster command holds (median run of one thruster word), ms:
+    /// delay searches place their starts a few per step.
+    pub command_step_ms: f64,
 }
 
 /// The reported parameters and their standard errors, in the contract's names and units.
@@ -224,6 +231,7 @@ mod tests {
             fired,
             slosh_hint_hz: hint,
             sample_rate_hz: 1000.0,
+            command_step_ms: 200.0,
         }
     }
 

@@ -5,6 +5,11 @@ use crate::model::{Params, NT};
 
 pub struct ThrusterLatency;
 
+/// The longest valve delay searched, ms: a solenoid valve opens in a few ms (seed ch. 2:
+/// ~6 ms); a long feed line or a slow pilot stage adds tens of ms. Beyond this a delay is
+/// not the valves' (see `measurement_delay.rs`, its equal on rates).
+pub const MAX_LATENCY_MS: f64 = 100.0;
+
 impl Effect for ThrusterLatency {
     fn name(&self) -> &'static str {
         "thruster_latency"
@@ -16,18 +21,27 @@ impl Effect for ThrusterLatency {
         p.open_ms = th[0];
         p.close_ms = th[1];
     }
-    fn spec(&self, _: &Context) -> Spec {
+    fn spec(&self, cx: &Context) -> Spec {
+        // from 2 ms (the seed's valves), then along open = close over the whole range: a
+        // latency longer than the command step is not found from a start near zero
+        let mut starts = vec![vec![2.0, 2.0]];
+        starts.extend(
+            super::measurement_delay::delay_grid(6.0, MAX_LATENCY_MS, cx, 24)
+                .into_iter()
+                .skip(1)
+                .map(|d| vec![d, d]),
+        );
         Spec {
             lo: vec![0.0, 0.0],
-            hi: vec![50.0, 50.0],
+            hi: vec![MAX_LATENCY_MS, MAX_LATENCY_MS],
             step: vec![0.05, 0.05],
-            starts: vec![vec![2.0, 2.0]],
+            starts,
         }
     }
     fn no_effect(&self, theta: &[f64], _: &Context) -> Vec<(usize, f64)> {
         all_at(theta, 0.0)
     }
-    // valves open/close within 0..50 ms (seed ch. 2 measures ~6 ms)
+    // valves open/close within 0..MAX_LATENCY_MS (seed ch. 2 measures ~6 ms)
     fn implausible(
         &self,
         th: &[f64],
@@ -35,7 +49,7 @@ impl Effect for ThrusterLatency {
         _: &Context,
     ) -> Option<String> {
         (at_bound(0) && th[0] > 0.0 || at_bound(1) && th[1] > 0.0)
-            .then(|| "latency at the 50 ms search bound".into())
+            .then(|| format!("latency at the {MAX_LATENCY_MS} ms search bound"))
     }
     fn signature(&self) -> &'static str {
         "residual concentrates at valve edges: torque arrives later than commanded"

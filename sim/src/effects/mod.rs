@@ -20,6 +20,7 @@ mod gyro_ringing;
 mod gyro_scale;
 mod inertia;
 mod mass_property_change;
+mod measurement_delay;
 mod pressure_drop;
 mod rate_damping;
 mod thrust_rise;
@@ -35,6 +36,7 @@ pub use gyro_ringing::GyroRinging;
 pub use gyro_scale::GyroScale;
 pub use inertia::Inertia;
 pub use mass_property_change::MassPropertyChange;
+pub use measurement_delay::{DelayLine, MeasurementDelay};
 pub use pressure_drop::PressureDrop;
 pub use rate_damping::RateDamping;
 pub use thrust_rise::ThrustRise;
@@ -85,6 +87,8 @@ pub struct PlantConfig {
     /// Torque against the body rate per axis, N m s/rad (outside the vocabulary, see
     /// `rate_damping.rs`).
     pub rate_damping_nms: [f64; 3],
+    /// The rate sensor reports the body rate this long ago, ms (see `measurement_delay.rs`).
+    pub measurement_delay_ms: f64,
 }
 
 impl PlantConfig {
@@ -109,6 +113,7 @@ impl PlantConfig {
             disturbance_torque_nm: [0.0; 3],
             thrust_rise_tau_ms: 0.0,
             rate_damping_nms: [0.0; 3],
+            measurement_delay_ms: 0.0,
         }
     }
 
@@ -158,6 +163,7 @@ pub enum Effect {
     ThrustRise(ThrustRise),
     /// Not in the contract's vocabulary: `rate_damping`, `nms_per_rad` (3).
     RateDamping(RateDamping),
+    MeasurementDelay(MeasurementDelay),
 }
 
 /// The contract's effect names, in the table's order (without the extra `thrust_rise` and
@@ -195,6 +201,7 @@ impl Effect {
             Effect::DisturbanceTorque(e) => e,
             Effect::ThrustRise(e) => e,
             Effect::RateDamping(e) => e,
+            Effect::MeasurementDelay(e) => e,
         }
     }
 
@@ -215,6 +222,7 @@ impl Effect {
             Effect::DisturbanceTorque(_) => "disturbance_torque",
             Effect::ThrustRise(_) => "thrust_rise",
             Effect::RateDamping(_) => "rate_damping",
+            Effect::MeasurementDelay(_) => "measurement_delay",
         }
     }
 
@@ -325,6 +333,7 @@ impl Effect {
                 positive("decay_ms", e.decay_ms)
             }
             Effect::ThrustRise(e) => non_negative("tau_ms", e.tau_ms),
+            Effect::MeasurementDelay(e) => non_negative("delay_ms", e.delay_ms),
             Effect::RateDamping(e) => e
                 .nms_per_rad
                 .iter()
@@ -382,6 +391,7 @@ impl Effect {
                 at_most("close_ms", e.close_ms, MAX_DELAY_MS, " ms")
             }
             Effect::ThrustRise(e) => at_most("tau_ms", e.tau_ms, MAX_DELAY_MS, " ms"),
+            Effect::MeasurementDelay(e) => at_most("delay_ms", e.delay_ms, MAX_DELAY_MS, " ms"),
             Effect::ThrustScale(e) => {
                 let n = sat.n_thrusters();
                 if e.scale.len() != n {

@@ -1,20 +1,75 @@
-//! Noise statistics of the gyro residual. The gyro noise is white but band-limited
-//! (seed Fig. 3.10: 300 Hz bandwidth), so at 1 kHz neighbouring samples are correlated
-//! and a plain variance overstates how much information each sample carries about slow
-//! model errors. We estimate the autocovariance from lagged differences inside coasting
-//! stretches (no valve open, away from edges), where model error barely changes over a
-//! few ms, and use the long-run variance (spectral density at low frequency) to scale
-//! chi-square, BIC and standard errors.
+//! Noise statistics of the rate-sensor residual, with a model per kind of rate sensor
+//! (issue 24 item 3). Three kinds are told apart from the data, never from the craft or the
+//! file name:
+//!
+//! - **white** (a gyro sampled far below its bandwidth): neighbouring samples independent;
+//! - **band-limited** (a gyro sampled near or above its bandwidth, seed Fig. 3.10: 300 Hz):
+//!   a first-order Gauss-Markov process, positive lag-1 correlation decaying geometrically;
+//! - **differenced attitude** (rates differenced from motion-capture attitude): attitude
+//!   noise differenced over one sample plus white noise, an MA(1) process whose lag-1
+//!   correlation is *negative* (down to -0.5) and whose lag-2 and later correlations are 0.
+//!
+//! The statistics come from lagged differences inside coasting stretches (no valve open,
+//! away from edges), where model error barely changes over a few ms: the structure function
+//! D(L) = E[(x_{t+L} - x_t)^2] = 2 (g0 - gL). The kind is the sign of the pooled lag-1
+//! correlation, counted only when it stands clear of its sampling noise ([`KIND_MIN`],
+//! [`KIND_SIGMAS`]; see [`estimate`]). The model then sets the per-sample variance and its
+//! uncertainty (the `unexplained` level), the effective variance that weights chi-square,
+//! BIC, Wald tests and standard errors, and how far apart the whiteness test's block means
+//! must be to share no noise ([`NoiseModel::block_gap`]).
+
+use serde::{Deserialize, Serialize};
 
 use crate::series::Series;
+
+/// Which rate sensor the residual's noise looks like (see the module comment).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseKind {
+    White,
+    BandLimited,
+    DifferencedAttitude,
+}
+
+impl NoiseKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            NoiseKind::White => "white",
+            NoiseKind::BandLimited => "band_limited",
+            NoiseKind::DifferencedAttitude => "differenced_attitude",
+        }
+    }
+}
+
+/// A lag-1 correlation |rho1| below this is white whatever the sample size: a 5 %
+/// correlation changes no decision (block means, variance) measurably.
+pub const KIND_MIN: f64 = 0.05;
+/// ... and it must exceed this many of its own standard errors (2/sqrt(pairs), a bound on
+/// the median-based D(L) ratio's for white noise), so white noise is not called coloured by
+/// chance (one recording in ~10^4 at 4 standard errors).
+pub const KIND_SIGMAS: f64 = 4.0;
+/// A band-limited gyro's correlation is followed until it falls below this fraction
+/// (the variance then comes from lags where the noise has decorrelated)...
+const DECORRELATED: f64 = 0.01;
+/// ... but never beyond this lag (ms): slower changes are model error, not noise.
+const MAX_NOISE_LAG_MS: f64 = 100.0;
+/// The environment variable that overrides the kind (`white`, `band_limited`,
+/// `differenced_attitude`): a planted fault for the tests that show the model matters.
+pub const FORCE_KIND_ENV: &str = "MASSID_NOISE_KIND";
 
 /// Per-axis noise description.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NoiseModel {
+    /// The kind chosen for this recording (one rate sensor, so one kind for all axes).
+    pub kind: NoiseKind,
     /// Per-sample variance, (rad/s)^2.
     pub var: [f64; 3],
-    /// Long-run variance gamma0 + 2 sum gamma_k, (rad/s)^2: the white-noise-equivalent
-    /// variance for signals far below the noise bandwidth.
+    /// The variance that weights chi-square, BIC, Wald tests and standard errors,
+    /// (rad/s)^2: the white-noise-equivalent variance for the slow signals model errors make.
+    /// White: `var`; band-limited: the long-run variance gamma0 (1+phi)/(1-phi);
+    /// differenced attitude: the variance of the noise averaged over a command run (see
+    /// [`estimate`]), because its long-run variance (the white part alone) would overstate
+    /// what the fast parts of a model error (pulse edges) can be told from.
     pub long_run_var: [f64; 3],
     /// Lag-1 autocorrelation.
     pub rho1: [f64; 3],
@@ -22,17 +77,39 @@ pub struct NoiseModel {
     pub pairs: usize,
     /// Autocovariance at lags 0..=m per axis (lag 0 = `var`).
     pub acov: [Vec<f64>; 3],
+    /// Sample period the lags count in, ms.
+    pub dt_ms: f64,
+    /// Relative standard error of the per-sample RMS (1/sqrt of the independent pairs it
+    /// rests on): a short recording's quiet parts read the level only so well.
+    pub level_se: f64,
+}
+
+/// What the diagnosis JSON says about the noise model used (top-level `noise`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct NoiseReport {
+    pub kind: NoiseKind,
+    /// Per-sample RMS, rad/s (0 on an axis the recording does not have).
+    pub rms: [f64; 3],
+    /// Lag-1 autocorrelation per axis.
+    pub rho1: [f64; 3],
+    /// sqrt of the variance that weights the fits, rad/s.
+    pub effective_rms: [f64; 3],
+    /// Relative standard error of `rms` (from the independent quiet pairs it rests on).
+    pub rms_rel_se: f64,
 }
 
 impl NoiseModel {
     /// White noise of per-sample variance `var` (no correlation).
     pub fn white(var: [f64; 3]) -> NoiseModel {
         NoiseModel {
+            kind: NoiseKind::White,
             var,
             long_run_var: var,
             rho1: [0.0; 3],
             pairs: 0,
             acov: var.map(|v| vec![v]),
+            dt_ms: 1.0,
+            level_se: 0.0,
         }
     }
 
@@ -40,6 +117,96 @@ impl NoiseModel {
     /// on the autocovariance) and the innovation variance.
     pub fn ar(&self, order: usize) -> [(Vec<f64>, f64); 3] {
         std::array::from_fn(|a| levinson(&self.acov[a], order))
+    }
+
+    /// The report for the diagnosis JSON.
+    pub fn report(&self) -> NoiseReport {
+        let r = |x: f64| {
+            if x.is_finite() && x > 1e-29 {
+                x.sqrt()
+            } else {
+                0.0
+            }
+        };
+        NoiseReport {
+            kind: self.kind,
+            rms: self.var.map(r),
+            rho1: std::array::from_fn(|a| {
+                if self.var[a] > 1e-29 {
+                    self.rho1[a]
+                } else {
+                    0.0
+                }
+            }),
+            effective_rms: self.long_run_var.map(r),
+            rms_rel_se: self.level_se,
+        }
+    }
+
+    /// Model autocovariance of axis `a` at `lag` samples: what the kind implies beyond the
+    /// lags measured (a band-limited gyro's geometric decay, nothing past lag 1 for
+    /// differenced attitude, nothing past lag 0 for white).
+    pub fn gamma(&self, a: usize, lag: usize) -> f64 {
+        let g = &self.acov[a];
+        match self.kind {
+            NoiseKind::White => {
+                if lag == 0 {
+                    self.var[a]
+                } else {
+                    0.0
+                }
+            }
+            NoiseKind::DifferencedAttitude => match lag {
+                0 => self.var[a],
+                1 => g.get(1).copied().unwrap_or(0.0),
+                _ => 0.0,
+            },
+            NoiseKind::BandLimited => {
+                let phi = self.rho1[a].clamp(0.0, 0.999);
+                self.var[a] * phi.powi(lag.min(100_000) as i32)
+            }
+        }
+    }
+
+    /// Autocorrelation of the means of blocks of `n` consecutive samples, `gap` samples left
+    /// out between blocks, at block lags 1..=`lags` under the model (the correlation a
+    /// whiteness test on block means sees from the noise alone).
+    pub fn block_autocorr(&self, a: usize, n: usize, gap: usize, lags: usize) -> Vec<f64> {
+        let n = n.max(1);
+        let cov = |k: usize| -> f64 {
+            let mut s = 0.0;
+            for t in 0..n {
+                for u in 0..n {
+                    let lag = (k * (n + gap) + t).abs_diff(u);
+                    s += self.gamma(a, lag);
+                }
+            }
+            s / (n * n) as f64
+        };
+        let c0 = cov(0);
+        if c0 <= 0.0 {
+            return vec![0.0; lags];
+        }
+        (1..=lags).map(|k| cov(k) / c0).collect()
+    }
+
+    /// Samples to leave out between blocks of `n` so that neighbouring block means share
+    /// no noise (model correlation below `negligible` on every axis): 1 for differenced
+    /// attitude (neighbouring means share one attitude sample), 0 for white noise and for
+    /// a gyro whose correlation is gone within a block (SPHERES at 1 kHz).
+    pub fn block_gap(&self, n: usize, negligible: f64) -> usize {
+        let n = n.max(1);
+        (0..=4 * n)
+            .find(|&g| {
+                (0..3).all(|a| {
+                    self.var[a] <= 1e-29
+                        || self
+                            .block_autocorr(a, n, g, 2)
+                            .iter()
+                            .all(|c| c.abs() < negligible)
+                })
+            })
+            .unwrap_or(4 * n)
     }
 }
 
@@ -92,8 +259,105 @@ pub fn coasting_mask(series: &Series, guard_ms: i64) -> Vec<bool> {
         .collect()
 }
 
+/// Samples in a steady stretch: the command word has not changed from `guard_ms` before the
+/// sample to the sample (coasting, or a long firing). No valve shock (gyro ringing) and no
+/// step of a latency's error reach them; a model error there is a slow ramp, which can only
+/// raise D(2) against D(1), never make the lag-1 correlation negative.
+pub fn steady_mask(series: &Series, guard_ms: i64) -> Vec<bool> {
+    let mut last_change = vec![i64::MIN / 2; series.word_ms.len()];
+    let mut lc = i64::MIN / 2;
+    for (k, w) in series.word_ms.iter().enumerate() {
+        if k > 0 && *w != series.word_ms[k - 1] {
+            lc = k as i64;
+        }
+        last_change[k] = lc;
+    }
+    series
+        .t_ms
+        .iter()
+        .map(|&t| {
+            let k = (t.max(0) as usize).min(last_change.len().saturating_sub(1));
+            last_change.get(k).is_none_or(|&c| t - c > guard_ms)
+        })
+        .collect()
+}
+
+/// Structure function D(L) per axis at `lag` samples over the masked samples (robust mean
+/// square of lagged differences), and how many pairs entered on axis x.
+fn structure(
+    series: &Series,
+    r: &[[f64; 3]],
+    mask: &[bool],
+    dt: i64,
+    lag: usize,
+) -> ([f64; 3], [usize; 3]) {
+    let mut out = [0.0; 3];
+    let mut pairs = [0; 3];
+    for a in 0..3 {
+        let mut v: Vec<f64> = Vec::new();
+        for i in 0..series.len().saturating_sub(lag) {
+            let j = i + lag;
+            if mask[i]
+                && mask[j]
+                && series.t_ms[j] - series.t_ms[i] == lag as i64 * dt
+                && series.valid[i][a]
+                && series.valid[j][a]
+            {
+                v.push((r[j][a] - r[i][a]).powi(2));
+            }
+        }
+        pairs[a] = v.len();
+        out[a] = robust_mean_sq(&mut v);
+    }
+    (out, pairs)
+}
+
+/// Median number of samples in a run of one command word (a pulse or a coast): the
+/// shortest stretch over which a model error stays one shape.
+fn command_run_samples(series: &Series) -> f64 {
+    let mut runs = vec![];
+    let mut n = 0usize;
+    for i in 0..series.len() {
+        let w = |k: usize| {
+            let t = (series.t_ms[k].max(0) as usize).min(series.word_ms.len().saturating_sub(1));
+            series.word_ms.get(t).copied().unwrap_or(0)
+        };
+        n += 1;
+        if i + 1 == series.len() || w(i + 1) != w(i) {
+            runs.push(n);
+            n = 0;
+        }
+    }
+    if runs.is_empty() {
+        return 1.0;
+    }
+    runs.sort_unstable();
+    runs[runs.len() / 2].max(1) as f64
+}
+
+/// The kind the environment forces, if any (see [`FORCE_KIND_ENV`]).
+fn forced_kind() -> Option<NoiseKind> {
+    match std::env::var(FORCE_KIND_ENV).ok()?.as_str() {
+        "white" => Some(NoiseKind::White),
+        "band_limited" => Some(NoiseKind::BandLimited),
+        "differenced_attitude" => Some(NoiseKind::DifferencedAttitude),
+        _ => None,
+    }
+}
+
 /// Estimates the noise from the residual `r` (measured minus predicted) in coasting
 /// stretches. Falls back to all samples when coasting is too rare.
+///
+/// Rule: on steady stretches ([`steady_mask`]) the pooled lag-1 correlation
+/// rho1 = 1 - D(1) / mean D(2..) decides the kind: below [`KIND_MIN`] or [`KIND_SIGMAS`]
+/// standard errors (2/sqrt(pairs)) white, above it band-limited, below minus it differenced
+/// attitude. White noise, and a gyro whose correlation is gone within the ~12 ms of lags
+/// read (SPHERES' at 1 kHz), keep the variance read at those lags in coasting stretches, as
+/// always. A band-limited gyro with c = D(2)/D(1) - 1 (its AR(1) coefficient) still
+/// correlated there has its variance read where the correlation has fallen below 1 %
+/// (lag ln 0.01 / ln c; at most 100 ms, and there corrected by 1 / (1 - c^lag)): read at a
+/// fixed 12 ms, a slow gyro's variance comes out low. Differenced attitude: lags >= 2 give
+/// the variance, lag 1 the (negative) covariance.
 pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
     let dt = (1000.0 / series.sample_rate_hz).round().max(1.0) as i64;
     // lags up to ~12 ms, at least 3 samples
@@ -102,40 +366,100 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
     if mask.iter().filter(|&&m| m).count() < 200 {
         mask = vec![true; series.len()];
     }
-    // structure function D(L) = E[(x_{t+L} - x_t)^2] = 2 (g0 - gL), robustly by median
     let mut dl = vec![[0.0f64; 3]; max_lag + 2];
     let mut pairs = 0;
+    // on the axis with the most data (a planar craft has z alone)
+    let mut pairs_max = 0;
     for lag in 1..=max_lag + 1 {
-        for a in 0..3 {
-            let mut v: Vec<f64> = Vec::new();
-            for i in 0..series.len().saturating_sub(lag) {
-                let j = i + lag;
-                if mask[i]
-                    && mask[j]
-                    && series.t_ms[j] - series.t_ms[i] == lag as i64 * dt
-                    && series.valid[i][a]
-                    && series.valid[j][a]
-                {
-                    v.push((r[j][a] - r[i][a]).powi(2));
-                }
-            }
-            if a == 0 && lag == 1 {
-                pairs = v.len();
-            }
-            dl[lag][a] = robust_mean_sq(&mut v);
+        let (d, p) = structure(series, r, &mask, dt, lag);
+        dl[lag] = d;
+        if lag == 1 {
+            pairs = p[0];
+            pairs_max = p.into_iter().max().unwrap_or(0);
         }
     }
+    // the kind, from steady stretches (more of them than coasting ones), pooled over the
+    // axes that have data (one sensor, one kind)
+    let mut steady = steady_mask(series, 60);
+    if steady.iter().filter(|&&m| m).count() < 200 {
+        steady = vec![true; series.len()];
+    }
+    let mut ds = vec![[0.0f64; 3]; max_lag + 2];
+    let mut pairs_s = [0usize; 3];
+    for lag in 1..=max_lag + 1 {
+        let (d, p) = structure(series, r, &steady, dt, lag);
+        ds[lag] = d;
+        if lag == 1 {
+            pairs_s = p;
+        }
+    }
+    let plateau_s = |a: usize| (2..=max_lag + 1).map(|l| ds[l][a]).sum::<f64>() / max_lag as f64;
+    let live: Vec<usize> = (0..3)
+        .filter(|&a| pairs_s[a] > 0 && ds[1][a] > 0.0 && plateau_s(a) > 0.0)
+        .collect();
+    let pooled = |f: &dyn Fn(usize) -> f64| {
+        if live.is_empty() {
+            0.0
+        } else {
+            live.iter().map(|&a| f(a)).sum::<f64>() / live.len() as f64
+        }
+    };
+    let rho = pooled(&|a| 1.0 - ds[1][a] / plateau_s(a));
+    let c = pooled(&|a| ds[2][a] / ds[1][a] - 1.0);
+    let n_pooled: usize = live.iter().map(|&a| pairs_s[a]).sum();
+    let se = 2.0 / (n_pooled.max(1) as f64).sqrt();
+    let coloured = rho.abs() > KIND_MIN && rho.abs() > KIND_SIGMAS * se;
+    let mut kind = if !coloured {
+        NoiseKind::White
+    } else if rho > 0.0 {
+        NoiseKind::BandLimited
+    } else {
+        NoiseKind::DifferencedAttitude
+    };
+    if let Some(k) = forced_kind() {
+        kind = k;
+    }
+    if std::env::var_os("MASSID_NOISE_DEBUG").is_some() {
+        eprintln!(
+            "noise: coasting pairs {pairs}, steady pairs {pairs_s:?}, rho1 {rho:.3} c {c:.3} se {se:.3}: {kind:?}"
+        );
+    }
+    // a band-limited gyro whose correlation outlasts the lags read: read further
+    let mut plateau: Option<[f64; 3]> = None;
+    if kind == NoiseKind::BandLimited && c > 0.0 && c < 1.0 {
+        let need = (DECORRELATED.ln() / c.ln()).ceil() as usize;
+        let cap = ((MAX_NOISE_LAG_MS / dt as f64) as usize).max(max_lag);
+        if need > max_lag {
+            let l = need.min(cap);
+            let (d1, _) = structure(series, r, &steady, dt, l);
+            let (d2, _) = structure(series, r, &steady, dt, l + 1);
+            // D(L) = 2 gamma0 (1 - c^L): exact past the correlation, a correction when
+            // the lag was capped
+            let (f1, f2) = (1.0 - c.powi(l as i32), 1.0 - c.powi(l as i32 + 1));
+            plateau = Some(std::array::from_fn(|a| 0.25 * (d1[a] / f1 + d2[a] / f2)));
+        }
+    }
+    // the new branches read the steady stretches
+    let (dl, pairs_used) = match (kind, plateau) {
+        (NoiseKind::DifferencedAttitude, _) | (_, Some(_)) => {
+            (ds, pairs_s.into_iter().max().unwrap_or(0))
+        }
+        _ => (dl, pairs_max),
+    };
+    let runs = command_run_samples(series);
     let mut var = [0.0; 3];
     let mut lr = [0.0; 3];
     let mut rho1 = [0.0; 3];
     let mut acov: [Vec<f64>; 3] = Default::default();
     for a in 0..3 {
         // gamma0 from the largest lags, where correlation has died out
-        let g0 = 0.5 * (dl[max_lag][a] + dl[max_lag + 1][a]) / 2.0;
-        let mut s = g0;
-        for lag in 1..max_lag {
-            let gk = g0 - dl[lag][a] / 2.0;
-            s += 2.0 * gk;
+        let mut g0 = 0.5 * (dl[max_lag][a] + dl[max_lag + 1][a]) / 2.0;
+        if let Some(p) = plateau {
+            g0 = p[a];
+        }
+        if kind == NoiseKind::DifferencedAttitude {
+            // every lag from 2 on is the plateau: use them all
+            g0 = (2..=max_lag + 1).map(|l| dl[l][a]).sum::<f64>() / (2 * max_lag) as f64;
         }
         var[a] = g0.max(1e-30);
         acov[a] = (0..max_lag)
@@ -147,15 +471,53 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
                 }
             })
             .collect();
-        lr[a] = s.max(0.2 * g0).max(1e-30);
+        if kind == NoiseKind::DifferencedAttitude && acov[a].len() > 1 {
+            // an MA(1) lag-1 covariance is at least -gamma0 / 2 (no negative white part)
+            acov[a][1] = acov[a][1].max(-0.49 * var[a]);
+        }
         rho1[a] = 1.0 - dl[1][a] / (2.0 * var[a]);
+        lr[a] = match kind {
+            NoiseKind::DifferencedAttitude => {
+                // gamma1 = -sigma_d^2; the variance of the mean over a command run of m
+                // samples, times m: 2 sigma_d^2 / m + sigma_w^2 (a scalar weight cannot be
+                // right at every frequency; this one is right for a box-shaped model error
+                // as long as a command run, and conservative for anything slower)
+                let g1 = acov[a].get(1).copied().unwrap_or(0.0).min(0.0);
+                let sd2 = -g1;
+                let sw2 = (g0 - 2.0 * sd2).max(0.0);
+                2.0 * sd2 / runs + sw2
+            }
+            NoiseKind::BandLimited if plateau.is_some() => {
+                let phi = rho1[a].clamp(0.0, 0.99);
+                g0 * (1.0 + phi) / (1.0 - phi)
+            }
+            _ => {
+                // correlation gone within the lags read: gamma0 + 2 sum gamma_k over them
+                // (as before issue 24)
+                let s = g0 + 2.0 * acov[a][1..].iter().sum::<f64>();
+                s.max(0.2 * g0)
+            }
+        }
+        .max(1e-30);
     }
+    // independent pairs behind the level: a band-limited gyro's differences at the
+    // plateau lag are correlated over ~(1 + phi) / (1 - phi) samples
+    let n_eff = match plateau {
+        Some(_) => {
+            let phi = c.clamp(0.0, 0.99);
+            pairs_used as f64 * (1.0 - phi) / (1.0 + phi)
+        }
+        None => pairs_used as f64,
+    };
     NoiseModel {
+        kind,
         var,
         long_run_var: lr,
         rho1,
         pairs,
         acov,
+        dt_ms: dt as f64,
+        level_se: 1.0 / n_eff.max(1.0).sqrt(),
     }
 }
 
@@ -175,5 +537,108 @@ fn robust_mean_sq(v: &mut [f64]) -> f64 {
         mean.min(from_median * 1.2).max(from_median * 0.8)
     } else {
         mean
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// A coasting series (no firing) of `n` samples every `dt` ms whose rate is `noise`.
+    fn series(dt: i64, noise: &[[f64; 3]]) -> Series {
+        let t: Vec<i64> = (0..noise.len() as i64).map(|k| k * dt).collect();
+        let words = vec![0u16; noise.len()];
+        Series::from_rates(&t, noise, &words, 0xff, Some(1000.0 / dt as f64)).unwrap()
+    }
+
+    /// White (sigma), first-order Gauss-Markov (sigma, phi) or differenced attitude
+    /// (white sigma, attitude sigma_a over dt) noise.
+    fn make(kind: NoiseKind, n: usize, dt: i64, sigma: f64, p: f64, seed: u64) -> Vec<[f64; 3]> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut g = move || -> f64 { StandardNormal.sample(&mut rng) };
+        let mut x = [0.0f64; 3];
+        let mut att_prev = [0.0f64; 3];
+        (0..n)
+            .map(|_| {
+                std::array::from_fn(|a| match kind {
+                    NoiseKind::White => sigma * g(),
+                    NoiseKind::BandLimited => {
+                        x[a] = p * x[a] + (1.0 - p * p).sqrt() * sigma * g();
+                        x[a]
+                    }
+                    NoiseKind::DifferencedAttitude => {
+                        let att = p * g();
+                        let v = (att - att_prev[a]) / (dt as f64 * 1e-3) + sigma * g();
+                        att_prev[a] = att;
+                        v
+                    }
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_kind_is_read_from_the_data() {
+        let cases = [
+            (NoiseKind::White, 0.002, 0.0),
+            (NoiseKind::BandLimited, 0.002, 0.73),
+            (NoiseKind::DifferencedAttitude, 0.002, 0.0003),
+        ];
+        for (seed, (kind, sigma, p)) in cases.into_iter().enumerate() {
+            let noise = make(kind, 20_000, 20, sigma, p, seed as u64);
+            let s = series(20, &noise);
+            let r: Vec<[f64; 3]> = s.rate.clone();
+            let m = estimate(&s, &r);
+            assert_eq!(m.kind, kind, "{m:?}");
+            // the per-sample level within 5 %
+            let want = match kind {
+                NoiseKind::DifferencedAttitude => {
+                    (sigma * sigma + 2.0 * (p / 0.02f64).powi(2)).sqrt()
+                }
+                _ => sigma,
+            };
+            // within three standard errors of the level, which are at most 2 %
+            assert!(m.level_se < 0.02, "{}", m.level_se);
+            for a in 0..3 {
+                let got = m.var[a].sqrt();
+                assert!(
+                    (got / want - 1.0).abs() < 3.0 * m.level_se,
+                    "{kind:?} axis {a}: {got} vs {want} (se {})",
+                    m.level_se
+                );
+            }
+            if kind == NoiseKind::DifferencedAttitude {
+                assert!(m.rho1.iter().all(|&r| r < -0.3), "{:?}", m.rho1);
+                // block means of three samples correlate at about -0.5 under the model
+                let b = m.block_autocorr(0, 3, 0, 2);
+                assert!(b[0] < -0.4 && b[1].abs() < 1e-12, "{b:?}");
+                // one sample left out between blocks: independent
+                assert_eq!(m.block_gap(3, 0.02), 1);
+            }
+        }
+    }
+
+    /// The 7-9 % low level of issue 24: a gyro still correlated at the ~12 ms lag the
+    /// variance was read at. Read where the correlation has gone, it is right; read at
+    /// 12 ms (the planted fault: the old rule), it is low.
+    #[test]
+    fn a_slow_gyro_is_not_read_low() {
+        let (dt, phi) = (4, 0.73);
+        let noise = make(NoiseKind::BandLimited, 20_000, dt, 0.002, phi, 5);
+        let s = series(dt, &noise);
+        let m = estimate(&s, &s.rate.clone());
+        assert_eq!(m.kind, NoiseKind::BandLimited);
+        for a in 0..3 {
+            let got = m.var[a].sqrt();
+            assert!((got / 0.002 - 1.0).abs() < 0.04, "axis {a}: {got}");
+        }
+        // the old rule: gamma0 from lags 3 and 4 samples (12 and 16 ms)
+        let mask = vec![true; s.len()];
+        let (d3, _) = structure(&s, &s.rate, &mask, dt, 3);
+        let (d4, _) = structure(&s, &s.rate, &mask, dt, 4);
+        let old = (0.25 * (d3[0] + d4[0])).sqrt();
+        assert!(old / 0.002 < 0.9, "the old rule reads {old}");
     }
 }

@@ -1,17 +1,41 @@
 //! Residual tests that back the BIC decision: whiteness (Ljung-Box on block-averaged
 //! residuals, so the gyro's own band-limited noise colour does not count as structure)
 //! and cross-correlation with the input (thruster activity), which a complete model
-//! leaves at noise level.
+//! leaves at noise level. With a rate sensor whose noise is correlated even between block
+//! means (differenced attitude: neighbouring 50 ms means share one attitude sample, so they
+//! correlate at about -0.5), [`residual_tests_for`] leaves samples out between the blocks
+//! so that under the estimated noise model their means share no noise: the test asks
+//! "anything beyond this sensor's noise?" rather than "is it white?". Leaving samples out
+//! needs no estimate of how small the white part is (the block correlation depends on it
+//! steeply), so it is robust where whitening with the estimated correlation was not.
 
+use crate::noise::NoiseModel;
 use crate::series::Series;
 
-/// Block averages of `x` (one axis) and of the number of open valves over `block_ms`.
-fn blocks(series: &Series, r: &[[f64; 3]], axis: usize, block_ms: i64) -> (Vec<f64>, Vec<f64>) {
+/// Block averages of `x` (one axis) and of the number of open valves over `block_ms`,
+/// `gap` samples left out after each block.
+fn blocks(
+    series: &Series,
+    r: &[[f64; 3]],
+    axis: usize,
+    block_ms: i64,
+    gap: usize,
+) -> (Vec<f64>, Vec<f64>) {
     let mut out = vec![];
     let mut inp = vec![];
     let mut start = series.t_ms[0];
     let (mut s, mut n) = (0.0, 0usize);
+    let mut skip = 0usize;
+    let mut restart = false;
     for (i, &t) in series.t_ms.iter().enumerate() {
+        if skip > 0 {
+            skip -= 1;
+            continue;
+        }
+        if restart {
+            start = t;
+            restart = false;
+        }
         if t - start >= block_ms {
             if n > 0 {
                 out.push(s / n as f64);
@@ -26,6 +50,12 @@ fn blocks(series: &Series, r: &[[f64; 3]], axis: usize, block_ms: i64) -> (Vec<f
             start = t;
             s = 0.0;
             n = 0;
+            if gap > 0 {
+                // this sample is the first of the `gap` left out
+                skip = gap - 1;
+                restart = true;
+                continue;
+            }
         }
         if series.valid[i][axis] {
             s += r[i][axis];
@@ -84,10 +114,32 @@ pub const LJUNG_BOX_LAGS: usize = 20;
 pub const WHITE_BELOW: f64 = 45.31;
 
 pub fn residual_tests(series: &Series, r: &[[f64; 3]]) -> ResidualTests {
+    tests_with(series, r, None)
+}
+
+/// A block-level correlation of the noise below this is left alone: 1/sqrt(1200 blocks of
+/// a 60 s run) is 0.03, so it changes Q by well under one unit. Only a sensor like
+/// differenced attitude gets samples left out between its blocks.
+const BLOCK_CORR_NEGLIGIBLE: f64 = 0.02;
+
+/// [`residual_tests`] judged against the noise model `noise`: the blocks are cut
+/// [`NoiseModel::block_gap`] samples apart, so that under the model their means share no
+/// noise (differenced attitude: one sample, as neighbouring means share an attitude sample
+/// and correlate at about -0.5; white noise and SPHERES' gyro: none, the test as before).
+pub fn residual_tests_for(series: &Series, r: &[[f64; 3]], noise: &NoiseModel) -> ResidualTests {
+    tests_with(series, r, Some(noise))
+}
+
+fn tests_with(series: &Series, r: &[[f64; 3]], noise: Option<&NoiseModel>) -> ResidualTests {
+    // samples per block as the blocks are cut (time >= 50 ms from the block's start)
+    let per_block = (50.0 * series.sample_rate_hz / 1000.0).ceil().max(1.0) as usize;
+    let gap = noise
+        .map(|m| m.block_gap(per_block, BLOCK_CORR_NEGLIGIBLE))
+        .unwrap_or(0);
     let mut q = [0.0; 3];
     let mut z = [0.0; 3];
     for a in 0..3 {
-        let (x, u) = blocks(series, r, a, 50);
+        let (x, u) = blocks(series, r, a, 50, gap);
         let n = x.len() as f64;
         if x.len() < 3 * LJUNG_BOX_LAGS {
             continue;
@@ -105,5 +157,32 @@ pub fn residual_tests(series: &Series, r: &[[f64; 3]]) -> ResidualTests {
     ResidualTests {
         ljung_box_q: q,
         input_xcorr_z: z,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Block means of differenced-attitude noise correlate at about -0.5 when cut
+    /// contiguously, and not at all with one sample left out between blocks.
+    #[test]
+    fn a_gap_of_one_sample_decorrelates_differenced_noise() {
+        let mut st = 12345u64;
+        let mut u = || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((st >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let n = 30_000;
+        let att: Vec<f64> = (0..=n).map(|_| u()).collect();
+        let x: Vec<[f64; 3]> = (1..=n).map(|k| [att[k] - att[k - 1]; 3]).collect();
+        let t: Vec<i64> = (0..n as i64).map(|k| k * 10).collect();
+        let s = Series::from_rates(&t, &x, &vec![0u16; n], 0xff, Some(100.0)).unwrap();
+        let (b0, _) = blocks(&s, &s.rate, 0, 50, 0);
+        let (b1, _) = blocks(&s, &s.rate, 0, 50, 1);
+        assert!(autocorr(&b0, 1) < -0.45, "{}", autocorr(&b0, 1));
+        assert!(autocorr(&b1, 1).abs() < 0.05, "{}", autocorr(&b1, 1));
     }
 }

@@ -28,6 +28,40 @@ pub struct SensorConfig {
     pub accel_location_m: [f64; 3],
     /// Turn every noise off (for tests of the deterministic parts).
     pub noiseless: bool,
+    /// What the rate column measures: `"gyro"` (the default: the noise above) or
+    /// `"differenced_attitude"` (rates differenced from motion-capture attitude: the noise
+    /// above as its white part, plus attitude noise of `attitude_noise_rad` per sample
+    /// differenced over one sample, which correlates neighbouring rates at down to -0.5).
+    /// The rate itself is the point rate at the sample; a real differenced rate is also the
+    /// mean over the sample period, i.e. half a period late: add a `measurement_delay` for that.
+    #[serde(skip_serializing_if = "RateSensor::is_gyro")]
+    pub rate_sensor: RateSensor,
+    /// Attitude noise per axis of a differenced-attitude sensor, rad rms per sample (white);
+    /// unused by a gyro. Default 0.0003 rad, a motion-capture system's few 0.01 degrees.
+    #[serde(skip_serializing_if = "is_default_attitude_noise")]
+    pub attitude_noise_rad: f64,
+}
+
+/// The kind of rate sensor (model-file `[sensors] rate_sensor`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RateSensor {
+    #[default]
+    Gyro,
+    DifferencedAttitude,
+}
+
+impl RateSensor {
+    fn is_gyro(&self) -> bool {
+        *self == RateSensor::Gyro
+    }
+}
+
+/// Default attitude noise of a differenced-attitude sensor, rad.
+pub const ATTITUDE_NOISE_RAD: f64 = 0.0003;
+
+fn is_default_attitude_noise(x: &f64) -> bool {
+    *x == ATTITUDE_NOISE_RAD
 }
 
 impl Default for SensorConfig {
@@ -39,16 +73,24 @@ impl Default for SensorConfig {
             accel_noise_m_s2: [1.96 * reference_f64::satellite::ACCEL_M_S2_PER_COUNT; 3],
             accel_location_m: [0.0; 3],
             noiseless: false,
+            rate_sensor: RateSensor::Gyro,
+            attitude_noise_rad: ATTITUDE_NOISE_RAD,
         }
     }
 }
 
 /// Band-limited gyro noise: a first-order Gauss-Markov process sampled exactly at any instants
-/// (so its correlation between samples is right at every sample rate).
+/// (so its correlation between samples is right at every sample rate). For a
+/// differenced-attitude sensor, plus the attitude noise differenced between consecutive
+/// instants (the first instant has no earlier attitude and gets none).
 pub struct GyroNoise {
     sigma: [f64; 3],
     tau_ms: f64,
     state: Option<([f64; 3], f64)>,
+    /// Attitude noise (rad) of a differenced-attitude sensor, 0 for a gyro.
+    attitude_rad: f64,
+    /// The attitude noise drawn at the previous instant.
+    attitude_prev: Option<[f64; 3]>,
 }
 
 impl GyroNoise {
@@ -62,13 +104,19 @@ impl GyroNoise {
             },
             tau_ms: 1e3 / (2.0 * std::f64::consts::PI * bw),
             state: None,
+            attitude_rad: match cfg.rate_sensor {
+                RateSensor::DifferencedAttitude if !cfg.noiseless => cfg.attitude_noise_rad,
+                _ => 0.0,
+            },
+            attitude_prev: None,
         }
     }
 
     /// The noise at `t_ms` (instants must not decrease).
     pub fn sample(&mut self, t_ms: f64, rng: &mut ChaCha8Rng) -> [f64; 3] {
         let w: [f64; 3] = std::array::from_fn(|_| StandardNormal.sample(rng));
-        let n = match self.state {
+        let prev = self.state;
+        let mut n: [f64; 3] = match prev {
             None => std::array::from_fn(|a| self.sigma[a] * w[a]),
             Some((prev, t0)) => {
                 let c = (-(t_ms - t0).max(0.0) / self.tau_ms).exp();
@@ -77,6 +125,22 @@ impl GyroNoise {
             }
         };
         self.state = Some((n, t_ms));
+        if self.attitude_rad > 0.0 {
+            // a gyro draws nothing more, so its stream (and every recording) is unchanged
+            let att: [f64; 3] = std::array::from_fn(|_| {
+                let z: f64 = StandardNormal.sample(rng);
+                self.attitude_rad * z
+            });
+            if let (Some(a0), Some((_, t0))) = (self.attitude_prev, prev) {
+                let dt_s = (t_ms - t0) * 1e-3;
+                if dt_s > 0.0 {
+                    for a in 0..3 {
+                        n[a] += (att[a] - a0[a]) / dt_s;
+                    }
+                }
+            }
+            self.attitude_prev = Some(att);
+        }
         n
     }
 }

@@ -96,6 +96,26 @@ impl Trial<'_> {
     }
 }
 
+impl Trial<'_> {
+    /// The named effects alone, refitted jointly (the model as it would be if the one left
+    /// out of `rigid_acc` were dropped): the backward step of the exchange.
+    pub fn without(&self) -> Result<Tried, String> {
+        try_candidate(
+            self.prob,
+            self.fired,
+            self.rigid_acc,
+            &[],
+            None,
+            self.nuis,
+            self.hint,
+            self.settings,
+            self.rigid_residual,
+            self.whitening,
+            self.ringing_on,
+        )
+    }
+}
+
 /// The model with one more effect, as it would be if the effect were accepted.
 pub(crate) struct Tried {
     /// Accepted rigid effects plus the candidate, refitted jointly (ringing not included).

@@ -227,7 +227,11 @@ pub fn diagnose(
                 continue;
             }
             // mechanisms that share parameters (or give the same rates) cannot be combined
-            if !accepted.iter().all(|a| combinable(a.kind, kind)) {
+            if !accepted.iter().all(|a| combinable(a.kind, kind))
+                || !kind
+                    .effect()
+                    .applies(&select::context(&prob, &fired, &slosh_hint))
+            {
                 continue;
             }
             let k_new = effects::n_params(kind, &fired);
@@ -646,6 +650,48 @@ pub fn diagnose(
                 rms_prev,
                 tests_prev: &tests_prev,
             };
+            // backward step: an effect the others now stand in for (two names for one
+            // thing, e.g. a uniform thrust scale beside an inertia) is dropped when the
+            // model without it has the lower BIC
+            if let Ok(t) = trial.without() {
+                let bic_without = t.chi2_rigid + k_rest as f64 * ln_n;
+                if bic_without < bic_now {
+                    let gone = accepted.remove(e);
+                    rejections.push(Rejection {
+                        round: settings.max_effects,
+                        effect: gone.kind.name(),
+                        delta_bic: gone.delta_bic,
+                        reason: format!(
+                            "named first, then dropped: the effects named after it stand in for it (without it the BIC is lower by {:.0})",
+                            bic_now - bic_without
+                        ),
+                    });
+                    for a in accepted.iter_mut() {
+                        if let Some((_, th)) = t.pairs.iter().find(|p| p.0 == a.kind) {
+                            a.theta = th.clone();
+                        }
+                    }
+                    omega0 = t.nuis.clone();
+                    chi2_rigid = t.chi2_rigid;
+                    rigid_residual = t.rigid_residual.clone();
+                    joint_stderr = t.stderr.clone();
+                    sizes = t.sizes.clone();
+                    latency = t.latency;
+                    ringing_fit = t.ringing.clone();
+                    residual_cur = t.residual.clone();
+                    k_cur = k_rest;
+                    // the last entry is the whole model again
+                    if let Some(a) = accepted.last_mut() {
+                        a.rms_after = locate::rms(&residual_cur, &series.valid);
+                        a.delta_bic = chi2_rigid
+                            - ringing_fit.as_ref().map(|r| r.gain).unwrap_or(0.0)
+                            - chi2_nominal
+                            + k_cur as f64 * ln_n;
+                    }
+                    swaps += 1;
+                    continue;
+                }
+            }
             let named: Vec<Kind> = accepted.iter().map(|a| a.kind).collect();
             let verdict = exchange::replacement(&trial, out, &named, k_rest, bic_now, ln_n);
             match verdict {
@@ -771,7 +817,7 @@ pub fn diagnose(
     }
     let effects_out: Vec<EffectReport> = accepted
         .iter()
-        .map(|a| report_effect(a, &select::context(&prob, &fired, &[])))
+        .map(|a| report_effect(a, &select::context(&prob, &fired, &[]), plant))
         .collect();
     // a named ringing accounts for its post-edge windows as a random tone
     let mut ringing_windows = vec![false; series.len()];
@@ -799,13 +845,14 @@ pub fn diagnose(
         effects: effects_out,
         unexplained,
         data_issues: issues,
+        noise: Some(noise.report()),
     };
     Some(Analysis {
         fitted: accepted.iter().map(|a| (a.kind, a.theta.clone())).collect(),
         output,
         series: series.clone(),
-        tests_before: stats::residual_tests(series, &residual_before),
-        tests_after: stats::residual_tests(series, &residual_cur),
+        tests_before: stats::residual_tests_for(series, &residual_before, &noise),
+        tests_after: stats::residual_tests_for(series, &residual_cur, &noise),
         by_condition_before: locate::by_condition(series, &residual_before),
         by_condition_after: locate::by_condition(series, &residual_cur),
         residual_before,
@@ -966,10 +1013,11 @@ fn alternatives(
     alt
 }
 
-fn report_effect(a: &Accepted, cx: &effects::Context) -> EffectReport {
+fn report_effect(a: &Accepted, cx: &effects::Context, plant: &Plant) -> EffectReport {
     let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
     let (p, s) = a.kind.effect().report(&a.theta, &se, cx);
     EffectReport {
+        equivalent_to: crate::equivalence::equivalents(a.kind, &a.theta, &se, plant, cx),
         effect: a.kind.name().into(),
         params: p,
         stderr: s,

@@ -41,6 +41,9 @@ pub(crate) fn replacement(
             || kind.effect().on_residual()
             || named.contains(&kind)
             || !trial.rigid_acc.iter().all(|r| combinable(r.0, kind))
+            || !kind
+                .effect()
+                .applies(&select::context(trial.prob, trial.fired, trial.hint))
         {
             continue;
         }

@@ -8,6 +8,7 @@ pub mod alias;
 mod candidate;
 pub mod diagnosis;
 pub mod effects;
+pub mod equivalence;
 mod exchange;
 pub mod fit;
 pub mod holdout;

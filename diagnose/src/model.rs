@@ -49,6 +49,9 @@ pub struct Params {
     /// The recorded rate is the body rate this long ago, ms (`measurement_delay`): applied
     /// as a shift of every valve edge, its exact equal on rates.
     pub delay_ms: f64,
+    /// Tilt of each thruster's force, rad, about its two axes of [`Plant::tilt_axes`]
+    /// (`thruster_misalignment`; the force keeps its magnitude).
+    pub tilt: [[f64; 2]; NT],
     /// Body rate at the first sample, rad/s (a nuisance parameter, always fitted).
     pub omega0: [f64; 3],
     /// Rate jumps (rad/s) at the first sample after each telemetry gap: the commands
@@ -75,6 +78,7 @@ impl Default for Params {
             damping_nms: [0.0; 3],
             rise_ms: 0.0,
             delay_ms: 0.0,
+            tilt: [[0.0; 2]; NT],
             omega0: [0.0; 3],
             resets: Vec::new(),
         }
@@ -160,12 +164,38 @@ pub struct Plant {
     pub planar: bool,
     /// Thrusters the model has.
     pub n_thrusters: usize,
+    /// Two unit axes perpendicular to each thruster's force along which it may tilt: the
+    /// first moves the torque off its own direction, the second points the force at the
+    /// nominal CoM's lever arm (a torque change only when the arm has a component along the
+    /// force), so a fit can tell which of the two the data see.
+    pub tilt_axes: [[Vector3<f64>; 2]; NT],
 }
 
 impl Plant {
     pub fn new(sat: &Satellite) -> Plant {
         let n = sat.n_thrusters();
+        let com = sat.com_m();
+        let tilt_axes = std::array::from_fn(|i| {
+            if i >= n {
+                return [Vector3::zeros(); 2];
+            }
+            let f = sat.force_n(i);
+            let along = f.try_normalize(1e-12).unwrap_or_else(Vector3::x);
+            let arm = sat.pos_m(i) - com;
+            let perp = arm - along * arm.dot(&along);
+            // any perpendicular when the arm lies along the force
+            let second = perp.try_normalize(1e-9).unwrap_or_else(|| {
+                let helper = if along.x.abs() < 0.9 {
+                    Vector3::x()
+                } else {
+                    Vector3::y()
+                };
+                (helper - along * helper.dot(&along)).normalize()
+            });
+            [along.cross(&second), second]
+        });
         Plant {
+            tilt_axes,
             pos: std::array::from_fn(|i| {
                 if i < n {
                     sat.pos_m(i)
@@ -198,9 +228,26 @@ impl Plant {
         self.force[i].norm()
     }
 
+    /// Torque of thruster i at unit scale about the model's CoM moved by `dcom_mm`, N m.
+    pub fn torque_about(&self, i: usize, dcom_mm: &[f64; 3]) -> [f64; 3] {
+        self.torque(i, &(self.com + Vector3::from(*dcom_mm) * 1e-3))
+            .into()
+    }
+
     /// Torque of thruster i at unit scale for a CoM `com`.
     fn torque(&self, i: usize, com: &Vector3<f64>) -> Vector3<f64> {
         (self.pos[i] - com).cross(&self.force[i])
+    }
+
+    /// Force of thruster i tilted by `tilt` (rad about [`Plant::tilt_axes`]), same magnitude.
+    pub fn tilted_force(&self, i: usize, tilt: [f64; 2]) -> Vector3<f64> {
+        if tilt == [0.0; 2] {
+            return self.force[i];
+        }
+        let f = self.force[i];
+        let [a, b] = self.tilt_axes[i];
+        let d = f + (a * tilt[0] + b * tilt[1]) * f.norm();
+        d.try_normalize(1e-300).map(|u| u * f.norm()).unwrap_or(f)
     }
 }
 
@@ -233,7 +280,8 @@ impl MassProps {
     ) -> Option<MassProps> {
         let inertia = inertia_matrix(inertia6);
         let com = plant.com + Vector3::from(*dcom_mm) * 1e-3;
-        let torque = std::array::from_fn(|i| plant.torque(i, &com));
+        let torque =
+            std::array::from_fn(|i| (plant.pos[i] - com).cross(&plant.tilted_force(i, p.tilt[i])));
         let mut slosh_j = Vector3::zeros();
         let mut slosh_k = Vector3::zeros();
         let mut slosh_c = Vector3::zeros();

@@ -314,6 +314,7 @@ mod tests {
             evidence: String::new(),
             windows_ms: vec![],
             rms_after: [0.0; 3],
+            equivalent_to: vec![],
             delta_bic: 0.0,
         };
         let p = effect_params(&e);
@@ -362,6 +363,7 @@ mod tests {
             evidence: String::new(),
             windows_ms: vec![],
             rms_after: [0.0; 3],
+            equivalent_to: vec![],
             delta_bic: 0.0,
         };
         let lines: Vec<String> = effect_params(&e).iter().map(ParamText::line).collect();

@@ -16,6 +16,10 @@ pub struct EffectReport {
     pub windows_ms: Vec<[i64; 2]>,
     pub rms_after: [f64; 3],
     pub delta_bic: f64,
+    /// Other effects that give the same rates, with their parameters (`equivalence.rs`;
+    /// the contract's extra key, absent when there are none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub equivalent_to: Vec<Value>,
 }
 
 /// Data artefacts (never effects).
@@ -45,6 +49,9 @@ pub struct DiagnosisOutput {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<crate::unexplained::Unexplained>,
     pub data_issues: DataIssues,
+    /// The rate sensor's noise model the decisions used (an extra key the contract allows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<crate::noise::NoiseReport>,
 }
 
 pub use crate::json_number::{num, nums};

@@ -44,6 +44,48 @@ fn hz(x: f64) -> String {
     }
 }
 
+/// The equivalent effects of `e` in one line: `measurement_delay (delay_ms 6.05)`.
+fn equivalents_text(e: &crate::output::EffectReport) -> String {
+    e.equivalent_to
+        .iter()
+        .map(|v| {
+            let params = v["params"]
+                .as_object()
+                .map(|m| {
+                    m.iter()
+                        .map(|(k, x)| format!("{k} {}", short(x)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                })
+                .unwrap_or_default();
+            format!("{} ({params})", v["effect"].as_str().unwrap_or("?"))
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// A JSON number or array of numbers with 4 significant digits.
+fn short(x: &serde_json::Value) -> String {
+    match x {
+        serde_json::Value::Array(a) => {
+            let v: Vec<String> = a.iter().map(short).collect();
+            format!("[{}]", v.join(" "))
+        }
+        serde_json::Value::Number(n) => n
+            .as_f64()
+            .map(|f| {
+                let digits = if f == 0.0 {
+                    0
+                } else {
+                    (3 - f.abs().log10().floor() as i32).clamp(0, 12) as usize
+                };
+                format!("{f:.digits$}")
+            })
+            .unwrap_or_default(),
+        other => other.to_string(),
+    }
+}
+
 fn windows_text(w: &[[i64; 2]]) -> String {
     if w.is_empty() {
         return "none".into();
@@ -139,6 +181,9 @@ pub fn summary(a: &Analysis) -> String {
             }
         }
         let _ = writeln!(s, "     why: {}", e.evidence);
+        if !e.equivalent_to.is_empty() {
+            let _ = writeln!(s, "     same rates as: {}", equivalents_text(e));
+        }
         let _ = writeln!(s, "     where: {}", windows_text(&e.windows_ms));
         let _ = writeln!(s, "     residual RMS after (rad/s): {}", f(e.rms_after));
     }
@@ -839,6 +884,13 @@ pub fn html(a: &Analysis) -> String {
         }
         h.push_str("</table>");
         let _ = write!(h, "<p class=\"why\"><b>Why:</b> {}</p>", esc(&e.evidence));
+        if !e.equivalent_to.is_empty() {
+            let _ = write!(
+                h,
+                "<p><b>Same rates as:</b> {} (named once; on rates alone the data cannot tell them apart).</p>",
+                esc(&equivalents_text(e))
+            );
+        }
         let _ = write!(
             h,
             "<p>Residual RMS with this and the earlier effects (rad/s, x y z): {}.</p><p><b>Located windows</b> (where the mismatch this effect explains is concentrated, shaded below): {}.</p>",

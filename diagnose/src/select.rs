@@ -80,7 +80,11 @@ pub fn nuisance_params(nuis: &[f64]) -> Params {
 pub use crate::effects::Spec;
 
 /// What the effects may look at about this recording and its model.
-pub fn context<'a>(prob: &Problem, fired: &'a [bool; NT], slosh_hint_hz: &'a [f64]) -> Context<'a> {
+pub fn context<'a>(
+    prob: &Problem<'a>,
+    fired: &'a [bool; NT],
+    slosh_hint_hz: &'a [f64],
+) -> Context<'a> {
     Context {
         // times of a change are on the recording's clock
         duration_s: prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3,
@@ -93,6 +97,7 @@ pub fn context<'a>(prob: &Problem, fired: &'a [bool; NT], slosh_hint_hz: &'a [f6
         slosh_hint_hz,
         sample_rate_hz: prob.series.sample_rate_hz,
         command_step_ms: command_step_ms(&prob.series.word_ms),
+        plant: prob.plant,
     }
 }
 

@@ -96,6 +96,12 @@ pub struct Plant {
 impl Plant {
     pub fn new(sat: &Satellite, cfg: PlantConfig) -> Self {
         let n = sat.n_thrusters();
+        let dir = std::array::from_fn(|i| match (i < n, cfg.thrust_dir[i]) {
+            // a tilted thruster keeps the model's force magnitude
+            (true, Some(d)) => Vector3::from(d) * sat.dir(i).norm(),
+            (true, None) => sat.dir(i),
+            _ => Vector3::zeros(),
+        });
         Plant {
             cfg,
             mass_kg: sat.mass_kg,
@@ -107,7 +113,7 @@ impl Plant {
                     Vector3::zeros()
                 }
             }),
-            dir: std::array::from_fn(|i| if i < n { sat.dir(i) } else { Vector3::zeros() }),
+            dir,
             thrust_n: std::array::from_fn(|i| sat.thrust_n.get(i).copied().unwrap_or(0.0)),
             word_mask: sat.word_mask(),
             planar: sat.planar,

@@ -36,7 +36,11 @@ const EVERY_EFFECT: &str = r#"{"satellite": "sph2", "effects": [
  {"effect": "gyro_bias", "params": {"counts": [3, -2, 1]}},
  {"effect": "gyro_scale", "params": {"scale": [1.01, 0.99, 1.0]}},
  {"effect": "gyro_ringing", "params": {"freq_hz": 338.0, "decay_ms": 30.0, "apparent_hz": 38.0}},
- {"effect": "disturbance_torque", "params": {"torque_nm": [1e-5, 0, -2e-5]}}
+ {"effect": "disturbance_torque", "params": {"torque_nm": [1e-5, 0, -2e-5]}},
+ {"effect": "rate_damping", "params": {"nms_per_rad": [0, 0, 0.02]}},
+ {"effect": "thrust_rise", "params": {"tau_ms": 20.0}},
+ {"effect": "thruster_misalignment", "params": {"dir": [[1,0,0],[1,0,0],[1,0,0],[0,1,0],[0,1,0],[0,1,0],[0,0,1],[0,0,1],[0,0,1],[0,0.1,1],[0,0,1],[0,0,1]]}},
+ {"effect": "measurement_delay", "params": {"delay_ms": 120.0}}
 ]}"#;
 
 #[test]

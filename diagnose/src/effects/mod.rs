@@ -20,11 +20,12 @@ mod rate_damping;
 mod thrust_rise;
 mod thrust_scale;
 mod thruster_latency;
+mod thruster_misalignment;
 
 pub use mass_property_change::MASS_CHANGE_STARTS;
 
 use crate::json_number::{num, nums};
-use crate::model::{Params, NT};
+use crate::model::{Params, Plant, NT};
 use crate::series::Series;
 use serde_json::{Map, Value};
 
@@ -48,10 +49,11 @@ pub enum Kind {
     /// Extra (beyond the contract's list): first-order thrust rise at valve edges.
     ThrustRise,
     MeasurementDelay,
+    ThrusterMisalignment,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 15] = [
+    pub const ALL: [Kind; 16] = [
         Kind::ThrusterLatency,
         Kind::PressureDrop,
         Kind::Blowdown,
@@ -67,6 +69,7 @@ impl Kind {
         Kind::RateDamping,
         Kind::ThrustRise,
         Kind::MeasurementDelay,
+        Kind::ThrusterMisalignment,
     ];
 
     /// The effect's description: the one registry of the vocabulary.
@@ -87,6 +90,7 @@ impl Kind {
             Kind::RateDamping => &rate_damping::RateDamping,
             Kind::ThrustRise => &thrust_rise::ThrustRise,
             Kind::MeasurementDelay => &measurement_delay::MeasurementDelay,
+            Kind::ThrusterMisalignment => &thruster_misalignment::ThrusterMisalignment,
         }
     }
 
@@ -124,6 +128,8 @@ pub struct Context<'a> {
     pub slosh_hint_hz: &'a [f64],
     /// The recording's sample rate, Hz.
     pub sample_rate_hz: f64,
+    /// The model's rigid-body geometry (thruster arms and directions, planar or not).
+    pub plant: &'a Plant,
     /// The typical time a thruster command holds (median run of one thruster word), ms:
     /// delay searches place their starts a few per step.
     pub command_step_ms: f64,
@@ -160,6 +166,11 @@ pub trait Effect: Sync {
         _cx: &Context,
     ) -> Option<String> {
         None
+    }
+    /// Whether the effect can be told from the others on this craft at all (a tilt in
+    /// the plane of a planar craft is a thrust scale): not tried when false.
+    fn applies(&self, _cx: &Context) -> bool {
+        true
     }
     /// Fitted on the residual after the rigid-body model, edge by edge, rather than through
     /// the model's parameters (an additive tone with a random phase per edge).
@@ -222,7 +233,7 @@ fn all_at(theta: &[f64], v: f64) -> Vec<(usize, f64)> {
 mod tests {
     use super::*;
 
-    fn context<'a>(fired: &'a [bool; NT], hint: &'a [f64]) -> Context<'a> {
+    fn context<'a>(fired: &'a [bool; NT], hint: &'a [f64], plant: &'a Plant) -> Context<'a> {
         Context {
             duration_s: 60.0,
             nominal_inertia: [0.023, 0.024, 0.021, 1e-4, -2e-4, 3e-4],
@@ -232,6 +243,7 @@ mod tests {
             slosh_hint_hz: hint,
             sample_rate_hz: 1000.0,
             command_step_ms: 200.0,
+            plant,
         }
     }
 
@@ -277,7 +289,8 @@ mod tests {
     fn every_effect_describes_its_parameters_consistently() {
         let mut fired = [true; NT];
         fired[3] = false;
-        let cx = context(&fired, &[0.45]);
+        let plant = Plant::new(&reference_f64::satellite::Satellite::builtin("sph2").unwrap());
+        let cx = context(&fired, &[0.45], &plant);
         for kind in Kind::ALL {
             assert_eq!(inconsistency(kind.effect(), kind, &fired, &cx), None);
         }
@@ -314,7 +327,8 @@ mod tests {
     #[test]
     fn a_missized_spec_is_caught() {
         let fired = [true; NT];
-        let cx = context(&fired, &[]);
+        let plant = Plant::new(&reference_f64::satellite::Satellite::builtin("sph2").unwrap());
+        let cx = context(&fired, &[], &plant);
         let why = inconsistency(&LostBound, Kind::ComOffset, &fired, &cx);
         assert!(why.is_some_and(|w| w.contains("not sized")));
     }

@@ -6,10 +6,9 @@
 //! [`Effect`] (de)serialises exactly as the contract:
 //! `{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}`.
 //!
-//! Two variants are outside the contract's vocabulary, effects that craft other than
-//! SPHERES have: [`ThrustRise`] (`thrust_rise`, a first-order valve lag) and
-//! [`RateDamping`] (`rate_damping`, an air bearing's or drag's torque against the rate).
-//! The diagnosis names both as extra effects; they are not in [`EFFECT_NAMES`].
+//! The contract's table now also lists `rate_damping` and `thrust_rise` (added first here as
+//! extras: effects craft other than SPHERES have), `thruster_misalignment` and
+//! `measurement_delay`; [`EFFECT_NAMES`] holds all sixteen in the table's order.
 
 mod blowdown;
 mod com_offset;
@@ -26,6 +25,7 @@ mod rate_damping;
 mod thrust_rise;
 mod thrust_scale;
 mod thruster_latency;
+mod thruster_misalignment;
 
 pub use blowdown::Blowdown;
 pub use com_offset::ComOffset;
@@ -42,6 +42,7 @@ pub use rate_damping::RateDamping;
 pub use thrust_rise::ThrustRise;
 pub use thrust_scale::ThrustScale;
 pub use thruster_latency::ThrusterLatency;
+pub use thruster_misalignment::{ThrusterMisalignment, MAX_TILT_DEG};
 
 use reference_f64::satellite::{Satellite, MAX_THRUSTERS};
 use serde::{Deserialize, Serialize};
@@ -89,6 +90,9 @@ pub struct PlantConfig {
     pub rate_damping_nms: [f64; 3],
     /// The rate sensor reports the body rate this long ago, ms (see `measurement_delay.rs`).
     pub measurement_delay_ms: f64,
+    /// True force direction per thruster where it differs from the model's (unit, body axes;
+    /// see `thruster_misalignment.rs`).
+    pub thrust_dir: [Option<[f64; 3]>; MAX_THRUSTERS],
 }
 
 impl PlantConfig {
@@ -114,6 +118,7 @@ impl PlantConfig {
             thrust_rise_tau_ms: 0.0,
             rate_damping_nms: [0.0; 3],
             measurement_delay_ms: 0.0,
+            thrust_dir: [None; MAX_THRUSTERS],
         }
     }
 
@@ -159,16 +164,16 @@ pub enum Effect {
     GyroScale(GyroScale),
     GyroRinging(GyroRinging),
     DisturbanceTorque(DisturbanceTorque),
-    /// Not in the contract's vocabulary (see the module doc): `thrust_rise`, `tau_ms`.
+    /// `thrust_rise`, `tau_ms`.
     ThrustRise(ThrustRise),
-    /// Not in the contract's vocabulary: `rate_damping`, `nms_per_rad` (3).
+    /// `rate_damping`, `nms_per_rad` (3).
     RateDamping(RateDamping),
     MeasurementDelay(MeasurementDelay),
+    ThrusterMisalignment(ThrusterMisalignment),
 }
 
-/// The contract's effect names, in the table's order (without the extra `thrust_rise` and
-/// `rate_damping`).
-pub const EFFECT_NAMES: [&str; 12] = [
+/// The contract's effect names, in the table's order.
+pub const EFFECT_NAMES: [&str; 16] = [
     "thruster_latency",
     "pressure_drop",
     "blowdown",
@@ -181,6 +186,10 @@ pub const EFFECT_NAMES: [&str; 12] = [
     "gyro_scale",
     "gyro_ringing",
     "disturbance_torque",
+    "rate_damping",
+    "thrust_rise",
+    "thruster_misalignment",
+    "measurement_delay",
 ];
 
 impl Effect {
@@ -202,6 +211,7 @@ impl Effect {
             Effect::ThrustRise(e) => e,
             Effect::RateDamping(e) => e,
             Effect::MeasurementDelay(e) => e,
+            Effect::ThrusterMisalignment(e) => e,
         }
     }
 
@@ -223,6 +233,7 @@ impl Effect {
             Effect::ThrustRise(_) => "thrust_rise",
             Effect::RateDamping(_) => "rate_damping",
             Effect::MeasurementDelay(_) => "measurement_delay",
+            Effect::ThrusterMisalignment(_) => "thruster_misalignment",
         }
     }
 
@@ -236,7 +247,20 @@ impl Effect {
                 match val {
                     serde_json::Value::Array(a) => {
                         for (i, x) in a.iter().enumerate() {
-                            out.push((format!("{k}[{i}]"), x.as_f64().unwrap_or(f64::NAN)));
+                            match x {
+                                // rows of a matrix (a direction per thruster): `dir[2][0]`
+                                serde_json::Value::Array(row) => {
+                                    for (j, y) in row.iter().enumerate() {
+                                        out.push((
+                                            format!("{k}[{i}][{j}]"),
+                                            y.as_f64().unwrap_or(f64::NAN),
+                                        ));
+                                    }
+                                }
+                                _ => {
+                                    out.push((format!("{k}[{i}]"), x.as_f64().unwrap_or(f64::NAN)))
+                                }
+                            }
                         }
                     }
                     other => out.push((k.clone(), other.as_f64().unwrap_or(f64::NAN))),
@@ -254,18 +278,35 @@ impl Effect {
             .and_then(|p| p.as_object_mut())
             .ok_or_else(|| "effect has no params".to_string())?;
         for (name, x) in values {
-            let (key, idx) = match name.find('[') {
+            let (key, idx, row) = match name.find('[') {
                 Some(b) => {
-                    let i: usize = name[b + 1..name.len() - 1]
-                        .parse()
-                        .map_err(|_| format!("bad parameter index in {name:?}"))?;
-                    (&name[..b], Some(i))
+                    let bad = || format!("bad parameter index in {name:?}");
+                    let inner = name[b + 1..].strip_suffix(']').ok_or_else(bad)?;
+                    let mut parts = inner.split("][");
+                    let i: usize = parts.next().unwrap_or("").parse().map_err(|_| bad())?;
+                    let j = match parts.next() {
+                        Some(p) => Some(p.parse::<usize>().map_err(|_| bad())?),
+                        None => None,
+                    };
+                    (&name[..b], Some(i), j)
                 }
-                None => (*name, None),
+                None => (*name, None, None),
             };
             let slot = obj
                 .get_mut(key)
                 .ok_or_else(|| format!("{}: no parameter {key:?}", self.name()))?;
+            // a matrix entry `dir[i][j]`: descend into row i
+            let slot = match (slot, idx, row) {
+                (serde_json::Value::Array(a), Some(i), Some(_)) if i < a.len() => &mut a[i],
+                (s, _, None) => s,
+                _ => {
+                    return Err(format!(
+                        "{}: parameter {name:?} has the wrong shape",
+                        self.name()
+                    ))
+                }
+            };
+            let idx = row.or(idx);
             let num = serde_json::Value::from(*x);
             match (slot, idx) {
                 (serde_json::Value::Array(a), Some(i)) if i < a.len() => a[i] = num,
@@ -392,6 +433,32 @@ impl Effect {
             }
             Effect::ThrustRise(e) => at_most("tau_ms", e.tau_ms, MAX_DELAY_MS, " ms"),
             Effect::MeasurementDelay(e) => at_most("delay_ms", e.delay_ms, MAX_DELAY_MS, " ms"),
+            Effect::ThrusterMisalignment(e) => {
+                let n = sat.n_thrusters();
+                if e.dir.len() != n {
+                    return Err(format!(
+                        "thruster_misalignment: dir has {} entries; satellite {} has {n} thrusters (one direction each, the model's where unchanged)",
+                        e.dir.len(),
+                        sat.name
+                    ));
+                }
+                for (i, d) in e.dir.iter().enumerate() {
+                    let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    if !(0.5..=1.5).contains(&norm) {
+                        return Err(format!(
+                            "thruster_misalignment: dir[{i}] is not a direction (norm {norm})"
+                        ));
+                    }
+                    let tilt = thruster_misalignment::angle_deg(*d, sat.thrust_dir[i]);
+                    if tilt > MAX_TILT_DEG {
+                        return Err(format!(
+                            "thruster_misalignment: thruster {} is tilted {tilt:.1} degrees from the model's direction (at most {MAX_TILT_DEG})",
+                            i + 1
+                        ));
+                    }
+                }
+                Ok(())
+            }
             Effect::ThrustScale(e) => {
                 let n = sat.n_thrusters();
                 if e.scale.len() != n {

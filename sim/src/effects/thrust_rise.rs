@@ -1,7 +1,6 @@
-//! First-order valve thrust rise. NOT part of the contract's vocabulary
-//! (`shared/contracts/diagnosis-output.md`): it exists so the simulator can make recordings
-//! with physics the diagnosis cannot name, to check that it then reports a mismatch instead
-//! of forcing the residual onto a vocabulary effect (latency is its nearest neighbour).
+//! First-order valve thrust rise (contract `thrust_rise`; it began here as an extra effect
+//! the diagnosis could not name, to check that it then reported a mismatch instead of
+//! forcing the residual onto latency, its nearest neighbour).
 //!
 //! A solenoid valve does not deliver its full thrust the instant it opens: the plenum
 //! between valve and nozzle fills (and empties) with a time constant. Each thruster's force
@@ -136,10 +135,7 @@ mod tests {
         assert_eq!(back, e);
         assert_eq!(e.name(), "thrust_rise");
         assert_eq!(e.params(), vec![("tau_ms".to_string(), 20.0)]);
-        assert!(
-            !crate::effects::EFFECT_NAMES.contains(&"thrust_rise"),
-            "outside the contract's vocabulary"
-        );
+        assert!(crate::effects::EFFECT_NAMES.contains(&"thrust_rise"));
         assert!(rise(0.0).validate().is_ok());
         assert!(rise(-1.0).validate().unwrap_err().contains("tau_ms"));
         assert!(rise(f64::NAN).validate().is_err());

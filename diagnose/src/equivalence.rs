@@ -1,0 +1,188 @@
+//! Effects that give the same rates on a recording: the contract's equivalence classes. The
+//! diagnosis names one member (the selection never fits two together: `select::combinable`
+//! for the timing class, the exchange's backward step for the rest) and lists the others,
+//! with the parameters that make them equal, under `equivalent_to`.
+//!
+//! The classes follow from the equations of motion, not from the recording at hand:
+//! - a `measurement_delay` d is an equal `thruster_latency` (open = close = d) on every edge;
+//! - a uniform `thrust_scale` s is the `inertia` divided by s (I^-1 s tau = (I/s)^-1 tau, and
+//!   the gyroscopic term I^-1 (w x I w) is unchanged), as long as no other torque is named;
+//! - on a planar craft (yaw only) a `com_offset` changes each thruster's yaw torque alone, so
+//!   it is a per-thruster `thrust_scale`.
+//!
+//! A member is listed only when the fitted values lie in the class within their errors (a
+//! latency with open and close equal, an inertia proportional to the model's, scales equal);
+//! the test is a chi-square at 1 % (Wilson-Hilferty quantile).
+
+use serde_json::{json, Value};
+
+use crate::effects::{Context, Kind};
+use crate::json_number::{num, nums};
+use crate::model::{Plant, NT};
+
+/// Chi-square quantile at 99 % for `k` degrees of freedom (Wilson-Hilferty).
+fn chi2_99(k: usize) -> f64 {
+    let k = k.max(1) as f64;
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + 2.326 * a.sqrt()).powi(3)
+}
+
+/// The other members of `kind`'s class that give the same rates as its fitted `theta`
+/// (standard errors `se`), each as `{"effect": name, "params": {...}}`.
+pub fn equivalents(
+    kind: Kind,
+    theta: &[f64],
+    se: &dyn Fn(usize) -> f64,
+    plant: &Plant,
+    cx: &Context,
+) -> Vec<Value> {
+    let fired_idx: Vec<usize> = (0..cx.n_thrusters.min(NT))
+        .filter(|&i| cx.fired[i])
+        .collect();
+    let per_thruster = |fired_values: &[f64]| -> Vec<f64> {
+        let mut v = vec![1.0; cx.n_thrusters.min(NT)];
+        for (&i, &s) in fired_idx.iter().zip(fired_values) {
+            v[i] = s;
+        }
+        v
+    };
+    match kind {
+        Kind::ThrusterLatency => {
+            let (o, c) = (theta[0], theta[1]);
+            let e = se(0).hypot(se(1));
+            if e.is_finite() && (o - c).powi(2) <= chi2_99(1) * e * e {
+                let d = 0.5 * (o + c);
+                vec![json!({"effect": "measurement_delay", "params": {"delay_ms": num(d)}})]
+            } else {
+                vec![]
+            }
+        }
+        Kind::MeasurementDelay => vec![json!({
+            "effect": "thruster_latency",
+            "params": {"open_ms": num(theta[0]), "close_ms": num(theta[0])}
+        })],
+        Kind::Inertia => {
+            // the fitted inertia as r times the model's: identifiable terms only (yaw on a
+            // planar craft)
+            let i0 = cx.nominal_inertia;
+            let terms: Vec<usize> = if plant.planar {
+                vec![2]
+            } else {
+                (0..6).collect()
+            };
+            let w = |i: usize| 1.0 / se(i).max(1e-300).powi(2);
+            let den: f64 = terms.iter().map(|&i| w(i) * i0[i] * i0[i]).sum();
+            if den <= 0.0 || !den.is_finite() {
+                return vec![];
+            }
+            let r = terms.iter().map(|&i| w(i) * theta[i] * i0[i]).sum::<f64>() / den;
+            let chi2: f64 = terms
+                .iter()
+                .map(|&i| w(i) * (theta[i] - r * i0[i]).powi(2))
+                .sum();
+            if r > 0.0 && chi2 <= chi2_99(terms.len().saturating_sub(1)) {
+                let s = vec![1.0 / r; fired_idx.len()];
+                vec![
+                    json!({"effect": "thrust_scale", "params": {"scale": nums(&per_thruster(&s))}}),
+                ]
+            } else {
+                vec![]
+            }
+        }
+        Kind::ThrustScale => {
+            let w = |j: usize| 1.0 / se(j).max(1e-300).powi(2);
+            let n = theta.len();
+            let den: f64 = (0..n).map(w).sum();
+            if n == 0 || !den.is_finite() || den <= 0.0 {
+                return vec![];
+            }
+            let mean = (0..n).map(|j| w(j) * theta[j]).sum::<f64>() / den;
+            let chi2: f64 = (0..n).map(|j| w(j) * (theta[j] - mean).powi(2)).sum();
+            if mean > 0.0 && chi2 <= chi2_99(n.saturating_sub(1)) {
+                let inertia: Vec<f64> = cx.nominal_inertia.iter().map(|v| v / mean).collect();
+                vec![json!({"effect": "inertia", "params": {"inertia_kgm2": nums(&inertia)}})]
+            } else {
+                vec![]
+            }
+        }
+        Kind::ComOffset if plant.planar => {
+            let off = [theta[0], theta[1], theta[2]];
+            let mut s = vec![];
+            for &i in &fired_idx {
+                let before = plant.torque_about(i, &[0.0; 3])[2];
+                let after = plant.torque_about(i, &off)[2];
+                if before.abs() < 1e-9 * plant.thrust_n(i).max(1e-12) {
+                    // a thruster with no yaw arm: its scale cannot stand in for the offset
+                    return vec![];
+                }
+                s.push(after / before);
+            }
+            vec![json!({"effect": "thrust_scale", "params": {"scale": nums(&per_thruster(&s))}})]
+        }
+        _ => vec![],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use reference_f64::satellite::Satellite;
+
+    fn cx<'a>(fired: &'a [bool; NT], sat: &Satellite, plant: &'a Plant) -> Context<'a> {
+        Context {
+            duration_s: 60.0,
+            nominal_inertia: sat.inertia_kgm2,
+            min_thrust_n: 0.1,
+            n_thrusters: sat.n_thrusters(),
+            fired,
+            slosh_hint_hz: &[],
+            sample_rate_hz: 1000.0,
+            command_step_ms: 200.0,
+            plant,
+        }
+    }
+
+    #[test]
+    fn equal_latencies_are_a_delay_and_unequal_ones_are_not() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let fired = [true; NT];
+        let c = cx(&fired, &sat, &plant);
+        let se = |_: usize| 0.1;
+        let eq = equivalents(Kind::ThrusterLatency, &[6.0, 6.1], &se, &plant, &c);
+        assert_eq!(eq.len(), 1);
+        assert_eq!(eq[0]["effect"], "measurement_delay");
+        assert!((eq[0]["params"]["delay_ms"].as_f64().unwrap() - 6.05).abs() < 1e-9);
+        // planted fault: 6 and 8 ms differ by 14 sigma, no delay gives that
+        assert!(equivalents(Kind::ThrusterLatency, &[6.0, 8.0], &se, &plant, &c).is_empty());
+        let d = equivalents(Kind::MeasurementDelay, &[120.0], &se, &plant, &c);
+        assert_eq!(d[0]["params"]["open_ms"], 120.0);
+    }
+
+    #[test]
+    fn a_uniform_scale_is_an_inertia_and_back() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let fired = [true; NT];
+        let c = cx(&fired, &sat, &plant);
+        let n = sat.n_thrusters();
+        let se = |_: usize| 0.002;
+        let eq = equivalents(Kind::ThrustScale, &vec![0.8; n], &se, &plant, &c);
+        assert_eq!(eq[0]["effect"], "inertia");
+        let izz = eq[0]["params"]["inertia_kgm2"][2].as_f64().unwrap();
+        assert!((izz - sat.inertia_kgm2[2] / 0.8).abs() < 1e-12);
+        // one dead thruster is not a uniform scale
+        let mut one = vec![1.0; n];
+        one[4] = 0.0;
+        assert!(equivalents(Kind::ThrustScale, &one, &se, &plant, &c).is_empty());
+        // an inertia 1.25x the model's is a uniform 0.8 scale; a changed product is not
+        let i: Vec<f64> = sat.inertia_kgm2.iter().map(|v| v * 1.25).collect();
+        let ise = |_: usize| 1e-5;
+        let eq = equivalents(Kind::Inertia, &i, &ise, &plant, &c);
+        let s0 = eq[0]["params"]["scale"][0].as_f64().unwrap();
+        assert!((s0 - 0.8).abs() < 1e-9, "{s0}");
+        let mut j = i.clone();
+        j[3] += 0.002;
+        assert!(equivalents(Kind::Inertia, &j, &ise, &plant, &c).is_empty());
+    }
+}

@@ -299,6 +299,17 @@ pub fn diagnose(
         }
         // full fits for the best screened candidates
         screened.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if std::env::var_os("MASSID_DIAG_PROFILE").is_some() {
+            for s in &screened {
+                let th: Vec<String> = s.2.iter().take(4).map(|v| format!("{v:.4}")).collect();
+                eprintln!(
+                    "  screened {:>22}: delta BIC {:.0} at [{}]",
+                    s.1.name(),
+                    s.0,
+                    th.join(" ")
+                );
+            }
+        }
         for (i, (dbic, kind, theta, chi2, note, rf, se)) in screened.into_iter().enumerate() {
             let k_new = effects::n_params(kind, &fired);
             let k_live = if se.is_empty() {

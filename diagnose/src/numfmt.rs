@@ -200,7 +200,24 @@ pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
                     element_labels(k, xs.len())
                         .into_iter()
                         .zip(xs.iter().zip(ses))
-                        .map(|(l, (x, s))| (l, one(x.as_f64(), s)))
+                        .map(|(l, (x, s))| match x {
+                            // a row of a matrix (a thruster's direction): its numbers
+                            Value::Array(row) => (
+                                l,
+                                format!(
+                                    "({})",
+                                    row.iter()
+                                        .map(|y| sig(y.as_f64().unwrap_or(f64::NAN), 4))
+                                        .collect::<Vec<_>>()
+                                        .join(" ")
+                                ),
+                            ),
+                            // a list of thruster numbers (no uncertainty)
+                            Value::Number(n) if s.is_none() && n.is_u64() => {
+                                (String::new(), n.to_string())
+                            }
+                            _ => (l, one(x.as_f64(), s)),
+                        })
                         .collect()
                 }
                 _ => vec![(String::new(), one(v.as_f64(), se.and_then(Value::as_f64)))],

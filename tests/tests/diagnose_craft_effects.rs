@@ -1,28 +1,47 @@
 //! Issue 24 items 1-2 on craft other than SPHERES, flown by our simulator (format v2
-//! recordings, rates in rad/s): a measurement delay far longer than a valve's and a valve
-//! latency longer than the command step are each named, with the right value, and nothing
-//! else; the equal latency / delay is listed once under `equivalent_to`, never named twice.
+//! recordings, rates in rad/s): a measurement delay far longer than a valve's, a valve
+//! latency longer than the command step and a tilted thruster are each named, with the right
+//! value, and nothing else; equivalent effects (equal latency / delay, a uniform thrust scale
+//! / an inertia) are named once with the other under `equivalent_to`, never named together.
 //! Craft: the 8-thruster cubesat and the 16-thruster free-flyer of `examples/models/` (3-D,
-//! canted thrusters) and the planar air-bearing craft. Random PWM at 100 Hz, 40 s.
+//! canted thrusters) and the planar air-bearing craft. Random PWM at 100 Hz.
 
 use massid_diagnose::{diagnose_rate_recording, DiagnosisOutput, Settings};
-use massid_sim::effects::{Effect, MeasurementDelay, ThrusterLatency};
+use massid_sim::effects::{
+    Effect, MeasurementDelay, ThrustScale, ThrusterLatency, ThrusterMisalignment,
+};
 use massid_sim::model_file::ModelFile;
 use massid_sim::simulate::{simulate, Maneuver, SimSpec};
 use std::path::Path;
 
 fn diagnose(model: &str, effects: Vec<Effect>, seed: u64) -> DiagnosisOutput {
+    diagnose_with(model, effects, seed, 40.0, None)
+}
+
+/// `seconds` of random PWM; `horizon_s` re-anchors the rate (a tumbling 3-D craft's
+/// open-loop prediction drifts over a long flight).
+fn diagnose_with(
+    model: &str,
+    effects: Vec<Effect>,
+    seed: u64,
+    seconds: f64,
+    horizon_s: Option<f64>,
+) -> DiagnosisOutput {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("ws");
     let sat = ModelFile::read(&root.join("examples/models").join(model))
         .expect("model")
         .satellite;
     let mut spec = SimSpec::new(sat.clone(), effects, Maneuver::RandomPwm);
-    spec.seconds = Some(40.0);
+    spec.seconds = Some(seconds);
     spec.rate_hz = 100.0;
     spec.seed = seed;
     let out = simulate(&spec).expect("simulate");
     let rec = out.rate_recording.expect("a v2 craft");
-    diagnose_rate_recording(&rec, &sat, &Settings::default())
+    let settings = Settings {
+        horizon_s,
+        ..Settings::default()
+    };
+    diagnose_rate_recording(&rec, &sat, &settings)
         .expect("diagnosis")
         .output
 }
@@ -87,4 +106,61 @@ fn a_valve_latency_longer_than_the_command_step_is_named() {
 fn the_same_flights_without_a_delay_name_nothing() {
     let out = diagnose("cubesat8.toml", vec![], 5);
     assert_eq!(named(&out), Vec::<&str>::new());
+}
+
+/// Thruster 3 of the cubesat tilted 3 degrees (toward the body's z axis): named as a
+/// misalignment of that thruster alone, not as thrust scales.
+#[test]
+fn a_tilted_thruster_is_named_as_a_misalignment_of_that_thruster() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("ws");
+    let sat = ModelFile::read(&root.join("examples/models/cubesat8.toml"))
+        .expect("model")
+        .satellite;
+    let mut dir: Vec<[f64; 3]> = sat.thrust_dir.clone();
+    let d = nalgebra::Vector3::from(dir[2]);
+    let axis = nalgebra::Unit::new_normalize(d.cross(&nalgebra::Vector3::z()));
+    dir[2] = (nalgebra::Rotation3::from_axis_angle(&axis, 3f64.to_radians()) * d).into();
+    let tilt = Effect::ThrusterMisalignment(ThrusterMisalignment { dir: dir.clone() });
+    let out = diagnose_with("cubesat8.toml", vec![tilt], 4, 30.0, Some(5.0));
+    assert_eq!(named(&out), vec!["thruster_misalignment"]);
+    let e = &out.effects[0];
+    assert_eq!(e.params["thrusters"], serde_json::json!([3]));
+    near(
+        "tilt of thruster 3",
+        e.params["tilt_deg"][2].as_f64().unwrap(),
+        e.stderr["tilt_deg"][2].as_f64().unwrap(),
+        3.0,
+    );
+    let got = &e.params["dir"][2];
+    let cos: f64 = (0..3).map(|k| got[k].as_f64().unwrap() * dir[2][k]).sum();
+    assert!(
+        cos.clamp(-1.0, 1.0).acos().to_degrees() < 0.5,
+        "direction {got}"
+    );
+}
+
+/// All eight thrusters at 90 %: the same rates as an inertia / 0.9. One effect is named and
+/// the other listed under `equivalent_to`; the two are never named together.
+#[test]
+fn a_uniform_thrust_scale_is_named_once_with_its_inertia_equivalent() {
+    let scale = Effect::ThrustScale(ThrustScale {
+        scale: vec![0.9; 8],
+    });
+    let out = diagnose_with("cubesat8.toml", vec![scale], 4, 30.0, Some(5.0));
+    let names = named(&out);
+    assert_eq!(names.len(), 1, "{names:?}");
+    let e = &out.effects[0];
+    let other = match names[0] {
+        "inertia" => "thrust_scale",
+        "thrust_scale" => "inertia",
+        n => panic!("named {n}"),
+    };
+    assert_eq!(e.equivalent_to.len(), 1);
+    assert_eq!(e.equivalent_to[0]["effect"], other);
+    let s = if other == "thrust_scale" {
+        e.equivalent_to[0]["params"]["scale"][0].as_f64().unwrap()
+    } else {
+        e.params["scale"][0].as_f64().unwrap()
+    };
+    assert!((s - 0.9).abs() < 0.01, "scale {s}");
 }

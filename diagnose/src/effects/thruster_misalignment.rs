@@ -3,10 +3,17 @@
 //! changes direction, not only size. Without this effect a tilt is named as a thrust scale
 //! on every thruster (the nearest thing the vocabulary had).
 //!
-//! Two tilt angles per fired thruster, about the axes of `Plant::tilt_axes`; the magnitude
-//! stays (that is `thrust_scale`). On a planar craft only the yaw torque is seen, and a tilt
-//! in the plane changes it exactly as that thruster's scale does: there the effect is not
-//! tried (`applies`) and a tilt is named as a thrust scale.
+//! One tilted thruster: which one (a discrete choice the search makes, one start per fired
+//! thruster) and its two tilt angles about the axes of `Plant::tilt_axes`; the magnitude
+//! stays (that is `thrust_scale`). Tilts of every thruster at once (two angles each) were
+//! tried first: with 24 free angles on SPHERES they stood in for a CoM offset plus a gyro
+//! scale error (open recording p06), so the effect is the parsimonious one-thruster form.
+//! The index is parameter 0, held by the fit (its Jacobian column is zero, so it is a dead
+//! parameter and costs no BIC penalty).
+//!
+//! On a planar craft only the yaw torque is seen, and a tilt in the plane changes it exactly
+//! as that thruster's scale does: there the effect is not tried (`applies`) and a tilt is
+//! named as a thrust scale.
 
 use super::{Context, Effect, Reported, Spec};
 use crate::json_number::num;
@@ -14,6 +21,13 @@ use crate::model::{Params, NT};
 use serde_json::Value;
 
 pub struct ThrusterMisalignment;
+
+/// The thruster a parameter vector tilts (parameter 0, rounded into range).
+fn thruster_of(th: &[f64]) -> usize {
+    th.first()
+        .map(|v| v.round().clamp(0.0, (NT - 1) as f64) as usize)
+        .unwrap_or(0)
+}
 
 /// The largest tilt searched, rad (20 degrees): beyond it the thruster is mounted
 /// elsewhere, not misaligned.
@@ -23,32 +37,31 @@ impl Effect for ThrusterMisalignment {
     fn name(&self) -> &'static str {
         "thruster_misalignment"
     }
-    fn n_params(&self, fired: &[bool; NT]) -> usize {
-        2 * fired.iter().filter(|&&f| f).count()
+    fn n_params(&self, _: &[bool; NT]) -> usize {
+        3
     }
     fn apply(&self, th: &[f64], fired: &[bool; NT], p: &mut Params) {
-        let mut j = 0;
-        for i in 0..NT {
-            if fired[i] && j + 1 < th.len() {
-                p.tilt[i] = [th[j], th[j + 1]];
-                j += 2;
-            }
+        let k = thruster_of(th);
+        if fired[k] {
+            p.tilt[k] = [th[1], th[2]];
         }
     }
     fn applies(&self, cx: &Context) -> bool {
         !cx.plant.planar
     }
     fn spec(&self, cx: &Context) -> Spec {
-        let n = self.n_params(cx.fired);
         Spec {
-            lo: vec![-MAX_TILT_RAD; n],
-            hi: vec![MAX_TILT_RAD; n],
-            step: vec![1e-4; n],
-            starts: vec![vec![0.0; n]],
+            lo: vec![0.0, -MAX_TILT_RAD, -MAX_TILT_RAD],
+            hi: vec![(NT - 1) as f64, MAX_TILT_RAD, MAX_TILT_RAD],
+            step: vec![1e-3, 1e-4, 1e-4],
+            starts: (0..NT)
+                .filter(|&i| cx.fired[i])
+                .map(|i| vec![i as f64, 0.0, 0.0])
+                .collect(),
         }
     }
-    fn no_effect(&self, theta: &[f64], _: &Context) -> Vec<(usize, f64)> {
-        (0..theta.len()).map(|i| (i, 0.0)).collect()
+    fn no_effect(&self, _: &[f64], _: &Context) -> Vec<(usize, f64)> {
+        vec![(1, 0.0), (2, 0.0)]
     }
     fn implausible(
         &self,
@@ -56,7 +69,7 @@ impl Effect for ThrusterMisalignment {
         at_bound: &dyn Fn(usize) -> bool,
         _: &Context,
     ) -> Option<String> {
-        (0..th.len()).any(|i| at_bound(i) && th[i] != 0.0).then(|| {
+        (1..3).any(|i| at_bound(i) && th[i] != 0.0).then(|| {
             format!(
                 "a tilt at the {:.0} degree search bound",
                 MAX_TILT_RAD.to_degrees()
@@ -74,34 +87,31 @@ impl Effect for ThrusterMisalignment {
         let mut tilt = vec![];
         let mut tilt_se = vec![];
         let mut tilted = vec![];
-        let mut j = 0;
+        let k = thruster_of(th);
+        let unit = |v: nalgebra::Vector3<f64>| v / v.norm().max(1e-300);
         for i in 0..n {
-            let nominal = plant.tilted_force(i, [0.0; 2]);
-            let unit = |v: nalgebra::Vector3<f64>| v / v.norm().max(1e-300);
-            if cx.fired[i] && j + 1 < th.len() {
-                let (a, b) = (th[j], th[j + 1]);
-                let (sa, sb) = (se(j), se(j + 1));
+            let nominal = unit(plant.tilted_force(i, [0.0; 2]));
+            if i == k && cx.fired[i] {
+                let (a, b) = (th[1], th[2]);
+                let (sa, sb) = (se(1), se(2));
                 let d = unit(plant.tilted_force(i, [a, b]));
                 let [u1, u2] = plant.tilt_axes[i];
                 dir.push(d);
-                dir_se.push(std::array::from_fn::<f64, 3, _>(|k| {
-                    (u1[k] * sa).hypot(u2[k] * sb)
+                dir_se.push(std::array::from_fn::<f64, 3, _>(|c| {
+                    (u1[c] * sa).hypot(u2[c] * sb)
                 }));
-                let angle = unit(nominal).dot(&d).clamp(-1.0, 1.0).acos();
-                // the angle's error: the tilt's own direction's component
-                let e = if angle > 0.0 {
+                let angle = nominal.dot(&d).clamp(-1.0, 1.0).acos();
+                // the angle's error: along the tilt's own direction
+                let e = if a.hypot(b) > 0.0 {
                     ((a * sa).powi(2) + (b * sb).powi(2)).sqrt() / a.hypot(b)
                 } else {
                     sa.max(sb)
                 };
-                if angle > 3.0 * e {
-                    tilted.push(i + 1);
-                }
+                tilted.push(i + 1);
                 tilt.push(angle.to_degrees());
                 tilt_se.push(e.to_degrees());
-                j += 2;
             } else {
-                dir.push(unit(nominal));
+                dir.push(nominal);
                 dir_se.push([0.0; 3]);
                 tilt.push(0.0);
                 tilt_se.push(0.0);

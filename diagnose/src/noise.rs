@@ -53,6 +53,11 @@ pub const KIND_SIGMAS: f64 = 4.0;
 const DECORRELATED: f64 = 0.01;
 /// ... but never beyond this lag (ms): slower changes are model error, not noise.
 const MAX_NOISE_LAG_MS: f64 = 100.0;
+/// Fewer steady samples than this (a short or slow recording that fires most of the time)
+/// and the kind is read from every sample: with 200 pairs the 4-sigma bar is 0.57, above a
+/// differenced sensor's -0.5, and a model error (a ramp while firing, a step at an edge)
+/// can only raise D(2) against D(1), never fake a negative correlation.
+const MIN_STEADY: usize = 1000;
 /// The environment variable that overrides the kind (`white`, `band_limited`,
 /// `differenced_attitude`): a planted fault for the tests that show the model matters.
 pub const FORCE_KIND_ENV: &str = "MASSID_NOISE_KIND";
@@ -349,9 +354,9 @@ fn forced_kind() -> Option<NoiseKind> {
 /// stretches. Falls back to all samples when coasting is too rare.
 ///
 /// Rule: on steady stretches ([`steady_mask`]) the pooled lag-1 correlation
-/// rho1 = 1 - D(1) / mean D(2..) decides the kind: below [`KIND_MIN`] or [`KIND_SIGMAS`]
-/// standard errors (2/sqrt(pairs)) white, above it band-limited, below minus it differenced
-/// attitude. White noise, and a gyro whose correlation is gone within the ~12 ms of lags
+/// rho1 = 1 - D(1) / mean D(2..), or c = D(2)/D(1) - 1 where that is larger in size, decides
+/// the kind: below [`KIND_MIN`] or [`KIND_SIGMAS`] standard errors (2/sqrt(pairs)) white,
+/// above it band-limited, below minus it differenced attitude. White noise, and a gyro whose correlation is gone within the ~12 ms of lags
 /// read (SPHERES' at 1 kHz), keep the variance read at those lags in coasting stretches, as
 /// always. A band-limited gyro with c = D(2)/D(1) - 1 (its AR(1) coefficient) still
 /// correlated there has its variance read where the correlation has fallen below 1 %
@@ -381,7 +386,7 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
     // the kind, from steady stretches (more of them than coasting ones), pooled over the
     // axes that have data (one sensor, one kind)
     let mut steady = steady_mask(series, 60);
-    if steady.iter().filter(|&&m| m).count() < 200 {
+    if steady.iter().filter(|&&m| m).count() < MIN_STEADY {
         steady = vec![true; series.len()];
     }
     let mut ds = vec![[0.0f64; 3]; max_lag + 2];
@@ -408,10 +413,14 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
     let c = pooled(&|a| ds[2][a] / ds[1][a] - 1.0);
     let n_pooled: usize = live.iter().map(|&a| pairs_s[a]).sum();
     let se = 2.0 / (n_pooled.max(1) as f64).sqrt();
-    let coloured = rho.abs() > KIND_MIN && rho.abs() > KIND_SIGMAS * se;
+    // two views of the same lag structure: rho1 separates differenced attitude best (-0.5
+    // against c's -0.33), c a slow gyro (its AR(1) coefficient, where rho1 against lags
+    // 2..4 that are themselves still correlated reads low); the stronger one decides
+    let stat = if c.abs() > rho.abs() { c } else { rho };
+    let coloured = stat.abs() > KIND_MIN && stat.abs() > KIND_SIGMAS * se;
     let mut kind = if !coloured {
         NoiseKind::White
-    } else if rho > 0.0 {
+    } else if stat > 0.0 {
         NoiseKind::BandLimited
     } else {
         NoiseKind::DifferencedAttitude

@@ -52,7 +52,7 @@ impl DelayLine {
     /// (linear between the whole ms around it).
     pub fn push(&mut self, w: [f64; 3]) -> [f64; 3] {
         if self.hist.is_empty() {
-            self.hist.extend(std::iter::repeat(w).take(self.len));
+            self.hist.extend(std::iter::repeat_n(w, self.len));
         } else {
             self.hist.pop_front();
             self.hist.push_back(w);

@@ -19,6 +19,7 @@ for craft in $crafts; do for rate in $rates; do for seed in $seeds; do for c in 
   "$bin" simulate --model "$n.toml" --maneuver random-pwm --rate "$rate" --seconds 30 --seed "$seed" --out "$n.csv" --force > /dev/null
   h=5; grep -q "^planar = true" "examples/models/$craft.toml" && h=10
   "$bin" diagnose "$n.csv" --model "examples/models/$craft.toml" --horizon $h --json "$n.json" > "$n.txt" 2>&1 || true
+  if [ ! -s "$n.json" ]; then echo "$(basename "$n") ERROR: no diagnosis (see $n.txt)" >> "$out/results.txt"; continue; fi
   python3 - "$n" >> "$out/results.txt" <<'PY'
 import json, sys
 n = sys.argv[1]

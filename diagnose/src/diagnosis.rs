@@ -666,14 +666,20 @@ pub fn diagnose(
             // model without it has the lower BIC
             if let Ok(t) = trial.without() {
                 let bic_without = t.chi2_rigid + k_rest as f64 * ln_n;
-                if bic_without < bic_now {
+                // the others refitted without it must still be physics
+                let cx = select::context(&prob, &fired, &slosh_hint);
+                let still_plausible = t.pairs.iter().all(|(k, th)| {
+                    let sp = select::spec(*k, &prob, &fired, &slosh_hint);
+                    crate::acceptance::implausible(*k, th, &cx, &sp.lo, &sp.hi).is_none()
+                });
+                if bic_without < bic_now && still_plausible {
                     let gone = accepted.remove(e);
                     rejections.push(Rejection {
                         round: settings.max_effects,
                         effect: gone.kind.name(),
                         delta_bic: gone.delta_bic,
                         reason: format!(
-                            "named first, then dropped: the effects named after it stand in for it (without it the BIC is lower by {:.0})",
+                            "named, then dropped: the other named effects stand in for it (without it the BIC is lower by {:.0})",
                             bic_now - bic_without
                         ),
                     });
@@ -828,7 +834,14 @@ pub fn diagnose(
     }
     let effects_out: Vec<EffectReport> = accepted
         .iter()
-        .map(|a| report_effect(a, &select::context(&prob, &fired, &[]), plant))
+        .map(|a| {
+            let others: Vec<Kind> = accepted
+                .iter()
+                .map(|o| o.kind)
+                .filter(|&k| k != a.kind)
+                .collect();
+            report_effect(a, &others, &select::context(&prob, &fired, &[]), plant)
+        })
         .collect();
     // a named ringing accounts for its post-edge windows as a random tone
     let mut ringing_windows = vec![false; series.len()];
@@ -1024,11 +1037,16 @@ fn alternatives(
     alt
 }
 
-fn report_effect(a: &Accepted, cx: &effects::Context, plant: &Plant) -> EffectReport {
+fn report_effect(
+    a: &Accepted,
+    others: &[Kind],
+    cx: &effects::Context,
+    plant: &Plant,
+) -> EffectReport {
     let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
     let (p, s) = a.kind.effect().report(&a.theta, &se, cx);
     EffectReport {
-        equivalent_to: crate::equivalence::equivalents(a.kind, &a.theta, &se, plant, cx),
+        equivalent_to: crate::equivalence::equivalents(a.kind, &a.theta, &se, others, plant, cx),
         effect: a.kind.name().into(),
         params: p,
         stderr: s,

@@ -6,7 +6,9 @@
 //! The classes follow from the equations of motion, not from the recording at hand:
 //! - a `measurement_delay` d is an equal `thruster_latency` (open = close = d) on every edge;
 //! - a uniform `thrust_scale` s is the `inertia` divided by s (I^-1 s tau = (I/s)^-1 tau, and
-//!   the gyroscopic term I^-1 (w x I w) is unchanged), as long as no other torque is named;
+//!   the gyroscopic term I^-1 (w x I w) is unchanged), as long as no other torque is named
+//!   (a disturbance, damping, slosh, pressure drop or mass change would have to be rescaled
+//!   too: then nothing is listed);
 //! - on a planar craft (yaw only) a `com_offset` changes each thruster's yaw torque alone, so
 //!   it is a per-thruster `thrust_scale`.
 //!
@@ -27,15 +29,38 @@ fn chi2_99(k: usize) -> f64 {
     k * (1.0 - a + 2.326 * a.sqrt()).powi(3)
 }
 
+/// Effects whose torques would have to be rescaled with a thrust scale or an inertia for
+/// the two to stay equal: with one of them named the simple equivalence does not hold.
+const SCALE_BREAKERS: [Kind; 5] = [
+    Kind::DisturbanceTorque,
+    Kind::RateDamping,
+    Kind::MassPropertyChange,
+    Kind::FuelSlosh,
+    Kind::PressureDrop,
+];
+
+/// Weight 1/se^2 of a term; 0 for an unidentifiable one (NaN or infinite error).
+fn weight(se: f64) -> f64 {
+    if se.is_finite() && se > 0.0 {
+        1.0 / (se * se)
+    } else {
+        0.0
+    }
+}
+
 /// The other members of `kind`'s class that give the same rates as its fitted `theta`
-/// (standard errors `se`), each as `{"effect": name, "params": {...}}`.
+/// (standard errors `se`), each as `{"effect": name, "params": {...}}`. `others`: the other
+/// effects named with it (some break an equivalence that holds alone).
 pub fn equivalents(
     kind: Kind,
     theta: &[f64],
     se: &dyn Fn(usize) -> f64,
+    others: &[Kind],
     plant: &Plant,
     cx: &Context,
 ) -> Vec<Value> {
+    let named = |k: Kind| others.contains(&k);
+    let scale_breaks = SCALE_BREAKERS.iter().any(|&k| named(k));
     let fired_idx: Vec<usize> = (0..cx.n_thrusters.min(NT))
         .filter(|&i| cx.fired[i])
         .collect();
@@ -61,7 +86,7 @@ pub fn equivalents(
             "effect": "thruster_latency",
             "params": {"open_ms": num(theta[0]), "close_ms": num(theta[0])}
         })],
-        Kind::Inertia => {
+        Kind::Inertia if !scale_breaks && !named(Kind::ThrustScale) => {
             // the fitted inertia as r times the model's: identifiable terms only (yaw on a
             // planar craft)
             let i0 = cx.nominal_inertia;
@@ -70,42 +95,47 @@ pub fn equivalents(
             } else {
                 (0..6).collect()
             };
-            let w = |i: usize| 1.0 / se(i).max(1e-300).powi(2);
-            let den: f64 = terms.iter().map(|&i| w(i) * i0[i] * i0[i]).sum();
-            if den <= 0.0 || !den.is_finite() {
+            let live: Vec<usize> = terms.into_iter().filter(|&i| weight(se(i)) > 0.0).collect();
+            let den: f64 = live.iter().map(|&i| weight(se(i)) * i0[i] * i0[i]).sum();
+            if live.is_empty() || den <= 0.0 || !den.is_finite() {
                 return vec![];
             }
-            let r = terms.iter().map(|&i| w(i) * theta[i] * i0[i]).sum::<f64>() / den;
-            let chi2: f64 = terms
+            let r = live
                 .iter()
-                .map(|&i| w(i) * (theta[i] - r * i0[i]).powi(2))
+                .map(|&i| weight(se(i)) * theta[i] * i0[i])
+                .sum::<f64>()
+                / den;
+            let chi2: f64 = live
+                .iter()
+                .map(|&i| weight(se(i)) * (theta[i] - r * i0[i]).powi(2))
                 .sum();
-            if r > 0.0 && chi2 <= chi2_99(terms.len().saturating_sub(1)) {
-                let s = vec![1.0 / r; fired_idx.len()];
-                vec![
-                    json!({"effect": "thrust_scale", "params": {"scale": nums(&per_thruster(&s))}}),
-                ]
+            if r > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
+                // every thruster of the model at 1/r (one that never fired could be anything)
+                let s = vec![1.0 / r; cx.n_thrusters.min(NT)];
+                vec![json!({"effect": "thrust_scale", "params": {"scale": nums(&s)}})]
             } else {
                 vec![]
             }
         }
-        Kind::ThrustScale => {
-            let w = |j: usize| 1.0 / se(j).max(1e-300).powi(2);
-            let n = theta.len();
-            let den: f64 = (0..n).map(w).sum();
-            if n == 0 || !den.is_finite() || den <= 0.0 {
+        Kind::ThrustScale if !scale_breaks && !named(Kind::Inertia) => {
+            let live: Vec<usize> = (0..theta.len()).filter(|&j| weight(se(j)) > 0.0).collect();
+            let den: f64 = live.iter().map(|&j| weight(se(j))).sum();
+            if live.is_empty() || !den.is_finite() || den <= 0.0 {
                 return vec![];
             }
-            let mean = (0..n).map(|j| w(j) * theta[j]).sum::<f64>() / den;
-            let chi2: f64 = (0..n).map(|j| w(j) * (theta[j] - mean).powi(2)).sum();
-            if mean > 0.0 && chi2 <= chi2_99(n.saturating_sub(1)) {
+            let mean = live.iter().map(|&j| weight(se(j)) * theta[j]).sum::<f64>() / den;
+            let chi2: f64 = live
+                .iter()
+                .map(|&j| weight(se(j)) * (theta[j] - mean).powi(2))
+                .sum();
+            if mean > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
                 let inertia: Vec<f64> = cx.nominal_inertia.iter().map(|v| v / mean).collect();
                 vec![json!({"effect": "inertia", "params": {"inertia_kgm2": nums(&inertia)}})]
             } else {
                 vec![]
             }
         }
-        Kind::ComOffset if plant.planar => {
+        Kind::ComOffset if plant.planar && !named(Kind::ThrustScale) => {
             let off = [theta[0], theta[1], theta[2]];
             let mut s = vec![];
             for &i in &fired_idx {
@@ -149,13 +179,13 @@ mod tests {
         let fired = [true; NT];
         let c = cx(&fired, &sat, &plant);
         let se = |_: usize| 0.1;
-        let eq = equivalents(Kind::ThrusterLatency, &[6.0, 6.1], &se, &plant, &c);
+        let eq = equivalents(Kind::ThrusterLatency, &[6.0, 6.1], &se, &[], &plant, &c);
         assert_eq!(eq.len(), 1);
         assert_eq!(eq[0]["effect"], "measurement_delay");
         assert!((eq[0]["params"]["delay_ms"].as_f64().unwrap() - 6.05).abs() < 1e-9);
         // planted fault: 6 and 8 ms differ by 14 sigma, no delay gives that
-        assert!(equivalents(Kind::ThrusterLatency, &[6.0, 8.0], &se, &plant, &c).is_empty());
-        let d = equivalents(Kind::MeasurementDelay, &[120.0], &se, &plant, &c);
+        assert!(equivalents(Kind::ThrusterLatency, &[6.0, 8.0], &se, &[], &plant, &c).is_empty());
+        let d = equivalents(Kind::MeasurementDelay, &[120.0], &se, &[], &plant, &c);
         assert_eq!(d[0]["params"]["open_ms"], 120.0);
     }
 
@@ -167,22 +197,31 @@ mod tests {
         let c = cx(&fired, &sat, &plant);
         let n = sat.n_thrusters();
         let se = |_: usize| 0.002;
-        let eq = equivalents(Kind::ThrustScale, &vec![0.8; n], &se, &plant, &c);
+        let eq = equivalents(Kind::ThrustScale, &vec![0.8; n], &se, &[], &plant, &c);
         assert_eq!(eq[0]["effect"], "inertia");
         let izz = eq[0]["params"]["inertia_kgm2"][2].as_f64().unwrap();
         assert!((izz - sat.inertia_kgm2[2] / 0.8).abs() < 1e-12);
         // one dead thruster is not a uniform scale
         let mut one = vec![1.0; n];
         one[4] = 0.0;
-        assert!(equivalents(Kind::ThrustScale, &one, &se, &plant, &c).is_empty());
+        assert!(equivalents(Kind::ThrustScale, &one, &se, &[], &plant, &c).is_empty());
         // an inertia 1.25x the model's is a uniform 0.8 scale; a changed product is not
         let i: Vec<f64> = sat.inertia_kgm2.iter().map(|v| v * 1.25).collect();
         let ise = |_: usize| 1e-5;
-        let eq = equivalents(Kind::Inertia, &i, &ise, &plant, &c);
+        let eq = equivalents(Kind::Inertia, &i, &ise, &[], &plant, &c);
         let s0 = eq[0]["params"]["scale"][0].as_f64().unwrap();
         assert!((s0 - 0.8).abs() < 1e-9, "{s0}");
         let mut j = i.clone();
         j[3] += 0.002;
-        assert!(equivalents(Kind::Inertia, &j, &ise, &plant, &c).is_empty());
+        assert!(equivalents(Kind::Inertia, &j, &ise, &[], &plant, &c).is_empty());
+        // with a disturbance torque named too, inertia / s is no longer the same rates
+        let dist = [Kind::DisturbanceTorque];
+        assert!(equivalents(Kind::Inertia, &i, &ise, &dist, &plant, &c).is_empty());
+        // an unidentifiable term (NaN error) is left out, not allowed to hide the rest
+        let nan_one = |k: usize| if k == 5 { f64::NAN } else { 1e-5 };
+        assert_eq!(
+            equivalents(Kind::Inertia, &i, &nan_one, &[], &plant, &c).len(),
+            1
+        );
     }
 }

@@ -99,12 +99,12 @@ impl Predictor {
                 p.valves_open.push(s.valves);
             },
         );
-        let ringing = ringing_at(
-            &self.plant.cfg,
-            &shock_times_ms(&p.edges),
-            &times_ms[..n],
-            |_, _, _| 0.0,
-        );
+        // the sensor sees the ringing as late as the rate (a measurement delay)
+        let shocks: Vec<f64> = shock_times_ms(&p.edges)
+            .into_iter()
+            .map(|t| t + self.plant.cfg.measurement_delay_ms)
+            .collect();
+        let ringing = ringing_at(&self.plant.cfg, &shocks, &times_ms[..n], |_, _, _| 0.0);
         let cfg = &self.plant.cfg;
         let seen = delayed(
             &times_ms[..n],
@@ -155,11 +155,13 @@ fn delayed(
                 u - 2.0 * u * u + u * u * u,
             );
             let (h01, h11) = (3.0 * u * u - 2.0 * u * u * u, u * u * u - u * u);
+            // the slope at both ends is the one held over the interval (the acceleration
+            // recorded at j + 1 is after that sample's command change)
             std::array::from_fn(|a| {
                 h00 * rate[j][a]
                     + h10 * h * accel[j][a]
                     + h01 * rate[j + 1][a]
-                    + h11 * h * accel[j + 1][a]
+                    + h11 * h * accel[j][a]
             })
         })
         .collect()

@@ -336,7 +336,11 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
 
     // Ringing at the sample instants with a random phase per shock and axis.
     let mut ring_rng = rng(spec.seed, STREAM_RINGING);
-    let shocks = shock_times_ms(&edges);
+    // the sensor sees the ringing as late as the rate (a measurement delay)
+    let shocks: Vec<f64> = shock_times_ms(&edges)
+        .into_iter()
+        .map(|t| t + c.measurement_delay_ms)
+        .collect();
     let ringing = ringing_at(&plant.cfg, &shocks, &times, |_, _, _| {
         ring_rng.gen_range(0.0..std::f64::consts::TAU)
     });

@@ -6,7 +6,7 @@
 //! One tilted thruster: which one (a discrete choice the search makes, one start per fired
 //! thruster) and its two tilt angles about the axes of `Plant::tilt_axes`; the magnitude
 //! stays (that is `thrust_scale`). Tilts of every thruster at once (two angles each) were
-//! tried first: with 24 free angles on SPHERES they stood in for a CoM offset plus a gyro
+//! tried first: with 22 free angles on SPHERES (11 fired thrusters) they stood in for a CoM offset plus a gyro
 //! scale error (open recording p06), so the effect is the parsimonious one-thruster form.
 //! The index is parameter 0, held by the fit (its Jacobian column is zero, so it is a dead
 //! parameter and costs no BIC penalty).
@@ -93,7 +93,9 @@ impl Effect for ThrusterMisalignment {
             let nominal = unit(plant.tilted_force(i, [0.0; 2]));
             if i == k && cx.fired[i] {
                 let (a, b) = (th[1], th[2]);
-                let (sa, sb) = (se(1), se(2));
+                // an unidentifiable angle (NaN error) stays at 0: it adds no uncertainty
+                let finite = |e: f64| if e.is_finite() { e } else { 0.0 };
+                let (sa, sb) = (finite(se(1)), finite(se(2)));
                 let d = unit(plant.tilted_force(i, [a, b]));
                 let [u1, u2] = plant.tilt_axes[i];
                 dir.push(d);

@@ -90,6 +90,22 @@ mod tests {
         assert!(far.check_plausible(&sat).unwrap_err().contains("degrees"));
     }
 
+    /// Matrix parameters flatten as `dir[i][j]` and can be set back by that name.
+    #[test]
+    fn direction_entries_are_named_parameters() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let e = tilted(&sat, 4, 5.0);
+        let p = e.params();
+        assert_eq!(p.len(), 3 * sat.n_thrusters());
+        assert_eq!(p[3 * 4 + 1].0, "dir[4][1]");
+        let moved = e.with_params(&[("dir[4][1]", 0.25)]).unwrap();
+        assert_eq!(moved.params()[3 * 4 + 1].1, 0.25);
+        assert_eq!(moved.params()[0], p[0]);
+        // planted faults: a row past the end, a malformed index
+        assert!(e.with_params(&[("dir[99][0]", 1.0)]).is_err());
+        assert!(e.with_params(&[("dir[4][x]", 1.0)]).is_err());
+    }
+
     /// A tilted thruster turns the body differently (the torque changes), the model's own
     /// directions change nothing (bit for bit).
     #[test]

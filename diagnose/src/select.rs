@@ -190,7 +190,8 @@ fn fit_with_starts(
         lo.extend(s.lo);
         hi.extend(s.hi);
         step.extend(s.step);
-        sizes.push(s.starts[0].len());
+        // an effect with no start has nothing to fit on this recording
+        sizes.push(s.starts.first()?.len());
         let is_new = new == Some(*k) && idx == kinds.len() - 1;
         if is_new {
             new_starts = starts.clone().unwrap_or(s.starts);

@@ -37,8 +37,13 @@ impl Effect for ThrusterMisalignment {
     fn name(&self) -> &'static str {
         "thruster_misalignment"
     }
-    fn n_params(&self, _: &[bool; NT]) -> usize {
-        3
+    fn n_params(&self, fired: &[bool; NT]) -> usize {
+        // no thruster fired: nothing to tilt (and no start to search from)
+        if fired.iter().any(|&f| f) {
+            3
+        } else {
+            0
+        }
     }
     fn apply(&self, th: &[f64], fired: &[bool; NT], p: &mut Params) {
         let k = thruster_of(th);

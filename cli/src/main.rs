@@ -66,7 +66,7 @@ fn main() -> std::process::ExitCode {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Estimate(a) => cmd::estimate::run(a),
-        Command::Diagnose(a) => cmd::diagnose::run(a),
+        Command::Diagnose(a) => cmd::run_diagnose(a),
         Command::Import(a) => cmd::import::run(a),
         Command::Mix(a) => cmd::mix::run(a),
         Command::Characterize(a) => cmd::characterize::run(a),

@@ -1,10 +1,11 @@
 //! `massid diagnose --out DIR`: a folder or a list of recordings, diagnosed in parallel over
 //! recordings (rayon), one massid-diagnosis/1 JSON per recording plus a summary row each.
 //!
-//! The unit of work is [`super::diagnose::diagnose_file`], the function `massid diagnose
-//! FILE` runs too; the unit of summary is [`Row`], built from the JSON text alone, so that
-//! the batch, `massid diagnose FILE --summary-row` and an external engine mapping that
-//! command over files (`scripts/batch_ray.py`) give the same rows.
+//! The per-recording job is `cmd::diagnose`'s ([`diagnose_file`], [`to_json`], [`Row`]): the
+//! functions `massid diagnose FILE [--summary-row]` runs too, so that the batch, the single
+//! run and an external engine mapping that command over files (`scripts/batch_ray.py`) give
+//! the same JSONs and rows. This module uses `cmd::diagnose`, never the other way round; the
+//! command dispatch (`cmd::run_diagnose`) chooses between one recording and the batch.
 //!
 //! Resumable: each JSON is written to a temporary file and renamed into place, so a JSON in
 //! DIR is always whole; a rerun skips the recordings whose JSON is there (unless --force)
@@ -19,10 +20,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use serde_json::Value;
 
-use super::diagnose::{diagnose_file, to_json, Options};
+use super::diagnose::{diagnose_file, to_json, Options, Row, CSV_HEADER};
 
 /// The summary files in the output directory.
 pub const SUMMARY_JSONL: &str = "summary.jsonl";
@@ -36,153 +35,6 @@ pub struct Batch {
     pub jobs: Option<usize>,
     pub force: bool,
     pub options: Options,
-}
-
-/// One recording's line of the summary (`summary.jsonl`; `summary.csv` holds the same
-/// fields). Everything but `seconds` comes from the recording's massid-diagnosis/1 JSON, so
-/// two runs that wrote the same JSONs have the same rows but for `seconds`.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct Row {
-    /// The recording as given (a folder's recordings as FOLDER/NAME.csv).
-    pub file: String,
-    /// `ok`, or `error` when the recording could not be diagnosed.
-    pub status: String,
-    pub model: Option<String>,
-    pub samples: Option<u64>,
-    /// The named effects, in the order the diagnosis accepted them.
-    pub effects: Vec<String>,
-    /// Each named effect's fitted parameters (contract units), in the order of `effects`.
-    pub params: Vec<Value>,
-    /// Per axis, rad/s: before any effect and after the named ones.
-    pub residual_rms_before: Option<Value>,
-    pub residual_rms_after: Option<Value>,
-    /// What no named effect explains (axes, condition, apparent_hz, note), or null.
-    pub unexplained: Option<Value>,
-    /// Why the recording could not be diagnosed (`file:line: reason`).
-    pub error: Option<String>,
-    /// Wall time of the recording's diagnosis (reading included); null when unknown (a
-    /// JSON written by another run).
-    pub seconds: Option<f64>,
-}
-
-fn seconds_rounded(s: Option<f64>) -> Option<f64> {
-    s.map(|s| (s * 1000.0).round() / 1000.0)
-}
-
-impl Row {
-    /// The row of a recording whose diagnosis is `json` (the massid-diagnosis/1 text).
-    pub fn from_json(file: &Path, json: &str, seconds: Option<f64>) -> anyhow::Result<Row> {
-        let doc: Value =
-            serde_json::from_str(json).map_err(|e| anyhow::anyhow!("not a JSON document ({e})"))?;
-        if doc.get("format").and_then(Value::as_str) != Some(massid_diagnose::output::FORMAT) {
-            bail!("not a {} document", massid_diagnose::output::FORMAT);
-        }
-        let effects = doc
-            .get("effects")
-            .and_then(Value::as_array)
-            .context("no `effects` list")?;
-        let unexplained = doc.get("unexplained").filter(|u| !u.is_null()).map(|u| {
-            let mut m = serde_json::Map::new();
-            for k in ["axes", "condition", "apparent_hz", "note"] {
-                m.insert(k.into(), u.get(k).cloned().unwrap_or(Value::Null));
-            }
-            Value::Object(m)
-        });
-        Ok(Row {
-            file: file.display().to_string(),
-            status: "ok".into(),
-            model: doc.get("model").and_then(Value::as_str).map(str::to_string),
-            samples: doc.get("samples").and_then(Value::as_u64),
-            effects: effects
-                .iter()
-                .map(|e| {
-                    e.get("effect")
-                        .and_then(Value::as_str)
-                        .unwrap_or("?")
-                        .to_string()
-                })
-                .collect(),
-            params: effects
-                .iter()
-                .map(|e| e.get("params").cloned().unwrap_or(Value::Null))
-                .collect(),
-            residual_rms_before: doc.get("residual_rms_before").cloned(),
-            residual_rms_after: doc.get("residual_rms_after").cloned(),
-            unexplained,
-            error: None,
-            seconds: seconds_rounded(seconds),
-        })
-    }
-
-    /// The row of a recording that could not be diagnosed.
-    pub fn error(file: &Path, error: &str, seconds: Option<f64>) -> Row {
-        Row {
-            file: file.display().to_string(),
-            status: "error".into(),
-            model: None,
-            samples: None,
-            effects: Vec::new(),
-            params: Vec::new(),
-            residual_rms_before: None,
-            residual_rms_after: None,
-            unexplained: None,
-            error: Some(error.to_string()),
-            seconds: seconds_rounded(seconds),
-        }
-    }
-
-    /// The row as one JSON line (with its newline).
-    pub fn line(&self) -> String {
-        serde_json::to_string(self).expect("a row serialises") + "\n"
-    }
-
-    /// The row as one CSV line (with its newline), columns as [`CSV_HEADER`].
-    pub fn csv(&self) -> String {
-        let nums = |v: &Option<Value>| match v.as_ref().and_then(Value::as_array) {
-            Some(a) => a.iter().map(Value::to_string).collect::<Vec<_>>().join(" "),
-            None => String::new(),
-        };
-        let fields = [
-            self.file.clone(),
-            self.status.clone(),
-            self.model.clone().unwrap_or_default(),
-            self.samples.map(|n| n.to_string()).unwrap_or_default(),
-            self.effects.join(";"),
-            if self.params.is_empty() {
-                String::new()
-            } else {
-                Value::Array(self.params.clone()).to_string()
-            },
-            nums(&self.residual_rms_before),
-            nums(&self.residual_rms_after),
-            self.unexplained
-                .as_ref()
-                .and_then(|u| u.get("note"))
-                .and_then(Value::as_str)
-                .unwrap_or_default()
-                .to_string(),
-            self.error.clone().unwrap_or_default(),
-            self.seconds.map(|s| s.to_string()).unwrap_or_default(),
-        ];
-        fields
-            .iter()
-            .map(|f| csv_field(f))
-            .collect::<Vec<_>>()
-            .join(",")
-            + "\n"
-    }
-}
-
-/// The columns of `summary.csv` (effects `;`-separated, params the JSON list of each
-/// effect's parameters, residuals space-separated x y z, unexplained its note).
-pub const CSV_HEADER: &str = "file,status,model,samples,effects,params,residual_rms_before,residual_rms_after,unexplained,error,seconds\n";
-
-fn csv_field(f: &str) -> String {
-    if f.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", f.replace('"', "\"\""))
-    } else {
-        f.to_string()
-    }
 }
 
 /// Whether a path names a recording when it is found in a folder.
@@ -549,31 +401,6 @@ pub fn run(b: Batch) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn rows_come_from_the_json_alone_and_csv_quotes() {
-        let json = r#"{"format":"massid-diagnosis/1","recording":"a.csv","model":"sph2","samples":100,
-            "residual_rms_before":[0.1,0.2,0.3],"residual_rms_after":[0.01,0.02,0.03],
-            "effects":[{"effect":"thruster_latency","params":{"open_ms":6.1,"close_ms":5.8}}],
-            "unexplained":{"axes":["x"],"condition":"c, d","apparent_hz":null,"note":"n \"q\""},
-            "data_issues":{}}"#;
-        let r = Row::from_json(Path::new("d/a.csv"), json, Some(1.23456)).unwrap();
-        assert_eq!(r.effects, vec!["thruster_latency"]);
-        assert_eq!(r.params[0]["open_ms"], 6.1);
-        assert_eq!(r.seconds, Some(1.235));
-        assert_eq!(r.unexplained.as_ref().unwrap()["condition"], "c, d");
-        let back: Row = serde_json::from_str(&r.line()).unwrap();
-        assert_eq!(back, r);
-        let csv = r.csv();
-        assert!(
-            csv.starts_with("d/a.csv,ok,sph2,100,thruster_latency,"),
-            "{csv}"
-        );
-        assert!(csv.contains("\"n \"\"q\"\"\""), "{csv}");
-        assert!(csv.contains(",0.1 0.2 0.3,"), "{csv}");
-        assert!(Row::from_json(Path::new("x"), "{}", None).is_err());
-        assert!(Row::from_json(Path::new("x"), "nope", None).is_err());
-    }
 
     #[test]
     fn json_names() {

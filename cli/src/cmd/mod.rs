@@ -53,6 +53,23 @@ pub mod mix;
 pub mod model;
 pub mod simulate;
 
+/// `massid diagnose`: the command dispatch between one recording ([`diagnose::run`]) and many
+/// (`--out DIR`, [`batch::run`]). The per-recording job lives in `diagnose`, which the batch
+/// uses; `diagnose` does not know the batch, so the dependency runs one way.
+pub fn run_diagnose(args: diagnose::Args) -> anyhow::Result<()> {
+    match &args.out {
+        Some(out) => batch::run(batch::Batch {
+            options: args.options()?,
+            recordings: args.recordings.clone(),
+            list: args.list.clone(),
+            out: out.clone(),
+            jobs: args.jobs,
+            force: args.force,
+        }),
+        None => diagnose::run(args),
+    }
+}
+
 /// Whether an output path means standard output (`-`).
 pub fn is_stdout(out: &std::path::Path) -> bool {
     out.as_os_str() == "-"

@@ -5,7 +5,9 @@
 #   massid diagnose RECS --out A --jobs 2            (the built-in batch, rayon)
 #   python scripts/batch_ray.py --out B RECS         (Ray mapping `massid diagnose --summary-row`)
 # and checks that every JSON is byte for byte the same and the summaries have the same rows
-# (but for each row's seconds), the bad recording an error row in both.
+# (but for each row's seconds), the bad recording an error row in both. A second folder holds
+# a recording named like one of the first (more/a_nominal.csv): both engines give each its
+# own JSON at the same key (recs/a_nominal.json, more/a_nominal.json).
 #
 # Environment: MASSID=path/to/massid (default: built here with the test profile, the build
 # `cargo test` already made), VENV=dir (default: $CARGO_TARGET_DIR/ray-venv, kept between
@@ -40,17 +42,19 @@ mkdir -p "$recs"
   --model examples/models/sph2_latency.toml --out "$recs/b_latency.csv" >/dev/null
 "$MASSID" simulate --rate 100 --maneuver combo --seconds 3 --seed 3 --out "$recs/c_combo.csv" >/dev/null
 printf '# format = massid-recording/1\nnot,a,recording\n' >"$recs/d_bad.csv"
+mkdir -p "$work/more"
+"$MASSID" simulate --rate 100 --maneuver single --seconds 3 --seed 4 --out "$work/more/a_nominal.csv" >/dev/null
 
 # Both exit 1: the bad recording fails (an error row), the others succeed.
 t=$(now)
 status=0
-"$MASSID" diagnose "$recs" --out "$work/massid" --jobs 2 2>"$work/massid.log" || status=$?
+"$MASSID" diagnose "$recs" "$work/more" --out "$work/massid" --jobs 2 2>"$work/massid.log" || status=$?
 [ "$status" = 1 ] || { cat "$work/massid.log"; echo "massid diagnose --out: exit $status, expected 1"; exit 1; }
 echo "massid diagnose --out (rayon, 2 jobs): $(took "$t")"
 
 t=$(now)
 status=0
-"$venv/bin/python" scripts/batch_ray.py --massid "$MASSID" --num-cpus 2 --out "$work/ray" "$recs" \
+"$venv/bin/python" scripts/batch_ray.py --massid "$MASSID" --num-cpus 2 --out "$work/ray" "$recs" "$work/more" \
   >"$work/ray.log" 2>&1 || status=$?
 [ "$status" = 1 ] || { cat "$work/ray.log"; echo "batch_ray.py: exit $status, expected 1"; exit 1; }
 echo "scripts/batch_ray.py (Ray local mode, 2 CPUs, startup included): $(took "$t")"
@@ -59,7 +63,8 @@ python3 - "$work/massid" "$work/ray" <<'EOF'
 import json, os, sys
 a, b = sys.argv[1], sys.argv[2]
 def jsons(d):
-    return sorted(n for n in os.listdir(d) if n.endswith(".json"))
+    return sorted(os.path.relpath(os.path.join(w, n), d)
+                  for w, _, names in os.walk(d) for n in names if n.endswith(".json"))
 def rows(d):
     out = []
     with open(os.path.join(d, "summary.jsonl")) as f:
@@ -77,8 +82,11 @@ for n in jsons(a):
 ra, rb = rows(a), rows(b)
 if ra != rb:
     bad.append(f"summary rows differ:\n{ra}\n{rb}")
-if [r["status"] for r in ra] != ["ok", "ok", "ok", "error"]:
+if [r["status"] for r in ra] != ["ok", "ok", "ok", "ok", "error"]:
     bad.append(f"statuses: {[r['status'] for r in ra]}")
+if jsons(a) != ["more/a_nominal.json", "recs/a_nominal.json", "recs/b_latency.json",
+                "recs/c_combo.json"]:
+    bad.append(f"JSON keys: {jsons(a)}")
 if bad:
     print("\n".join(bad))
     sys.exit(1)

@@ -8,9 +8,12 @@ Each task runs
 
 on whichever Ray worker it lands, and returns the recording's massid-diagnosis/1 JSON
 text (the exact bytes `massid diagnose FILE --json` writes) and its summary row (the row
-`massid diagnose --out DIR` puts in summary.jsonl). The driver writes DIR/NAME.json and
+`massid diagnose --out DIR` puts in summary.jsonl). The driver writes DIR/KEY.json and
 DIR/summary.jsonl (rows sorted by file), so the workers need no shared output folder;
 they need `massid` on their PATH (or --massid) and the recordings at the same paths.
+KEY is the one `massid diagnose --out` uses: the recording's path below the deepest folder
+holding every recording named (symlinks resolved), its extension replaced by .json
+(a/flight.csv and b/flight.csv: DIR/a/flight.json and DIR/b/flight.json).
 
     python3 scripts/batch_ray.py --out DIR [--massid BIN] [--address auto] \
         [--num-cpus N] RECORDING_OR_FOLDER... [-- extra massid diagnose options]
@@ -31,29 +34,38 @@ import ray
 
 
 def recordings(paths):
-    """The recordings named: a folder gives its *.csv files, sorted (as massid does)."""
+    """The recordings named: a folder gives its *.csv files, sorted, but a batch's own
+    summary.csv (as massid does); the same recording twice, however spelled, is one."""
     found = []
     for p in paths:
         if os.path.isdir(p):
-            names = sorted(n for n in os.listdir(p) if n.lower().endswith(".csv"))
+            names = sorted(n for n in os.listdir(p)
+                           if n.lower().endswith(".csv") and n != "summary.csv")
             found.extend(os.path.join(p, n) for n in names
                          if os.path.isfile(os.path.join(p, n)))
         else:
             found.append(p)
     seen = set()
-    return [f for f in found if not (f in seen or seen.add(f))]
+    return [f for f in found
+            if not (os.path.realpath(f) in seen or seen.add(os.path.realpath(f)))]
 
 
-def json_name(recording):
-    stem, _ = os.path.splitext(os.path.basename(recording))
-    return stem + ".json"
+def json_keys(files):
+    """Each recording's JSON below --out, as massid diagnose --out names it (batch.rs
+    json_keys): its path relative to the deepest folder holding every recording (symlinks
+    resolved), the extension replaced by .json."""
+    real = [os.path.realpath(f) for f in files]
+    if not real:
+        return []
+    root = os.path.commonpath([os.path.dirname(r) for r in real])
+    return [os.path.splitext(os.path.relpath(r, root))[0] + ".json" for r in real]
 
 
 @ray.remote
 def diagnose(massid, recording, extra):
     """The unit of work: one `massid diagnose --summary-row` run."""
     with tempfile.TemporaryDirectory() as tmp:
-        out = os.path.join(tmp, json_name(recording))
+        out = os.path.join(tmp, "diagnosis.json")
         proc = subprocess.run(
             [massid, "diagnose", recording, *extra, "--json", out, "--summary-row"],
             capture_output=True, text=True)
@@ -90,9 +102,9 @@ def main():
     files = recordings(args.paths)
     os.makedirs(args.out, exist_ok=True)
     # the output names are checked before any work, as massid diagnose --out does
+    keys = dict(zip(files, json_keys(files)))
     names = {}
-    for f in files:
-        name = json_name(f)
+    for f, name in keys.items():
         if name in names:
             sys.exit(f"{f} and {names[name]} would both write {name}; rename one")
         names[name] = f
@@ -109,7 +121,8 @@ def main():
     rows = []
     for recording, text, line in results:
         if text is not None:
-            path = os.path.join(args.out, json_name(recording))
+            path = os.path.join(args.out, keys[recording])
+            os.makedirs(os.path.dirname(path), exist_ok=True)
             if os.path.exists(path) and not args.force:
                 sys.exit(f"{path}: exists; refusing to overwrite it (pass --force)")
             tmp = path + f".tmp{os.getpid()}"

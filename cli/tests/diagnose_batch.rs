@@ -365,12 +365,13 @@ fn batch_inputs_and_outputs_are_checked_before_any_work() {
         &["--list", &s(&list), "--out", &s(&out)],
         "list.txt:3: missing.csv: no such file",
     );
-    // two recordings named alike would write one JSON: refused, nothing written
-    let other = dir.join("sub");
-    std::fs::create_dir_all(&other).unwrap();
-    std::fs::copy(&rec, other.join("r.csv")).unwrap();
+    // two recordings that differ only by their extension would write one JSON: refused,
+    // nothing written (alike names in different folders are not: see
+    // same_file_names_in_different_folders_keep_their_own_json_and_resume_apart)
+    let txt = dir.join("r.txt");
+    std::fs::copy(&rec, &txt).unwrap();
     refuse(
-        &[&s(&rec), &s(&other), "--out", &s(&out)],
+        &[&s(&rec), &s(&txt), "--out", &s(&out)],
         "both would be diagnosed into",
     );
     assert!(!out.exists(), "nothing written");
@@ -381,5 +382,107 @@ fn batch_inputs_and_outputs_are_checked_before_any_work() {
         &[&s(&json_rec), "--out", &s(&dir)],
         "refusing to overwrite an input",
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Runs `massid diagnose ARGS` in `cwd`.
+fn batch_in(cwd: &Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(common::bin())
+        .current_dir(cwd)
+        .arg("diagnose")
+        .args(args)
+        .output()
+        .expect("massid runs")
+}
+
+#[test]
+fn same_file_names_in_different_folders_keep_their_own_json_and_resume_apart() {
+    // a/flight.csv and b/flight.csv: two different recordings with one file name. Each gets
+    // its own JSON (its path below the recordings' common folder: a/flight.json and
+    // b/flight.json), its own row, and a resumed batch redoes exactly the missing one.
+    let dir = tmp("diagnose_batch", "same_names");
+    let latency = repo().join("examples/models/sph2_latency.toml");
+    let (a, b) = (dir.join("a/flight.csv"), dir.join("b/flight.csv"));
+    for (rec, extra) in [
+        (&a, vec!["--seed", "1"]),
+        (&b, vec!["--seed", "2", "--model", &s(&latency)]),
+    ] {
+        let mut args = vec!["simulate", "--rate", "100", "--maneuver", "single"];
+        args.extend(["--seconds", "3", "--out"]);
+        let o = s(rec);
+        args.push(&o);
+        args.extend(extra);
+        ok(&args);
+    }
+    // the single runs: each recording's JSON bytes and row
+    let single = |rec: &Path, name: &str| {
+        let json = dir.join(format!("single-{name}.json"));
+        let row = ok(&["diagnose", &s(rec), "--json", &s(&json), "--summary-row"]);
+        let mut row: serde_json::Value = serde_json::from_str(row.trim()).unwrap();
+        row.as_object_mut().unwrap().remove("seconds");
+        (std::fs::read_to_string(&json).unwrap(), row)
+    };
+    let (json_a, row_a) = single(&a, "a");
+    let (json_b, row_b) = single(&b, "b");
+    assert_ne!(json_a, json_b, "two different recordings");
+    let out = dir.join("out");
+    let (out_a, out_b) = (out.join("a/flight.json"), out.join("b/flight.json"));
+    // What differs from the single runs: the JSON bytes at each key and the rows.
+    let check = || -> Vec<String> {
+        let mut diffs = Vec::new();
+        for (path, want) in [(&out_a, &json_a), (&out_b, &json_b)] {
+            if std::fs::read_to_string(path).ok().as_ref() != Some(want) {
+                diffs.push(format!("{}: not the single run's JSON", s(path)));
+            }
+        }
+        if rows(&out) != vec![row_a.clone(), row_b.clone()] {
+            diffs.push(format!("rows {:?}", rows(&out)));
+        }
+        diffs
+    };
+
+    let o = batch(&[&s(&a), &s(&b), "--out", &s(&out), "--jobs", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("2 to do"), "{}", stderr(&o));
+    assert_eq!(check(), Vec::<String>::new());
+    assert!(!out.join("flight.json").exists(), "no shared name");
+
+    // Interrupted after a/flight.json: b's JSON, its seconds and the summary missing. The
+    // rerun redoes b alone (a's JSON, planted with a marker, is kept as it is), from another
+    // directory and with other spellings of the same paths: the keys do not depend on them.
+    std::fs::remove_file(&out_b).unwrap();
+    std::fs::remove_file(out.join("b/flight.seconds")).unwrap();
+    std::fs::remove_file(out.join("summary.jsonl")).unwrap();
+    let marked = json_a.replacen("\"samples\"", "\"marker\": 1,\n  \"samples\"", 1);
+    assert_ne!(marked, json_a);
+    std::fs::write(&out_a, &marked).unwrap();
+    let o = batch_in(&dir, &["./b", "a/../a/flight.csv", "--out", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("1 to do") && err.contains("1 already diagnosed"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&out_a).unwrap(),
+        marked,
+        "a not redone"
+    );
+    assert_eq!(std::fs::read_to_string(&out_b).unwrap(), json_b, "b redone");
+    assert!(out.join("b/flight.seconds").exists());
+    // both present: neither redone, whatever the order and the spelling
+    let o = batch_in(&dir.join("a"), &["../b/flight.csv", ".", "--out", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("0 to do"), "{}", stderr(&o));
+    // --force redoes both, each into its own JSON: the single runs again
+    let o = batch(&[&s(&a), &s(&b), "--out", &s(&out), "--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("2 to do"), "{}", stderr(&o));
+    assert_eq!(check(), Vec::<String>::new());
+
+    // The check catches a planted fault: b's diagnosis in a's JSON (what a shared name
+    // would leave).
+    std::fs::write(&out_a, &json_b).unwrap();
+    assert_eq!(check().len(), 1, "{:?}", check());
     std::fs::remove_dir_all(&dir).ok();
 }

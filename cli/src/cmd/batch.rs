@@ -10,8 +10,11 @@
 //! Resumable: each JSON is written to a temporary file and renamed into place, so a JSON in
 //! DIR is always whole; a rerun skips the recordings whose JSON is there (unless --force)
 //! and rebuilds `summary.jsonl` / `summary.csv` from the JSONs present, sorted by file,
-//! whatever order the jobs finished in. The seconds each diagnosis took are kept beside its
-//! JSON (`NAME.seconds`), so the JSON stays the exact bytes `--json` writes.
+//! whatever order the jobs finished in. A recording's JSON is `DIR/KEY.json`, KEY its path
+//! below the folder holding every recording of the run ([`json_keys`]), so recordings named
+//! alike in different folders neither share a JSON nor a resume decision. The seconds each
+//! diagnosis took are kept beside its JSON (`KEY.seconds`), so the JSON stays the exact
+//! bytes `--json` writes.
 use std::collections::BTreeMap;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -95,22 +98,61 @@ pub fn recordings(given: &[PathBuf], list: Option<&Path>) -> anyhow::Result<Vec<
             }
         }
     }
-    // The same path twice is one recording.
+    // The same recording twice (the same path, or another spelling of it) is one recording.
     let mut seen = std::collections::HashSet::new();
-    all.retain(|p| seen.insert(p.clone()));
+    all.retain(|p| seen.insert(p.canonicalize().unwrap_or_else(|_| p.clone())));
     if all.is_empty() {
         bail!("no recordings given (name files or folders, or --list FILE)");
     }
     Ok(all)
 }
 
-/// The JSON a recording's diagnosis goes to in `out`: NAME.json for NAME.csv.
-pub fn json_name(recording: &Path) -> String {
-    let stem = recording
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "recording".into());
-    format!("{stem}.json")
+/// The deepest folder holding every recording (paths canonical, so symlinks resolved).
+fn common_root(canonical: &[PathBuf]) -> PathBuf {
+    let mut root = canonical
+        .first()
+        .and_then(|p| p.parent())
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    for p in canonical {
+        while !p.starts_with(&root) {
+            match root.parent() {
+                Some(up) => root = up.to_path_buf(),
+                None => break,
+            }
+        }
+    }
+    root
+}
+
+/// Each recording's key: where its JSON goes in the output folder, relative to it, which is
+/// also what a rerun looks for to skip it (resume). The key is the recording's path relative
+/// to the deepest folder holding every recording of the run (symlinks resolved), with
+/// `.json` for its extension: `a/flight.csv` and `b/flight.csv` give `a/flight.json` and
+/// `b/flight.json`; the recordings of one folder `NAME.json`. It depends on the recordings
+/// named, not on the current directory nor on their order, so the same command resumes from
+/// anywhere. `scripts/batch_ray.py` computes the same keys.
+pub fn json_keys(files: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let canonical = files
+        .iter()
+        .map(|f| {
+            f.canonicalize()
+                .map_err(|e| anyhow::anyhow!("{}: {e}", f.display()))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let root = common_root(&canonical);
+    Ok(canonical
+        .iter()
+        .map(|c| {
+            let rel = c.strip_prefix(&root).unwrap_or(c);
+            let mut key = rel.to_path_buf();
+            if key.file_name().is_none() {
+                key = PathBuf::from("recording");
+            }
+            key.set_extension("json");
+            key
+        })
+        .collect())
 }
 
 fn seconds_path(json: &Path) -> PathBuf {
@@ -249,16 +291,23 @@ fn job(recording: &Path, json: &Path, options: &Options) -> Result<(), Box<Row>>
     }
 }
 
-/// The summary rows of `files`, sorted by file: a failure of this run gives its error row,
-/// a JSON present in `out` its row (seconds from its `.seconds` file, if any).
-pub fn summary_rows(files: &[PathBuf], out: &Path, failed: &BTreeMap<String, Row>) -> Vec<Row> {
+/// The summary rows of `files` (their JSONs in `out` at `keys`, [`json_keys`]), sorted by
+/// file: a failure of this run gives its error row (`failed`, by key), a JSON present in
+/// `out` its row (seconds from its `.seconds` file, if any).
+pub fn summary_rows(
+    files: &[PathBuf],
+    keys: &[PathBuf],
+    out: &Path,
+    failed: &BTreeMap<PathBuf, Row>,
+) -> Vec<Row> {
     let mut rows: Vec<Row> = files
         .iter()
-        .map(|f| {
-            if let Some(row) = failed.get(&f.display().to_string()) {
+        .zip(keys)
+        .map(|(f, key)| {
+            if let Some(row) = failed.get(key) {
                 return row.clone();
             }
-            let json = out.join(json_name(f));
+            let json = out.join(key);
             let seconds = std::fs::read_to_string(seconds_path(&json))
                 .ok()
                 .and_then(|s| s.trim().parse::<f64>().ok());
@@ -311,15 +360,15 @@ pub fn run(b: Batch) -> anyhow::Result<()> {
     if let Some(l) = &b.list {
         inputs.push(l);
     }
-    let mut outputs: BTreeMap<String, &PathBuf> = BTreeMap::new();
-    for f in &files {
-        let name = json_name(f);
-        if let Some(other) = outputs.insert(name.clone(), f) {
+    let keys = json_keys(&files)?;
+    let mut outputs: BTreeMap<&PathBuf, &PathBuf> = BTreeMap::new();
+    for (f, key) in files.iter().zip(&keys) {
+        if let Some(other) = outputs.insert(key, f) {
             bail!(
                 "{} and {}: both would be diagnosed into {} (diagnose them into different --out folders)",
                 other.display(),
                 f.display(),
-                out.join(&name).display()
+                out.join(key).display()
             );
         }
     }
@@ -328,15 +377,16 @@ pub fn run(b: Batch) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{}: cannot create directory: {e}", out.display()))?;
         eprintln!("note: created directory {}", out.display());
     }
-    for name in outputs.keys() {
-        super::check_output(&out.join(name), &inputs, true)?;
+    for key in outputs.keys() {
+        super::check_output(&out.join(key), &inputs, true)?;
     }
     for name in [SUMMARY_JSONL, SUMMARY_CSV] {
         super::check_output(&out.join(name), &inputs, true)?;
     }
-    let todo: Vec<&PathBuf> = files
+    let todo: Vec<(&PathBuf, &PathBuf)> = files
         .iter()
-        .filter(|f| b.force || !out.join(json_name(f)).exists())
+        .zip(&keys)
+        .filter(|(_, key)| b.force || !out.join(key).exists())
         .collect();
     let skipped = files.len() - todo.len();
     eprintln!(
@@ -359,19 +409,18 @@ pub fn run(b: Batch) -> anyhow::Result<()> {
         .context("cannot start the worker threads")?;
     let progress = Progress::new(todo.len());
     let started = Instant::now();
-    let failed: Vec<Row> = pool.install(|| {
+    let failed: BTreeMap<PathBuf, Row> = pool.install(|| {
         todo.par_iter()
             .with_max_len(1)
-            .filter_map(|f| {
-                let result = job(f, &out.join(json_name(f)), &b.options);
+            .filter_map(|&(f, key)| {
+                let result = job(f, &out.join(key), &b.options);
                 progress.finished(f, result.as_ref().err().and_then(|r| r.error.as_deref()));
-                result.err().map(|row| *row)
+                result.err().map(|row| (key.clone(), *row))
             })
             .collect()
     });
     progress.finish();
-    let failed: BTreeMap<String, Row> = failed.into_iter().map(|r| (r.file.clone(), r)).collect();
-    let rows = summary_rows(&files, out, &failed);
+    let rows = summary_rows(&files, &keys, out, &failed);
     write_atomic(
         &out.join(SUMMARY_JSONL),
         &rows.iter().map(Row::line).collect::<String>(),
@@ -403,8 +452,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn json_names() {
-        assert_eq!(json_name(Path::new("a/b/o01.csv")), "o01.json");
-        assert_eq!(json_name(Path::new("x.y.csv")), "x.y.json");
+    fn keys_are_paths_below_the_common_folder() {
+        let root = |v: &[&str]| {
+            common_root(&v.iter().map(PathBuf::from).collect::<Vec<_>>())
+                .display()
+                .to_string()
+        };
+        assert_eq!(root(&["/d/o/x.csv", "/d/o/y.csv"]), "/d/o");
+        assert_eq!(root(&["/d/a/f.csv", "/d/b/f.csv", "/d/a/c/g.csv"]), "/d");
+        // components, not characters: /d/ab is not below /d/a
+        assert_eq!(root(&["/d/a/f.csv", "/d/ab/f.csv"]), "/d");
+        assert_eq!(root(&["/d/o/x.csv"]), "/d/o");
+        assert_eq!(root(&["/a/x.csv", "/b/x.csv"]), "/");
+        let dir = std::env::temp_dir().join(format!("massid-keys-{}", std::process::id()));
+        for sub in ["a", "b"] {
+            std::fs::create_dir_all(dir.join(sub)).unwrap();
+            std::fs::write(dir.join(sub).join("x.y.csv"), "").unwrap();
+        }
+        let files = [dir.join("a/x.y.csv"), dir.join("b/./x.y.csv")];
+        let keys = json_keys(&files).unwrap();
+        assert_eq!(keys, [PathBuf::from("a/x.y.json"), "b/x.y.json".into()]);
+        assert_eq!(json_keys(&files[..1]).unwrap(), [PathBuf::from("x.y.json")]);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

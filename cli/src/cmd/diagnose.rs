@@ -54,7 +54,8 @@ pub struct Args {
     #[arg(long, value_name = "SECONDS")]
     pub horizon: Option<f64>,
     /// Many recordings: diagnose every RECORDING (and every line of --list) into this
-    /// directory, one JSON per recording (`NAME.json`, the bytes `--json` writes) plus
+    /// directory, one JSON per recording (`KEY.json`, KEY its path below the folder holding
+    /// every recording, e.g. `a/flight.json`; the bytes `--json` writes) plus
     /// `summary.jsonl` and `summary.csv` (one row per recording, sorted by file). Resumable:
     /// a recording whose JSON is there is skipped (unless --force) and the summary is
     /// rebuilt from the JSONs present.

@@ -7,7 +7,8 @@
 # and checks that every JSON is byte for byte the same and the summaries have the same rows
 # (but for each row's seconds), the bad recording an error row in both. A second folder holds
 # a recording named like one of the first (more/a_nominal.csv): both engines give each its
-# own JSON at the same key (recs/a_nominal.json, more/a_nominal.json).
+# own JSON at the same key (recs/a_nominal.json, more/a_nominal.json). Every row of both
+# summaries has the fields of summary.csv's header, in its order.
 #
 # Environment: MASSID=path/to/massid (default: built here with the test profile, the build
 # `cargo test` already made), VENV=dir (default: $CARGO_TARGET_DIR/ray-venv, kept between
@@ -84,6 +85,14 @@ if ra != rb:
     bad.append(f"summary rows differ:\n{ra}\n{rb}")
 if [r["status"] for r in ra] != ["ok", "ok", "ok", "ok", "error"]:
     bad.append(f"statuses: {[r['status'] for r in ra]}")
+# every row of both engines, ok or error, has massid's columns in their order
+with open(os.path.join(a, "summary.csv")) as f:
+    columns = f.readline().strip().split(",")
+for d in (a, b):
+    with open(os.path.join(d, "summary.jsonl")) as f:
+        for line in f:
+            if list(json.loads(line).keys()) != columns:
+                bad.append(f"{d}: a row's fields {list(json.loads(line).keys())}, not {columns}")
 if jsons(a) != ["more/a_nominal.json", "recs/a_nominal.json", "recs/b_latency.json",
                 "recs/c_combo.json"]:
     bad.append(f"JSON keys: {jsons(a)}")

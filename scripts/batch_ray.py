@@ -29,8 +29,12 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 
-import ray
+# The fields of a summary row, in massid's order (cmd/diagnose.rs `Row`, `CSV_HEADER`): an
+# error row written here carries them all, as massid's own rows do.
+ROW_FIELDS = ("file", "status", "model", "samples", "effects", "params",
+              "residual_rms_before", "residual_rms_after", "unexplained", "error", "seconds")
 
 
 def recordings(paths):
@@ -61,9 +65,20 @@ def json_keys(files):
     return [os.path.splitext(os.path.relpath(r, root))[0] + ".json" for r in real]
 
 
-@ray.remote
+def error_row(recording, error, seconds):
+    """The row of a recording massid printed no row for (it refused before diagnosing, e.g.
+    a bad option), as massid writes an error row (`Row::error`): every field, in order, the
+    line compact and non-ASCII unescaped like serde_json's."""
+    row = dict.fromkeys(ROW_FIELDS)
+    row.update(file=recording, status="error", effects=[], params=[], error=error,
+               seconds=round(seconds, 3))
+    return json.dumps(row, separators=(",", ":"), ensure_ascii=False)
+
+
 def diagnose(massid, recording, extra):
-    """The unit of work: one `massid diagnose --summary-row` run."""
+    """The unit of work: one `massid diagnose --summary-row` run (a Ray task in main; a
+    plain function here, so that it runs and is tested without Ray)."""
+    started = time.monotonic()
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "diagnosis.json")
         proc = subprocess.run(
@@ -77,8 +92,7 @@ def diagnose(massid, recording, extra):
         if lines:  # the row exactly as massid printed it
             line = lines[-1]
         else:  # massid refused before diagnosing (a bad option): no row printed
-            line = json.dumps({"file": recording, "status": "error",
-                               "error": proc.stderr.strip()}, separators=(",", ":"))
+            line = error_row(recording, proc.stderr.strip(), time.monotonic() - started)
         return recording, text, line
 
 
@@ -112,11 +126,13 @@ def main():
         if os.path.exists(path) and not args.force:
             sys.exit(f"{path}: exists; refusing to overwrite it (pass --force)")
     massid = os.path.abspath(args.massid) if os.path.sep in args.massid else args.massid
+    import ray  # here, not at the top: the module's functions run without Ray (the tests)
+    task = ray.remote(diagnose)
     if args.address:
         ray.init(address=args.address)
     else:
         ray.init(num_cpus=args.num_cpus, include_dashboard=False, log_to_driver=False)
-    results = ray.get([diagnose.remote(massid, f, extra) for f in files])
+    results = ray.get([task.remote(massid, f, extra) for f in files])
     ray.shutdown()
     rows = []
     for recording, text, line in results:

@@ -486,3 +486,153 @@ fn same_file_names_in_different_folders_keep_their_own_json_and_resume_apart() {
     assert_eq!(check().len(), 1, "{:?}", check());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The rows' fields in their order, named by where each row came from, against the columns
+/// of `summary.csv`: what differs.
+fn field_differences(
+    columns: &[String],
+    rows: &std::collections::BTreeMap<String, Vec<String>>,
+) -> Vec<String> {
+    rows.iter()
+        .filter(|(_, fields)| fields.as_slice() != columns)
+        .map(|(from, fields)| format!("{from}: {fields:?}"))
+        .collect()
+}
+
+/// Imports `scripts/batch_ray.py` (or `MASSID_BATCH_RAY`, to run this test against another
+/// version of it) without Ray, runs its per-recording task on each (name, recording, extra
+/// options) and prints, as JSON, each row's keys in order; also those of the rows given on
+/// stdin (name -> line). Python's dicts keep the order of a JSON object's keys.
+const ROW_KEYS_PY: &str = r#"
+import importlib.util, json, sys, types
+script, massid = sys.argv[1], sys.argv[2]
+# an older script imported Ray at the top: a stand-in lets it load (the task is then the
+# plain function); the current one imports Ray only in main()
+sys.modules["ray"] = types.SimpleNamespace(remote=lambda f: f)
+spec = importlib.util.spec_from_file_location("batch_ray", script)
+m = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(m)
+given = json.load(sys.stdin)
+keys = {name: list(json.loads(line).keys()) for name, line in given["rust"].items()}
+for name, rec, extra in given["python"]:
+    _, _, line = m.diagnose(massid, rec, extra)
+    row = json.loads(line)
+    keys[name] = list(row.keys())
+    keys[name + " status"] = [row["status"]]
+print(json.dumps(keys))
+"#;
+
+#[test]
+fn every_row_rust_or_python_ok_or_error_has_the_same_fields_in_the_same_order() {
+    let dir = tmp("diagnose_batch", "row_fields");
+    let recs = dir.join("recs");
+    let good = recs.join("good.csv");
+    ok(&[
+        "simulate",
+        "--maneuver",
+        "single",
+        "--seconds",
+        "2",
+        "--rate",
+        "100",
+        "--out",
+        &s(&good),
+    ]);
+    let bad = recs.join("bad.csv");
+    std::fs::write(&bad, "# format = massid-recording/1\nnot,a,recording\n").unwrap();
+    // Rust: the batch's summary (an ok and an error row) and header, the per-recording
+    // command's rows
+    let out = dir.join("out");
+    assert!(!batch(&[&s(&recs), "--out", &s(&out)]).status.success());
+    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let columns: Vec<String> = csv
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let summary = std::fs::read_to_string(out.join("summary.jsonl")).unwrap();
+    let mut rust = serde_json::Map::new();
+    for line in summary.lines() {
+        let status = if line.contains("\"status\":\"ok\"") {
+            "ok"
+        } else {
+            "error"
+        };
+        rust.insert(format!("rust batch {status} row"), line.into());
+    }
+    assert_eq!(rust.len(), 2, "{summary}");
+    let single = |rec: &Path| {
+        let o = massid(&["diagnose", &s(rec), "--summary-row"]);
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    };
+    rust.insert("rust --summary-row ok row".into(), single(&good).into());
+    rust.insert("rust --summary-row error row".into(), single(&bad).into());
+    // Python (scripts/batch_ray.py's task, without Ray): massid's rows passed on, and its
+    // own error row when massid refuses before diagnosing (a bad option: no row printed)
+    let python = serde_json::json!([
+        ["python ok row", s(&good), []],
+        ["python error row", s(&bad), []],
+        ["python fallback row", s(&good), ["--horizon", "-1"]],
+    ]);
+    let script = std::env::var("MASSID_BATCH_RAY")
+        .unwrap_or_else(|_| s(&repo().join("scripts/batch_ray.py")));
+    let mut child = std::process::Command::new("python3")
+        .args(["-c", ROW_KEYS_PY, &script, &common::bin()])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python3 runs (the Ray recipe's rows are checked with it)");
+    let given = serde_json::json!({"rust": rust, "python": python}).to_string();
+    use std::io::Write;
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(given.as_bytes())
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut keys: std::collections::BTreeMap<String, Vec<String>> =
+        serde_json::from_slice(&o.stdout).expect("the keys as JSON");
+    // the fallback row really is the script's own (massid refused, printed no row)
+    assert_eq!(
+        keys.remove("python fallback row status").unwrap(),
+        ["error"]
+    );
+    assert_eq!(keys.remove("python error row status").unwrap(), ["error"]);
+    assert_eq!(keys.remove("python ok row status").unwrap(), ["ok"]);
+    assert_eq!(keys.len(), 7, "{keys:?}");
+    assert_eq!(
+        columns,
+        [
+            "file",
+            "status",
+            "model",
+            "samples",
+            "effects",
+            "params",
+            "residual_rms_before",
+            "residual_rms_after",
+            "unexplained",
+            "error",
+            "seconds"
+        ]
+    );
+    assert_eq!(field_differences(&columns, &keys), Vec::<String>::new());
+
+    // The check catches a planted fault: the error row the script wrote before (three
+    // fields), and a row with its fields out of order.
+    let mut planted = keys.clone();
+    planted.insert(
+        "old python fallback row".into(),
+        vec!["file".into(), "status".into(), "error".into()],
+    );
+    let mut swapped = columns.clone();
+    swapped.swap(0, 1);
+    planted.insert("swapped".into(), swapped);
+    assert_eq!(field_differences(&columns, &planted).len(), 2);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -504,6 +504,43 @@ mod tests {
         assert!(Row::from_json(Path::new("x"), "nope", None).is_err());
     }
 
+    /// The top-level keys of a JSON line in their order (the line's values must not
+    /// contain `"KEY":` for a known key).
+    fn key_order(line: &str, keys: &[&str]) -> Vec<String> {
+        let mut found: Vec<(usize, String)> = keys
+            .iter()
+            .filter_map(|k| line.find(&format!("\"{k}\":")).map(|i| (i, k.to_string())))
+            .collect();
+        found.sort();
+        found.into_iter().map(|(_, k)| k).collect()
+    }
+
+    #[test]
+    fn every_row_has_the_csv_columns_in_their_order() {
+        let columns: Vec<&str> = CSV_HEADER.trim_end().split(',').collect();
+        let json = r#"{"format":"massid-diagnosis/1","recording":"a.csv","model":"sph2","samples":1,
+            "residual_rms_before":[1,2,3],"residual_rms_after":[1,2,3],"effects":[],
+            "unexplained":null,"data_issues":{}}"#;
+        let ok = Row::from_json(Path::new("a.csv"), json, None)
+            .unwrap()
+            .line();
+        let error = Row::error(Path::new("b.csv"), "b.csv:2: bad", Some(0.5)).line();
+        for line in [&ok, &error] {
+            let n = serde_json::from_str::<serde_json::Map<String, Value>>(line)
+                .unwrap()
+                .len();
+            assert_eq!(n, columns.len(), "{line}");
+            assert_eq!(key_order(line, &columns), columns, "{line}");
+        }
+        // the check catches a row that lacks a field or has them in another order
+        let short = r#"{"file":"x","status":"error","error":"e"}"#;
+        assert_ne!(key_order(short, &columns), columns);
+        let swapped = ok
+            .replacen("\"file\"", "\"f\"", 1)
+            .replacen("\"status\"", "\"file\"", 1);
+        assert_ne!(key_order(&swapped, &columns), columns);
+    }
+
     #[test]
     fn a_refused_output_leaves_nothing_written() {
         // The report would overwrite the input (the recording is DIR/report.html): refused

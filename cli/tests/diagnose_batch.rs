@@ -505,6 +505,7 @@ fn field_differences(
 /// stdin (name -> line). Python's dicts keep the order of a JSON object's keys.
 const ROW_KEYS_PY: &str = r#"
 import importlib.util, json, sys, types
+sys.dont_write_bytecode = True  # no __pycache__ left in scripts/
 script, massid = sys.argv[1], sys.argv[2]
 # an older script imported Ray at the top: a stand-in lets it load (the task is then the
 # plain function); the current one imports Ray only in main()

@@ -13,6 +13,7 @@
 //!    blocks it did not see, it predicts better in total by [`HOLDOUT_MIN`] and makes no
 //!    held-out block worse by more than noise ([`BLOCK_WORSE`]).
 
+use crate::effects::Describe;
 use std::rc::Rc;
 
 use crate::effects::{Context, Kind};

@@ -3,6 +3,7 @@
 //! the forward selection, the pair search and the exchange step.
 
 use crate::acceptance;
+use crate::effects::Describe;
 use crate::effects::{self, Kind};
 use crate::fit::{self, Problem};
 use crate::locate;
@@ -36,19 +37,7 @@ impl Trial<'_> {
     /// `acceptance.rs`; otherwise why not.
     pub fn check(&self, new: &[(Kind, Vec<f64>)], rf: Option<RingingFit>) -> Result<Tried, String> {
         let series = self.prob.series;
-        let t = try_candidate(
-            self.prob,
-            self.fired,
-            self.rigid_acc,
-            new,
-            rf,
-            self.nuis,
-            self.hint,
-            self.settings,
-            self.rigid_residual,
-            self.whitening,
-            self.ringing_on,
-        )?;
+        let t = self.refit(new, rf)?;
         if let Some(why) = t.implausible.clone() {
             return Err(format!("implausible: {why}"));
         }
@@ -100,12 +89,17 @@ impl Trial<'_> {
     /// The named effects alone, refitted jointly (the model as it would be if the one left
     /// out of `rigid_acc` were dropped): the backward step of the exchange.
     pub fn without(&self) -> Result<Tried, String> {
+        self.refit(&[], None)
+    }
+
+    /// The model with `new` added to the named effects, refitted jointly, unchecked.
+    fn refit(&self, new: &[(Kind, Vec<f64>)], rf: Option<RingingFit>) -> Result<Tried, String> {
         try_candidate(
             self.prob,
             self.fired,
             self.rigid_acc,
-            &[],
-            None,
+            new,
+            rf,
             self.nuis,
             self.hint,
             self.settings,

@@ -16,10 +16,10 @@
 //! latency with open and close equal, an inertia proportional to the model's, scales equal);
 //! the test is a chi-square at 1 % (Wilson-Hilferty quantile).
 
-use serde_json::{json, Value};
+use massid_sim::effects as contract;
+use serde_json::Value;
 
-use crate::effects::{Context, Kind};
-use crate::json_number::{num, nums};
+use crate::effects::{contract_json, Context, Kind};
 use crate::model::{Plant, NT};
 
 /// Chi-square quantile at 99 % for `k` degrees of freedom (Wilson-Hilferty).
@@ -77,15 +77,19 @@ pub fn equivalents(
             let e = se(0).hypot(se(1));
             if e.is_finite() && (o - c).powi(2) <= chi2_99(1) * e * e {
                 let d = 0.5 * (o + c);
-                vec![json!({"effect": "measurement_delay", "params": {"delay_ms": num(d)}})]
+                vec![contract_json(&contract::Effect::MeasurementDelay(
+                    contract::MeasurementDelay { delay_ms: d },
+                ))]
             } else {
                 vec![]
             }
         }
-        Kind::MeasurementDelay => vec![json!({
-            "effect": "thruster_latency",
-            "params": {"open_ms": num(theta[0]), "close_ms": num(theta[0])}
-        })],
+        Kind::MeasurementDelay => vec![contract_json(&contract::Effect::ThrusterLatency(
+            contract::ThrusterLatency {
+                open_ms: theta[0],
+                close_ms: theta[0],
+            },
+        ))],
         Kind::Inertia if !scale_breaks && !named(Kind::ThrustScale) => {
             // the fitted inertia as r times the model's: identifiable terms only (yaw on a
             // planar craft)
@@ -112,7 +116,9 @@ pub fn equivalents(
             if r > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
                 // every thruster of the model at 1/r (one that never fired could be anything)
                 let s = vec![1.0 / r; cx.n_thrusters.min(NT)];
-                vec![json!({"effect": "thrust_scale", "params": {"scale": nums(&s)}})]
+                vec![contract_json(&contract::Effect::ThrustScale(
+                    contract::ThrustScale { scale: s },
+                ))]
             } else {
                 vec![]
             }
@@ -129,8 +135,10 @@ pub fn equivalents(
                 .map(|&j| weight(se(j)) * (theta[j] - mean).powi(2))
                 .sum();
             if mean > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
-                let inertia: Vec<f64> = cx.nominal_inertia.iter().map(|v| v / mean).collect();
-                vec![json!({"effect": "inertia", "params": {"inertia_kgm2": nums(&inertia)}})]
+                let inertia_kgm2 = cx.nominal_inertia.map(|v| v / mean);
+                vec![contract_json(&contract::Effect::Inertia(
+                    contract::Inertia { inertia_kgm2 },
+                ))]
             } else {
                 vec![]
             }
@@ -147,7 +155,11 @@ pub fn equivalents(
                 }
                 s.push(after / before);
             }
-            vec![json!({"effect": "thrust_scale", "params": {"scale": nums(&per_thruster(&s))}})]
+            vec![contract_json(&contract::Effect::ThrustScale(
+                contract::ThrustScale {
+                    scale: per_thruster(&s),
+                },
+            ))]
         }
         _ => vec![],
     }

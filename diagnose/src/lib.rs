@@ -9,7 +9,6 @@ mod candidate;
 pub mod diagnosis;
 pub mod effects;
 pub mod equivalence;
-mod exchange;
 pub mod fit;
 pub mod holdout;
 pub mod json_number;

@@ -111,7 +111,7 @@ pub fn unit(key: &str) -> &'static str {
     match key {
         "newton_per_extra_thruster" => "N",
         "counts" => "counts",
-        "scale" | "damping_ratio" | "fluid_inertia_fraction" => "",
+        "scale" | "damping_ratio" | "inertia_fraction" => "",
         k if k.ends_with("_rad_s") => "rad/s",
         k if k.ends_with("_kgm2") => "kg m^2",
         k if k.ends_with("_nm") => "N m",

@@ -3,6 +3,7 @@
 //! BIC, refit all accepted jointly, and stop when no candidate lowers BIC by more than
 //! the acceptance margin.
 
+use crate::effects::Describe;
 use crate::effects::{self, Context, Kind};
 use crate::fit::{self, Family, FitResult, Problem};
 use crate::model::{Params, NT};

@@ -1,14 +1,11 @@
 //! Thrust decaying exponentially after a start time (tank blowdown), for every thruster.
 
-use super::{scalar, Context, Effect, Reported, Spec};
+use super::{contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct Blowdown;
 
 impl Effect for Blowdown {
-    fn name(&self) -> &'static str {
-        "blowdown"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         2
     }
@@ -43,10 +40,9 @@ impl Effect for Blowdown {
         "torque deficit grows with time in the run after a start time, for every thruster"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
+        // fitted as a rate, reported as a time constant (its error by the delta method)
         let tau = 1.0 / th[1].max(1e-12);
-        scalar(&mut r, "start_s", th[0], se(0));
-        scalar(&mut r, "tau_s", tau, se(1) * tau * tau);
-        r
+        let at = |start_s, tau_s| contract::Effect::Blowdown(contract::Blowdown { start_s, tau_s });
+        Reported::new(at(th[0], tau), at(se(0), se(1) * tau * tau))
     }
 }

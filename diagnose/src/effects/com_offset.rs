@@ -1,6 +1,6 @@
 //! The centre of mass away from the model's.
 
-use super::{all_at, vector, Context, Effect, Reported, Spec};
+use super::{all_at, contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct ComOffset;
@@ -9,9 +9,6 @@ pub struct ComOffset;
 pub const MAX_OFFSET_MM: f64 = 45.0;
 
 impl Effect for ComOffset {
-    fn name(&self) -> &'static str {
-        "com_offset"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         3
     }
@@ -38,8 +35,7 @@ impl Effect for ComOffset {
         "torque error on translation firings (opposed pairs) consistent with a moved CoM"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        vector(&mut r, "offset_mm", th, se, 0..3);
-        r
+        let at = |offset_mm| contract::Effect::ComOffset(contract::ComOffset { offset_mm });
+        Reported::new(at(vec3(th, 0)), at(errors(se, 0)))
     }
 }

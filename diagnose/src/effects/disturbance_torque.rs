@@ -1,14 +1,11 @@
 //! A constant external torque (air drag, a cable, gravity gradient on the testbed).
 
-use super::{all_at, vector, Context, Effect, Reported, Spec};
+use super::{all_at, contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct DisturbanceTorque;
 
 impl Effect for DisturbanceTorque {
-    fn name(&self) -> &'static str {
-        "disturbance_torque"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         3
     }
@@ -36,8 +33,9 @@ impl Effect for DisturbanceTorque {
         "rate drifts steadily even while coasting"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        vector(&mut r, "torque_nm", th, se, 0..3);
-        r
+        let at = |torque_nm| {
+            contract::Effect::DisturbanceTorque(contract::DisturbanceTorque { torque_nm })
+        };
+        Reported::new(at(vec3(th, 0)), at(errors(se, 0)))
     }
 }

@@ -1,15 +1,12 @@
 //! A lightly damped low-frequency mode of a liquid, with a fluid inertia fraction per axis
 //! (a liquid can move about some axes only).
 
-use super::{scalar, vector, Context, Effect, Reported, Spec};
+use super::{contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct FuelSlosh;
 
 impl Effect for FuelSlosh {
-    fn name(&self) -> &'static str {
-        "fuel_slosh"
-    }
     // (freq Hz, damping ratio, fluid fraction x, y, z)
     fn n_params(&self, _: &[bool; NT]) -> usize {
         5
@@ -58,10 +55,16 @@ impl Effect for FuelSlosh {
         "lightly damped low-frequency oscillation excited by firings, continuing while coasting"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        scalar(&mut r, "freq_hz", th[0], se(0));
-        scalar(&mut r, "damping_ratio", th[1], se(1));
-        vector(&mut r, "fluid_inertia_fraction", th, se, 2..5);
-        r
+        let at = |freq_hz, damping_ratio, inertia_fraction| {
+            contract::Effect::FuelSlosh(contract::FuelSlosh {
+                freq_hz,
+                damping_ratio,
+                inertia_fraction,
+            })
+        };
+        Reported::new(
+            at(th[0], th[1], vec3(th, 2)),
+            at(se(0), se(1), errors(se, 2)),
+        )
     }
 }

@@ -1,14 +1,11 @@
 //! A constant offset of the measured rate, per axis, in counts.
 
-use super::{all_at, vector, Context, Effect, Reported, Spec};
+use super::{all_at, contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct GyroBias;
 
 impl Effect for GyroBias {
-    fn name(&self) -> &'static str {
-        "gyro_bias"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         3
     }
@@ -36,8 +33,7 @@ impl Effect for GyroBias {
         "constant offset of the measured rate"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        vector(&mut r, "counts", th, se, 0..3);
-        r
+        let at = |counts| contract::Effect::GyroBias(contract::GyroBias { counts });
+        Reported::new(at(vec3(th, 0)), at(errors(se, 0)))
     }
 }

@@ -3,16 +3,12 @@
 //! (`crate::ringing`), not through the model's parameters; its bounds are
 //! `acceptance::implausible_ringing`.
 
-use super::{Context, Effect, Reported, Spec};
-use crate::json_number::{num, nums};
+use super::{contract, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct GyroRinging;
 
 impl Effect for GyroRinging {
-    fn name(&self) -> &'static str {
-        "gyro_ringing"
-    }
     // (freq Hz, decay ms, amplitude x, y, z)
     fn n_params(&self, _: &[bool; NT]) -> usize {
         5
@@ -40,17 +36,20 @@ impl Effect for GyroRinging {
         20
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, cx: &Context) -> Reported {
-        let mut r = Reported::default();
-        r.0.insert("freq_hz".into(), num(th[0]));
-        r.0.insert("decay_ms".into(), num(th[1]));
-        r.0.insert(
-            "apparent_hz".into(),
-            num(crate::alias::apparent(th[0], cx.sample_rate_hz)),
-        );
-        r.0.insert("amplitude_rad_s".into(), nums(&th[2..5]));
-        r.1.insert("freq_hz".into(), num(se(0)));
-        r.1.insert("decay_ms".into(), num(se(1)));
-        r.1.insert("apparent_hz".into(), num(se(0)));
-        r
+        let at = |freq_hz, decay_ms, apparent_hz, amplitude_rad_s| {
+            contract::Effect::GyroRinging(contract::GyroRinging {
+                freq_hz,
+                decay_ms,
+                apparent_hz,
+                amplitude_rad_s,
+            })
+        };
+        let apparent = crate::alias::apparent(th[0], cx.sample_rate_hz);
+        // the amplitudes' errors are not estimated
+        Reported::new(
+            at(th[0], th[1], apparent, vec3(th, 2)),
+            at(se(0), se(1), se(0), [f64::NAN; 3]),
+        )
+        .unestimated("amplitude_rad_s")
     }
 }

@@ -1,14 +1,11 @@
 //! A gyro scale factor per axis: rate error proportional to the rate.
 
-use super::{all_at, vector, Context, Effect, Reported, Spec};
+use super::{all_at, contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct GyroScale;
 
 impl Effect for GyroScale {
-    fn name(&self) -> &'static str {
-        "gyro_scale"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         3
     }
@@ -36,8 +33,7 @@ impl Effect for GyroScale {
         "rate error proportional to the rate itself"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        vector(&mut r, "scale", th, se, 0..3);
-        r
+        let at = |scale| contract::Effect::GyroScale(contract::GyroScale { scale });
+        Reported::new(at(vec3(th, 0)), at(errors(se, 0)))
     }
 }

@@ -1,6 +1,6 @@
 //! An inertia tensor other than the model's.
 
-use super::{vector, Context, Effect, Reported, Spec};
+use super::{contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct Inertia;
@@ -35,9 +35,6 @@ pub fn inertia_bounds(nominal: &[f64; 6]) -> (Vec<f64>, Vec<f64>) {
 }
 
 impl Effect for Inertia {
-    fn name(&self) -> &'static str {
-        "inertia"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         6
     }
@@ -69,8 +66,10 @@ impl Effect for Inertia {
         "rate response to all torques scaled consistently with a different inertia"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        vector(&mut r, "inertia_kgm2", th, se, 0..6);
-        r
+        let at = |inertia_kgm2| contract::Effect::Inertia(contract::Inertia { inertia_kgm2 });
+        Reported::new(
+            at(std::array::from_fn(|i| th[i])),
+            at(std::array::from_fn(se)),
+        )
     }
 }

@@ -2,7 +2,7 @@
 
 use super::com_offset::MAX_OFFSET_MM;
 use super::inertia::{inertia_bounds, not_a_body};
-use super::{scalar, vector, Context, Effect, Reported, Spec};
+use super::{contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct MassPropertyChange;
@@ -11,9 +11,6 @@ pub struct MassPropertyChange;
 pub const MASS_CHANGE_STARTS: usize = 16;
 
 impl Effect for MassPropertyChange {
-    fn name(&self) -> &'static str {
-        "mass_property_change"
-    }
     // (at s, CoM offset mm x3, inertia x6)
     fn n_params(&self, _: &[bool; NT]) -> usize {
         10
@@ -76,10 +73,16 @@ impl Effect for MassPropertyChange {
         "torque response changes at one time in the run"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        scalar(&mut r, "at_s", th[0], se(0));
-        vector(&mut r, "offset_mm", th, se, 1..4);
-        vector(&mut r, "inertia_kgm2", th, se, 4..10);
-        r
+        let at = |at_s, offset_mm, inertia_kgm2| {
+            contract::Effect::MassPropertyChange(contract::MassPropertyChange {
+                at_s,
+                offset_mm,
+                inertia_kgm2,
+            })
+        };
+        Reported::new(
+            at(th[0], vec3(th, 1), std::array::from_fn(|i| th[4 + i])),
+            at(se(0), errors(se, 1), std::array::from_fn(|i| se(4 + i))),
+        )
     }
 }

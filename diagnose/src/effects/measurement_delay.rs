@@ -15,7 +15,7 @@
 //! start finds the wrong step.
 
 use super::thruster_latency::MAX_LATENCY_MS;
-use super::{all_at, scalar, Context, Effect, Reported, Spec};
+use super::{all_at, contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct MeasurementDelay;
@@ -41,9 +41,6 @@ pub(super) fn delay_grid(from: f64, to: f64, cx: &Context, max: usize) -> Vec<f6
 }
 
 impl Effect for MeasurementDelay {
-    fn name(&self) -> &'static str {
-        "measurement_delay"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         1
     }
@@ -92,8 +89,8 @@ impl Effect for MeasurementDelay {
         200
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        scalar(&mut r, "delay_ms", th[0], se(0));
-        r
+        let at =
+            |delay_ms| contract::Effect::MeasurementDelay(contract::MeasurementDelay { delay_ms });
+        Reported::new(at(th[0]), at(se(0)))
     }
 }

@@ -2,8 +2,10 @@
 //! diagnosis needs to know about it (parameters and how they enter the model, search space,
 //! "no effect" values, physical bounds, observability, its signature in words, how it is
 //! reported). The selection, the acceptance checks and the report ask the effect; none of
-//! them matches on the effect's name. Adding an effect is one file here, one variant of
-//! [`Kind`] and one line of [`Kind::effect`] (and its simulator twin in `sim/src/effects/`).
+//! them matches on the effect's name. The effect's contract name and its parameters' names,
+//! shapes and units have one home, the simulator's (`massid_sim::effects`: [`Kind`] and the
+//! effect's struct, which [`Effect::report`] fills). Adding an effect is its simulator file
+//! (struct, physics) and variant, then one file here and one line of [`Describe`].
 
 mod blowdown;
 mod com_offset;
@@ -24,56 +26,24 @@ mod thruster_misalignment;
 
 pub use mass_property_change::MASS_CHANGE_STARTS;
 
-use crate::json_number::{num, nums};
+use crate::json_number::num;
 use crate::model::{Params, Plant, NT};
 use crate::series::Series;
+use massid_sim::effects as contract;
 use serde_json::{Map, Value};
 
-/// Effects of the vocabulary (contract names).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Kind {
-    ThrusterLatency,
-    PressureDrop,
-    Blowdown,
-    ThrustScale,
-    ComOffset,
-    Inertia,
-    MassPropertyChange,
-    FuelSlosh,
-    GyroBias,
-    GyroScale,
-    GyroRinging,
-    DisturbanceTorque,
-    /// Extra (beyond the contract's list): torque against the body rate.
-    RateDamping,
-    /// Extra (beyond the contract's list): first-order thrust rise at valve edges.
-    ThrustRise,
-    MeasurementDelay,
-    ThrusterMisalignment,
+/// The effects of the vocabulary, with their contract names: the simulator's registry,
+/// shared so that both crates name every effect the same way.
+pub use massid_sim::effects::Kind;
+
+/// The diagnosis's description of each effect of the vocabulary.
+pub trait Describe {
+    /// The effect's description: the one registry of what the diagnosis knows about it.
+    fn effect(self) -> &'static dyn Effect;
 }
 
-impl Kind {
-    pub const ALL: [Kind; 16] = [
-        Kind::ThrusterLatency,
-        Kind::PressureDrop,
-        Kind::Blowdown,
-        Kind::ThrustScale,
-        Kind::ComOffset,
-        Kind::Inertia,
-        Kind::MassPropertyChange,
-        Kind::FuelSlosh,
-        Kind::GyroBias,
-        Kind::GyroScale,
-        Kind::GyroRinging,
-        Kind::DisturbanceTorque,
-        Kind::RateDamping,
-        Kind::ThrustRise,
-        Kind::MeasurementDelay,
-        Kind::ThrusterMisalignment,
-    ];
-
-    /// The effect's description: the one registry of the vocabulary.
-    pub fn effect(self) -> &'static dyn Effect {
+impl Describe for Kind {
+    fn effect(self) -> &'static dyn Effect {
         match self {
             Kind::ThrusterLatency => &thruster_latency::ThrusterLatency,
             Kind::PressureDrop => &pressure_drop::PressureDrop,
@@ -92,15 +62,6 @@ impl Kind {
             Kind::MeasurementDelay => &measurement_delay::MeasurementDelay,
             Kind::ThrusterMisalignment => &thruster_misalignment::ThrusterMisalignment,
         }
-    }
-
-    /// Contract name.
-    pub fn name(self) -> &'static str {
-        self.effect().name()
-    }
-
-    pub fn from_name(s: &str) -> Option<Kind> {
-        Kind::ALL.iter().copied().find(|k| k.name() == s)
     }
 }
 
@@ -135,14 +96,84 @@ pub struct Context<'a> {
     pub command_step_ms: f64,
 }
 
-/// The reported parameters and their standard errors, in the contract's names and units.
-pub type Reported = (Map<String, Value>, Map<String, Value>);
+/// A fitted effect's parameters and standard errors in the contract's form: the
+/// simulator's effect structs, the one home of each parameter's name, shape and unit (so a
+/// diagnosis's effects read back as the simulator's, e.g. into a model file's `[[effects]]`),
+/// plus keys beyond the struct's.
+#[derive(Clone, Debug)]
+pub struct Reported {
+    pub params: contract::Effect,
+    pub stderr: contract::Effect,
+    /// Extra keys: (name, value, standard error or `None`).
+    pub extra: Vec<(&'static str, Value, Option<Value>)>,
+    /// Parameters whose error is not estimated: left out of `stderr`.
+    pub unestimated: Vec<&'static str>,
+}
+
+impl Reported {
+    pub fn new(params: contract::Effect, stderr: contract::Effect) -> Self {
+        Reported {
+            params,
+            stderr,
+            extra: vec![],
+            unestimated: vec![],
+        }
+    }
+
+    /// With the error of `key` not estimated (no `stderr` entry).
+    pub fn unestimated(mut self, key: &'static str) -> Self {
+        self.unestimated.push(key);
+        self
+    }
+
+    /// With one more key beyond the struct's.
+    pub fn with(mut self, key: &'static str, value: Value, stderr: Option<Value>) -> Self {
+        self.extra.push((key, value, stderr));
+        self
+    }
+
+    /// The `params` and `stderr` objects of the contract's JSON; a non-finite number (an
+    /// unbounded or unestimated error) is written as JSON can carry it (`json_number`).
+    pub fn maps(&self) -> (Map<String, Value>, Map<String, Value>) {
+        let mut p = finite(self.params.params_json());
+        let mut s = finite(self.stderr.params_json());
+        for k in &self.unestimated {
+            s.remove(*k);
+        }
+        for (k, v, e) in &self.extra {
+            p.insert((*k).into(), v.clone());
+            if let Some(e) = e {
+                s.insert((*k).into(), e.clone());
+            }
+        }
+        (p, s)
+    }
+}
+
+/// An effect as the contract's JSON writes it, `{"effect": ..., "params": {...}}` (an
+/// equivalent effect under `equivalent_to`).
+pub fn contract_json(e: &contract::Effect) -> Value {
+    let mut o = Map::new();
+    o.insert("effect".into(), e.name().into());
+    o.insert("params".into(), Value::Object(finite(e.params_json())));
+    Value::Object(o)
+}
+
+/// serde writes a non-finite f64 as `null`; the contract writes it as [`num`] does.
+fn finite(m: Map<String, Value>) -> Map<String, Value> {
+    fn fix(v: Value) -> Value {
+        match v {
+            Value::Null => num(f64::INFINITY),
+            Value::Array(a) => Value::Array(a.into_iter().map(fix).collect()),
+            other => other,
+        }
+    }
+    m.into_iter().map(|(k, v)| (k, fix(v))).collect()
+}
 
 /// One effect of the vocabulary. `theta` is always in the effect's own layout, the one
 /// [`Effect::spec`] bounds.
 pub trait Effect: Sync {
-    /// Contract name.
-    fn name(&self) -> &'static str;
     /// Number of parameters (without the initial-rate nuisances).
     fn n_params(&self, fired: &[bool; NT]) -> usize;
     /// Writes the parameters into the model (on top of the effects already there).
@@ -206,22 +237,14 @@ pub fn apply(kind: Kind, th: &[f64], fired: &[bool; NT], p: &mut Params) {
     kind.effect().apply(th, fired, p)
 }
 
-/// `name: value` and `name: stderr` of one scalar parameter.
-fn scalar(r: &mut Reported, name: &str, v: f64, se: f64) {
-    r.0.insert(name.into(), num(v));
-    r.1.insert(name.into(), num(se));
+/// Parameters `off..off + 3` of `theta` (one per axis).
+fn vec3(theta: &[f64], off: usize) -> [f64; 3] {
+    std::array::from_fn(|i| theta[off + i])
 }
 
-/// `name: [values]` and `name: [stderrs]` of parameters `range` of `theta`.
-fn vector(
-    r: &mut Reported,
-    name: &str,
-    theta: &[f64],
-    stderr: &dyn Fn(usize) -> f64,
-    range: std::ops::Range<usize>,
-) {
-    r.0.insert(name.into(), nums(&theta[range.clone()]));
-    r.1.insert(name.into(), nums(&range.map(stderr).collect::<Vec<_>>()));
+/// Standard errors of parameters `off..off + 3`.
+fn errors(se: &dyn Fn(usize) -> f64, off: usize) -> [f64; 3] {
+    std::array::from_fn(|i| se(off + i))
 }
 
 /// Every parameter has the same "no effect" value.
@@ -249,18 +272,16 @@ mod tests {
 
     /// Why an effect's description is not consistent with itself: the search space must
     /// have one bound and step per parameter, every start must lie inside it and not be
-    /// called implausible, the "no effect" values must index real parameters, the name
-    /// must round-trip and the report must say something.
+    /// called implausible, the "no effect" values must index real parameters, and the
+    /// report must be this effect's in the simulator's form (its contract name and
+    /// parameters) and read back as the simulator's effect.
     fn inconsistency(
         e: &dyn Effect,
         kind: Kind,
         fired: &[bool; NT],
         cx: &Context,
     ) -> Option<String> {
-        let name = e.name();
-        if Kind::from_name(name) != Some(kind) {
-            return Some(format!("{name}: name does not round-trip"));
-        }
+        let name = kind.name();
         let n = e.n_params(fired);
         let sp = e.spec(cx);
         if kind == Kind::GyroRinging {
@@ -281,8 +302,21 @@ mod tests {
         if e.no_effect(&sp.starts[0], cx).iter().any(|&(i, _)| i >= n) {
             return Some(format!("{name}: no-effect index beyond its parameters"));
         }
-        let (p, s) = e.report(&sp.starts[0], &|_| 0.1, cx);
-        (p.is_empty() || s.is_empty()).then(|| format!("{name}: empty report"))
+        let r = e.report(&sp.starts[0], &|_| 0.1, cx);
+        if r.params.kind() != kind || r.stderr.kind() != kind {
+            return Some(format!("{name}: reported as {}", r.params.name()));
+        }
+        let (p, s) = r.maps();
+        if p.is_empty() || s.is_empty() {
+            return Some(format!("{name}: empty report"));
+        }
+        // what a diagnosis writes reads back as the simulator's effect
+        let doc = serde_json::json!({"effect": name, "params": Value::Object(p)});
+        match serde_json::from_value::<contract::Effect>(doc) {
+            Ok(back) if back.kind() == kind => None,
+            Ok(back) => Some(format!("{name}: reads back as {}", back.name())),
+            Err(why) => Some(format!("{name}: does not read back: {why}")),
+        }
     }
 
     #[test]
@@ -299,9 +333,6 @@ mod tests {
     /// An effect whose search space lost a bound (a planted fault) is caught.
     struct LostBound;
     impl Effect for LostBound {
-        fn name(&self) -> &'static str {
-            "com_offset"
-        }
         fn n_params(&self, f: &[bool; NT]) -> usize {
             com_offset::ComOffset.n_params(f)
         }
@@ -322,6 +353,38 @@ mod tests {
         fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, cx: &Context) -> Reported {
             com_offset::ComOffset.report(th, se, cx)
         }
+    }
+
+    /// An effect that reports another effect's parameters (a planted fault) is caught.
+    struct WrongReport;
+    impl Effect for WrongReport {
+        fn n_params(&self, f: &[bool; NT]) -> usize {
+            com_offset::ComOffset.n_params(f)
+        }
+        fn apply(&self, th: &[f64], f: &[bool; NT], p: &mut Params) {
+            com_offset::ComOffset.apply(th, f, p)
+        }
+        fn spec(&self, cx: &Context) -> Spec {
+            com_offset::ComOffset.spec(cx)
+        }
+        fn no_effect(&self, th: &[f64], cx: &Context) -> Vec<(usize, f64)> {
+            com_offset::ComOffset.no_effect(th, cx)
+        }
+        fn signature(&self) -> &'static str {
+            "planted"
+        }
+        fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, cx: &Context) -> Reported {
+            disturbance_torque::DisturbanceTorque.report(th, se, cx)
+        }
+    }
+
+    #[test]
+    fn a_report_in_another_effects_form_is_caught() {
+        let fired = [true; NT];
+        let plant = Plant::new(&reference_f64::satellite::Satellite::builtin("sph2").unwrap());
+        let cx = context(&fired, &[], &plant);
+        let why = inconsistency(&WrongReport, Kind::ComOffset, &fired, &cx);
+        assert!(why.is_some_and(|w| w.contains("reported as disturbance_torque")));
     }
 
     #[test]

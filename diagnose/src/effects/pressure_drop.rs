@@ -1,14 +1,11 @@
 //! Thrust lost per additional open valve (a shared tank's pressure drop).
 
-use super::{all_at, scalar, Context, Effect, Reported, Spec};
+use super::{all_at, contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct PressureDrop;
 
 impl Effect for PressureDrop {
-    fn name(&self) -> &'static str {
-        "pressure_drop"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         1
     }
@@ -38,8 +35,11 @@ impl Effect for PressureDrop {
         200
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        scalar(&mut r, "newton_per_extra_thruster", th[0], se(0));
-        r
+        let at = |newton_per_extra_thruster| {
+            contract::Effect::PressureDrop(contract::PressureDrop {
+                newton_per_extra_thruster,
+            })
+        };
+        Reported::new(at(th[0]), at(se(0)))
     }
 }

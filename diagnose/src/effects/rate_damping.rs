@@ -6,7 +6,7 @@
 //! any rate) and from an inertia error (which scales the response to thrust, not the
 //! coasting): the rate decays toward zero while coasting, faster the faster it turns.
 
-use super::{all_at, vector, Context, Effect, Reported, Spec};
+use super::{all_at, contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct RateDamping;
@@ -16,9 +16,6 @@ pub struct RateDamping;
 const MIN_DECAY_S: f64 = 0.5;
 
 impl Effect for RateDamping {
-    fn name(&self) -> &'static str {
-        "rate_damping"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         3
     }
@@ -54,8 +51,7 @@ impl Effect for RateDamping {
         "rate decays toward zero while coasting, faster the faster the body turns"
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        vector(&mut r, "nms_per_rad", th, se, 0..3);
-        r
+        let at = |nms_per_rad| contract::Effect::RateDamping(contract::RateDamping { nms_per_rad });
+        Reported::new(at(vec3(th, 0)), at(errors(se, 0)))
     }
 }

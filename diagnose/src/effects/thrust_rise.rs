@@ -10,7 +10,7 @@
 //! edges is what tells them apart, and the fit sees it because the model carries both
 //! mechanisms (a latency and a rise together are fitted jointly when both are named).
 
-use super::{scalar, Context, Effect, Reported, Spec};
+use super::{contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct ThrustRise;
@@ -19,9 +19,6 @@ pub struct ThrustRise;
 const MAX_TAU_MS: f64 = 100.0;
 
 impl Effect for ThrustRise {
-    fn name(&self) -> &'static str {
-        "thrust_rise"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         1
     }
@@ -56,8 +53,7 @@ impl Effect for ThrustRise {
         20
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        scalar(&mut r, "tau_ms", th[0], se(0));
-        r
+        let at = |tau_ms| contract::Effect::ThrustRise(contract::ThrustRise { tau_ms });
+        Reported::new(at(th[0]), at(se(0)))
     }
 }

@@ -1,15 +1,11 @@
 //! A thrust scale per thruster (one per thruster that fires in the recording).
 
-use super::{all_at, Context, Effect, Reported, Spec};
-use crate::json_number::nums;
+use super::{all_at, contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct ThrustScale;
 
 impl Effect for ThrustScale {
-    fn name(&self) -> &'static str {
-        "thrust_scale"
-    }
     fn n_params(&self, fired: &[bool; NT]) -> usize {
         fired.iter().filter(|&&f| f).count()
     }
@@ -61,9 +57,7 @@ impl Effect for ThrustScale {
                 e[i] = f64::INFINITY;
             }
         }
-        let mut r = Reported::default();
-        r.0.insert("scale".into(), nums(&v));
-        r.1.insert("scale".into(), nums(&e));
-        r
+        let at = |scale| contract::Effect::ThrustScale(contract::ThrustScale { scale });
+        Reported::new(at(v), at(e))
     }
 }

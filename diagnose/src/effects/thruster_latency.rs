@@ -1,6 +1,6 @@
 //! Valve opening and closing delays: torque arrives later than commanded.
 
-use super::{all_at, scalar, Context, Effect, Reported, Spec};
+use super::{all_at, contract, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct ThrusterLatency;
@@ -11,9 +11,6 @@ pub struct ThrusterLatency;
 pub const MAX_LATENCY_MS: f64 = 100.0;
 
 impl Effect for ThrusterLatency {
-    fn name(&self) -> &'static str {
-        "thruster_latency"
-    }
     fn n_params(&self, _: &[bool; NT]) -> usize {
         2
     }
@@ -58,9 +55,9 @@ impl Effect for ThrusterLatency {
         20
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, _: &Context) -> Reported {
-        let mut r = Reported::default();
-        scalar(&mut r, "open_ms", th[0], se(0));
-        scalar(&mut r, "close_ms", th[1], se(1));
-        r
+        let at = |open_ms, close_ms| {
+            contract::Effect::ThrusterLatency(contract::ThrusterLatency { open_ms, close_ms })
+        };
+        Reported::new(at(th[0], th[1]), at(se(0), se(1)))
     }
 }

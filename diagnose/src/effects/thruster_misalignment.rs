@@ -15,8 +15,8 @@
 //! as that thruster's scale does: there the effect is not tried (`applies`) and a tilt is
 //! named as a thrust scale.
 
-use super::{Context, Effect, Reported, Spec};
-use crate::json_number::num;
+use super::{contract, Context, Effect, Reported, Spec};
+use crate::json_number::nums;
 use crate::model::{Params, NT};
 use serde_json::Value;
 
@@ -34,9 +34,6 @@ fn thruster_of(th: &[f64]) -> usize {
 const MAX_TILT_RAD: f64 = 0.35;
 
 impl Effect for ThrusterMisalignment {
-    fn name(&self) -> &'static str {
-        "thruster_misalignment"
-    }
     fn n_params(&self, fired: &[bool; NT]) -> usize {
         // no thruster fired: nothing to tilt (and no start to search from)
         if fired.iter().any(|&f| f) {
@@ -124,29 +121,15 @@ impl Effect for ThrusterMisalignment {
                 tilt_se.push(0.0);
             }
         }
-        let rows = |v: &[nalgebra::Vector3<f64>]| {
-            Value::Array(
-                v.iter()
-                    .map(|d| Value::Array(d.iter().map(|x| num(*x)).collect()))
-                    .collect(),
+        let at =
+            |dir| contract::Effect::ThrusterMisalignment(contract::ThrusterMisalignment { dir });
+        let dir: Vec<[f64; 3]> = dir.iter().map(|d| [d.x, d.y, d.z]).collect();
+        Reported::new(at(dir), at(dir_se))
+            .with("tilt_deg", nums(&tilt), Some(nums(&tilt_se)))
+            .with(
+                "thrusters",
+                Value::Array(tilted.into_iter().map(Value::from).collect()),
+                None,
             )
-        };
-        let rows3 = |v: &[[f64; 3]]| {
-            Value::Array(
-                v.iter()
-                    .map(|d| Value::Array(d.iter().map(|x| num(*x)).collect()))
-                    .collect(),
-            )
-        };
-        let mut r = Reported::default();
-        r.0.insert("dir".into(), rows(&dir));
-        r.1.insert("dir".into(), rows3(&dir_se));
-        r.0.insert("tilt_deg".into(), crate::json_number::nums(&tilt));
-        r.1.insert("tilt_deg".into(), crate::json_number::nums(&tilt_se));
-        r.0.insert(
-            "thrusters".into(),
-            Value::Array(tilted.into_iter().map(Value::from).collect()),
-        );
-        r
     }
 }

@@ -1,14 +1,17 @@
 //! The effect vocabulary of `shared/contracts/diagnosis-output.md`: every piece of physics
 //! the nominal model leaves out, one file per effect, each a [`Component`] that switches
-//! itself into a [`PlantConfig`]. Adding an effect = adding a file, a variant below and
-//! (if it is new physics) a field in `PlantConfig`.
+//! itself into a [`PlantConfig`]. This module is the one home of each effect's contract
+//! name ([`Kind`]) and of its parameters' names, shapes and units (its struct, which the
+//! diagnosis fills to report a fitted effect). Adding an effect = adding a file, a variant of
+//! [`Kind`] and of [`Effect`] and (if it is new physics) a field in `PlantConfig`; then its
+//! description in `diagnose/src/effects/`.
 //!
 //! [`Effect`] (de)serialises exactly as the contract:
 //! `{"effect": "thruster_latency", "params": {"open_ms": 6.0, "close_ms": 6.0}}`.
 //!
 //! The contract's table now also lists `rate_damping` and `thrust_rise` (added first here as
 //! extras: effects craft other than SPHERES have), `thruster_misalignment` and
-//! `measurement_delay`; [`EFFECT_NAMES`] holds all sixteen in the table's order.
+//! `measurement_delay`; [`Kind`] holds all sixteen names in the table's order.
 
 mod blowdown;
 mod com_offset;
@@ -172,25 +175,88 @@ pub enum Effect {
     ThrusterMisalignment(ThrusterMisalignment),
 }
 
+/// The effect vocabulary, one variant per effect of the contract's table, in its order:
+/// the one home of each effect's contract name (the simulator's [`Effect`] and the
+/// diagnosis both name effects through it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Kind {
+    ThrusterLatency,
+    PressureDrop,
+    Blowdown,
+    ThrustScale,
+    ComOffset,
+    Inertia,
+    MassPropertyChange,
+    FuelSlosh,
+    GyroBias,
+    GyroScale,
+    GyroRinging,
+    DisturbanceTorque,
+    RateDamping,
+    ThrustRise,
+    ThrusterMisalignment,
+    MeasurementDelay,
+}
+
+impl Kind {
+    /// Every effect, in the contract table's order.
+    pub const ALL: [Kind; 16] = [
+        Kind::ThrusterLatency,
+        Kind::PressureDrop,
+        Kind::Blowdown,
+        Kind::ThrustScale,
+        Kind::ComOffset,
+        Kind::Inertia,
+        Kind::MassPropertyChange,
+        Kind::FuelSlosh,
+        Kind::GyroBias,
+        Kind::GyroScale,
+        Kind::GyroRinging,
+        Kind::DisturbanceTorque,
+        Kind::RateDamping,
+        Kind::ThrustRise,
+        Kind::ThrusterMisalignment,
+        Kind::MeasurementDelay,
+    ];
+
+    /// The contract's name, e.g. `"thruster_latency"`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Kind::ThrusterLatency => "thruster_latency",
+            Kind::PressureDrop => "pressure_drop",
+            Kind::Blowdown => "blowdown",
+            Kind::ThrustScale => "thrust_scale",
+            Kind::ComOffset => "com_offset",
+            Kind::Inertia => "inertia",
+            Kind::MassPropertyChange => "mass_property_change",
+            Kind::FuelSlosh => "fuel_slosh",
+            Kind::GyroBias => "gyro_bias",
+            Kind::GyroScale => "gyro_scale",
+            Kind::GyroRinging => "gyro_ringing",
+            Kind::DisturbanceTorque => "disturbance_torque",
+            Kind::RateDamping => "rate_damping",
+            Kind::ThrustRise => "thrust_rise",
+            Kind::ThrusterMisalignment => "thruster_misalignment",
+            Kind::MeasurementDelay => "measurement_delay",
+        }
+    }
+
+    /// The effect of that contract name.
+    pub fn from_name(s: &str) -> Option<Kind> {
+        Kind::ALL.iter().copied().find(|k| k.name() == s)
+    }
+}
+
 /// The contract's effect names, in the table's order.
-pub const EFFECT_NAMES: [&str; 16] = [
-    "thruster_latency",
-    "pressure_drop",
-    "blowdown",
-    "thrust_scale",
-    "com_offset",
-    "inertia",
-    "mass_property_change",
-    "fuel_slosh",
-    "gyro_bias",
-    "gyro_scale",
-    "gyro_ringing",
-    "disturbance_torque",
-    "rate_damping",
-    "thrust_rise",
-    "thruster_misalignment",
-    "measurement_delay",
-];
+pub const EFFECT_NAMES: [&str; 16] = {
+    let mut names = [""; 16];
+    let mut i = 0;
+    while i < 16 {
+        names[i] = Kind::ALL[i].name();
+        i += 1;
+    }
+    names
+};
 
 impl Effect {
     /// The part that switches this effect into a plant.
@@ -215,25 +281,43 @@ impl Effect {
         }
     }
 
+    /// Which effect of the vocabulary this is.
+    pub fn kind(&self) -> Kind {
+        match self {
+            Effect::ThrusterLatency(_) => Kind::ThrusterLatency,
+            Effect::PressureDrop(_) => Kind::PressureDrop,
+            Effect::Blowdown(_) => Kind::Blowdown,
+            Effect::ThrustScale(_) => Kind::ThrustScale,
+            Effect::ComOffset(_) => Kind::ComOffset,
+            Effect::Inertia(_) => Kind::Inertia,
+            Effect::MassPropertyChange(_) => Kind::MassPropertyChange,
+            Effect::FuelSlosh(_) => Kind::FuelSlosh,
+            Effect::GyroBias(_) => Kind::GyroBias,
+            Effect::GyroScale(_) => Kind::GyroScale,
+            Effect::GyroRinging(_) => Kind::GyroRinging,
+            Effect::DisturbanceTorque(_) => Kind::DisturbanceTorque,
+            Effect::ThrustRise(_) => Kind::ThrustRise,
+            Effect::RateDamping(_) => Kind::RateDamping,
+            Effect::MeasurementDelay(_) => Kind::MeasurementDelay,
+            Effect::ThrusterMisalignment(_) => Kind::ThrusterMisalignment,
+        }
+    }
+
     /// The contract's name, e.g. `"thruster_latency"`.
     pub fn name(&self) -> &'static str {
-        match self {
-            Effect::ThrusterLatency(_) => "thruster_latency",
-            Effect::PressureDrop(_) => "pressure_drop",
-            Effect::Blowdown(_) => "blowdown",
-            Effect::ThrustScale(_) => "thrust_scale",
-            Effect::ComOffset(_) => "com_offset",
-            Effect::Inertia(_) => "inertia",
-            Effect::MassPropertyChange(_) => "mass_property_change",
-            Effect::FuelSlosh(_) => "fuel_slosh",
-            Effect::GyroBias(_) => "gyro_bias",
-            Effect::GyroScale(_) => "gyro_scale",
-            Effect::GyroRinging(_) => "gyro_ringing",
-            Effect::DisturbanceTorque(_) => "disturbance_torque",
-            Effect::ThrustRise(_) => "thrust_rise",
-            Effect::RateDamping(_) => "rate_damping",
-            Effect::MeasurementDelay(_) => "measurement_delay",
-            Effect::ThrusterMisalignment(_) => "thruster_misalignment",
+        self.kind().name()
+    }
+
+    /// The parameters in the contract's form, `{"open_ms": 6.0, ...}`: the names and
+    /// shapes of this effect's struct (a non-finite value, e.g. an unbounded standard
+    /// error, serialises as JSON `null`).
+    pub fn params_json(&self) -> serde_json::Map<String, serde_json::Value> {
+        match serde_json::to_value(self) {
+            Ok(serde_json::Value::Object(mut o)) => match o.remove("params") {
+                Some(serde_json::Value::Object(p)) => p,
+                _ => Default::default(),
+            },
+            _ => Default::default(),
         }
     }
 

@@ -325,10 +325,12 @@ pub fn predict(
         Some((_, off, inr)) => Some(MassProps::new(plant, p, inr, off)?),
         None => None,
     };
-    // the change time and the blowdown's clock are the recording's; steps run on the model's
+    // the change time and the blowdown's clock are the recording's; steps run on the model's.
+    // A measurement delay shifts every input (`fit.rs` moves the valve edges), so the body's
+    // own events move with them: step k is the body at recording time k - delay.
     let change_ms = p
         .mass_change
-        .map(|m| series.model_ms(m.0 * 1e3))
+        .map(|m| series.model_ms(m.0 * 1e3) + p.delay_ms)
         .unwrap_or(f64::INFINITY);
     let slosh_on = p.slosh.is_some();
     let dist = Vector3::from(p.disturbance_nm);
@@ -366,7 +368,7 @@ pub fn predict(
             let n_open: f64 = d.iter().map(|&x| x as f64).sum();
             let mut scale_t = 1.0;
             if let Some((start, tau)) = p.blowdown {
-                let t = series.real_ms(k as f64 + 0.5) * 1e-3;
+                let t = series.real_ms(k as f64 + 0.5 - p.delay_ms) * 1e-3;
                 if t > start {
                     scale_t = (-(t - start) / tau).exp();
                 }
@@ -513,5 +515,61 @@ mod tests {
         let d = duty_grid(&series, 0.25, 0.5, 0.0);
         let on: Vec<f32> = d.iter().map(|x| x[0]).collect();
         assert_eq!(on, vec![0.0, 0.0, 0.0, 0.75, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0]);
+    }
+
+    /// A measurement delay shifts everything the body does, its own events included: with
+    /// a mass-property change and a blowdown, the delayed prediction is the undelayed one
+    /// later by the delay. (With the events left on the recording's clock, as before
+    /// 2026-11-27, the two differ from the change on and this fails.)
+    #[test]
+    fn a_measurement_delay_shifts_the_bodys_own_events_too() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let n = 4000usize;
+        let t: Vec<i64> = (0..n as i64).collect();
+        let counts = vec![[2048, 2048, 2048]; n];
+        // two thrusters pulse 100 ms in every 400 ms
+        let words: Vec<u16> = (0..n)
+            .map(|k| if k % 400 < 100 { 0b1001 } else { 0 })
+            .collect();
+        let series = Series::from_counts(
+            &t,
+            &counts,
+            &words,
+            sat.gyro_bias_counts,
+            sat.gyro_counts_per_rad_s,
+            Some(1000.0),
+        )
+        .unwrap();
+        let noise = crate::noise::NoiseModel::white([1e-6; 3]);
+        let prob = crate::fit::Problem::new(&plant, &series, &noise);
+        let mut after = sat.inertia_kgm2;
+        after[2] *= 1.3;
+        let base = Params {
+            mass_change: Some((1.5, [2.0, 0.0, 0.0], after)),
+            blowdown: Some((2.2, 3.0)),
+            ..Params::default()
+        };
+        let d = 40;
+        let y0 = prob.predict(&base).unwrap();
+        let y1 = prob
+            .predict(&Params {
+                delay_ms: d as f64,
+                ..base.clone()
+            })
+            .unwrap();
+        let worst = (d..n)
+            .map(|i| {
+                (0..3)
+                    .map(|a| (y1[i][a] - y0[i - d][a]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        let scale = y0.iter().map(|y| y[2].abs()).fold(0.0, f64::max);
+        assert!(scale > 1e-3, "the pulses must turn the body");
+        assert!(
+            worst <= 1e-9 * scale,
+            "delayed != shifted: {worst:e} of {scale:e}"
+        );
     }
 }

@@ -4,7 +4,9 @@
 //! with the parameters that make them equal, under `equivalent_to`.
 //!
 //! The classes follow from the equations of motion, not from the recording at hand:
-//! - a `measurement_delay` d is an equal `thruster_latency` (open = close = d) on every edge;
+//! - a `measurement_delay` d is an equal `thruster_latency` (open = close = d) on every edge,
+//!   as long as no effect with a time of its own is named (a mass-property change or a
+//!   blowdown: the delay shifts its time, a latency does not);
 //! - a uniform `thrust_scale` s is the `inertia` divided by s (I^-1 s tau = (I/s)^-1 tau, and
 //!   the gyroscopic term I^-1 (w x I w) is unchanged), as long as no other torque is named
 //!   (a disturbance, damping, slosh, pressure drop or mass change would have to be rescaled
@@ -39,6 +41,11 @@ const SCALE_BREAKERS: [Kind; 5] = [
     Kind::PressureDrop,
 ];
 
+/// Effects with a time of their own on the body's clock (a change, a blowdown start): a
+/// measurement delay shifts them too, a valve latency does not, so with one of them named
+/// a delay and an equal latency no longer give the same rates.
+const TIMING_BREAKERS: [Kind; 2] = [Kind::MassPropertyChange, Kind::Blowdown];
+
 /// Weight 1/se^2 of a term; 0 for an unidentifiable one (NaN or infinite error).
 fn weight(se: f64) -> f64 {
     if se.is_finite() && se > 0.0 {
@@ -61,6 +68,7 @@ pub fn equivalents(
 ) -> Vec<Value> {
     let named = |k: Kind| others.contains(&k);
     let scale_breaks = SCALE_BREAKERS.iter().any(|&k| named(k));
+    let timing_breaks = TIMING_BREAKERS.iter().any(|&k| named(k));
     let fired_idx: Vec<usize> = (0..cx.n_thrusters.min(NT))
         .filter(|&i| cx.fired[i])
         .collect();
@@ -72,7 +80,7 @@ pub fn equivalents(
         v
     };
     match kind {
-        Kind::ThrusterLatency => {
+        Kind::ThrusterLatency if !timing_breaks => {
             let (o, c) = (theta[0], theta[1]);
             let e = se(0).hypot(se(1));
             if e.is_finite() && (o - c).powi(2) <= chi2_99(1) * e * e {
@@ -84,12 +92,12 @@ pub fn equivalents(
                 vec![]
             }
         }
-        Kind::MeasurementDelay => vec![contract_json(&contract::Effect::ThrusterLatency(
-            contract::ThrusterLatency {
+        Kind::MeasurementDelay if !timing_breaks => vec![contract_json(
+            &contract::Effect::ThrusterLatency(contract::ThrusterLatency {
                 open_ms: theta[0],
                 close_ms: theta[0],
-            },
-        ))],
+            }),
+        )],
         Kind::Inertia if !scale_breaks && !named(Kind::ThrustScale) => {
             // the fitted inertia as r times the model's: identifiable terms only (yaw on a
             // planar craft)
@@ -199,6 +207,76 @@ mod tests {
         assert!(equivalents(Kind::ThrusterLatency, &[6.0, 8.0], &se, &[], &plant, &c).is_empty());
         let d = equivalents(Kind::MeasurementDelay, &[120.0], &se, &[], &plant, &c);
         assert_eq!(d[0]["params"]["open_ms"], 120.0);
+    }
+
+    /// The listing follows the physics: a delay and an equal latency predict the same rates
+    /// (and are listed as equivalent) until a mass-property change is named, which the
+    /// delay shifts and the latency does not (then they differ, and nothing is listed).
+    #[test]
+    fn a_delay_is_a_latency_only_without_a_timed_effect() {
+        use crate::model::Params;
+        use crate::series::Series;
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let n = 3000usize;
+        let t: Vec<i64> = (0..n as i64).collect();
+        let words: Vec<u16> = (0..n)
+            .map(|k| if k % 300 < 80 { 0b101 } else { 0 })
+            .collect();
+        let series = Series::from_counts(
+            &t,
+            &vec![[2048, 2048, 2048]; n],
+            &words,
+            sat.gyro_bias_counts,
+            sat.gyro_counts_per_rad_s,
+            Some(1000.0),
+        )
+        .unwrap();
+        let noise = crate::noise::NoiseModel::white([1e-6; 3]);
+        let prob = crate::fit::Problem::new(&plant, &series, &noise);
+        let mut after = sat.inertia_kgm2;
+        after[0] *= 1.4;
+        let change = Some((1.2, [3.0, 0.0, 0.0], after));
+        let differ = |mass_change: Option<(f64, [f64; 3], [f64; 6])>| {
+            let delay = prob.predict(&Params {
+                delay_ms: 50.0,
+                mass_change,
+                ..Params::default()
+            });
+            let latency = prob.predict(&Params {
+                open_ms: 50.0,
+                close_ms: 50.0,
+                mass_change,
+                ..Params::default()
+            });
+            let (a, b) = (delay.unwrap(), latency.unwrap());
+            a.iter()
+                .zip(&b)
+                .map(|(x, y)| (0..3).map(|i| (x[i] - y[i]).abs()).fold(0.0, f64::max))
+                .fold(0.0, f64::max)
+        };
+        let fired = [true; NT];
+        let c = cx(&fired, &sat, &plant);
+        let se = |_: usize| 0.1;
+        let listed = |others: &[Kind]| {
+            !equivalents(Kind::MeasurementDelay, &[50.0], &se, others, &plant, &c).is_empty()
+        };
+        assert!(differ(None) < 1e-12, "{}", differ(None));
+        assert!(listed(&[]));
+        // a 50 ms shift of the change moves the rates by 3e-5 rad/s here: small, but far
+        // from the rounding-level agreement without it
+        assert!(differ(change) > 1e-6, "{}", differ(change));
+        assert!(!listed(&[Kind::MassPropertyChange]));
+        assert!(!listed(&[Kind::Blowdown]));
+        let lat = equivalents(
+            Kind::ThrusterLatency,
+            &[50.0, 50.0],
+            &se,
+            &[Kind::MassPropertyChange],
+            &plant,
+            &c,
+        );
+        assert!(lat.is_empty());
     }
 
     #[test]

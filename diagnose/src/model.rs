@@ -47,7 +47,8 @@ pub struct Params {
     /// valve's force steps).
     pub rise_ms: f64,
     /// The recorded rate is the body rate this long ago, ms (`measurement_delay`): applied
-    /// as a shift of every valve edge, its exact equal on rates.
+    /// as a shift of every valve edge and of the body's own events (change time, blowdown
+    /// clock), its exact equal on rates.
     pub delay_ms: f64,
     /// Tilt of each thruster's force, rad, about its two axes of [`Plant::tilt_axes`]
     /// (`thruster_misalignment`; the force keeps its magnitude).

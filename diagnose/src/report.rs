@@ -898,14 +898,33 @@ pub fn html(a: &Analysis) -> String {
             esc(&windows_text(&e.windows_ms))
         );
         window_panels(&mut h, a, &t, &e.windows_ms, &e.effect);
-        // a change in time is shown where it happens, too
+        // a change in time is shown where it happens, too: in the recorded rates that is a
+        // named measurement delay later than on the body's clock
+        let delay_s = a
+            .output
+            .effects
+            .iter()
+            .find(|o| o.effect == "measurement_delay")
+            .and_then(|o| o.params.get("delay_ms"))
+            .and_then(|v| v.as_f64())
+            .unwrap_or(0.0)
+            * 1e-3;
         for key in ["at_s", "start_s"] {
-            if let Some(at) = e.params.get(key).and_then(|v| v.as_f64()) {
+            if let Some(fitted) = e.params.get(key).and_then(|v| v.as_f64()) {
+                let at = fitted + delay_s;
                 let ms = (at * 1e3).round() as i64;
+                let seen = if delay_s > 0.0 {
+                    format!(
+                        ", seen {} ms later behind the measurement delay",
+                        numfmt::sig(delay_s * 1e3, 3)
+                    )
+                } else {
+                    String::new()
+                };
                 let title = format!(
-                    "{} at its fitted {key} = {} s",
+                    "{} at its fitted {key} = {} s{seen}",
                     e.effect,
-                    numfmt::sig(at, 4)
+                    numfmt::sig(fitted, 4)
                 );
                 match window_svg(a, &t, [ms - 1000, ms + 1000], &title, Mark::At(at)) {
                     Ok(svg) => {

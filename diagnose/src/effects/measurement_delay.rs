@@ -4,7 +4,9 @@
 //!
 //! On rates alone it is exactly an equal `thruster_latency` on every edge (the body's answer
 //! to every command is shifted by the same time), so the model applies it as a shift of the
-//! valve timing on top of any latency, and the two are one equivalence class: the diagnosis
+//! valve timing on top of any latency, and of the body's own events (a mass-property change,
+//! a blowdown start: `model::predict`), which a latency leaves in place. Without such an
+//! event the two are one equivalence class: the diagnosis
 //! never fits them together (`select::combinable`) and names the valve latency while the
 //! delay fits inside the valves' range, the delay beyond it (valves cannot be that late),
 //! listing the other under `equivalent_to` (`equivalence.rs`).

@@ -514,3 +514,64 @@ impl Controller {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::MeasurementDelay;
+
+    /// Replays the closed-loop controller over the rate legs of `out` from the control
+    /// instant `from_ms`, feeding it the body rate `lag_ms` before each control instant;
+    /// the number of control periods whose commanded words differ from the flight's.
+    fn mismatched_periods(
+        sat: &Satellite,
+        out: &SimOutput,
+        from_ms: usize,
+        lag_ms: usize,
+    ) -> usize {
+        let total_ms = out.commands.len();
+        let mut ctl = Controller::new(sat, total_ms).unwrap();
+        let mut bad = 0;
+        let legs_end = total_ms * 6 / 10;
+        for t0 in (from_ms..legs_end).step_by(maneuvers::PERIOD_MS) {
+            let w = Vector3::from(out.body_rate[t0 - lag_ms]);
+            // the rate legs use no attitude
+            ctl.plan(t0, &w, &UnitQuaternion::identity()).unwrap();
+            let end = (t0 + maneuvers::PERIOD_MS).min(legs_end);
+            if (t0..end).any(|t| ctl.word_at(t) != out.commands[t]) {
+                bad += 1;
+            }
+        }
+        bad
+    }
+
+    /// A closed-loop controller reads the rate sensor, so with a measurement delay it acts
+    /// on the body rate that long ago, as flight software behind a slow sensor does: its
+    /// commands are those of the nominal controller fed the late rate, and not those it
+    /// would give from the current rate (the planted fault).
+    #[test]
+    fn a_closed_loop_controller_acts_on_the_late_rate() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let delay_ms: usize = 300;
+        let delay = Effect::MeasurementDelay(MeasurementDelay {
+            delay_ms: delay_ms as f64,
+        });
+        let mut spec = SimSpec::new(sat.clone(), vec![delay], Maneuver::ClosedLoop);
+        spec.seconds = Some(12.0);
+        spec.sensors.noiseless = true;
+        let out = simulate(&spec).unwrap();
+        let total_ms = out.commands.len();
+        // 1 kHz: sample k is t = k ms
+        assert_eq!(out.body_rate.len(), total_ms);
+        // the first control instant with a delayed rate in hand
+        let start = delay_ms.div_ceil(maneuvers::PERIOD_MS) * maneuvers::PERIOD_MS;
+        let periods = (start..total_ms * 6 / 10)
+            .step_by(maneuvers::PERIOD_MS)
+            .count();
+        assert!(periods >= 30);
+        assert_eq!(mismatched_periods(&sat, &out, start, delay_ms), 0);
+        // the current rate would have commanded other firings in most periods
+        let wrong = mismatched_periods(&sat, &out, start, 0);
+        assert!(wrong * 2 > periods, "{wrong} of {periods} periods differ");
+    }
+}

@@ -1,16 +1,16 @@
 //! The whole diagnosis, a short orchestration of named stages, each in its own file:
 //!
-//! 1. [`nominal`]: the nominal prediction with the initial rate fitted; the noise model
+//! 1. `nominal.rs`: the nominal prediction with the initial rate fitted; the noise model
 //!    from its residual.
-//! 2. [`forward`]: forward selection of mechanisms by BIC, each put through the acceptance
-//!    checks; [`pairs`] when no single one generalises.
-//! 3. [`exchange`]: each named effect may be dropped (the others stand in for it) or
+//! 2. `forward.rs`: forward selection of mechanisms by BIC, each put through the acceptance
+//!    checks; `pairs.rs` when no single one generalises.
+//! 3. `exchange.rs`: each named effect may be dropped (the others stand in for it) or
 //!    replaced by a mechanism that fits better in its place.
-//! 4. [`conclusion`]: standard errors, the contract's reports, what is left unexplained.
+//! 4. `conclusion.rs`: standard errors, the contract's reports, what is left unexplained.
 //!
-//! The stages hand on [`named::Named`] (the effects named so far and the model they make)
-//! and a [`Log`] of every score and every reason a candidate was not named, from which
-//! [`evidence`] writes each named effect's sentence.
+//! The stages hand on `named::Named` (the effects named so far and the model they make)
+//! and a `Log` of every score and every reason a candidate was not named, from which
+//! `evidence.rs` writes each named effect's sentence.
 
 mod conclusion;
 mod evidence;

@@ -215,23 +215,12 @@ mod tests {
     #[test]
     fn a_delay_is_a_latency_only_without_a_timed_effect() {
         use crate::model::Params;
-        use crate::series::Series;
         let sat = Satellite::builtin("sph2").unwrap();
         let plant = Plant::new(&sat);
-        let n = 3000usize;
-        let t: Vec<i64> = (0..n as i64).collect();
-        let words: Vec<u16> = (0..n)
+        let words: Vec<u16> = (0..3000)
             .map(|k| if k % 300 < 80 { 0b101 } else { 0 })
             .collect();
-        let series = Series::from_counts(
-            &t,
-            &vec![[2048, 2048, 2048]; n],
-            &words,
-            sat.gyro_bias_counts,
-            sat.gyro_counts_per_rad_s,
-            Some(1000.0),
-        )
-        .unwrap();
+        let series = crate::model::tests::commanded(&sat, &words);
         let noise = crate::noise::NoiseModel::white([1e-6; 3]);
         let prob = crate::fit::Problem::new(&plant, &series, &noise);
         let mut after = sat.inertia_kgm2;

@@ -454,8 +454,24 @@ pub fn predict(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// A 1 kHz recording of `words` (one per ms) with the gyro at its bias: what a model
+    /// test predicts from.
+    pub(crate) fn commanded(sat: &Satellite, words: &[u16]) -> Series {
+        let t: Vec<i64> = (0..words.len() as i64).collect();
+        let counts = vec![[2048, 2048, 2048]; words.len()];
+        Series::from_counts(
+            &t,
+            &counts,
+            words,
+            sat.gyro_bias_counts,
+            sat.gyro_counts_per_rad_s,
+            Some(1000.0),
+        )
+        .unwrap()
+    }
 
     /// With every valve shut the body spins freely: angular momentum magnitude |I w| and
     /// kinetic energy w.I.w / 2 are conserved (Euler's equations), whatever the inertia.
@@ -464,18 +480,7 @@ mod tests {
         let sat = Satellite::builtin("sph3").unwrap();
         let plant = Plant::new(&sat);
         let n = 20_000;
-        let t: Vec<i64> = (0..n).collect();
-        let counts = vec![[2048, 2048, 2048]; n as usize];
-        let words = vec![0u16; n as usize];
-        let series = Series::from_counts(
-            &t,
-            &counts,
-            &words,
-            sat.gyro_bias_counts,
-            sat.gyro_counts_per_rad_s,
-            Some(1000.0),
-        )
-        .unwrap();
+        let series = commanded(&sat, &vec![0u16; n as usize]);
         let duty = duty_grid(&series, 0.0, 0.0, 0.0);
         let p = Params {
             omega0: [0.6, -0.3, 0.9],
@@ -527,21 +532,11 @@ mod tests {
         let sat = Satellite::builtin("sph2").unwrap();
         let plant = Plant::new(&sat);
         let n = 4000usize;
-        let t: Vec<i64> = (0..n as i64).collect();
-        let counts = vec![[2048, 2048, 2048]; n];
         // two thrusters pulse 100 ms in every 400 ms
         let words: Vec<u16> = (0..n)
             .map(|k| if k % 400 < 100 { 0b1001 } else { 0 })
             .collect();
-        let series = Series::from_counts(
-            &t,
-            &counts,
-            &words,
-            sat.gyro_bias_counts,
-            sat.gyro_counts_per_rad_s,
-            Some(1000.0),
-        )
-        .unwrap();
+        let series = commanded(&sat, &words);
         let noise = crate::noise::NoiseModel::white([1e-6; 3]);
         let prob = crate::fit::Problem::new(&plant, &series, &noise);
         let mut after = sat.inertia_kgm2;

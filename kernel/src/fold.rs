@@ -9,8 +9,8 @@
 //! private to the crate. This is the only way measurements enter [`MassId`]: the pipeline,
 //! the proofs and the tests all fold through it, so every check exercises what flies.
 
+use crate::deferred_stage::DeferredStage;
 use crate::lu::LuError;
-use crate::pipeline::DeferredStage;
 use crate::rls::{AddPlan, EstimateState, Factored, MassId, Measurement, RlsStatus};
 use crate::scalar::{Scalar, Scaled};
 

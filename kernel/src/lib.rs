@@ -61,6 +61,7 @@ pub mod allocation;
 pub mod capi;
 pub mod craft;
 pub mod craft_mixer;
+pub mod deferred_stage;
 pub mod flight_id;
 pub mod fold;
 pub mod gyro_filter;

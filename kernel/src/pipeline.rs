@@ -18,6 +18,7 @@ const _: () = assert!(
     COUNT_FRAC_BITS == 12,
     "Gyroscopic::omega assumes Q12 counts"
 );
+pub use crate::deferred_stage::DeferredStage;
 use crate::fold::{FiringFold, FoldStep};
 use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
 use crate::observability::{min_updates_for, Excitation, N_TERMS};
@@ -733,37 +734,6 @@ fn measurement_for<S: Scalar>(
 
 /// How many end-of-firing stages there are (the most [`Pipeline::run_deferred`] can have pending).
 const DEFERRED_STAGES: usize = 2 + crate::fold::STAGES;
-
-/// The end-of-firing stage the next tick runs (telemetry: which part of the deferred work a
-/// tick carried, e.g. to attribute its execution time).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub enum DeferredStage {
-    /// The firing's final angular-acceleration estimate.
-    Measure = 1,
-    /// The firing's measurements in aggregate.
-    Aggregate = 2,
-    /// CoM information added.
-    FoldCom = 3,
-    /// Inverse-inertia add planned (its rounding exponent).
-    PlanInertia = 4,
-    /// Inverse-inertia information added.
-    FoldInertia = 5,
-    /// Innovation against the latest solve, first two rows.
-    Detect = 6,
-    /// Innovation, third row; variance factor and (with a detector) the change test.
-    DetectFinish = 7,
-    /// Forgetting and merge of the inverse-inertia information.
-    MergeInertia = 8,
-    /// Forgetting and merge of the CoM information, and the CoM solve.
-    MergeCom = 9,
-    /// CoM solve (after the batch, which has nothing to merge).
-    SolveCom = 10,
-    /// Inverse-inertia LU factorisation.
-    FactorInertia = 11,
-    /// Inverse-inertia solve and status.
-    SolveInertia = 12,
-}
 
 /// The end-of-firing work still to run: the firing's final estimate, its aggregate, then its
 /// [`FiringFold`].

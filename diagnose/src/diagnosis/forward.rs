@@ -5,7 +5,7 @@
 //! refitted jointly after every acceptance; ringing (additive, random phase per edge) lives
 //! on the residual.
 
-use super::named::{Accepted, Named};
+use super::named::{Accepted, Named, Taken};
 use super::nominal::Nominal;
 use super::{evidence, pairs, Log, Timing, MAX_TRIES};
 use crate::candidate::Tried;
@@ -41,9 +41,6 @@ pub(super) struct Candidate {
     /// Said before the evidence when it is named.
     pub note: String,
 }
-
-/// What one round named: `(delta BIC, effect, note)` per effect and the model with them.
-pub(super) type Taken = (Vec<(f64, Kind, String)>, Tried);
 
 /// Runs the forward selection from `named` (the nominal model) until no candidate passes
 /// or `settings.max_effects` are named.

@@ -26,6 +26,10 @@ pub(super) struct Accepted {
     pub evidence: String,
 }
 
+/// What one round of the selection names: `(delta BIC, effect, note)` per effect, and the
+/// model with them.
+pub(super) type Taken = (Vec<(f64, Kind, String)>, Tried);
+
 /// The named effects and the model they make.
 pub(super) struct Named {
     pub accepted: Vec<Accepted>,

@@ -2,8 +2,7 @@
 //! fail alone (each fit alone is a compromise that predicts some held-out block worse), so
 //! the strongest pairs are fitted jointly and put through the same checks.
 
-use super::forward::Taken;
-use super::named::Named;
+use super::named::{Named, Taken};
 use super::nominal::Nominal;
 use super::{Log, Timing, MAX_TRIES};
 use crate::candidate::Trial;

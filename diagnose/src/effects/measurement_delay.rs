@@ -17,7 +17,7 @@
 //! start finds the wrong step.
 
 use super::thruster_latency::MAX_LATENCY_MS;
-use super::{all_at, contract, Context, Effect, Reported, Spec};
+use super::{all_at, contract, timing_starts, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct MeasurementDelay;
@@ -25,22 +25,6 @@ pub struct MeasurementDelay;
 /// The longest delay searched, ms: a motion-capture pipeline plus telemetry stays well under
 /// a second (the real air-bearing flight answers about 120 ms late).
 pub const MAX_DELAY_MS: f64 = 1000.0;
-
-/// Starting points every `step` from `from` to below `to` (ms), at most `max` of them, with
-/// the step at least a quarter of the command step (a shift by a whole step is the next
-/// local minimum).
-pub(super) fn delay_grid(from: f64, to: f64, cx: &Context, max: usize) -> Vec<f64> {
-    let step = (cx.command_step_ms / 4.0)
-        .max((to - from) / max as f64)
-        .max(1.0);
-    let mut out = vec![];
-    let mut d = from;
-    while d < to && out.len() < max {
-        out.push(d);
-        d += step;
-    }
-    out
-}
 
 impl Effect for MeasurementDelay {
     fn n_params(&self, _: &[bool; NT]) -> usize {
@@ -57,7 +41,7 @@ impl Effect for MeasurementDelay {
             lo: vec![0.0],
             hi: vec![hi],
             step: vec![0.05],
-            starts: delay_grid(MAX_LATENCY_MS, hi, cx, 80)
+            starts: timing_starts(MAX_LATENCY_MS, hi, cx, 80)
                 .into_iter()
                 .map(|d| vec![d])
                 .collect(),

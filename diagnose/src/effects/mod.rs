@@ -247,6 +247,22 @@ fn errors(se: &dyn Fn(usize) -> f64, off: usize) -> [f64; 3] {
     std::array::from_fn(|i| se(off + i))
 }
 
+/// Starting points of a timing search (a valve latency, a measurement delay): every `step`
+/// from `from` to below `to` (ms), at most `max` of them, with the step at least a quarter
+/// of the command step (a shift by a whole step is the next local minimum).
+fn timing_starts(from: f64, to: f64, cx: &Context, max: usize) -> Vec<f64> {
+    let step = (cx.command_step_ms / 4.0)
+        .max((to - from) / max as f64)
+        .max(1.0);
+    let mut out = vec![];
+    let mut d = from;
+    while d < to && out.len() < max {
+        out.push(d);
+        d += step;
+    }
+    out
+}
+
 /// Every parameter has the same "no effect" value.
 fn all_at(theta: &[f64], v: f64) -> Vec<(usize, f64)> {
     (0..theta.len()).map(|i| (i, v)).collect()

@@ -1,6 +1,6 @@
 //! Valve opening and closing delays: torque arrives later than commanded.
 
-use super::{all_at, contract, Context, Effect, Reported, Spec};
+use super::{all_at, contract, timing_starts, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct ThrusterLatency;
@@ -23,7 +23,7 @@ impl Effect for ThrusterLatency {
         // latency longer than the command step is not found from a start near zero
         let mut starts = vec![vec![2.0, 2.0]];
         starts.extend(
-            super::measurement_delay::delay_grid(6.0, MAX_LATENCY_MS, cx, 24)
+            timing_starts(6.0, MAX_LATENCY_MS, cx, 24)
                 .into_iter()
                 .skip(1)
                 .map(|d| vec![d, d]),

@@ -35,8 +35,9 @@ fn main() {
             .expect("diagnosis");
         let n = model::PREDICTIONS.load(std::sync::atomic::Ordering::Relaxed);
         println!(
-            "== {seconds} s, seed {seed} ({:.1} s, {n} predictions)",
-            t0.elapsed().as_secs_f64()
+            "== {seconds} s, seed {seed} ({:.1} s, {n} predictions, {} repeats)",
+            t0.elapsed().as_secs_f64(),
+            massid_diagnose::fit::REPEATS.load(std::sync::atomic::Ordering::Relaxed)
         );
         print!("{}", report::summary(&a));
         for sc in &a.scores {

@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::model::{self, Params, Plant, NT};
+use crate::model::{self, Params, Plant};
 use crate::noise::NoiseModel;
 use crate::series::Series;
 
@@ -19,8 +19,23 @@ pub struct Problem<'a> {
     pub stride: usize,
     /// Samples the fit may use (None: all): the training blocks of an out-of-sample check.
     pub train: Option<std::rc::Rc<Vec<bool>>>,
-    duty_cache: std::cell::RefCell<Option<((f64, f64, f64), std::rc::Rc<Vec<[f32; NT]>>)>>,
+    /// The last few duty grids by (open, close, rise) ms: a fit's Jacobian alternates
+    /// between the current latencies and a perturbed one. Bounded in bytes like `recent`.
+    duty_cache:
+        std::cell::RefCell<std::collections::VecDeque<((f64, f64, f64), std::rc::Rc<model::Duty>)>>,
+    /// The last few predictions and their parameters: the stages ask for the same model's
+    /// rates more than once (a fit's end and the check after it), and a repeat costs a copy
+    /// instead of a simulation. Bounded in bytes, so a long recording keeps none.
+    recent: std::cell::RefCell<std::collections::VecDeque<(Params, std::rc::Rc<Vec<[f64; 3]>>)>>,
 }
+
+/// Bytes of predictions (and of duty grids) [`Problem`] keeps for repeats.
+const RECENT_BYTES: usize = 64 << 20;
+/// Predictions [`Problem`] keeps for repeats, at most.
+const RECENT_MAX: usize = 4;
+
+/// How many predictions were answered from [`Problem`]'s recent ones (for profiling).
+pub static REPEATS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
 impl<'a> Problem<'a> {
     pub fn new(plant: &'a Plant, series: &'a Series, noise: &NoiseModel) -> Problem<'a> {
@@ -32,25 +47,45 @@ impl<'a> Problem<'a> {
             stride: 1,
             train: None,
             duty_cache: Default::default(),
+            recent: Default::default(),
         }
     }
 
-    fn duty(&self, open: f64, close: f64, rise: f64) -> std::rc::Rc<Vec<[f32; NT]>> {
-        let mut c = self.duty_cache.borrow_mut();
-        if let Some((key, d)) = c.as_ref() {
-            if *key == (open, close, rise) {
-                return d.clone();
-            }
+    fn duty(&self, open: f64, close: f64, rise: f64) -> std::rc::Rc<model::Duty> {
+        let key = (open, close, rise);
+        let mut cache = self.duty_cache.borrow_mut();
+        if let Some(at) = cache.iter().position(|(k, _)| *k == key) {
+            let hit = cache.remove(at).expect("present");
+            cache.push_front(hit.clone());
+            return hit.1;
         }
         let d = std::rc::Rc::new(model::duty_grid(self.series, open, close, rise));
-        *c = Some(((open, close, rise), d.clone()));
+        let keep = (RECENT_BYTES / d.bytes().max(1)).clamp(1, RECENT_MAX);
+        while cache.len() >= keep {
+            cache.pop_back();
+        }
+        cache.push_front((key, d.clone()));
         d
     }
 
     /// Predicted gyro output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
+        if let Some((_, y)) = self.recent.borrow().iter().find(|(q, _)| q == p) {
+            REPEATS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            return Some(y.as_ref().clone());
+        }
         let d = self.duty(p.open_ms + p.delay_ms, p.close_ms + p.delay_ms, p.rise_ms);
-        model::predict(self.plant, self.series, &d, p)
+        let y = model::predict(self.plant, self.series, &d, p)?;
+        let keep =
+            (RECENT_BYTES / (y.len() * std::mem::size_of::<[f64; 3]>()).max(1)).min(RECENT_MAX);
+        if keep > 0 {
+            let mut recent = self.recent.borrow_mut();
+            if recent.len() >= keep {
+                recent.pop_back();
+            }
+            recent.push_front((p.clone(), std::rc::Rc::new(y.clone())));
+        }
+        Some(y)
     }
 
     /// Unweighted residual (measured minus predicted) per sample; zero where the sample
@@ -78,6 +113,7 @@ impl<'a> Problem<'a> {
             stride: self.stride,
             train: Some(train),
             duty_cache: Default::default(),
+            recent: Default::default(),
         }
     }
 

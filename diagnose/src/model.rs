@@ -86,34 +86,183 @@ impl Default for Params {
     }
 }
 
-/// Per-step mean force fraction of every valve on a 1 ms grid, for given latencies and
-/// thrust-rise time constant (0: the open fraction of each step).
-pub fn duty_grid(series: &Series, open_ms: f64, close_ms: f64, rise_ms: f64) -> Vec<[f32; NT]> {
+/// The valves' mean force fractions on the 1 ms grid, stored as runs of equal rows: the
+/// rows change only near the valve edges, so a grid costs memory and time in proportion to
+/// the commands, not to the milliseconds of the flight.
+pub struct Duty {
+    /// Each run's first step and its row, ascending; the first run starts at step 0 and
+    /// no two neighbours are equal.
+    runs: Vec<(usize, [f32; NT])>,
+    /// Steps on the grid; past the last one the last row holds.
+    len: usize,
+}
+
+impl Duty {
+    /// Memory the grid holds, bytes.
+    pub fn bytes(&self) -> usize {
+        self.runs.len() * std::mem::size_of::<(usize, [f32; NT])>()
+    }
+
+    /// Steps on the grid.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the grid has no step.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The row in force at step `k` (the last row past the grid's end).
+    pub fn row(&self, k: usize) -> &[f32; NT] {
+        let r = self.runs.partition_point(|&(start, _)| start <= k);
+        &self.runs[r.max(1) - 1].1
+    }
+
+    /// Runs of equal rows from dense rows.
+    fn from_rows(rows: &[[f32; NT]]) -> Duty {
+        let mut runs: Vec<(usize, [f32; NT])> =
+            vec![(0, rows.first().copied().unwrap_or([0.0; NT]))];
+        for (k, row) in rows.iter().enumerate().skip(1) {
+            if *row != runs[runs.len() - 1].1 {
+                runs.push((k, *row));
+            }
+        }
+        Duty {
+            runs,
+            len: rows.len(),
+        }
+    }
+}
+
+/// Each thruster's open intervals (ms on the model's grid, latencies applied, not yet
+/// clipped), in time order.
+fn open_intervals(series: &Series, open_ms: f64, close_ms: f64) -> Vec<Vec<(f64, f64)>> {
     let n = series.word_ms.len();
-    let mut duty = vec![[0f32; NT]; n];
     let used = series.word_ms.iter().fold(0u16, |a, &w| a | w);
     let top = NT - used.leading_zeros() as usize;
-    for th in 0..top {
-        let bit = 1u16 << th;
-        let mut on_start: Option<f64> = None;
-        let mut prev = false;
-        for (k, &w) in series.word_ms.iter().enumerate() {
-            let on = w & bit != 0;
-            if on && !prev {
-                on_start = Some(k as f64 + open_ms);
-            } else if !on && prev {
-                if let Some(s) = on_start.take() {
-                    add_interval(&mut duty, th, s, k as f64 + close_ms);
+    (0..top)
+        .map(|th| {
+            let bit = 1u16 << th;
+            let mut out = vec![];
+            let mut on_start: Option<f64> = None;
+            let mut prev = false;
+            for (k, &w) in series.word_ms.iter().enumerate() {
+                let on = w & bit != 0;
+                if on && !prev {
+                    on_start = Some(k as f64 + open_ms);
+                } else if !on && prev {
+                    if let Some(s) = on_start.take() {
+                        out.push((s, k as f64 + close_ms));
+                    }
                 }
+                prev = on;
             }
-            prev = on;
+            if let Some(s) = on_start {
+                out.push((s, n as f64 + close_ms));
+            }
+            out
+        })
+        .collect()
+}
+
+/// The steps an interval covers on a grid of `n` steps, as pieces `(first, end, fraction)`
+/// of equal fraction: the partial first step, the whole steps, the partial last step.
+fn interval_pieces(n: usize, a: f64, b: f64) -> impl Iterator<Item = (usize, usize, f32)> {
+    let a = a.max(0.0);
+    let b = b.min(n as f64);
+    let (ka, kb) = if b <= a {
+        (0, 0)
+    } else {
+        (a.floor() as usize, (b.ceil() as usize).min(n))
+    };
+    let frac = move |k: usize| {
+        let lo = (k as f64).max(a);
+        let hi = ((k + 1) as f64).min(b);
+        (hi > lo).then_some((hi - lo) as f32)
+    };
+    let first = (kb > ka).then_some(ka);
+    let last = (kb > ka + 1).then_some(kb - 1);
+    let middle = (kb > ka + 2).then_some((ka + 1, kb - 1));
+    let piece = move |k: usize| frac(k).map(|f| (k, k + 1, f));
+    first
+        .and_then(piece)
+        .into_iter()
+        .chain(middle.and_then(|(s, e)| frac(s).map(|f| (s, e, f))))
+        .chain(last.and_then(piece))
+}
+
+/// Per-step mean force fraction of every valve on a 1 ms grid, for given latencies and
+/// thrust-rise time constant (0: the open fraction of each step). Without a rise the runs
+/// are built from the valve edges alone; with one, from the dense lagged rows.
+pub fn duty_grid(series: &Series, open_ms: f64, close_ms: f64, rise_ms: f64) -> Duty {
+    if rise_ms > 0.0 {
+        return Duty::from_rows(&dense_rows(series, open_ms, close_ms, rise_ms));
+    }
+    let n = series.word_ms.len();
+    // every thruster's pieces, numbered in the order the dense rows add them, then sorted
+    // by first step (intervals overlap when a latency is negative or a gap short)
+    let pieces: Vec<Vec<(usize, usize, usize, f32)>> = open_intervals(series, open_ms, close_ms)
+        .iter()
+        .map(|iv| {
+            let mut ps: Vec<(usize, usize, usize, f32)> = iv
+                .iter()
+                .flat_map(|&(a, b)| interval_pieces(n, a, b))
+                .enumerate()
+                .map(|(order, (s, e, f))| (s, order, e, f))
+                .collect();
+            ps.sort_unstable_by_key(|p| (p.0, p.1));
+            ps
+        })
+        .collect();
+    let mut cuts: Vec<usize> = pieces
+        .iter()
+        .flatten()
+        .flat_map(|&(s, _, e, _)| [s, e])
+        .filter(|&k| k < n)
+        .collect();
+    cuts.push(0);
+    cuts.sort_unstable();
+    cuts.dedup();
+    // sweep the cuts; each thruster's covering pieces are summed in the dense rows' order
+    let mut next = vec![0usize; pieces.len()];
+    let mut active: Vec<Vec<(usize, usize, f32)>> = vec![vec![]; pieces.len()];
+    let mut runs: Vec<(usize, [f32; NT])> = Vec::with_capacity(cuts.len());
+    for &k in &cuts {
+        let mut row = [0f32; NT];
+        for (th, ps) in pieces.iter().enumerate() {
+            let act = &mut active[th];
+            while next[th] < ps.len() && ps[next[th]].0 <= k {
+                let (_, order, e, f) = ps[next[th]];
+                let at = act.partition_point(|a| a.0 < order);
+                act.insert(at, (order, e, f));
+                next[th] += 1;
+            }
+            act.retain(|&(_, e, _)| e > k);
+            for &(_, _, f) in act.iter() {
+                row[th] += f;
+            }
         }
-        if let Some(s) = on_start {
-            add_interval(&mut duty, th, s, n as f64 + close_ms);
+        if runs.last().is_none_or(|r| r.1 != row) {
+            runs.push((k, row));
+        }
+    }
+    Duty { runs, len: n }
+}
+
+/// The grid as one row per step (the definition the runs are checked against, and the
+/// input of the thrust-rise lag).
+fn dense_rows(series: &Series, open_ms: f64, close_ms: f64, rise_ms: f64) -> Vec<[f32; NT]> {
+    let n = series.word_ms.len();
+    let mut duty = vec![[0f32; NT]; n];
+    let intervals = open_intervals(series, open_ms, close_ms);
+    for (th, iv) in intervals.iter().enumerate() {
+        for &(a, b) in iv {
+            add_interval(&mut duty, th, a, b);
         }
     }
     if rise_ms > 0.0 {
-        lag_in_place(&mut duty, top, rise_ms);
+        lag_in_place(&mut duty, intervals.len(), rise_ms);
     }
     duty
 }
@@ -313,12 +462,99 @@ impl MassProps {
 /// Predicted gyro output (rad/s, nominal conversion) at every sample of `series`.
 /// `duty` must come from [`duty_grid`] with the same latencies as `p`.
 /// Returns None for parameters that make no physical sense (singular inertia, NaN).
-pub fn predict(
+///
+/// A planar craft without slosh or blowdown turns by a linear equation with a constant
+/// torque over each run of equal duty, so its prediction jumps from run end to run end
+/// with the closed form of the same 1 ms RK4 steps (equal to them within rounding): the
+/// cost follows the commands and samples, not the milliseconds of the flight.
+pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Option<Vec<[f64; 3]>> {
+    predict_with(plant, series, duty, p, true)
+}
+
+/// The body's equations over one 1 ms step with the torque held: which of the three
+/// the prediction integrates is chosen once per prediction, so each inner loop is one
+/// straight-line RK4.
+#[derive(Clone, Copy, PartialEq)]
+enum Motion {
+    /// Euler's equation with the gyroscopic term and the rate damping.
+    Rigid,
+    /// Yaw only (the bearing holds x and y).
+    Planar,
+    /// Rigid body plus a liquid rotor per axis.
+    Slosh,
+}
+
+/// The rate derivative of the rigid body, Euler's equation.
+#[inline(always)]
+fn rigid_rate(
+    props: &MassProps,
+    tau_c: &Vector3<f64>,
+    damping: &Vector3<f64>,
+    w: &Vector3<f64>,
+) -> Vector3<f64> {
+    let tau = tau_c - damping.component_mul(w);
+    props.inv_rigid * (tau - w.cross(&(props.inertia * w)))
+}
+
+/// The yaw acceleration of a planar craft.
+#[inline(always)]
+fn planar_rate(
+    props: &MassProps,
+    tau_c: &Vector3<f64>,
+    damping: &Vector3<f64>,
+    w: &Vector3<f64>,
+) -> Vector3<f64> {
+    let tz = tau_c.z - damping.z * w.z;
+    Vector3::new(0.0, 0.0, tz / props.inertia[(2, 2)])
+}
+
+/// Rate, slosh angle and slosh rate derivatives of the body with its liquid rotors.
+#[inline(always)]
+fn slosh_rates(
+    props: &MassProps,
+    tau_c: &Vector3<f64>,
+    w: &Vector3<f64>,
+    q: &Vector3<f64>,
+    qd: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+    let spring = props.slosh_k.component_mul(q) + props.slosh_c.component_mul(qd);
+    let h = props.inertia * w + props.slosh_j.component_mul(qd);
+    let wd = props.inv_rigid * (tau_c - w.cross(&h) + spring);
+    let mut qdd = Vector3::zeros();
+    for a in 0..3 {
+        if props.slosh_j[a] > 0.0 {
+            qdd[a] = -spring[a] / props.slosh_j[a] - wd[a];
+        }
+    }
+    (wd, *qd, qdd)
+}
+
+/// `m` classic RK4 steps of `h` s of `y' = a - b y` from `y0` in closed form: each step
+/// multiplies the distance to the rest point by `R(-b h)`, the RK4 amplification
+/// `1 + z + z^2/2 + z^3/6 + z^4/24` (with `b = 0`, each step adds `a h`).
+fn linear_rk4_steps(y0: f64, a: f64, b: f64, h: f64, m: usize) -> f64 {
+    if b == 0.0 {
+        return y0 + a * (h * m as f64);
+    }
+    let z = -b * h;
+    let r_minus_1 = z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)));
+    // 1 - R^m over b, without cancellation when b h is small
+    let gain = -(m as f64 * r_minus_1.ln_1p()).exp_m1() / b;
+    y0 + gain * (a - b * y0)
+}
+
+/// [`predict`], with the planar run jumps on or off (off: every 1 ms step, the
+/// reference the jumps are tested against).
+fn predict_with(
     plant: &Plant,
     series: &Series,
-    duty: &[[f32; NT]],
+    grid: &Duty,
     p: &Params,
+    jumps: bool,
 ) -> Option<Vec<[f64; 3]>> {
+    if grid.is_empty() {
+        return None;
+    }
     PREDICTIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let inertia0 = p.inertia.unwrap_or(plant.inertia);
     let props_a = MassProps::new(plant, p, &inertia0, &p.com_offset_mm)?;
@@ -333,17 +569,44 @@ pub fn predict(
         .mass_change
         .map(|m| series.model_ms(m.0 * 1e3) + p.delay_ms)
         .unwrap_or(f64::INFINITY);
-    let slosh_on = p.slosh.is_some();
+    let motion = if p.slosh.is_some() {
+        Motion::Slosh
+    } else if plant.planar {
+        Motion::Planar
+    } else {
+        Motion::Rigid
+    };
+    let jump = jumps && motion == Motion::Planar && p.blowdown.is_none();
     let dist = Vector3::from(p.disturbance_nm);
     let damping = Vector3::from(p.damping_nms);
-    let planar = plant.planar;
     let pd = plant.base_pressure_drop + p.pressure_drop;
+    // the change takes effect from the first step whose middle is at or after it
+    let after_change = |k: usize| (k as f64) + 0.5 >= change_ms;
+    let props_at = |k: usize| match &props_b {
+        Some(b) if after_change(k) => b,
+        _ => &props_a,
+    };
+    // torque of one duty row (the disturbance included) at blowdown scale `scale_t`
+    let torque = |props: &MassProps, d: &[f32; NT], scale_t: f64| {
+        let mut tau_c = dist;
+        let n_open: f64 = d.iter().map(|&x| x as f64).sum();
+        if n_open > 0.0 {
+            for i in 0..NT {
+                let di = d[i] as f64;
+                if di > 0.0 {
+                    let f = p.thrust_scale[i] - pd * (n_open - di) / plant.thrust_n(i);
+                    tau_c += props.torque[i] * (di * f.max(0.0) * scale_t);
+                }
+            }
+        }
+        tau_c
+    };
 
     // state: omega (3), slosh q (3), slosh qdot (3)
     let mut w = Vector3::from(p.omega0);
     let mut q = Vector3::zeros();
     let mut qd = Vector3::zeros();
-    let n_ms = duty.len();
+    let n_ms = grid.len;
     let t0 = series.t_ms[0];
     let mut out = Vec::with_capacity(series.len());
     let mut si = 0usize;
@@ -355,18 +618,43 @@ pub fn predict(
         }
         out.push(y);
     };
+    let h = 1e-3;
     let mut k = t0.max(0) as usize;
     let mut last_tau = dist;
+    // the first step of the mass change
+    let change_step = if change_ms.is_finite() {
+        (change_ms - 0.5).ceil().max(0.0) as usize
+    } else {
+        usize::MAX
+    };
+    // the run of the duty grid step k is in
+    let runs = &grid.runs;
+    let mut r = runs.partition_point(|&(start, _)| start <= k).max(1) - 1;
     while si < series.len() {
         let ts = series.t_ms[si] as usize;
+        while jump && k < ts {
+            // a run of equal duty rows from k, ending at the sample, a change of duty or
+            // the mass change
+            while runs.get(r + 1).is_some_and(|&(start, _)| start <= k) {
+                r += 1;
+            }
+            let mut end = ts.min(runs.get(r + 1).map_or(usize::MAX, |&(start, _)| start));
+            if k < change_step {
+                end = end.min(change_step);
+            }
+            let props = props_at(k);
+            let tau_c = torque(props, &runs[r].1, 1.0);
+            let izz = props.inertia[(2, 2)];
+            w.z = linear_rk4_steps(w.z, tau_c.z / izz, damping.z / izz, h, end - k);
+            k = end;
+        }
         while k < ts {
             // one 1 ms step from k to k+1 with the torque averaged over the step
-            let props = match &props_b {
-                Some(b) if (k as f64) + 0.5 >= change_ms => b,
-                _ => &props_a,
-            };
-            let d = duty.get(k).or(duty.last())?;
-            let n_open: f64 = d.iter().map(|&x| x as f64).sum();
+            while runs.get(r + 1).is_some_and(|&(start, _)| start <= k) {
+                r += 1;
+            }
+            let props = props_at(k);
+            let d = &runs[r].1;
             let mut scale_t = 1.0;
             if let Some((start, tau)) = p.blowdown {
                 let t = series.real_ms(k as f64 + 0.5 - p.delay_ms) * 1e-3;
@@ -374,68 +662,61 @@ pub fn predict(
                     scale_t = (-(t - start) / tau).exp();
                 }
             }
+            // the row is the one before unless a run starts here (runs differ from their
+            // neighbours)
             let same = k > 0
                 && k < n_ms
-                && k - 1 < n_ms
-                && duty[k - 1] == duty[k]
+                && runs[r].0 != k
                 && p.blowdown.is_none()
                 && !((k as f64) - 0.5 < change_ms && (k as f64) + 0.5 >= change_ms);
-            let mut tau_c = dist;
-            if same {
-                tau_c = last_tau;
-            } else if n_open > 0.0 {
-                for i in 0..NT {
-                    let di = d[i] as f64;
-                    if di > 0.0 {
-                        let f = p.thrust_scale[i] - pd * (n_open - di) / plant.thrust_n(i);
-                        tau_c += props.torque[i] * (di * f.max(0.0) * scale_t);
-                    }
-                }
-            }
-            last_tau = tau_c;
-            let h = 1e-3;
-            let deriv = |w: &Vector3<f64>, q: &Vector3<f64>, qd: &Vector3<f64>| {
-                if slosh_on {
-                    let spring = props.slosh_k.component_mul(q) + props.slosh_c.component_mul(qd);
-                    let h = props.inertia * w + props.slosh_j.component_mul(qd);
-                    let wd = props.inv_rigid * (tau_c - w.cross(&h) + spring);
-                    let mut qdd = Vector3::zeros();
-                    for a in 0..3 {
-                        if props.slosh_j[a] > 0.0 {
-                            qdd[a] = -spring[a] / props.slosh_j[a] - wd[a];
-                        }
-                    }
-                    (wd, *qd, qdd)
-                } else if planar {
-                    // the bearing holds x and y: only the yaw equation moves
-                    let tz = tau_c.z - damping.z * w.z;
-                    (
-                        Vector3::new(0.0, 0.0, tz / props.inertia[(2, 2)]),
-                        Vector3::zeros(),
-                        Vector3::zeros(),
-                    )
-                } else {
-                    let tau = tau_c - damping.component_mul(w);
-                    let wd = props.inv_rigid * (tau - w.cross(&(props.inertia * w)));
-                    (wd, Vector3::zeros(), Vector3::zeros())
-                }
+            let tau_c = if same {
+                last_tau
+            } else {
+                torque(props, d, scale_t)
             };
-            let (k1w, k1q, k1d) = deriv(&w, &q, &qd);
-            let (k2w, k2q, k2d) = deriv(
-                &(w + k1w * (h / 2.0)),
-                &(q + k1q * (h / 2.0)),
-                &(qd + k1d * (h / 2.0)),
-            );
-            let (k3w, k3q, k3d) = deriv(
-                &(w + k2w * (h / 2.0)),
-                &(q + k2q * (h / 2.0)),
-                &(qd + k2d * (h / 2.0)),
-            );
-            let (k4w, k4q, k4d) = deriv(&(w + k3w * h), &(q + k3q * h), &(qd + k3d * h));
-            w += (k1w + k2w * 2.0 + k3w * 2.0 + k4w) * (h / 6.0);
-            if slosh_on {
-                q += (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
-                qd += (k1d + k2d * 2.0 + k3d * 2.0 + k4d) * (h / 6.0);
+            last_tau = tau_c;
+            match motion {
+                Motion::Rigid => {
+                    let k1 = rigid_rate(props, &tau_c, &damping, &w);
+                    let k2 = rigid_rate(props, &tau_c, &damping, &(w + k1 * (h / 2.0)));
+                    let k3 = rigid_rate(props, &tau_c, &damping, &(w + k2 * (h / 2.0)));
+                    let k4 = rigid_rate(props, &tau_c, &damping, &(w + k3 * h));
+                    w += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+                }
+                Motion::Planar => {
+                    let k1 = planar_rate(props, &tau_c, &damping, &w);
+                    let k2 = planar_rate(props, &tau_c, &damping, &(w + k1 * (h / 2.0)));
+                    let k3 = planar_rate(props, &tau_c, &damping, &(w + k2 * (h / 2.0)));
+                    let k4 = planar_rate(props, &tau_c, &damping, &(w + k3 * h));
+                    w += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+                }
+                Motion::Slosh => {
+                    let (k1w, k1q, k1d) = slosh_rates(props, &tau_c, &w, &q, &qd);
+                    let (k2w, k2q, k2d) = slosh_rates(
+                        props,
+                        &tau_c,
+                        &(w + k1w * (h / 2.0)),
+                        &(q + k1q * (h / 2.0)),
+                        &(qd + k1d * (h / 2.0)),
+                    );
+                    let (k3w, k3q, k3d) = slosh_rates(
+                        props,
+                        &tau_c,
+                        &(w + k2w * (h / 2.0)),
+                        &(q + k2q * (h / 2.0)),
+                        &(qd + k2d * (h / 2.0)),
+                    );
+                    let (k4w, k4q, k4d) = slosh_rates(
+                        props,
+                        &tau_c,
+                        &(w + k3w * h),
+                        &(q + k3q * h),
+                        &(qd + k3d * h),
+                    );
+                    w += (k1w + k2w * 2.0 + k3w * 2.0 + k4w) * (h / 6.0);
+                    q += (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
+                    qd += (k1d + k2d * 2.0 + k3d * 2.0 + k4d) * (h / 6.0);
+                }
             }
             k += 1;
         }
@@ -499,6 +780,131 @@ pub(crate) mod tests {
         assert!((y[n as usize - 1][0] - y[0][0]).abs() > 1e-3);
     }
 
+    /// A planar craft's prediction jumps over runs of equal duty in closed form; it must
+    /// equal the 1 ms RK4 steps it replaces (damping, latencies, a
+    /// mass-property change inside a run, a pressure drop, rate resets), within rounding.
+    #[test]
+    fn planar_run_jumps_equal_the_millisecond_steps() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../examples/models/airbearing-mpc.toml"
+        );
+        let sat = Satellite::from_toml_file(std::path::Path::new(path)).unwrap();
+        assert!(sat.planar);
+        let plant = Plant::new(&sat);
+        // 20 Hz samples (the real flight's kind) over 30 s; a few thrusters pulse with
+        // different periods, so runs of all lengths occur
+        let t: Vec<i64> = (0..600).map(|i| i * 50).collect();
+        let words: Vec<u16> = t
+            .iter()
+            .map(|&k| {
+                let mut w = 0u16;
+                if k % 700 < 230 {
+                    w |= 1;
+                }
+                if k % 1100 > 800 {
+                    w |= 1 << 3;
+                }
+                if k % 2500 < 90 {
+                    w |= 1 << 5;
+                }
+                w
+            })
+            .collect();
+        let counts = vec![[2048, 2048, 2048]; t.len()];
+        let bias = sat.gyro_bias_counts;
+        let scale = sat.gyro_counts_per_rad_s;
+        let mut series = Series::from_counts(&t, &counts, &words, bias, scale, None).unwrap();
+        series.gap_resets = vec![100, 333];
+        let duty = duty_grid(&series, 3.0, 5.0, 0.0);
+        let mut inertia = sat.inertia_kgm2;
+        inertia[2] *= 1.2;
+        let p = Params {
+            omega0: [0.0, 0.0, 0.05],
+            damping_nms: [0.0, 0.0, 0.02],
+            pressure_drop: 0.01,
+            mass_change: Some((12.3456, [4.0, -3.0, 0.0], inertia)),
+            resets: vec![[0.0, 0.0, -0.01], [0.0, 0.0, 0.02]],
+            ..Params::default()
+        };
+        let jumped = predict_with(&plant, &series, &duty, &p, true).unwrap();
+        let stepped = predict_with(&plant, &series, &duty, &p, false).unwrap();
+        let worst = jumped
+            .iter()
+            .zip(&stepped)
+            .map(|(a, b)| (a[2] - b[2]).abs())
+            .fold(0.0, f64::max);
+        let scale = stepped.iter().map(|y| y[2].abs()).fold(0.0, f64::max);
+        assert!(scale > 0.05, "the test flight must turn");
+        assert!(
+            worst <= 1e-12 * scale,
+            "jumps differ from steps by {worst:e}"
+        );
+        // the comparison's power: a change 1 ms later (less than a run that ran over the
+        // change would make) is caught by it many times over
+        let mut later = p.clone();
+        later.mass_change = Some((12.3466, [4.0, -3.0, 0.0], inertia));
+        let moved = predict_with(&plant, &series, &duty, &later, false).unwrap();
+        let shift = moved
+            .iter()
+            .zip(&stepped)
+            .map(|(a, b)| (a[2] - b[2]).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            shift > 1e3 * 1e-12 * scale,
+            "a 1 ms change shift moves the rates by {shift:e}"
+        );
+    }
+
+    /// The duty grid's runs, built from the valve edges alone, hold the same rows as the
+    /// dense per-step definition, bit for bit: latencies that leave partial steps, a close
+    /// latency shorter than the open one (so one thruster's intervals overlap and add),
+    /// intervals cut by the grid's ends. A run dropped (a planted fault) is caught.
+    #[test]
+    fn duty_runs_equal_the_dense_rows() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let n = 5_000usize;
+        // a pseudo-random pulse train per thruster, pulses and gaps 1-40 ms
+        let mut state = 12345u64;
+        let mut rnd = |m: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        };
+        let mut words = vec![0u16; n];
+        for th in 0..12 {
+            let mut k = rnd(50) as usize;
+            while k < n {
+                let on = 1 + rnd(40) as usize;
+                for w in words.iter_mut().skip(k).take(on) {
+                    *w |= 1 << th;
+                }
+                k += on + 1 + rnd(40) as usize;
+            }
+        }
+        let series = commanded(&sat, &words);
+        for (open, close) in [
+            (0.0, 0.0),
+            (0.25, 0.5),
+            (3.7, 1.2),
+            (17.3, 2.9),
+            (-2.5, 0.0),
+        ] {
+            let grid = duty_grid(&series, open, close, 0.0);
+            let dense = dense_rows(&series, open, close, 0.0);
+            assert_eq!(grid.len(), dense.len());
+            for (k, row) in dense.iter().enumerate() {
+                assert_eq!(grid.row(k), row, "step {k} at latencies {open} {close}");
+            }
+            assert!(grid.runs.len() > 100);
+            // a planted fault: one run fewer
+            let mut dropped = duty_grid(&series, open, close, 0.0);
+            dropped.runs.remove(dropped.runs.len() / 2);
+            assert!((0..n).any(|k| dropped.row(k) != &dense[k]));
+        }
+    }
+
     /// A valve open for exactly one 1 ms step with latency l (0 < l < 1) contributes
     /// (1 - l) of the step: latency enters smoothly.
     #[test]
@@ -519,7 +925,7 @@ pub(crate) mod tests {
         )
         .unwrap();
         let d = duty_grid(&series, 0.25, 0.5, 0.0);
-        let on: Vec<f32> = d.iter().map(|x| x[0]).collect();
+        let on: Vec<f32> = (0..10).map(|k| d.row(k)[0]).collect();
         assert_eq!(on, vec![0.0, 0.0, 0.0, 0.75, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0]);
     }
 

@@ -31,7 +31,7 @@ pub(super) fn run(n: &Nominal, named: &mut Named, log: &mut Log, settings: &Sett
     if rigid < 2 {
         return;
     }
-    let _timing = Timing("exchange", std::time::Instant::now());
+    let _timing = Timing::start("exchange");
     // the exchanges are logged after every round of the forward selection
     let round = settings.max_effects;
     let mut e = 0;

@@ -63,6 +63,7 @@ pub(super) fn select(n: &Nominal, named: &mut Named, log: &mut Log, settings: &S
             &mut tone,
         );
         static_pair_check(n, named, &mut ranked, round, log, settings);
+        let _timing = Timing::start("checks");
         let rigid_acc = named.rigid_except(None);
         let tests_prev = named.tests(n);
         let trial = named.trial(n, &rigid_acc, &tests_prev, settings);
@@ -131,7 +132,7 @@ fn rank(
             continue;
         }
         let screen_iter = settings.max_iter.min(3);
-        let _timing = Timing(kind.name(), std::time::Instant::now());
+        let _timing = Timing::start(kind.name());
         if kind.effect().on_residual() {
             if ringing_cache.is_none() {
                 let rf = ringing::fit(
@@ -200,6 +201,7 @@ fn rank(
             );
         }
     }
+    let _timing = Timing::start("full fits");
     let mut ranked = vec![];
     for (i, mut c) in screened.into_iter().enumerate() {
         let kind = c.kind;

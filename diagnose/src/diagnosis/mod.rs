@@ -41,11 +41,18 @@ pub fn diagnose(
     issues: DataIssues,
     settings: &Settings,
 ) -> Option<Analysis> {
-    let nominal = nominal::fit(series, plant)?;
+    let nominal = {
+        let _timing = Timing::start("nominal");
+        nominal::fit(series, plant)?
+    };
     let mut named = named::Named::nominal(&nominal);
     let mut log = Log::default();
-    let tone = forward::select(&nominal, &mut named, &mut log, settings);
+    let tone = {
+        let _timing = Timing::start("forward selection");
+        forward::select(&nominal, &mut named, &mut log, settings)
+    };
     exchange::run(&nominal, &mut named, &mut log, settings);
+    let _timing = Timing::start("conclusion");
     Some(conclusion::conclude(
         nominal, named, log, tone, recording, model, issues,
     ))
@@ -129,12 +136,26 @@ impl Log {
 
 /// Prints how long a stage or candidate took when MASSID_DIAG_PROFILE is set (development
 /// aid).
-struct Timing(&'static str, std::time::Instant);
+struct Timing(&'static str, std::time::Instant, usize);
+
+impl Timing {
+    /// Starts timing the stage `name` (and counting its predictions).
+    fn start(name: &'static str) -> Timing {
+        let predictions = crate::model::PREDICTIONS.load(std::sync::atomic::Ordering::Relaxed);
+        Timing(name, std::time::Instant::now(), predictions)
+    }
+}
 
 impl Drop for Timing {
     fn drop(&mut self) {
         if std::env::var_os("MASSID_DIAG_PROFILE").is_some() {
-            eprintln!("  {:>22}: {:.2} s", self.0, self.1.elapsed().as_secs_f64());
+            let now = crate::model::PREDICTIONS.load(std::sync::atomic::Ordering::Relaxed);
+            eprintln!(
+                "  {:>22}: {:.2} s, {} predictions",
+                self.0,
+                self.1.elapsed().as_secs_f64(),
+                now - self.2
+            );
         }
     }
 }

@@ -24,7 +24,7 @@ pub(super) fn try_pairs(
     log: &mut Log,
     settings: &Settings,
 ) -> Option<Taken> {
-    let _timing = Timing("pairs", std::time::Instant::now());
+    let _timing = Timing::start("pairs");
     let chi2_cur = named.chi2();
     let ln_n = n.ln_n;
     let mut pairs = vec![];

@@ -743,7 +743,8 @@ fn predict_with(
                 w += Vector3::from(*d);
             }
         }
-        if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) || w.norm() > 1e3 {
+        // no craft turns at 1000 rad/s (squared: no square root per sample)
+        if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) || w.norm_squared() > 1e6 {
             return None;
         }
         emit(&w, &mut out);

@@ -18,5 +18,7 @@ pub mod model_file;
 pub mod sensors;
 pub mod simulate;
 
-pub use simulate::{simulate, Maneuver, SimError, SimOutput, SimSpec};
+pub use simulate::{
+    simulate, simulate_into, simulate_to, Maneuver, SimError, SimOutput, SimSpec, Streamed,
+};
 pub mod reproduce;

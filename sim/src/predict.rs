@@ -183,60 +183,173 @@ pub fn shock_times_ms(edges: &[ValveEdge]) -> Vec<f64> {
 /// Each live tone is kept as the complex number z = exp(-dt/decay) e^{i w dt} and advanced
 /// from sample to sample by one complex multiplication (the factor depends only on the
 /// sample spacing, shared by all tones), so the cost is a few flops per live tone and sample.
+/// [`RingingStream`] computes the same numbers one sample at a time.
 pub fn ringing_at(
     cfg: &PlantConfig,
     shocks_ms: &[f64],
     times_ms: &[u64],
     mut phase: impl FnMut(usize, usize, usize) -> f64,
 ) -> Vec<[f64; 3]> {
-    struct Tone {
-        start_ms: f64,
-        re: f64,
-        im: f64,
-        /// amplitude * (cos p, sin p) per axis: sin(wt + p) = sin(wt) cos p + cos(wt) sin p.
-        weights: [(f64, f64); 3],
+    let mut stream = RingingStream::new(cfg);
+    for &t in shocks_ms {
+        stream.push_shock(t);
+    }
+    // `ringing_at` asks for every phase of ringing 0 before any of ringing 1 (its order
+    // before the stream existed): with several ringings, run them one at a time.
+    let n = cfg.ringing.len();
+    if n <= 1 {
+        return times_ms.iter().map(|&t| stream.at(t, &mut phase)).collect();
     }
     let mut out = vec![[0.0; 3]; times_ms.len()];
-    for (ri, r) in cfg.ringing.iter().enumerate() {
-        let omega = 2.0 * std::f64::consts::PI * r.freq_hz;
-        let horizon_ms = 8.0 * r.decay_ms;
-        let advance = |dt_ms: f64| {
-            let env = (-dt_ms / r.decay_ms).exp();
-            let (s, c) = (omega * dt_ms * 1e-3).sin_cos();
-            (env * c, env * s)
-        };
-        let mut live: Vec<Tone> = Vec::new();
-        let mut next_shock = 0usize;
-        let mut last_t: Option<f64> = None;
-        let mut step_factor = (0.0, (1.0, 0.0));
+    for ri in 0..n {
+        let mut one = stream.clone().only(ri);
         for (k, &t) in times_ms.iter().enumerate() {
-            let t = t as f64;
+            one.add_at(t, &mut out[k], |_, s, a| phase(ri, s, a));
+        }
+    }
+    out
+}
+
+/// A live tone of one ringing effect.
+#[derive(Clone, Debug)]
+struct Tone {
+    start_ms: f64,
+    re: f64,
+    im: f64,
+    /// amplitude * (cos p, sin p) per axis: sin(wt + p) = sin(wt) cos p + cos(wt) sin p.
+    weights: [(f64, f64); 3],
+}
+
+/// One ringing effect's live tones.
+#[derive(Clone, Debug)]
+struct Tones {
+    /// Index in the plant configuration's ringing list.
+    ri: usize,
+    ringing: crate::effects::GyroRinging,
+    live: Vec<Tone>,
+    /// The last sample spacing (ms) and its advance factor.
+    step_factor: (f64, (f64, f64)),
+}
+
+impl Tones {
+    fn advance(&self, dt_ms: f64) -> (f64, f64) {
+        let r = &self.ringing;
+        let omega = 2.0 * std::f64::consts::PI * r.freq_hz;
+        let env = (-dt_ms / r.decay_ms).exp();
+        let (s, c) = (omega * dt_ms * 1e-3).sin_cos();
+        (env * c, env * s)
+    }
+}
+
+/// [`ringing_at`] one sample at a time, holding only the live tones and the shocks not yet
+/// reached: shocks are pushed as they become known (in time order), samples asked for in
+/// time order. Each sample's value is bit for bit the one [`ringing_at`] gives; the phases
+/// are asked for shock by shock, all ringings of a shock before the next shock.
+#[derive(Clone, Debug)]
+pub struct RingingStream {
+    tones: Vec<Tones>,
+    /// Shocks pushed and not yet reached by a sample, ms.
+    pending: std::collections::VecDeque<f64>,
+    /// Index of the first pending shock among all shocks pushed.
+    next_shock: usize,
+    last_t: Option<f64>,
+    /// Shocks reached this sample (kept to reuse its allocation).
+    reached: Vec<f64>,
+}
+
+impl RingingStream {
+    /// The ringing effects of `cfg`, no shock yet.
+    pub fn new(cfg: &PlantConfig) -> Self {
+        RingingStream {
+            tones: cfg
+                .ringing
+                .iter()
+                .enumerate()
+                .map(|(ri, r)| Tones {
+                    ri,
+                    ringing: r.clone(),
+                    live: Vec::new(),
+                    step_factor: (0.0, (1.0, 0.0)),
+                })
+                .collect(),
+            pending: std::collections::VecDeque::new(),
+            next_shock: 0,
+            last_t: None,
+            reached: Vec::new(),
+        }
+    }
+
+    /// Keeps only ringing `ri` (its index in the configuration still names it to `phase`).
+    fn only(mut self, ri: usize) -> Self {
+        self.tones.retain(|t| t.ri == ri);
+        self
+    }
+
+    /// A shock at `t_ms`; shocks must come in time order, before the samples they reach.
+    pub fn push_shock(&mut self, t_ms: f64) {
+        self.pending.push_back(t_ms);
+    }
+
+    /// How many shocks samples have reached so far (each asked `3 x ringings` phases).
+    pub fn shocks_reached(&self) -> usize {
+        self.next_shock
+    }
+
+    /// The ringing at the sample instant `t_ms` (instants must not decrease).
+    pub fn at(&mut self, t_ms: u64, phase: impl FnMut(usize, usize, usize) -> f64) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        self.add_at(t_ms, &mut out, phase);
+        out
+    }
+
+    /// Adds the ringing at `t_ms` to `out`, tone by tone (the order of the sums of
+    /// [`ringing_at`]).
+    fn add_at(
+        &mut self,
+        t_ms: u64,
+        out: &mut [f64; 3],
+        mut phase: impl FnMut(usize, usize, usize) -> f64,
+    ) {
+        let t = t_ms as f64;
+        self.reached.clear();
+        while let Some(&te) = self.pending.front() {
+            if te > t {
+                break;
+            }
+            self.reached.push(te);
+            self.pending.pop_front();
+        }
+        let first = self.next_shock;
+        for tones in &mut self.tones {
+            let r = &tones.ringing;
+            let horizon_ms = 8.0 * r.decay_ms;
             // Advance the live tones to t.
-            if let Some(t0) = last_t {
+            if let Some(t0) = self.last_t {
                 let dt = t - t0;
-                if dt != step_factor.0 {
-                    step_factor = (dt, advance(dt));
+                if dt != tones.step_factor.0 {
+                    tones.step_factor = (dt, tones.advance(dt));
                 }
-                let (fr, fi) = step_factor.1;
-                for z in live.iter_mut() {
+                let (fr, fi) = tones.step_factor.1;
+                for z in tones.live.iter_mut() {
                     let (re, im) = (z.re * fr - z.im * fi, z.re * fi + z.im * fr);
                     z.re = re;
                     z.im = im;
                 }
             }
-            live.retain(|z| t - z.start_ms <= horizon_ms);
-            while next_shock < shocks_ms.len() && shocks_ms[next_shock] <= t {
-                let te = shocks_ms[next_shock];
+            tones.live.retain(|z| t - z.start_ms <= horizon_ms);
+            for (j, &te) in self.reached.iter().enumerate() {
+                let s = first + j;
                 if t - te <= horizon_ms {
-                    let (re, im) = advance(t - te);
+                    let (re, im) = tones.advance(t - te);
+                    let r = &tones.ringing;
                     let weights = std::array::from_fn(|a| {
-                        let p = phase(ri, next_shock, a);
+                        let p = phase(tones.ri, s, a);
                         (
                             r.amplitude_rad_s[a] * p.cos(),
                             r.amplitude_rad_s[a] * p.sin(),
                         )
                     });
-                    live.push(Tone {
+                    tones.live.push(Tone {
                         start_ms: te,
                         re,
                         im,
@@ -245,21 +358,20 @@ pub fn ringing_at(
                 } else {
                     // Still draw its phases so the random sequence does not depend on timing.
                     for a in 0..3 {
-                        phase(ri, next_shock, a);
+                        phase(tones.ri, s, a);
                     }
                 }
-                next_shock += 1;
             }
-            for z in &live {
+            for z in &tones.live {
                 for a in 0..3 {
                     let (wc, ws) = z.weights[a];
-                    out[k][a] += z.im * wc + z.re * ws;
+                    out[a] += z.im * wc + z.re * ws;
                 }
             }
-            last_t = Some(t);
         }
+        self.next_shock += self.reached.len();
+        self.last_t = Some(t);
     }
-    out
 }
 
 /// What a noise-free gyro reads (rad/s, nominal conversion) at `times_ms` for commanded
@@ -328,5 +440,51 @@ mod tests {
                 );
             }
         }
+    }
+    /// Two ringing effects: `ringing_at` sums both, and the stream gives the same bits
+    /// sample by sample when asked the same phases.
+    #[test]
+    fn two_ringings_streamed_equal_the_whole() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let r = |f: f64, d: f64, amp: f64| {
+            Effect::GyroRinging(GyroRinging {
+                freq_hz: f,
+                decay_ms: d,
+                apparent_hz: 0.0,
+                amplitude_rad_s: [amp, 2.0 * amp, 3.0 * amp],
+            })
+        };
+        let cfg = PlantConfig::new(&sat, &[r(338.33, 30.0, 0.01), r(211.0, 9.0, 0.02)]);
+        let shocks = [3.0, 7.4, 7.9, 150.0, 400.25];
+        let times: Vec<u64> = (0..700u64).filter(|t| t % 5 != 2).collect();
+        let phase = |ri: usize, s: usize, a: usize| 0.3 * s as f64 + a as f64 + 1.7 * ri as f64;
+        let whole = ringing_at(&cfg, &shocks, &times, phase);
+        let mut stream = RingingStream::new(&cfg);
+        for &s in &shocks {
+            stream.push_shock(s);
+        }
+        for (k, &t) in times.iter().enumerate() {
+            let direct: [f64; 3] = std::array::from_fn(|a| {
+                cfg.ringing
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(ri, g)| {
+                        shocks
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, &te)| t as f64 >= te && t as f64 - te <= 8.0 * g.decay_ms)
+                            .map(move |(s, &te)| {
+                                g.response(a, (t as f64 - te) * 1e-3, phase(ri, s, a))
+                            })
+                    })
+                    .sum()
+            });
+            let one = stream.at(t, phase);
+            for a in 0..3 {
+                assert!((whole[k][a] - direct[a]).abs() < 1e-14, "t {t} axis {a}");
+                assert_eq!(one[a].to_bits(), whole[k][a].to_bits(), "t {t} axis {a}");
+            }
+        }
+        assert_eq!(stream.shocks_reached(), shocks.len());
     }
 }

@@ -120,6 +120,11 @@ impl<'a> Propagator<'a> {
     pub fn edges(&self) -> &[ValveEdge] {
         &self.applied
     }
+    /// Takes the actual valve edges so far (in time order) out of the propagator, so a long
+    /// flight does not hold them all; [`Propagator::edges`] then starts empty again.
+    pub fn take_edges(&mut self) -> std::vec::Drain<'_, ValveEdge> {
+        self.applied.drain(..)
+    }
     pub fn into_edges(mut self) -> Vec<ValveEdge> {
         self.applied.append(&mut self.pending);
         self.applied

@@ -198,4 +198,131 @@ impl Artefacts {
         }
         rows
     }
+
+    /// What [`Artefacts::apply`] does to `n` rows, drawing the same numbers from `rng`, as
+    /// a count per row (so a streamed recording needs no row in memory): row k of the
+    /// clean recording is written [`RowCopies::next`] times, in order.
+    pub fn plan(&self, n: usize, rng: &mut ChaCha8Rng) -> RowCopies {
+        // The recording as runs (first clean row, length); a re-sent row is a run of its own.
+        let mut runs: Vec<(usize, usize)> = if n > 0 { vec![(0, n)] } else { Vec::new() };
+        let mut len = n;
+        // Index of a run starting at row position `pos` (splitting a run there).
+        fn cut(runs: &mut Vec<(usize, usize)>, pos: usize) -> usize {
+            let mut at = 0;
+            for i in 0..runs.len() {
+                let (first, l) = runs[i];
+                if pos == at {
+                    return i;
+                }
+                if pos < at + l {
+                    let head = pos - at;
+                    runs[i] = (first, head);
+                    runs.insert(i + 1, (first + head, l - head));
+                    return i + 1;
+                }
+                at += l;
+            }
+            runs.len()
+        }
+        let max_gap = self.max_gap.max(1);
+        for _ in 0..self.gaps {
+            if len < 20 + max_gap + 1 {
+                break;
+            }
+            let gap: usize = rng.gen_range(1..=max_gap);
+            let start: usize = rng.gen_range(10..len - 10 - gap);
+            let a = cut(&mut runs, start);
+            let b = cut(&mut runs, start + gap);
+            runs.drain(a..b);
+            len -= gap;
+        }
+        for _ in 0..self.duplicates {
+            if len < 21 {
+                break;
+            }
+            let at: usize = rng.gen_range(10..len - 10);
+            let i = cut(&mut runs, at);
+            let row = runs[i].0;
+            let j = cut(&mut runs, at + 1);
+            runs.insert(j, (row, 1));
+            len += 1;
+        }
+        RowCopies {
+            runs,
+            run: 0,
+            pos: 0,
+        }
+    }
+}
+
+/// How many times each clean row is in a recording with telemetry artefacts
+/// ([`Artefacts::plan`]): 0 for a row lost in a gap, 2 or more for a re-sent one.
+#[derive(Clone, Debug)]
+pub struct RowCopies {
+    /// The recording's rows as runs of clean rows (first, length), in order.
+    runs: Vec<(usize, usize)>,
+    run: usize,
+    pos: usize,
+}
+
+impl RowCopies {
+    /// Copies of clean row `k`; rows must be asked for in order 0, 1, 2, ...
+    pub fn next(&mut self, k: usize) -> usize {
+        let mut copies = 0;
+        while let Some(&(first, len)) = self.runs.get(self.run) {
+            if first + self.pos != k {
+                break;
+            }
+            copies += 1;
+            self.pos += 1;
+            if self.pos == len {
+                self.run += 1;
+                self.pos = 0;
+            }
+        }
+        copies
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    /// The plan keeps, drops and repeats the rows `apply` does, and leaves the random
+    /// stream where `apply` leaves it.
+    #[test]
+    fn a_plan_is_what_apply_does() {
+        for (seed, n, gaps, max_gap, duplicates) in [
+            (1u64, 100usize, 3usize, 5usize, 4usize),
+            (2, 40, 2, 3, 6),
+            (3, 25, 5, 9, 1),
+            (4, 5000, 20, 50, 30),
+            (5, 21, 0, 0, 3),
+            (6, 0, 2, 2, 2),
+        ] {
+            let a = Artefacts {
+                gaps,
+                max_gap,
+                duplicates,
+            };
+            let rows: Vec<Sample> = (0..n as u64)
+                .map(|t| Sample {
+                    time_ms: t,
+                    gyro: [0; 3],
+                    accel: [0; 3],
+                    thrusters: 0,
+                })
+                .collect();
+            let mut r1 = ChaCha8Rng::seed_from_u64(seed);
+            let mut r2 = r1.clone();
+            let want: Vec<u64> = a.apply(rows, &mut r1).iter().map(|s| s.time_ms).collect();
+            let mut plan = a.plan(n, &mut r2);
+            let got: Vec<u64> = (0..n)
+                .flat_map(|k| std::iter::repeat_n(k as u64, plan.next(k)))
+                .collect();
+            assert_eq!(got, want, "seed {seed}");
+            assert_eq!(r1.gen::<u64>(), r2.gen::<u64>());
+        }
+    }
 }

@@ -4,7 +4,7 @@
 use crate::dynamics::{Plant, State};
 use crate::effects::{DelayLine, Effect, PlantConfig, Truth};
 use crate::maneuvers;
-use crate::predict::{ringing_at, shock_times_ms};
+use crate::predict::RingingStream;
 use crate::propagate::{Propagator, StepOptions};
 use crate::sensors::{accel_noise, quantise, Artefacts, GyroNoise, SensorConfig};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -14,6 +14,7 @@ use reference_f64::mixer::Mixer;
 use reference_f64::rate_recording::{Commands, RateRecording};
 use reference_f64::recording::{Recording, Sample};
 use reference_f64::satellite::Satellite;
+use std::io::Write;
 
 /// Which commands to fly.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,6 +130,9 @@ pub enum SimError {
         n: usize,
         maneuver: &'static str,
     },
+    /// Writing a streamed recording failed ([`simulate_to`]).
+    #[error("{0}")]
+    Write(#[from] std::io::Error),
     #[error(
         "a largest integration step of {step_ms:e} ms over {span_ms} ms of flight is {steps:.3e} steps; at most {max:.0e} are run (a step of at least {min_step_ms:.3e} ms for this length)",
         max = MAX_STEPS
@@ -186,8 +190,45 @@ pub fn needs_v2(sat: &Satellite) -> bool {
         || sat.gyro_counts_per_rad_s.iter().any(|k| k.abs() < 10.0)
 }
 
-/// Runs the simulation.
-pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
+/// One simulated sample, as the simulator hands it over (before telemetry artefacts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SimSample {
+    /// The format v1 row (gyro and accelerometer counts, the commanded word).
+    row: Sample,
+    /// The sensed rate in rad/s on the craft's axes, as a format v2 row holds it (a gyro
+    /// bias effect in the sensor's units included).
+    rate_rad_s: [f64; 3],
+    /// True body rate (before artefacts), rad/s.
+    body_rate: [f64; 3],
+}
+
+/// Where a running simulation's output goes, as it is produced.
+trait Sink {
+    /// The word commanded over the next millisecond (every millisecond from t = 0).
+    fn command(&mut self, _word: u16) {}
+    /// The next sample, and how many times the recording holds it (telemetry artefacts: 0
+    /// for a row lost in a gap, 2 or more for a re-sent one).
+    fn sample(&mut self, s: &SimSample, copies: usize) -> Result<(), SimError>;
+}
+
+/// A sink that keeps nothing (the pass that counts the shocks).
+struct Discard;
+
+impl Sink for Discard {
+    fn sample(&mut self, _: &SimSample, _: usize) -> Result<(), SimError> {
+        Ok(())
+    }
+}
+
+/// A spec checked and turned into what the flight loop needs.
+struct Prepared {
+    plant: Plant,
+    period_ms: usize,
+    open_loop: Option<Vec<u16>>,
+    total_ms: usize,
+}
+
+fn prepare(spec: &SimSpec) -> Result<Prepared, SimError> {
     let period_ms = 1000.0 / spec.rate_hz;
     if !(spec.rate_hz.is_finite()
         && spec.rate_hz > 0.0
@@ -250,6 +291,41 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             min_step_ms: span_ms / MAX_STEPS,
         });
     }
+    if spec.maneuver == Maneuver::ClosedLoop {
+        // the mixer's error now, before anything is written
+        Controller::new(sat, total_ms)?;
+    }
+    Ok(Prepared {
+        plant,
+        period_ms,
+        open_loop,
+        total_ms,
+    })
+}
+
+/// What the flight loop leaves besides its samples.
+struct Flown {
+    final_state: State,
+    /// Distinct valve-edge instants that reached a sample (each drew 3 ringing phases per
+    /// ringing effect).
+    shocks: usize,
+}
+
+/// Flies the prepared spec, handing each millisecond's command and each sample to `sink`
+/// as they are made; nothing grows with the flight's length but the sink. With several
+/// ringing effects the phases of ringing `ri` are the random stream's draws after those of
+/// the `ri` before it, `3 x shocks` each (the order of the whole-flight computation):
+/// `shocks` must then be the count a first pass returned.
+fn fly(
+    spec: &SimSpec,
+    prep: &Prepared,
+    sink: &mut impl Sink,
+    shocks: Option<usize>,
+) -> Result<Flown, SimError> {
+    let sat = &spec.satellite;
+    let plant = &prep.plant;
+    let (period_ms, total_ms) = (prep.period_ms, prep.total_ms);
+    let open_loop = &prep.open_loop;
     let mut controller = match spec.maneuver {
         Maneuver::ClosedLoop => Some(Controller::new(sat, total_ms)?),
         _ => None,
@@ -261,9 +337,30 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
     let mut gyro_noise = GyroNoise::new(&spec.sensors);
     let mut ctrl_noise = GyroNoise::new(&spec.sensors);
     let r_acc = Vector3::from(spec.sensors.accel_location_m);
+    let c = &plant.cfg;
+    // Ringing at the sample instants with a random phase per shock and axis, one stream
+    // position per ringing effect (see above).
+    let mut ring_rngs: Vec<ChaCha8Rng> = (0..c.ringing.len())
+        .map(|ri| {
+            let mut r = rng(spec.seed, STREAM_RINGING);
+            for _ in 0..3 * ri * shocks.unwrap_or(0) {
+                let _: f64 = r.gen_range(0.0..std::f64::consts::TAU);
+            }
+            r
+        })
+        .collect();
+    let mut ringing = RingingStream::new(c);
+    let mut last_edge: Option<f64> = None;
+    let mut edge_batch: Vec<f64> = Vec::new();
+    // Telemetry artefacts: which rows are lost or re-sent, drawn before the flight from the
+    // number of samples (the same draws as on the whole recording).
+    let mut art_rng = rng(spec.seed, STREAM_ARTEFACTS);
+    let mut copies = spec
+        .artefacts
+        .plan(total_ms.div_ceil(period_ms), &mut art_rng);
 
     let mut prop = Propagator::new(
-        &plant,
+        plant,
         State::with_rates(spec.initial_rate),
         0.0,
         StepOptions {
@@ -271,20 +368,13 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             full: true,
         },
     );
-    let mut commands = Vec::with_capacity(total_ms);
-    let mut times = Vec::new();
-    let mut words = Vec::new();
-    let mut rates: Vec<[f64; 3]> = Vec::new();
-    let mut accel: Vec<[f64; 3]> = Vec::new();
-    let mut gyro_n: Vec<[f64; 3]> = Vec::new();
     let mut word = 0u16;
-    let c = &plant.cfg;
     // A v2 row's command holds until the next row, so a v2 craft's commands change only at
     // sample instants: its file then says exactly what was flown (a 1 ms pulse edge between
     // two rows would read as up to a sample period of valve latency).
     let hold = needs_v2(sat);
     let mut delay = DelayLine::new(c.measurement_delay_ms);
-    let mut measured: Vec<[f64; 3]> = Vec::new();
+    let mut k = 0usize;
     for t in 0..total_ms {
         prop.advance_to(t as f64);
         // what the rate sensor sees now (the body rate a measurement delay ago)
@@ -310,80 +400,137 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             if is_sample || !hold {
                 word = ctl.word_at(t);
             }
-        } else if let Some(w) = &open_loop {
+        } else if let Some(w) = open_loop {
             if is_sample || !hold {
                 word = w[t];
             }
         }
         prop.command(word);
-        commands.push(word);
+        sink.command(word);
         if let Some(n) = noise {
             let d = prop.derivative_now();
+            // The valve edges so far, as shocks: every edge up to now (t) is in, and every
+            // later one is later than each of these, so sorting each batch sorts them all.
+            edge_batch.clear();
+            edge_batch.extend(prop.take_edges().map(|e| e.t_ms));
+            edge_batch.sort_by(f64::total_cmp);
+            for &te in &edge_batch {
+                if last_edge.is_some_and(|l| (te - l).abs() < 1e-9) {
+                    continue;
+                }
+                last_edge = Some(te);
+                // the sensor sees the ringing as late as the rate (a measurement delay)
+                ringing.push_shock(te + c.measurement_delay_ms);
+            }
+            let ring = ringing.at(t as u64, |ri, _, _| {
+                ring_rngs[ri].gen_range(0.0..std::f64::consts::TAU)
+            });
             let x = prop.state();
             // Specific force at the accelerometer: thrust / m + w_dot x r + w x (w x r).
             let f = d.specific_force + d.w_dot.cross(&r_acc) + x.w.cross(&x.w.cross(&r_acc));
-            times.push(t as u64);
-            words.push(word);
-            rates.push(x.w.into());
-            measured.push(seen);
-            accel.push(f.into());
-            gyro_n.push(n);
+            let accel: [f64; 3] = f.into();
+            let sensed: [f64; 3] =
+                std::array::from_fn(|a| c.gyro_scale[a] * (seen[a] + ring[a] + n[a]));
+            // What a rad/s sensor reports: a gyro bias effect (counts) in the sensor's units.
+            let rate_rad_s = std::array::from_fn::<f64, 3, _>(|a| {
+                sensed[a] + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
+            });
+            let gyro: [u16; 3] = std::array::from_fn(|a| {
+                let bias = sat.gyro_bias_counts[a] + c.gyro_bias_counts[a];
+                quantise(bias + sensed[a] * sat.gyro_counts_per_rad_s[a])
+            });
+            let an = accel_noise(&spec.sensors, &mut accel_rng);
+            let acc: [u16; 3] = std::array::from_fn(|a| {
+                quantise(sat.accel_bias_counts[a] + (accel[a] + an[a]) / sat.accel_m_s2_per_count)
+            });
+            let s = SimSample {
+                row: Sample {
+                    time_ms: t as u64,
+                    gyro,
+                    accel: acc,
+                    thrusters: word,
+                },
+                rate_rad_s,
+                body_rate: x.w.into(),
+            };
+            sink.sample(&s, copies.next(k))?;
+            k += 1;
         }
     }
     prop.advance_to(total_ms as f64);
-    let final_state = *prop.state();
-    let edges = prop.into_edges();
+    Ok(Flown {
+        final_state: *prop.state(),
+        shocks: ringing.shocks_reached(),
+    })
+}
 
-    // Ringing at the sample instants with a random phase per shock and axis.
-    let mut ring_rng = rng(spec.seed, STREAM_RINGING);
-    // the sensor sees the ringing as late as the rate (a measurement delay)
-    let shocks: Vec<f64> = shock_times_ms(&edges)
-        .into_iter()
-        .map(|t| t + c.measurement_delay_ms)
-        .collect();
-    let ringing = ringing_at(&plant.cfg, &shocks, &times, |_, _, _| {
-        ring_rng.gen_range(0.0..std::f64::consts::TAU)
-    });
+/// Flies with a second pass when the ringing phases need the first's shock count.
+fn fly_all(spec: &SimSpec, prep: &Prepared, sink: &mut impl Sink) -> Result<Flown, SimError> {
+    let shocks = if prep.plant.cfg.ringing.len() > 1 {
+        Some(fly(spec, prep, &mut Discard, None)?.shocks)
+    } else {
+        None
+    };
+    fly(spec, prep, sink, shocks)
+}
 
-    let mut samples = Vec::with_capacity(times.len());
-    let mut sensed_rad_s = Vec::with_capacity(times.len());
-    for k in 0..times.len() {
-        let sensed: [f64; 3] = std::array::from_fn(|a| {
-            c.gyro_scale[a] * (measured[k][a] + ringing[k][a] + gyro_n[k][a])
-        });
-        // What a rad/s sensor reports: a gyro bias effect (counts) in the sensor's units.
-        sensed_rad_s.push(std::array::from_fn::<f64, 3, _>(|a| {
-            sensed[a] + c.gyro_bias_counts[a] / sat.gyro_counts_per_rad_s[a]
-        }));
-        let gyro: [u16; 3] = std::array::from_fn(|a| {
-            let bias = sat.gyro_bias_counts[a] + c.gyro_bias_counts[a];
-            quantise(bias + sensed[a] * sat.gyro_counts_per_rad_s[a])
-        });
-        let an = accel_noise(&spec.sensors, &mut accel_rng);
-        let acc: [u16; 3] = std::array::from_fn(|a| {
-            quantise(sat.accel_bias_counts[a] + (accel[k][a] + an[a]) / sat.accel_m_s2_per_count)
-        });
-        samples.push(Sample {
-            time_ms: times[k],
-            gyro,
-            accel: acc,
-            thrusters: words[k],
-        });
-    }
-    let mut recording = Recording::new("massid-sim", Some(&sat.name), Some(spec.rate_hz), samples);
+/// The v1 recording of `rows` (after the artefacts), with the simulator's metadata.
+fn v1_recording(spec: &SimSpec, rows: Vec<Sample>) -> Recording {
+    let sat = &spec.satellite;
+    let mut recording = if spec.artefacts.gaps > 0 || spec.artefacts.duplicates > 0 {
+        // a re-sent row stays in (a reader drops it and counts it in the issues)
+        let mut r = Recording::new(
+            "massid-sim",
+            Some(&sat.name),
+            Some(spec.rate_hz),
+            rows.clone(),
+        );
+        r.samples = rows;
+        r
+    } else {
+        Recording::new("massid-sim", Some(&sat.name), Some(spec.rate_hz), rows)
+    };
     recording.set_meta("generator", "massid-sim");
     recording.set_meta("maneuver", spec.maneuver.name());
     recording.set_meta("seed", &spec.seed.to_string());
-    let mut art_rng = rng(spec.seed, STREAM_ARTEFACTS);
-    if spec.artefacts.gaps > 0 || spec.artefacts.duplicates > 0 {
-        let rows = spec
-            .artefacts
-            .apply(std::mem::take(&mut recording.samples), &mut art_rng);
-        let clean = Recording::new("massid-sim", None, Some(spec.rate_hz), rows.clone());
-        recording.issues = clean.issues;
-        recording.samples = rows;
+    recording
+}
+
+/// Keeps what [`simulate`] returns.
+#[derive(Default)]
+struct Collect {
+    commands: Vec<u16>,
+    rows: Vec<Sample>,
+    row_rates: Vec<[f64; 3]>,
+    body_rate: Vec<[f64; 3]>,
+}
+
+impl Sink for Collect {
+    fn command(&mut self, word: u16) {
+        self.commands.push(word);
     }
-    let rate_recording = needs_v2(sat).then(|| v2_of(&recording, sat, spec, &times, &sensed_rad_s));
+    fn sample(&mut self, s: &SimSample, copies: usize) -> Result<(), SimError> {
+        self.body_rate.push(s.body_rate);
+        for _ in 0..copies {
+            self.rows.push(s.row);
+            self.row_rates.push(s.rate_rad_s);
+        }
+        Ok(())
+    }
+}
+
+/// Runs the simulation, the whole recording in memory; [`simulate_to`] writes the same
+/// recording's bytes as it flies, holding none of it.
+pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
+    let prep = prepare(spec)?;
+    let mut out = Collect {
+        commands: Vec::with_capacity(prep.total_ms),
+        ..Collect::default()
+    };
+    let flown = fly_all(spec, &prep, &mut out)?;
+    let sat = &spec.satellite;
+    let recording = v1_recording(spec, out.rows);
+    let rate_recording = needs_v2(sat).then(|| v2_of(&recording, sat, spec, out.row_rates));
     Ok(SimOutput {
         recording,
         rate_recording,
@@ -391,20 +538,144 @@ pub fn simulate(spec: &SimSpec) -> Result<SimOutput, SimError> {
             satellite: sat.name.clone(),
             effects: spec.effects.clone(),
         },
-        commands,
-        body_rate: rates,
-        final_state,
+        commands: out.commands,
+        body_rate: out.body_rate,
+        final_state: flown.final_state,
     })
+}
+
+/// What [`simulate_to`] wrote.
+#[derive(Clone, Debug)]
+pub struct Streamed {
+    /// Rows written (re-sent rows included, rows lost in gaps not).
+    pub rows: usize,
+    /// `time_ms` of the first and the last row written.
+    pub first_ms: Option<u64>,
+    pub last_ms: Option<u64>,
+    /// Whether the recording is format v2 (the craft [`needs_v2`]), else v1.
+    pub v2: bool,
+    /// Milliseconds of commands flown (the length of [`SimOutput::commands`]).
+    pub commanded_ms: usize,
+    pub truth: Truth,
+    /// Final attitude and CoM position/velocity (inertial).
+    pub final_state: State,
+}
+
+/// Writes rows of one format as they come.
+struct Writer<W: Write> {
+    w: W,
+    /// The measured axes of a v2 recording; None for v1.
+    v2_axes: Option<[bool; 3]>,
+    rows: usize,
+    first_ms: Option<u64>,
+    last_ms: Option<u64>,
+}
+
+impl<W: Write> Sink for Writer<W> {
+    fn sample(&mut self, s: &SimSample, copies: usize) -> Result<(), SimError> {
+        let r = &s.row;
+        for _ in 0..copies {
+            match self.v2_axes {
+                // as `Recording::write_to` writes a row
+                None => writeln!(
+                    self.w,
+                    "{},{},{},{},{},{},{},{}",
+                    r.time_ms,
+                    r.gyro[0],
+                    r.gyro[1],
+                    r.gyro[2],
+                    r.accel[0],
+                    r.accel[1],
+                    r.accel[2],
+                    r.thrusters
+                )?,
+                // as `RateRecording::write_to` writes a row of thruster words
+                Some(axes) => {
+                    write!(self.w, "{}", r.time_ms)?;
+                    for (a, &on) in axes.iter().enumerate() {
+                        if on {
+                            let v = s.rate_rad_s[a];
+                            if v.is_finite() {
+                                write!(self.w, ",{v}")?;
+                            } else {
+                                write!(self.w, ",")?;
+                            }
+                        }
+                    }
+                    writeln!(self.w, ",{}", r.thrusters)?;
+                }
+            }
+            self.rows += 1;
+            self.first_ms.get_or_insert(r.time_ms);
+            self.last_ms = Some(r.time_ms);
+        }
+        Ok(())
+    }
+}
+
+/// Runs the simulation and writes its recording (format v2 when the craft [`needs_v2`],
+/// else v1) to `w` row by row as the samples are made: the bytes [`simulate`]'s recording
+/// writes, in memory that does not grow with the flight's length (the open-loop script, 2
+/// bytes a millisecond, aside). Nothing is written before the spec is found good.
+pub fn simulate_to<W: Write>(spec: &SimSpec, w: W) -> Result<Streamed, SimError> {
+    simulate_into(spec, || Ok(w)).map(|(s, _)| s)
+}
+
+/// [`simulate_to`] into a writer opened by `open` once the spec is found good (e.g. a
+/// file that a bad spec should not leave behind); gives the writer back, flushed.
+pub fn simulate_into<W: Write>(
+    spec: &SimSpec,
+    open: impl FnOnce() -> std::io::Result<W>,
+) -> Result<(Streamed, W), SimError> {
+    let prep = prepare(spec)?;
+    let sat = &spec.satellite;
+    let v2 = needs_v2(sat);
+    let mut w = std::io::BufWriter::new(open()?);
+    // the header: an empty recording of the same metadata
+    let v1 = v1_recording(spec, Vec::new());
+    let v2_axes = if v2 {
+        let r = v2_of(&v1, sat, spec, Vec::new());
+        r.write_to(&mut w)?;
+        Some(r.axes)
+    } else {
+        v1.write_to(&mut w)?;
+        None
+    };
+    let mut writer = Writer {
+        w,
+        v2_axes,
+        rows: 0,
+        first_ms: None,
+        last_ms: None,
+    };
+    let flown = fly_all(spec, &prep, &mut writer)?;
+    let mut w = writer.w.into_inner().map_err(|e| e.into_error())?;
+    w.flush()?;
+    Ok((
+        Streamed {
+            rows: writer.rows,
+            first_ms: writer.first_ms,
+            last_ms: writer.last_ms,
+            v2,
+            commanded_ms: prep.total_ms,
+            truth: Truth {
+                satellite: sat.name.clone(),
+                effects: spec.effects.clone(),
+            },
+            final_state: flown.final_state,
+        },
+        w,
+    ))
 }
 
 /// The v2 form of `v1`'s rows (after the artefacts): each row's sensed rate in rad/s on the
 /// craft's axes (z alone for a planar craft) and its thruster word, the same metadata.
+/// `row_rates` holds each row's sensed rate.
 fn v2_of(
     v1: &Recording,
     sat: &Satellite,
     spec: &SimSpec,
-    times: &[u64],
-    sensed_rad_s: &[[f64; 3]],
+    row_rates: Vec<[f64; 3]>,
 ) -> RateRecording {
     let axes = if sat.planar {
         [false, false, true]
@@ -412,13 +683,9 @@ fn v2_of(
         [true; 3]
     };
     let rows = &v1.samples;
-    let rate = rows
-        .iter()
-        .map(|r| {
-            let k = times.partition_point(|&t| t < r.time_ms);
-            let v = sensed_rad_s.get(k).copied().unwrap_or([f64::NAN; 3]);
-            std::array::from_fn(|a| if axes[a] { v[a] } else { f64::NAN })
-        })
+    let rate = row_rates
+        .into_iter()
+        .map(|v| std::array::from_fn(|a| if axes[a] { v[a] } else { f64::NAN }))
         .collect();
     let commands = Commands::Thrusters {
         n: sat.n_thrusters(),

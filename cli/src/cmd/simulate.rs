@@ -4,7 +4,7 @@
 //! rad/s) in format v2, flying a maneuver built from its own thrusters.
 use anyhow::{anyhow, bail, Context};
 use massid_sim::model_file::ModelFile;
-use massid_sim::{simulate, Maneuver, SimSpec, Truth};
+use massid_sim::{simulate_into, Maneuver, SimSpec, Truth};
 use reference_f64::satellite::Satellite;
 use std::path::PathBuf;
 
@@ -108,7 +108,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
 
-    let out = simulate(&spec).map_err(|e| match e {
+    // The recording is written as it is simulated (an hour at 1 kHz is never held whole),
+    // atomically: a temporary file beside it, renamed once complete, as
+    // `Recording::write` does; a bad spec or a failure leaves nothing behind.
+    let file_name = args
+        .out
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = args
+        .out
+        .with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
+    let result = (|| {
+        let (out, f) = simulate_into(&spec, || std::fs::File::create(&tmp))?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, &args.out)?;
+        Ok::<_, massid_sim::SimError>(out)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    let out = result.map_err(|e| match e {
         massid_sim::SimError::SpheresOnly { .. } => match &args.model {
             Some(path) => anyhow!("{}: {e}", path.display()),
             None => e.into(),
@@ -118,10 +139,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         massid_sim::SimError::BadSeconds(_) => anyhow!("--seconds: {e}"),
         massid_sim::SimError::BadRate(_) => anyhow!("--rate: {e}"),
+        massid_sim::SimError::Write(_) => anyhow!("{}: {e}", args.out.display()),
         e => e.into(),
     })?;
-    let span_s = match (out.recording.samples.first(), out.recording.samples.last()) {
-        (Some(a), Some(b)) => (b.time_ms - a.time_ms) as f64 / 1000.0,
+    let span_s = match (out.first_ms, out.last_ms) {
+        (Some(a), Some(b)) => (b - a) as f64 / 1000.0,
         _ => 0.0,
     };
     if let Some(asked) = args.seconds {
@@ -132,19 +154,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
-    let rows = match out.rate_recording {
-        Some(mut v2) => {
-            v2.source = args.out.display().to_string();
-            v2.write(&args.out).map_err(|e| anyhow!("{e}"))?;
-            v2.time_ms.len()
-        }
-        None => {
-            let mut v1 = out.recording;
-            v1.source = args.out.display().to_string();
-            v1.write(&args.out).map_err(|e| anyhow!("{e}"))?;
-            v1.samples.len()
-        }
-    };
+    let rows = out.rows;
     out.truth
         .write(&truth_path)
         .with_context(|| format!("{}: cannot write", truth_path.display()))?;
@@ -153,7 +163,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.out.display(),
         rows,
         spec.rate_hz,
-        out.commands.len() as f64 / 1000.0,
+        out.commanded_ms as f64 / 1000.0,
         maneuver.name(),
         out.truth.effects.len(),
         truth_path.display()

@@ -497,6 +497,16 @@ fn rigid_rate(
     props.inv_rigid * (tau - w.cross(&(props.inertia * w)))
 }
 
+/// One classic RK4 step of `h` s of `w' = f(w)`.
+#[inline(always)]
+fn rk4(w: &Vector3<f64>, h: f64, f: impl Fn(&Vector3<f64>) -> Vector3<f64>) -> Vector3<f64> {
+    let k1 = f(w);
+    let k2 = f(&(w + k1 * (h / 2.0)));
+    let k3 = f(&(w + k2 * (h / 2.0)));
+    let k4 = f(&(w + k3 * h));
+    w + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0)
+}
+
 /// The yaw acceleration of a planar craft.
 #[inline(always)]
 fn planar_rate(
@@ -695,18 +705,10 @@ fn predict_with(
             match motion {
                 Motion::Rigid => {
                     let h = m as f64 * 1e-3;
-                    let k1 = rigid_rate(props, &tau_c, &damping, &w);
-                    let k2 = rigid_rate(props, &tau_c, &damping, &(w + k1 * (h / 2.0)));
-                    let k3 = rigid_rate(props, &tau_c, &damping, &(w + k2 * (h / 2.0)));
-                    let k4 = rigid_rate(props, &tau_c, &damping, &(w + k3 * h));
-                    w += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+                    w = rk4(&w, h, |w| rigid_rate(props, &tau_c, &damping, w));
                 }
                 Motion::Planar => {
-                    let k1 = planar_rate(props, &tau_c, &damping, &w);
-                    let k2 = planar_rate(props, &tau_c, &damping, &(w + k1 * (h / 2.0)));
-                    let k3 = planar_rate(props, &tau_c, &damping, &(w + k2 * (h / 2.0)));
-                    let k4 = planar_rate(props, &tau_c, &damping, &(w + k3 * h));
-                    w += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0);
+                    w = rk4(&w, h, |w| planar_rate(props, &tau_c, &damping, w));
                 }
                 Motion::Slosh => {
                     let (k1w, k1q, k1d) = slosh_rates(props, &tau_c, &w, &q, &qd);

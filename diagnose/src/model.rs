@@ -637,7 +637,9 @@ fn predict_with(
     };
     let h = 1e-3;
     let mut k = t0.max(0) as usize;
-    let mut last_tau = dist;
+    // the torque of the step before (None until a step has been taken: a recording that
+    // starts inside a firing must not start from the disturbance alone)
+    let mut last_tau: Option<Vector3<f64>> = None;
     // the first step of the mass change
     let change_step = if change_ms.is_finite() {
         (change_ms - 0.5).ceil().max(0.0) as usize
@@ -686,12 +688,11 @@ fn predict_with(
                 && runs[r].0 != k
                 && p.blowdown.is_none()
                 && !((k as f64) - 0.5 < change_ms && (k as f64) + 0.5 >= change_ms);
-            let tau_c = if same {
-                last_tau
-            } else {
-                torque(props, d, scale_t)
+            let tau_c = match last_tau {
+                Some(tau) if same => tau,
+                _ => torque(props, d, scale_t),
             };
-            last_tau = tau_c;
+            last_tau = Some(tau_c);
             // steps taken at once: up to LONG_STEP_MS while the torque holds (between
             // samples, changes of duty and the mass change), else one
             let mut m = 1;
@@ -970,6 +971,56 @@ pub(crate) mod tests {
         stronger.thrust_scale = [1.0 + 1e-8; NT];
         let moved = predict_with(&plant, &series, &duty, &stronger, false).unwrap();
         assert!(gap(&moved, &short) > 1e-11);
+    }
+
+    /// A recording whose first step comes inside a firing (here through a negative open
+    /// latency: the valve's interval starts before the first sample) feels that firing from
+    /// its first step, as a recording that starts earlier does. (Before 2026-11-27 the
+    /// first step took the torque of "the step before", which it had not computed: the
+    /// disturbance alone, so the firing was lost until the next change of duty and this
+    /// fails.)
+    #[test]
+    fn a_recording_that_starts_inside_a_firing_feels_it() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        // the rate at `ms` of a recording from `t0` that starts at `omega0`
+        let run = |t0: i64, omega0: [f64; 3], ms: i64| {
+            let t: Vec<i64> = (t0..1000).collect();
+            let words: Vec<u16> = t
+                .iter()
+                .map(|&k| u16::from((400..700).contains(&k)))
+                .collect();
+            let counts = vec![[2048, 2048, 2048]; t.len()];
+            let series = Series::from_counts(
+                &t,
+                &counts,
+                &words,
+                sat.gyro_bias_counts,
+                sat.gyro_counts_per_rad_s,
+                Some(1000.0),
+            )
+            .unwrap();
+            let duty = duty_grid(&series, -150.0, 0.0, 0.0);
+            let p = Params {
+                omega0,
+                open_ms: -150.0,
+                ..Params::default()
+            };
+            predict(&plant, &series, &duty, &p).unwrap()[(ms - t0) as usize]
+        };
+        // the same body at 500 ms, once from 0 ms and once from a recording starting there
+        let at_500 = run(0, [0.0; 3], 500);
+        let (early, late) = (run(0, [0.0; 3], 900), run(500, at_500, 900));
+        let turn = (0..3)
+            .map(|a| (early[a] - at_500[a]).abs())
+            .fold(0.0, f64::max);
+        assert!(turn > 1e-3, "the firing must turn the craft");
+        for a in 0..3 {
+            assert!(
+                (late[a] - early[a]).abs() < 1e-9 * turn,
+                "axis {a}: {late:?} vs {early:?}"
+            );
+        }
     }
 
     /// A valve open for exactly one 1 ms step with latency l (0 < l < 1) contributes

@@ -181,9 +181,10 @@ fn interval_pieces(n: usize, a: f64, b: f64) -> impl Iterator<Item = (usize, usi
         let hi = ((k + 1) as f64).min(b);
         (hi > lo).then_some((hi - lo) as f32)
     };
+    // (saturating: `then_some` evaluates its value even when the condition is false)
     let first = (kb > ka).then_some(ka);
-    let last = (kb > ka + 1).then_some(kb - 1);
-    let middle = (kb > ka + 2).then_some((ka + 1, kb - 1));
+    let last = (kb > ka + 1).then_some(kb.saturating_sub(1));
+    let middle = (kb > ka + 2).then_some((ka + 1, kb.saturating_sub(1)));
     let piece = move |k: usize| frac(k).map(|f| (k, k + 1, f));
     first
         .and_then(piece)
@@ -467,7 +468,8 @@ impl MassProps {
 /// torque over each run of equal duty, so its prediction jumps from run end to run end
 /// with the closed form of the same 1 ms RK4 steps (equal to them within rounding): the
 /// cost follows the commands and samples, not the milliseconds of the flight. A rigid 3-D
-/// craft takes RK4 steps of up to `LONG_STEP_MS` (10 ms) where the torque holds between samples.
+/// craft takes RK4 steps of up to `LONG_STEP_MS` (10 ms) where the torque holds between
+/// samples more than 1 ms apart (below 1 kHz, and across a 1 kHz recording's gaps).
 pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Option<Vec<[f64; 3]>> {
     predict_with(plant, series, duty, p, true)
 }
@@ -554,9 +556,10 @@ fn linear_rk4_steps(y0: f64, a: f64, b: f64, h: f64, m: usize) -> f64 {
     y0 + gain * (a - b * y0)
 }
 
-/// Longest RK4 step of a rigid 3-D craft, ms, where the torque holds over it (a recording
-/// sampled below 1 kHz): RK4's error grows as the step's fourth power; at 10 ms it stays
-/// near rounding (`long_steps_agree_with_millisecond_steps`: 30 s turning at up to 1 rad/s).
+/// Longest RK4 step of a rigid 3-D craft, ms, where the torque holds over it between two
+/// samples (below 1 kHz, or across a gap): RK4's error grows as the step's fourth power; at
+/// 10 ms it stays near rounding (`long_steps_agree_with_millisecond_steps`: 30 s turning at
+/// up to 1 rad/s; about 1e-12 with a mass change, delay and gaps besides).
 const LONG_STEP_MS: usize = 10;
 
 /// [`predict`], with the planar run jumps and the rigid long steps on or off (off: every
@@ -880,8 +883,10 @@ pub(crate) mod tests {
 
     /// The duty grid's runs, built from the valve edges alone, hold the same rows as the
     /// dense per-step definition, bit for bit: latencies that leave partial steps, a close
-    /// latency shorter than the open one (so one thruster's intervals overlap and add),
-    /// intervals cut by the grid's ends. A run dropped (a planted fault) is caught.
+    /// latency shorter than the open one (short pulses vanish: empty intervals), a negative
+    /// open latency (an interval starting before the step 0, and intervals overlapping
+    /// across 1-2 ms gaps, which add), intervals cut by the grid's ends. A run dropped (a
+    /// planted fault) is caught.
     #[test]
     fn duty_runs_equal_the_dense_rows() {
         let sat = Satellite::builtin("sph2").unwrap();

@@ -542,6 +542,14 @@ fn slosh_rates(
     (wd, *qd, qdd)
 }
 
+/// The run step `k` is in, searching forward from run `r` (steps only move forward).
+fn run_at(runs: &[(usize, [f32; NT])], mut r: usize, k: usize) -> usize {
+    while runs.get(r + 1).is_some_and(|&(start, _)| start <= k) {
+        r += 1;
+    }
+    r
+}
+
 /// `m` classic RK4 steps of `h` s of `y' = a - b y` from `y0` in closed form: each step
 /// multiplies the distance to the rest point by `R(-b h)`, the RK4 amplification
 /// `1 + z + z^2/2 + z^3/6 + z^4/24` (with `b = 0`, each step adds `a h`).
@@ -652,18 +660,23 @@ fn predict_with(
     // the run of the duty grid step k is in
     let runs = &grid.runs;
     let mut r = runs.partition_point(|&(start, _)| start <= k).max(1) - 1;
+    // the torque holds from step k (in run r) until the sample at ts, the next run or the
+    // mass change, whichever comes first
+    let held_until = |k: usize, r: usize, ts: usize| {
+        let end = ts.min(runs.get(r + 1).map_or(usize::MAX, |&(start, _)| start));
+        if k < change_step {
+            end.min(change_step)
+        } else {
+            end
+        }
+    };
     while si < series.len() {
         let ts = series.t_ms[si] as usize;
         while jump && k < ts {
             // a run of equal duty rows from k, ending at the sample, a change of duty or
             // the mass change
-            while runs.get(r + 1).is_some_and(|&(start, _)| start <= k) {
-                r += 1;
-            }
-            let mut end = ts.min(runs.get(r + 1).map_or(usize::MAX, |&(start, _)| start));
-            if k < change_step {
-                end = end.min(change_step);
-            }
+            r = run_at(runs, r, k);
+            let end = held_until(k, r, ts);
             let props = props_at(k);
             let tau_c = torque(props, &runs[r].1, 1.0);
             let izz = props.inertia[(2, 2)];
@@ -672,9 +685,7 @@ fn predict_with(
         }
         while k < ts {
             // one 1 ms step from k to k+1 with the torque averaged over the step
-            while runs.get(r + 1).is_some_and(|&(start, _)| start <= k) {
-                r += 1;
-            }
+            r = run_at(runs, r, k);
             let props = props_at(k);
             let d = &runs[r].1;
             let mut scale_t = 1.0;
@@ -698,14 +709,11 @@ fn predict_with(
             last_tau = Some(tau_c);
             // steps taken at once: up to LONG_STEP_MS while the torque holds (between
             // samples, changes of duty and the mass change), else one
-            let mut m = 1;
-            if long_steps {
-                let mut end = ts.min(runs.get(r + 1).map_or(usize::MAX, |&(start, _)| start));
-                if k < change_step {
-                    end = end.min(change_step);
-                }
-                m = (end - k).clamp(1, LONG_STEP_MS);
-            }
+            let m = if long_steps {
+                (held_until(k, r, ts) - k).clamp(1, LONG_STEP_MS)
+            } else {
+                1
+            };
             match motion {
                 Motion::Rigid => {
                     let h = m as f64 * 1e-3;

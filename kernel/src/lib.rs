@@ -66,6 +66,7 @@ pub mod flight_id;
 pub mod fold;
 pub mod gyro_filter;
 pub mod int;
+pub mod int_float;
 pub mod lu;
 pub mod mixer;
 pub mod model;
@@ -76,5 +77,6 @@ pub mod rls;
 pub mod scalar;
 pub mod validity;
 
+pub use int_float::IntFloat;
 pub use pipeline::{Estimates, Pipeline, PipelineConfig, PipelineStatus, TickEvent, TickReport};
 pub use scalar::{Fx, Scalar, Scaled, Q16_16, Q8_24};

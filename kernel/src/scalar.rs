@@ -407,20 +407,20 @@ pub fn fixed_div_by_digits(a: i32, b: i32, frac: u32) -> Option<i32> {
 // Soft-division ARM (Cortex-M0/M0+): shift-subtract, no divide instruction to build on.
 #[cfg(all(target_arch = "arm", target_abi = "eabi"))]
 #[inline]
-fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
+pub(crate) fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
     fixed_div_by_words(a, b, frac)
 }
 
 // Hard-float ARM (Cortex-M4F/M7): hardware 32-bit divide.
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
 #[inline]
-fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
+pub(crate) fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
     fixed_div_by_digits(a, b, frac)
 }
 
 #[cfg(not(all(target_arch = "arm", any(target_abi = "eabi", target_abi = "eabihf"))))]
 #[inline]
-fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
+pub(crate) fn fixed_div(a: i32, b: i32, frac: u32) -> Option<i32> {
     fixed_div_by_i64(a, b, frac)
 }
 

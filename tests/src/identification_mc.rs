@@ -347,7 +347,8 @@ pub enum Implementation {
     F64,
     /// The onboard kernel's `flight_id` in f32.
     F32,
-    /// The onboard kernel's `flight_id` in Q8.24 fixed point.
+    /// The onboard kernel's `flight_id` in the fixed kernel's integer floating point
+    /// (`massid_kernel::IntFloat`).
     Fixed,
     /// The onboard kernel's `flight_id` in f64 (its algorithm without f32 rounding).
     KernelF64,
@@ -397,13 +398,15 @@ pub fn estimate_with(
             opts.latency_ms,
         )
         .map_err(|e| e.to_string()),
-        Implementation::Fixed => massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
-            &sim.flight,
-            &sim.model,
-            response()?,
-            opts.latency_ms,
-        )
-        .map_err(|e| e.to_string()),
+        Implementation::Fixed => {
+            massid_kernel_host::flight_id::identify::<massid_kernel::IntFloat>(
+                &sim.flight,
+                &sim.model,
+                response()?,
+                opts.latency_ms,
+            )
+            .map_err(|e| e.to_string())
+        }
     }
 }
 

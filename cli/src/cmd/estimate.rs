@@ -523,7 +523,7 @@ fn output_error(
                         opts.latency_ms,
                     )
                 } else {
-                    massid_kernel_host::flight_id::identify::<massid_kernel::Q8_24>(
+                    massid_kernel_host::flight_id::identify::<massid_kernel::IntFloat>(
                         flight,
                         sat,
                         response,

@@ -76,7 +76,8 @@ pub struct FlightId<S> {
     /// Drive accumulated since the window's first sample.
     z: [S; NZ],
     /// Kahan compensation of `z`: a window's thousands of small increments would otherwise
-    /// round into a drift of the drive (a bias of the inertia) in f32; zero in fixed point.
+    /// round into a drift of the drive (a bias of the inertia) in f32 and in the fixed
+    /// kernel's integer float ([`crate::IntFloat`]); zero where additions are exact.
     z_carry: [S; NZ],
     /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
     recent: [([S; NZ], [S; 3]); 3],

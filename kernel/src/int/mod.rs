@@ -15,6 +15,7 @@
 //! machine's own instruction set.
 
 pub mod div;
+pub mod float;
 pub mod mul;
 pub mod shift;
 pub mod split;

@@ -1,6 +1,7 @@
 //! The obligations, one file per family of primitives, and the lists that are run.
 
 pub mod div;
+pub mod float;
 pub mod mul;
 pub mod shift;
 pub mod split;
@@ -9,6 +10,8 @@ use crate::discharge::Discharge;
 
 /// The kernel's fixed-point format (Q8.24).
 pub const FRAC: u32 = 24;
+/// Fractional bits of the integer float's mantissa quotient.
+pub use massid_kernel::int_float::QUOTIENT_FRAC;
 
 /// Every obligation proved in `cargo test`.
 pub fn all() -> Vec<Box<dyn Discharge>> {
@@ -29,8 +32,18 @@ pub fn all() -> Vec<Box<dyn Discharge>> {
         Box::new(SignedQuotient),
         Box::new(Normalise),
         Box::new(ByI64 { frac: FRAC }),
+        // the integer float (`massid_kernel::IntFloat`): its rounding and aligned sum, and
+        // its mantissa quotient, the fixed-point quotient at 30 fractional bits
+        Box::new(float::RoundToMantissa),
+        Box::new(float::AlignedSum),
+        Box::new(IntegerPart {
+            frac: QUOTIENT_FRAC,
+        }),
+        Box::new(ByI64 {
+            frac: QUOTIENT_FRAC,
+        }),
     ];
-    for bit in 0..FRAC {
+    for bit in 0..FRAC.max(QUOTIENT_FRAC) {
         v.push(Box::new(RestoringStep { bit }));
     }
     v

@@ -5,7 +5,8 @@
 //! compare`.
 //!
 //! Every number is printed as the hex of its raw bits (fixed: the `i32` bits of the Q8.24
-//! value; `f32`: `to_bits`), so the comparison never goes through decimal formatting.
+//! value, or the integer float's mantissa and exponent words; `f32`: `to_bits`), so the
+//! comparison never goes through decimal formatting.
 //!
 //! Each kernel call of interest is bracketed by [`markers`] so that a QEMU instruction trace
 //! can be cut into per-call instruction counts (see `massid-qemu-host count`).
@@ -18,7 +19,7 @@ pub mod sequence;
 use core::fmt::{self, Write};
 use massid_kernel::mixer::{Mixer, MixerConfig};
 use massid_kernel::model::SPH2;
-use massid_kernel::{Estimates, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
+use massid_kernel::{Estimates, IntFloat, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
 
 use markers::Kind;
 use massid_kernel::pipeline::DeferredStage;
@@ -32,6 +33,10 @@ pub trait RawBits: Scalar {
     const EXACT: bool;
     /// The value's raw bits.
     fn raw_bits(self) -> u32;
+    /// Writes the value's raw bits as one word (` xxxxxxxx`).
+    fn write_raw<W: Write>(self, out: &mut W) -> fmt::Result {
+        write!(out, " {:08x}", self.raw_bits())
+    }
 }
 
 impl RawBits for Q8_24 {
@@ -39,6 +44,19 @@ impl RawBits for Q8_24 {
     const EXACT: bool = true;
     fn raw_bits(self) -> u32 {
         self.0.to_bits() as u32
+    }
+}
+
+/// The fixed kernel's identification number: mantissa and exponent, `mmmmmmmm:eeeeeeee`.
+impl RawBits for IntFloat {
+    const NAME: &'static str = "fixed";
+    const EXACT: bool = true;
+    fn raw_bits(self) -> u32 {
+        self.parts().0 as u32
+    }
+    fn write_raw<W: Write>(self, out: &mut W) -> fmt::Result {
+        let (m, e) = self.parts();
+        write!(out, " {:08x}:{:08x}", m as u32, e as u32)
     }
 }
 
@@ -69,10 +87,16 @@ pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
     run::<f32, W>(out)?;
     run_craft_mixers::<Q8_24, W>(out)?;
     run_craft_mixers::<f32, W>(out)?;
-    // Hard-float targets and the host only: on the M0 its f32 is soft-float, and a trace of
-    // it would run to hundreds of millions of instructions.
+    // The integer float's identification over the first samples, compared bit for bit on
+    // every core. Over the whole sequence: hard-float targets and the host only, as `info`
+    // (on the M0 the f32 is soft-float, and a trace of either would run to hundreds of
+    // millions of instructions).
+    run_flight_id::<IntFloat, W>(out, COMPARED_FLIGHT_ID_SAMPLES, "")?;
     #[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
-    run_flight_id(out)?;
+    {
+        run_flight_id::<IntFloat, W>(out, usize::MAX, "info ")?;
+        run_flight_id::<f32, W>(out, usize::MAX, "info ")?;
+    }
     writeln!(out, "# done")
 }
 
@@ -166,12 +190,19 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     write_mixes(out, t, &pipeline)
 }
 
-/// The onboard output-error identification (`massid_kernel::flight_id`, f32) over the same
-/// sequence, each sample's push measured (kind `flight_id_push`); the final fit runs once,
-/// outside the tick (it is not measured: a background task's work). Its result is printed as
-/// `info` lines: the host and QEMU runs are not compared on it.
-#[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
-pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
+/// Samples of the integer-float identification compared on every core (the M0 included).
+pub const COMPARED_FLIGHT_ID_SAMPLES: usize = 200;
+
+/// The onboard output-error identification (`massid_kernel::flight_id`) over the first
+/// `samples` of the same sequence, each sample's push measured (kind `flight_id_push`); the
+/// final fit runs once, outside the tick (it is not measured: a background task's work). Its
+/// sums' counts and a digest of them (every push feeds them), and its fit, are printed on
+/// lines starting with `prefix` (`info `: not compared) and the kernel's name.
+pub fn run_flight_id<S: RawBits, W: Write>(
+    out: &mut W,
+    samples: usize,
+    prefix: &str,
+) -> fmt::Result {
     use massid_kernel::craft::{Craft, Thruster};
     use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
     use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
@@ -182,29 +213,32 @@ pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
         thrust_n: SPH2.thrust_n.get(i).copied().unwrap_or(1.0),
     });
     let com_m = SPH2.com_offset_mm.map(|v| v * 1e-3);
-    let (Ok(craft), Some(j)) = (
-        Craft::<f32>::new(&thrusters, com_m, SPH2.pressure_drop_n_per_extra),
-        inverse_inertia(&SPH2.inertia_kgm2),
+    let j_f32 = inverse_inertia::<f32>(&SPH2.inertia_kgm2);
+    let (Ok(craft), Some(j_f32)) = (
+        Craft::<S>::new(&thrusters, com_m, SPH2.pressure_drop_n_per_extra),
+        j_f32,
     ) else {
-        return writeln!(out, "info f32 flight_id init-error");
+        return writeln!(out, "{prefix}{} flight_id init-error", S::NAME);
     };
-    let principal = (j[0] + j[1] + j[2]) / 3.0;
-    let scale: [f32; NP] = core::array::from_fn(|m| match m {
-        0..=2 => 0.5 * j.get(m).copied().unwrap_or(0.0),
-        3..=5 => 0.25 * principal,
-        _ => 0.025,
+    let principal = (j_f32[0] + j_f32[1] + j_f32[2]) / 3.0;
+    let scale: [S; NP] = core::array::from_fn(|m| {
+        S::from_f32(match m {
+            0..=2 => 0.5 * j_f32.get(m).copied().unwrap_or(0.0),
+            3..=5 => 0.25 * principal,
+            _ => 0.025,
+        })
     });
     let cfg = FlightIdConfig {
-        period_s: 1e-3f32,
+        period_s: S::from_f32(1e-3),
         sensor: SensorResponse::Point,
         delay_periods: 0.0,
         cut_at_changes: false,
         max_window: 8000,
-        max_window_turn_rad: 1e9,
+        max_window_turn_rad: S::from_f32(1e9),
         turn_window: 8000,
         skip: 2,
         solve: SolveConfig {
-            j_nominal: j,
+            j_nominal: j_f32.map(S::from_f32),
             free: [true; NP],
             axes: [true; 3],
             gyroscopic: true,
@@ -213,34 +247,51 @@ pub fn run_flight_id<W: Write>(out: &mut W) -> fmt::Result {
         },
     };
     let Some(mut id) = FlightId::new(cfg) else {
-        return writeln!(out, "info f32 flight_id init-error");
+        return writeln!(out, "{prefix}{} flight_id init-error", S::NAME);
     };
     writeln!(
         out,
-        "info f32 flight-id-bytes {}",
-        core::mem::size_of::<FlightId<f32>>()
+        "info {} flight-id-bytes {}",
+        S::NAME,
+        core::mem::size_of::<FlightId<S>>()
     )?;
-    for (gyro, word) in sequence::samples() {
+    markers::flavour(S::EXACT);
+    let dt = S::from_f32(1e-3);
+    for (gyro, word) in sequence::samples().take(samples) {
         let valid = gyro.iter().all(|&c| c != 0 && c < 4095);
-        let rate: [f32; 3] = core::array::from_fn(|a| {
+        let rate: [S; 3] = core::array::from_fn(|a| {
             let c = f32::from(gyro.get(a).copied().unwrap_or(0));
             let bias = SPH2_GYRO_BIAS_COUNTS.get(a).copied().unwrap_or(0.0);
             let per = SPH2.gyro_counts_per_rad_s.get(a).copied().unwrap_or(1.0);
-            (c - bias) / per
+            S::from_f32((c - bias) / per)
         });
         markers::begin();
-        id.push(1e-3, rate, valid, craft.wrench(word));
+        id.push(dt, rate, valid, craft.wrench(word));
         markers::end();
         markers::kind(Kind::FlightIdPush);
     }
     id.finish();
+    let sums = id.sums();
+    write!(
+        out,
+        "{prefix}{} flight_id samples={} windows={} cyy",
+        S::NAME,
+        sums.samples,
+        sums.windows
+    )?;
+    write_bits(out, &sums.cyy)?;
+    write!(out, " czz_diagonal")?;
+    for (i, row) in sums.czz.iter().enumerate() {
+        write_bits(out, row.get(i..=i).unwrap_or(&[]))?;
+    }
+    writeln!(out)?;
     match id.solve() {
         Ok(sol) => {
-            write!(out, "info f32 flight_id theta")?;
+            write!(out, "{prefix}{} flight_id theta", S::NAME)?;
             write_bits(out, &sol.theta)?;
             writeln!(out, " held={:?}", sol.held)
         }
-        Err(e) => writeln!(out, "info f32 flight_id {e:?}"),
+        Err(e) => writeln!(out, "{prefix}{} flight_id {e:?}", S::NAME),
     }
 }
 
@@ -390,7 +441,7 @@ fn write_estimates<S: RawBits, W: Write>(out: &mut W, t: usize, e: &Estimates<S>
 
 fn write_bits<S: RawBits, W: Write>(out: &mut W, v: &[S]) -> fmt::Result {
     for x in v {
-        write!(out, " {:08x}", x.raw_bits())?;
+        x.write_raw(out)?;
     }
     Ok(())
 }

@@ -66,8 +66,8 @@ def json_keys(files):
 
 
 def error_row(recording, error, seconds):
-    """The row of a recording massid printed no row for (it refused before diagnosing, e.g.
-    a bad option), as massid writes an error row (`Row::error`): every field, in order, the
+    """The row of a recording massid printed no row for (its argument parser rejected an
+    option; every later refusal prints its own error row), as massid writes an error row (`Row::error`): every field, in order, the
     line compact and non-ASCII unescaped like serde_json's."""
     row = dict.fromkeys(ROW_FIELDS)
     row.update(file=recording, status="error", effects=[], params=[], error=error,
@@ -91,7 +91,7 @@ def diagnose(massid, recording, extra):
         lines = proc.stdout.strip().splitlines()
         if lines:  # the row exactly as massid printed it
             line = lines[-1]
-        else:  # massid refused before diagnosing (a bad option): no row printed
+        else:  # the argument parser rejected an option: no row printed
             line = error_row(recording, proc.stderr.strip(), time.monotonic() - started)
         return recording, text, line
 

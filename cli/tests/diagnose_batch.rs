@@ -570,12 +570,24 @@ fn every_row_rust_or_python_ok_or_error_has_the_same_fields_in_the_same_order() 
     };
     rust.insert("rust --summary-row ok row".into(), single(&good).into());
     rust.insert("rust --summary-row error row".into(), single(&bad).into());
+    // a refused option still gets its error row, naming the recording and the reason
+    let refused = massid(&["diagnose", &s(&good), "--horizon", "-1", "--summary-row"]);
+    assert!(!refused.status.success());
+    let refused_row = String::from_utf8_lossy(&refused.stdout).trim().to_string();
+    let parsed: serde_json::Value = serde_json::from_str(&refused_row).expect("one JSON row");
+    assert_eq!(parsed["status"], "error", "{refused_row}");
+    assert_eq!(parsed["file"], s(&good).as_str(), "{refused_row}");
+    assert!(
+        parsed["error"].as_str().unwrap().contains("--horizon -1"),
+        "{refused_row}"
+    );
+    rust.insert("rust --summary-row refused row".into(), refused_row.into());
     // Python (scripts/batch_ray.py's task, without Ray): massid's rows passed on, and its
-    // own error row when massid refuses before diagnosing (a bad option: no row printed)
+    // own error row when massid prints none (an option the argument parser rejects)
     let python = serde_json::json!([
         ["python ok row", s(&good), []],
         ["python error row", s(&bad), []],
-        ["python fallback row", s(&good), ["--horizon", "-1"]],
+        ["python fallback row", s(&good), ["--no-such-option"]],
     ]);
     let script = std::env::var("MASSID_BATCH_RAY")
         .unwrap_or_else(|_| s(&repo().join("scripts/batch_ray.py")));
@@ -598,14 +610,14 @@ fn every_row_rust_or_python_ok_or_error_has_the_same_fields_in_the_same_order() 
     assert!(o.status.success(), "{}", stderr(&o));
     let mut keys: std::collections::BTreeMap<String, Vec<String>> =
         serde_json::from_slice(&o.stdout).expect("the keys as JSON");
-    // the fallback row really is the script's own (massid refused, printed no row)
+    // the fallback row really is the script's own (the argument parser refused: no row)
     assert_eq!(
         keys.remove("python fallback row status").unwrap(),
         ["error"]
     );
     assert_eq!(keys.remove("python error row status").unwrap(), ["error"]);
     assert_eq!(keys.remove("python ok row status").unwrap(), ["ok"]);
-    assert_eq!(keys.len(), 7, "{keys:?}");
+    assert_eq!(keys.len(), 8, "{keys:?}");
     assert_eq!(
         columns,
         [

@@ -131,7 +131,30 @@ impl Args {
 
 /// `massid diagnose RECORDING`: one recording (many, `--out DIR`, are the batch's; the
 /// command dispatch `cmd::run_diagnose` sends them there).
+///
+/// With `--summary-row` every failure, a refused option or output included, still prints its
+/// error row (the row names the first recording given): an engine mapping the job over
+/// recordings gets one row per job whatever happened.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    let result = run_one(&args, started);
+    if let (Err(e), true) = (&result, args.summary_row) {
+        let file = args
+            .recordings
+            .first()
+            .cloned()
+            .unwrap_or_else(|| std::path::PathBuf::from("-"));
+        let row = Row::error(
+            &file,
+            &format!("{e:#}"),
+            Some(started.elapsed().as_secs_f64()),
+        );
+        super::mix::emit(&row.line())?;
+    }
+    result
+}
+
+fn run_one(args: &Args, started: std::time::Instant) -> anyhow::Result<()> {
     let options = args.options()?;
     if let Some(out) = &args.out {
         bail!(
@@ -178,21 +201,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         super::check_output(&dir.join("report.html"), &inputs, args.force)?;
     }
-    let started = std::time::Instant::now();
-    let diagnosed = match diagnose_file(&recording, &options, true) {
-        Ok(d) => d,
-        Err(e) => {
-            if args.summary_row {
-                let row = Row::error(
-                    &recording,
-                    &format!("{e:#}"),
-                    Some(started.elapsed().as_secs_f64()),
-                );
-                super::mix::emit(&row.line())?;
-            }
-            return Err(e);
-        }
-    };
+    let diagnosed = diagnose_file(&recording, &options, true)?;
     let holdout = args.holdout.and_then(|fraction| {
         let spinner = spinner(format!(
             "held-out check: diagnosing the first {:.0} % and predicting the rest",

@@ -58,6 +58,8 @@ M0BASE=$BASE/qemu-s
 )
 HOST_TOOL=$QBASE/release/massid-qemu-host
 "$HOST_TOOL" run >"$OUT/host.txt"
+# the M0's suite leaves out the identification (its state does not fit the micro:bit's 16 kB)
+"$HOST_TOOL" run --no-identification >"$OUT/host-m0.txt"
 run_qemu() { # image machine-args...
   local image=$1; shift
   timeout 600 qemu-system-arm "$@" -semihosting-config enable=on,target=native -nographic \
@@ -65,7 +67,7 @@ run_qemu() { # image machine-args...
 }
 run_qemu "$M0BASE/thumbv6m-none-eabi/release/massid-qemu-firmware" -machine microbit >"$OUT/qemu-m0.txt"
 run_qemu "$QBASE/thumbv7em-none-eabihf/release/massid-qemu-firmware" -machine mps2-an386 -cpu cortex-m4 >"$OUT/qemu-m4f.txt"
-"$HOST_TOOL" compare "$OUT/host.txt" "$OUT/qemu-m0.txt" "${MASSID_F32_MAX_ULP:-0}"
+"$HOST_TOOL" compare "$OUT/host-m0.txt" "$OUT/qemu-m0.txt" "${MASSID_F32_MAX_ULP:-0}"
 "$HOST_TOOL" compare "$OUT/host.txt" "$OUT/qemu-m4f.txt" "${MASSID_F32_MAX_ULP:-0}"
 
 if [ "${MASSID_SKIP_REPORT:-0}" != 1 ]; then

@@ -1,7 +1,9 @@
 //! Picks the memory map for the QEMU machine of the target and links with cortex-m-rt's
 //! `link.x`: `thumbv6m-none-eabi` runs on `-machine microbit` (nRF51822: 256 KB flash at 0,
 //! 16 KB RAM), `thumbv7em-none-eabihf` on `-machine mps2-an386` (Cortex-M4F; 4 MB SSRAM1 at
-//! 0 used as flash, SSRAM2 at 0x2000_0000, of which 64 KB are used as RAM).
+//! 0 used as flash, SSRAM2 at 0x2000_0000, of which 256 KB are used as RAM: the integer-float
+//! identification's state (29 kB) plus its fit's stack overflowed 64 KB; 256 KB is what an
+//! STM32F4-class part has, 192-256 KB).
 use std::env;
 use std::fs;
 use std::path::PathBuf;
@@ -14,7 +16,7 @@ fn main() {
     let memory = if target.starts_with("thumbv6m") && !analysis_only {
         "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 256K\n  RAM : ORIGIN = 0x20000000, LENGTH = 16K\n}\n"
     } else {
-        "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 4M\n  RAM : ORIGIN = 0x20000000, LENGTH = 64K\n}\n"
+        "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 4M\n  RAM : ORIGIN = 0x20000000, LENGTH = 256K\n}\n"
     };
     let out = PathBuf::from(env::var("OUT_DIR").unwrap_or_default());
     // Keep the per-function stack sizes that `-Z emit-stack-sizes` produces (non-allocated).

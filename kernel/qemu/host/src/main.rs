@@ -16,8 +16,10 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("run") => {
+            // `run --no-identification`: the suite of a core that cannot hold it (the M0)
+            let identification = args.get(1).map(String::as_str) != Some("--no-identification");
             let mut out = String::new();
-            match massid_qemu_runner::run_all(&mut out) {
+            match massid_qemu_runner::run_suite(&mut out, identification) {
                 Ok(()) => {
                     print!("{out}");
                     Ok(())
@@ -28,7 +30,7 @@ fn main() -> ExitCode {
         Some("compare") => compare::main(args.get(1..).unwrap_or(&[])),
         Some("count") => trace::main(args.get(1..).unwrap_or(&[])),
         Some("stack") => stack::main(args.get(1..).unwrap_or(&[])),
-        _ => Err("usage: massid-qemu-host run | compare HOST QEMU [MAX_ULP] | count ELF < TRACE | stack ELF OBJDUMP SYMBOL...".to_string()),
+        _ => Err("usage: massid-qemu-host run [--no-identification] | compare HOST QEMU [MAX_ULP] | count ELF < TRACE | stack ELF OBJDUMP SYMBOL...".to_string()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -68,8 +68,20 @@ impl RawBits for f32 {
     }
 }
 
-/// Runs both kernels over the embedded sequence, writing their outputs to `out`.
+/// Whether this core runs the output-error identification: not a 16 kB-RAM Cortex-M0 (the
+/// micro:bit), where its state alone (`FlightId<IntFloat>` about 29 kB, `FlightId<f32>`
+/// 14.6 kB) does not fit.
+pub const RUNS_IDENTIFICATION: bool = !cfg!(all(target_abi = "eabi", target_os = "none"));
+
+/// Runs both kernels over the embedded sequence, writing their outputs to `out` (this core's
+/// suite: [`RUNS_IDENTIFICATION`]).
 pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
+    run_suite(out, RUNS_IDENTIFICATION)
+}
+
+/// [`run_all`] with or without the identification (the host writes both suites, one to
+/// compare with each core).
+pub fn run_suite<W: Write>(out: &mut W, identification: bool) -> fmt::Result {
     writeln!(
         out,
         "# sequence {} {} {}..{} ms ({} samples)",
@@ -87,15 +99,11 @@ pub fn run_all<W: Write>(out: &mut W) -> fmt::Result {
     run::<f32, W>(out)?;
     run_craft_mixers::<Q8_24, W>(out)?;
     run_craft_mixers::<f32, W>(out)?;
-    // The integer float's identification over the first samples, compared bit for bit on
-    // every core. Over the whole sequence: hard-float targets and the host only, as `info`
-    // (on the M0 the f32 is soft-float, and a trace of either would run to hundreds of
-    // millions of instructions).
-    run_flight_id::<IntFloat, W>(out, COMPARED_FLIGHT_ID_SAMPLES, "")?;
-    #[cfg(any(target_abi = "eabihf", not(target_os = "none")))]
-    {
-        run_flight_id::<IntFloat, W>(out, usize::MAX, "info ")?;
-        run_flight_id::<f32, W>(out, usize::MAX, "info ")?;
+    if identification {
+        // The integer float's result is compared bit for bit; the f32 one is `info` (its
+        // fit's rounding is not pinned across cores).
+        run_flight_id::<IntFloat, W>(out, "")?;
+        run_flight_id::<f32, W>(out, "info ")?;
     }
     writeln!(out, "# done")
 }
@@ -190,19 +198,11 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     write_mixes(out, t, &pipeline)
 }
 
-/// Samples of the integer-float identification compared on every core (the M0 included).
-pub const COMPARED_FLIGHT_ID_SAMPLES: usize = 200;
-
-/// The onboard output-error identification (`massid_kernel::flight_id`) over the first
-/// `samples` of the same sequence, each sample's push measured (kind `flight_id_push`); the
-/// final fit runs once, outside the tick (it is not measured: a background task's work). Its
+/// The onboard output-error identification (`massid_kernel::flight_id`) over the same
+/// sequence, each sample's push measured (kind `flight_id_push`); the final fit runs once, outside the tick (it is not measured: a background task's work). Its
 /// sums' counts and a digest of them (every push feeds them), and its fit, are printed on
 /// lines starting with `prefix` (`info `: not compared) and the kernel's name.
-pub fn run_flight_id<S: RawBits, W: Write>(
-    out: &mut W,
-    samples: usize,
-    prefix: &str,
-) -> fmt::Result {
+pub fn run_flight_id<S: RawBits, W: Write>(out: &mut W, prefix: &str) -> fmt::Result {
     use massid_kernel::craft::{Craft, Thruster};
     use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
     use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
@@ -257,7 +257,7 @@ pub fn run_flight_id<S: RawBits, W: Write>(
     )?;
     markers::flavour(S::EXACT);
     let dt = S::from_f32(1e-3);
-    for (gyro, word) in sequence::samples().take(samples) {
+    for (gyro, word) in sequence::samples() {
         let valid = gyro.iter().all(|&c| c != 0 && c < 4095);
         let rate: [S; 3] = core::array::from_fn(|a| {
             let c = f32::from(gyro.get(a).copied().unwrap_or(0));

@@ -198,13 +198,15 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "craft_mixer_<craft> = one mix by the any-craft mixer (\`massid_kernel::craft_mixer\`: pair rules for sph2, non-negative allocation for"
   echo "the 8-thruster planar air-bearing craft and the 16-thruster free-flyer of \`examples/models/\`), once per control period, not per tick;"
   echo "flight_id_push = one sample of the output-error identification (\`massid_kernel::flight_id\`): f32 on hard-float targets; fixed is"
-  echo "the integer float \`massid_kernel::IntFloat\` (the first 200 samples on every core, the whole window too on the M4F;"
-  echo "its fit runs outside the tick and is not counted; the min is a window's first samples, left out of the sums)."
+  echo "the integer float \`massid_kernel::IntFloat\` over the first 2,000 samples (M4F only: its 29 kB state does not fit the micro:bit M0's 16 kB of RAM);"
+  echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters) and the 16-thruster free-flyer, 500 samples"
+  echo "of the window driving the craft's own thrusters (the free-flyer's 16 from the 12-bit word spread by 4 bits; sums only)."
+  echo "The fit (SPHERES) runs outside the tick and is not counted; a push's min is a window's first samples, left out of the sums."
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"
   for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_detect deferred_detect_finish \
-           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
+           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push flight_id_push_airbearing flight_id_push_freeflyer16 mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
     [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
     echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
   done
@@ -220,9 +222,12 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "|---|---|---|"
   echo "| worst tick (incl. RLS update and solve) < 8,400 instructions on the M4F, f32 | $m4_f32 ($m4_f32_kind) | $(verdict "$m4_f32" 8400) |"
   echo "| worst tick < 8,400 instructions on the M4F, fixed | $m4_fix ($m4_fix_kind) | $(verdict "$m4_fix" 8400) |"
-  for f in f32 fixed; do
-    push=$(cnt m4f "$f/flight_id_push" 5)
-    [ -z "$push" ] || echo "| output-error identification, worst sample < 8,400 instructions on the M4F, $f | $push | $(verdict "$push" 8400) |"
+  for k in flight_id_push flight_id_push_airbearing flight_id_push_freeflyer16; do
+    craft=${k#flight_id_push}; craft=${craft#_}
+    for f in f32 fixed; do
+      push=$(cnt m4f "$f/$k" 5)
+      [ -z "$push" ] || echo "| output-error identification, ${craft:-sph2}, worst sample < 8,400 instructions on the M4F, $f | $push | $(verdict "$push" 8400) |"
+    done
   done
   mean_fix=$(mean_tick m0 fixed); mean_f32=$(mean_tick m0 f32)
   if [ "$mean_fix" -gt 0 ]; then

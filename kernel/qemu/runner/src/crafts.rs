@@ -47,6 +47,8 @@ pub const AIRBEARING: [Thruster; 8] = [
         thrust_n: 0.484124,
     },
 ];
+/// `airbearing-mpc`: inertia, kg m^2 (xx yy zz xy xz yz; planar: only zz is identified).
+pub const AIRBEARING_INERTIA_KGM2: [f32; 6] = [0.3237, 0.3237, 0.3237, 0.0, 0.0, 0.0];
 /// `airbearing-mpc`: CoM from the geometric centre, m.
 pub const AIRBEARING_COM_M: [f32; 3] = [0.00555, 0.0007800000000000001, 0.0];
 
@@ -133,5 +135,7 @@ pub const FREEFLYER16: [Thruster; 16] = [
         thrust_n: 0.6,
     },
 ];
+/// `freeflyer16`: inertia, kg m^2 (xx yy zz xy xz yz).
+pub const FREEFLYER16_INERTIA_KGM2: [f32; 6] = [0.135, 0.14, 0.13, 0.001, -0.0008, 0.0005];
 /// `freeflyer16`: CoM from the geometric centre, m.
 pub const FREEFLYER16_COM_M: [f32; 3] = [0.002, -0.0015, 0.003];

@@ -102,8 +102,15 @@ pub fn run_suite<W: Write>(out: &mut W, identification: bool) -> fmt::Result {
     if identification {
         // The integer float's result is compared bit for bit; the f32 one is `info` (its
         // fit's rounding is not pinned across cores).
-        run_flight_id::<IntFloat, W>(out, "")?;
-        run_flight_id::<f32, W>(out, "info ")?;
+        // The integer float's push is tens of times the f32 one on the M4F (no FPU work), so
+        // it runs over the first samples only: the instruction trace stays minutes long.
+        let sph2 = sph2_thrusters();
+        run_flight_id::<IntFloat, W>(out, "", &FlightCraft::sph2(&sph2), INT_FLOAT_SAMPLES)?;
+        run_flight_id::<f32, W>(out, "info ", &FlightCraft::sph2(&sph2), usize::MAX)?;
+        for craft in [FlightCraft::airbearing(), FlightCraft::freeflyer16()] {
+            run_flight_id::<IntFloat, W>(out, "", &craft, OTHER_CRAFT_SAMPLES)?;
+            run_flight_id::<f32, W>(out, "info ", &craft, OTHER_CRAFT_SAMPLES)?;
+        }
     }
     writeln!(out, "# done")
 }
@@ -198,27 +205,106 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     write_mixes(out, t, &pipeline)
 }
 
-/// The onboard output-error identification (`massid_kernel::flight_id`) over the same
-/// sequence, each sample's push measured (kind `flight_id_push`); the final fit runs once, outside the tick (it is not measured: a background task's work). Its
-/// sums' counts and a digest of them (every push feeds them), and its fit, are printed on
-/// lines starting with `prefix` (`info `: not compared) and the kernel's name.
-pub fn run_flight_id<S: RawBits, W: Write>(out: &mut W, prefix: &str) -> fmt::Result {
-    use massid_kernel::craft::{Craft, Thruster};
-    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
-    use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
-    use massid_kernel::model::{N_THRUSTERS, SPH2_GYRO_BIAS_COUNTS};
-    let thrusters: [Thruster; N_THRUSTERS] = core::array::from_fn(|i| Thruster {
+/// Samples of the SPHERES sequence the integer-float identification runs over (with its fit).
+pub const INT_FLOAT_SAMPLES: usize = 2000;
+/// Samples the other craft's identifications run over (sums only).
+pub const OTHER_CRAFT_SAMPLES: usize = 500;
+
+/// A craft the identification runs for: its thruster table, model CoM and inertia, and how
+/// much of the embedded (SPHERES) sequence it takes.
+pub struct FlightCraft<'a> {
+    /// Printed on its lines.
+    pub name: &'static str,
+    /// Thrusters (1-16).
+    pub thrusters: &'a [massid_kernel::craft::Thruster],
+    /// Model CoM, m.
+    pub com_m: [f32; 3],
+    /// Model inertia, kg m^2 (xx yy zz xy xz yz).
+    pub inertia_kgm2: [f32; 6],
+    /// Turns about z only: Izz and the CoM's x and y, the yaw rate, no gyroscopic term.
+    pub planar: bool,
+    /// Whether the fit runs after the pushes (SPHERES only: its trace is long).
+    pub solve: bool,
+    /// Spread the 12-bit SPHERES word over 16 thrusters (the embedded sequence's words drive
+    /// the craft's own thrusters).
+    pub spread_word: bool,
+    /// The pushes' kind.
+    pub kind: Kind,
+}
+
+/// The SPHERES table of the model (the kernel's `SPH2`), as thrusters.
+pub fn sph2_thrusters() -> [massid_kernel::craft::Thruster; massid_kernel::model::N_THRUSTERS] {
+    core::array::from_fn(|i| massid_kernel::craft::Thruster {
         pos_m: SPH2.thruster_pos_m.get(i).copied().unwrap_or([0.0; 3]),
         dir: SPH2.thrust_dir.get(i).copied().unwrap_or([1.0, 0.0, 0.0]),
         thrust_n: SPH2.thrust_n.get(i).copied().unwrap_or(1.0),
-    });
-    let com_m = SPH2.com_offset_mm.map(|v| v * 1e-3);
-    let j_f32 = inverse_inertia::<f32>(&SPH2.inertia_kgm2);
-    let (Ok(craft), Some(j_f32)) = (
-        Craft::<S>::new(&thrusters, com_m, SPH2.pressure_drop_n_per_extra),
+    })
+}
+
+impl<'a> FlightCraft<'a> {
+    /// SPHERES (`thrusters`: [`sph2_thrusters`]) over the whole sequence, with the fit.
+    pub fn sph2(thrusters: &'a [massid_kernel::craft::Thruster]) -> Self {
+        FlightCraft {
+            name: "sph2",
+            thrusters,
+            com_m: SPH2.com_offset_mm.map(|v| v * 1e-3),
+            inertia_kgm2: SPH2.inertia_kgm2,
+            planar: false,
+            solve: true,
+            spread_word: false,
+            kind: Kind::FlightIdPush,
+        }
+    }
+    /// The air-bearing craft (planar, 8 thrusters), sums only.
+    pub fn airbearing() -> Self {
+        FlightCraft {
+            name: "airbearing",
+            thrusters: &crafts::AIRBEARING,
+            com_m: crafts::AIRBEARING_COM_M,
+            inertia_kgm2: crafts::AIRBEARING_INERTIA_KGM2,
+            planar: true,
+            solve: false,
+            spread_word: false,
+            kind: Kind::FlightIdPushAirbearing,
+        }
+    }
+    /// The 16-thruster free-flyer, sums only.
+    pub fn freeflyer16() -> Self {
+        FlightCraft {
+            name: "freeflyer16",
+            thrusters: &crafts::FREEFLYER16,
+            com_m: crafts::FREEFLYER16_COM_M,
+            inertia_kgm2: crafts::FREEFLYER16_INERTIA_KGM2,
+            planar: false,
+            solve: false,
+            spread_word: true,
+            kind: Kind::FlightIdPushFreeflyer16,
+        }
+    }
+}
+
+/// The onboard output-error identification (`massid_kernel::flight_id`) of `craft` over the
+/// first `samples` of the embedded sequence, each sample's push measured (kind `craft.kind`); the final fit (SPHERES)
+/// runs once, outside the tick (it is not measured: a background task's work). Its sums'
+/// counts and a digest of them (every push feeds them), and its fit, are printed on lines
+/// starting with `prefix` (`info `: not compared), the kernel's name and the craft's.
+pub fn run_flight_id<S: RawBits, W: Write>(
+    out: &mut W,
+    prefix: &str,
+    craft: &FlightCraft<'_>,
+    samples: usize,
+) -> fmt::Result {
+    use massid_kernel::craft::Craft;
+    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
+    use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+    use massid_kernel::model::SPH2_GYRO_BIAS_COUNTS;
+    let name = craft.name;
+    let j_f32 = inverse_inertia::<f32>(&craft.inertia_kgm2);
+    let (Ok(table), Some(j_f32)) = (
+        Craft::<S>::new(craft.thrusters, craft.com_m, SPH2.pressure_drop_n_per_extra),
         j_f32,
     ) else {
-        return writeln!(out, "{prefix}{} flight_id init-error", S::NAME);
+        return writeln!(out, "{prefix}{} {name} flight_id init-error", S::NAME);
     };
     let principal = (j_f32[0] + j_f32[1] + j_f32[2]) / 3.0;
     let scale: [S; NP] = core::array::from_fn(|m| {
@@ -239,26 +325,31 @@ pub fn run_flight_id<S: RawBits, W: Write>(out: &mut W, prefix: &str) -> fmt::Re
         skip: 2,
         solve: SolveConfig {
             j_nominal: j_f32.map(S::from_f32),
-            free: [true; NP],
-            axes: [true; 3],
-            gyroscopic: true,
+            free: core::array::from_fn(|m| !craft.planar || matches!(m, 2 | 6 | 7)),
+            axes: [!craft.planar, !craft.planar, true],
+            gyroscopic: !craft.planar,
             max_noise_order: 2,
             scale,
         },
     };
     let Some(mut id) = FlightId::new(cfg) else {
-        return writeln!(out, "{prefix}{} flight_id init-error", S::NAME);
+        return writeln!(out, "{prefix}{} {name} flight_id init-error", S::NAME);
     };
     writeln!(
         out,
-        "info {} flight-id-bytes {}",
+        "info {} {name} flight-id-bytes {}",
         S::NAME,
         core::mem::size_of::<FlightId<S>>()
     )?;
     markers::flavour(S::EXACT);
     let dt = S::from_f32(1e-3);
-    for (gyro, word) in sequence::samples() {
+    for (gyro, word) in sequence::samples().take(samples) {
         let valid = gyro.iter().all(|&c| c != 0 && c < 4095);
+        let word = if craft.spread_word {
+            word | (word << 4)
+        } else {
+            word
+        };
         let rate: [S; 3] = core::array::from_fn(|a| {
             let c = f32::from(gyro.get(a).copied().unwrap_or(0));
             let bias = SPH2_GYRO_BIAS_COUNTS.get(a).copied().unwrap_or(0.0);
@@ -266,15 +357,15 @@ pub fn run_flight_id<S: RawBits, W: Write>(out: &mut W, prefix: &str) -> fmt::Re
             S::from_f32((c - bias) / per)
         });
         markers::begin();
-        id.push(dt, rate, valid, craft.wrench(word));
+        id.push(dt, rate, valid, table.wrench(word));
         markers::end();
-        markers::kind(Kind::FlightIdPush);
+        markers::kind(craft.kind);
     }
     id.finish();
     let sums = id.sums();
     write!(
         out,
-        "{prefix}{} flight_id samples={} windows={} cyy",
+        "{prefix}{} {name} flight_id samples={} windows={} cyy",
         S::NAME,
         sums.samples,
         sums.windows
@@ -285,13 +376,16 @@ pub fn run_flight_id<S: RawBits, W: Write>(out: &mut W, prefix: &str) -> fmt::Re
         write_bits(out, row.get(i..=i).unwrap_or(&[]))?;
     }
     writeln!(out)?;
+    if !craft.solve {
+        return Ok(());
+    }
     match id.solve() {
         Ok(sol) => {
-            write!(out, "{prefix}{} flight_id theta", S::NAME)?;
+            write!(out, "{prefix}{} {name} flight_id theta", S::NAME)?;
             write_bits(out, &sol.theta)?;
             writeln!(out, " held={:?}", sol.held)
         }
-        Err(e) => writeln!(out, "{prefix}{} flight_id {e:?}", S::NAME),
+        Err(e) => writeln!(out, "{prefix}{} {name} flight_id {e:?}", S::NAME),
     }
 }
 
@@ -351,11 +445,7 @@ pub fn run_craft_mixers<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
     use massid_kernel::craft_mixer::CraftMixer;
     use massid_kernel::model::N_THRUSTERS;
     markers::flavour(S::EXACT);
-    let sph2: [Thruster; N_THRUSTERS] = core::array::from_fn(|i| Thruster {
-        pos_m: SPH2.thruster_pos_m.get(i).copied().unwrap_or([0.0; 3]),
-        dir: SPH2.thrust_dir.get(i).copied().unwrap_or([1.0, 0.0, 0.0]),
-        thrust_n: SPH2.thrust_n.get(i).copied().unwrap_or(1.0),
-    });
+    let sph2: [Thruster; N_THRUSTERS] = sph2_thrusters();
     let sph2_com = SPH2.com_offset_mm.map(|v| v * 1e-3);
     // The commands scaled by 2^up to each craft's thrusters (0.11 N, 0.44 N, 0.6 N), so that
     // pulses are above the minimum.

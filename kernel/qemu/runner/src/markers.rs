@@ -45,6 +45,10 @@ marker!(/// Anything else (overflow events).
 marker!(/// One sample of the output-error identification (`massid_kernel::flight_id`): the
     /// thruster word's wrench and the push into the sums.
     massid_mark_kind_flight_id_push = 0x4d42_001a);
+marker!(/// One sample of the output-error identification for the air-bearing craft (planar, 8).
+    massid_mark_kind_flight_id_push_airbearing = 0x4d42_001b);
+marker!(/// One sample of the output-error identification for the 16-thruster free-flyer.
+    massid_mark_kind_flight_id_push_freeflyer16 = 0x4d42_001c);
 marker!(/// A tick where the thruster word changed without a solve (firing edge: KF reset, batch row).
     massid_mark_kind_edge = 0x4d42_0017);
 marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
@@ -112,8 +116,12 @@ pub enum Kind {
     /// A tick that ran one deferred end-of-firing stage (other than the final solve, which
     /// is [`Kind::Solve`]).
     Stage(DeferredStage),
-    /// One sample of the output-error identification.
+    /// One sample of the output-error identification (SPHERES).
     FlightIdPush,
+    /// One sample of the output-error identification for the air-bearing craft.
+    FlightIdPushAirbearing,
+    /// One sample of the output-error identification for the 16-thruster free-flyer.
+    FlightIdPushFreeflyer16,
     /// One mix by `massid_kernel::craft_mixer` for SPHERES.
     CraftMixerSph2,
     /// One mix by `massid_kernel::craft_mixer` for the air-bearing craft.
@@ -166,6 +174,8 @@ pub fn kind(k: Kind) {
         // the final stage reports `TickEvent::Solved`: filed as `Kind::Solve`
         Kind::Stage(DeferredStage::SolveInertia) => massid_mark_kind_solve(),
         Kind::FlightIdPush => massid_mark_kind_flight_id_push(),
+        Kind::FlightIdPushAirbearing => massid_mark_kind_flight_id_push_airbearing(),
+        Kind::FlightIdPushFreeflyer16 => massid_mark_kind_flight_id_push_freeflyer16(),
         Kind::CraftMixerSph2 => massid_mark_kind_craft_mixer_sph2(),
         Kind::CraftMixerAirbearing => massid_mark_kind_craft_mixer_airbearing(),
         Kind::CraftMixerFreeflyer16 => massid_mark_kind_craft_mixer_freeflyer16(),

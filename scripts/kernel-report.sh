@@ -100,9 +100,9 @@ CBASE=$BASE/qemu-count
   cd kernel/qemu
   # As the equality images: the micro:bit (16 KB RAM) at opt-level s (at opt-level 3 the
   # runner's own frame, which holds the pipeline, no longer fits beside the stack), the M4F at 3.
-  MASSID_QEMU_RECORDING=$COUNT_RECORDING MASSID_QEMU_WINDOW_MS=$COUNT_WINDOW CARGO_TARGET_DIR=$CBASE \
+  MASSID_QEMU_RECORDING=$COUNT_RECORDING MASSID_QEMU_WINDOW_MS=$COUNT_WINDOW MASSID_QEMU_COUNT=1 CARGO_TARGET_DIR=$CBASE \
     CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build -q --locked --release -p massid-qemu-firmware --target thumbv6m-none-eabi
-  MASSID_QEMU_RECORDING=$COUNT_RECORDING MASSID_QEMU_WINDOW_MS=$COUNT_WINDOW CARGO_TARGET_DIR=$CBASE \
+  MASSID_QEMU_RECORDING=$COUNT_RECORDING MASSID_QEMU_WINDOW_MS=$COUNT_WINDOW MASSID_QEMU_COUNT=1 CARGO_TARGET_DIR=$CBASE \
     cargo build -q --locked --release -p massid-qemu-firmware --target thumbv7em-none-eabihf
 )
 # One instruction per translation block: -singlestep up to QEMU 8, the tcg property after.

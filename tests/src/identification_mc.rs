@@ -31,6 +31,13 @@ pub enum Condition {
         control_ms: u64,
         closed_loop: bool,
     },
+    /// A craft of `examples/models/` (the file's stem) in our simulator with a gyro, no effect:
+    /// maneuver (single, combo and random-pwm fly any craft) and sample rate (Hz).
+    Craft {
+        model: &'static str,
+        maneuver: Maneuver,
+        rate_hz: f64,
+    },
 }
 
 impl Condition {
@@ -57,6 +64,11 @@ impl Condition {
                     "open loop"
                 }
             ),
+            Condition::Craft {
+                model,
+                maneuver,
+                rate_hz,
+            } => format!("craft {model} {} {rate_hz} Hz", maneuver.name()),
         }
     }
 }
@@ -98,17 +110,44 @@ pub fn fly(cond: &Condition, seed: u64) -> Simulated {
             control_ms,
             closed_loop,
         } => planar_mocap(*step_ms, *control_ms, *closed_loop, seed),
+        Condition::Craft {
+            model,
+            maneuver,
+            rate_hz,
+        } => {
+            let sat = model_of(model);
+            let mut spec = SimSpec::new(sat.clone(), Vec::new(), *maneuver);
+            spec.rate_hz = *rate_hz;
+            spec.seed = seed;
+            let out = simulate(&spec).expect("simulation");
+            let mut truth = [0.0; 9];
+            truth[3..].copy_from_slice(&sat.inertia_kgm2);
+            let flight = match &out.rate_recording {
+                Some(r) => Flight::from_v2(r),
+                None => Flight::from_v1(&out.recording, &sat),
+            };
+            Simulated {
+                flight,
+                model: sat,
+                truth,
+            }
+        }
     }
+}
+
+/// The craft of `examples/models/NAME.toml`.
+pub fn model_of(name: &str) -> Satellite {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("workspace");
+    massid_sim::model_file::ModelFile::read(&root.join(format!("examples/models/{name}.toml")))
+        .expect("model")
+        .satellite
 }
 
 /// The air-bearing craft's nominal model (`examples/models/airbearing-mpc.toml`).
 pub fn airbearing_model() -> Satellite {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("workspace");
-    massid_sim::model_file::ModelFile::read(&root.join("examples/models/airbearing-mpc.toml"))
-        .expect("model")
-        .satellite
+    model_of("airbearing-mpc")
 }
 
 struct Lcg(u64);
@@ -514,6 +553,25 @@ pub fn grid() -> Vec<Condition> {
                 control_ms,
                 closed_loop,
             });
+        }
+    }
+    out
+}
+
+/// Other craft with a gyro (issue 22 item 2, 23): the 8-thruster cubesat and the 16-thruster
+/// free-flyer (3-D) and the air-bearing craft (planar), x single/combo/random-pwm x 100 and
+/// 1000 Hz.
+pub fn craft_grid() -> Vec<Condition> {
+    let mut out = Vec::new();
+    for model in ["cubesat8", "freeflyer16", "airbearing-mpc"] {
+        for maneuver in [Maneuver::Single, Maneuver::Combo, Maneuver::RandomPwm] {
+            for rate_hz in [100.0, 1000.0] {
+                out.push(Condition::Craft {
+                    model,
+                    maneuver,
+                    rate_hz,
+                });
+            }
         }
     }
     out

@@ -8,6 +8,10 @@
 //! - `MASSID_QEMU_WINDOW_MS`: `START..END` in the recording's `time_ms` (default `900..10200`:
 //!   five 1 s firings: the batch pair and three RLS firings, small enough for the micro:bit's 256 KB flash).
 //!
+//! - `MASSID_QEMU_COUNT`: `1` for the instruction-count image of `scripts/kernel-report.sh`
+//!   (`sequence::COUNT_RUN`): it leaves out work that is not measured and would only make the
+//!   trace long (the integer float's fit).
+//!
 //! The window must be gap-free (one sample per millisecond): the kernel is called once per
 //! sample as by a 1 kHz interrupt, so a gap would silently change the sequence.
 use std::env;
@@ -18,6 +22,8 @@ use std::path::PathBuf;
 fn main() {
     println!("cargo:rerun-if-env-changed=MASSID_QEMU_RECORDING");
     println!("cargo:rerun-if-env-changed=MASSID_QEMU_WINDOW_MS");
+    println!("cargo:rerun-if-env-changed=MASSID_QEMU_COUNT");
+    let count_run = env::var("MASSID_QEMU_COUNT").is_ok_and(|v| v == "1");
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let csv_path = env::var("MASSID_QEMU_RECORDING").map(PathBuf::from).unwrap_or_else(|_| {
         manifest.join("../../../../shared/data/open/o01_nominal_rga12.csv")
@@ -92,6 +98,8 @@ fn main() {
     let _ = writeln!(rs, "pub const START_MS: u32 = {start};");
     let _ = writeln!(rs, "/// Number of embedded samples (one per millisecond).");
     let _ = writeln!(rs, "pub const LEN: usize = {};", (end - start) as usize);
+    let _ = writeln!(rs, "/// Built for the instruction-count trace (`MASSID_QEMU_COUNT=1`).");
+    let _ = writeln!(rs, "pub const COUNT_RUN: bool = {count_run};");
     fs::write(out.join("sequence_meta.rs"), rs).unwrap_or_else(|e| fail(&format!("writing sequence_meta.rs: {e}")));
 }
 

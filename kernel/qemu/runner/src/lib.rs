@@ -376,7 +376,9 @@ pub fn run_flight_id<S: RawBits, W: Write>(
         write_bits(out, row.get(i..=i).unwrap_or(&[]))?;
     }
     writeln!(out)?;
-    if !craft.solve {
+    // the fit is not measured (outside the tick); in the integer float its trace alone ran
+    // for minutes, so the count image leaves it out
+    if !craft.solve || sequence::COUNT_RUN {
         return Ok(());
     }
     match id.solve() {

@@ -71,9 +71,25 @@ impl IntFloat {
         }
     }
 
+    /// A saturated operand, if either is one: it propagates like IEEE's NaN, so an overflow
+    /// anywhere in a computation reaches its result (saturated minus saturated is not zero).
+    #[inline]
+    fn saturated_of(self, rhs: Self) -> Option<Self> {
+        if !self.is_valid() {
+            Some(self)
+        } else if !rhs.is_valid() {
+            Some(rhs)
+        } else {
+            None
+        }
+    }
+
     /// The sum, correctly rounded.
     #[inline]
     fn sum(self, rhs: Self) -> Self {
+        if let Some(s) = self.saturated_of(rhs) {
+            return s;
+        }
         if self.m == 0 {
             return rhs;
         }
@@ -117,6 +133,9 @@ impl Mul for IntFloat {
     /// The exact 50-bit product of the mantissas, rounded once.
     #[inline]
     fn mul(self, rhs: Self) -> Self {
+        if let Some(s) = self.saturated_of(rhs) {
+            return s;
+        }
         if self.m == 0 || rhs.m == 0 {
             return Self::ZERO;
         }
@@ -189,7 +208,7 @@ impl Scalar for IntFloat {
     }
     #[inline]
     fn checked_div(self, rhs: Self) -> Option<Self> {
-        if rhs.m == 0 {
+        if rhs.m == 0 || self.saturated_of(rhs).is_some() {
             return None;
         }
         if self.m == 0 {
@@ -427,6 +446,11 @@ mod tests {
         assert!(big.is_valid());
         assert!(!(big * big).is_valid());
         assert!(!(big * big).lt(big));
+        // saturation is sticky: it is never cancelled back into a plausible number
+        let sat = big * big;
+        assert!(!(sat - sat).is_valid());
+        assert!(!(sat * IntFloat::ZERO).is_valid());
+        assert_eq!(sat.checked_div(IntFloat::ONE), None);
         let tiny = IntFloat::ONE.mul_pow2(30 - EXP_LIMIT);
         assert_eq!(tiny * tiny, IntFloat::ZERO);
         assert_eq!(IntFloat::ONE.checked_div(IntFloat::ZERO), None);

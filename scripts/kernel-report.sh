@@ -198,8 +198,8 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "craft_mixer_<craft> = one mix by the any-craft mixer (\`massid_kernel::craft_mixer\`: pair rules for sph2, non-negative allocation for"
   echo "the 8-thruster planar air-bearing craft and the 16-thruster free-flyer of \`examples/models/\`), once per control period, not per tick;"
   echo "flight_id_push = one sample of the output-error identification (\`massid_kernel::flight_id\`): f32 on hard-float targets; fixed is"
-  echo "the integer float \`massid_kernel::IntFloat\` over the first 2,000 samples (M4F only: its 29 kB state does not fit the micro:bit M0's 16 kB of RAM);"
-  echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters) and the 16-thruster free-flyer, 500 samples"
+  echo "the integer float \`massid_kernel::IntFloat\` over the first 150 samples (its trace is slow; M4F only: its 29 kB state does not fit the micro:bit M0's 16 kB of RAM);"
+  echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters) and the 16-thruster free-flyer, 500 samples (f32) / 150 (fixed)"
   echo "of the window driving the craft's own thrusters (the free-flyer's 16 from the 12-bit word spread by 4 bits; sums only)."
   echo "The fit (SPHERES) runs outside the tick and is not counted; a push's min is a window's first samples, left out of the sums."
   echo

@@ -104,11 +104,18 @@ pub fn run_suite<W: Write>(out: &mut W, identification: bool) -> fmt::Result {
         // fit's rounding is not pinned across cores).
         // The integer float's push is tens of times the f32 one on the M4F (no FPU work), so
         // it runs over the first samples only: the instruction trace stays minutes long.
+        // The count image traces every instruction (about 3 per microsecond here): there the
+        // integer float runs over COUNT_INT_FLOAT_SAMPLES, enough for a push's mean and max.
+        let (sph2_n, other_n) = if sequence::COUNT_RUN {
+            (COUNT_INT_FLOAT_SAMPLES, COUNT_INT_FLOAT_SAMPLES)
+        } else {
+            (INT_FLOAT_SAMPLES, OTHER_CRAFT_SAMPLES)
+        };
         let sph2 = sph2_thrusters();
-        run_flight_id::<IntFloat, W>(out, "", &FlightCraft::sph2(&sph2), INT_FLOAT_SAMPLES)?;
+        run_flight_id::<IntFloat, W>(out, "", &FlightCraft::sph2(&sph2), sph2_n)?;
         run_flight_id::<f32, W>(out, "info ", &FlightCraft::sph2(&sph2), usize::MAX)?;
         for craft in [FlightCraft::airbearing(), FlightCraft::freeflyer16()] {
-            run_flight_id::<IntFloat, W>(out, "", &craft, OTHER_CRAFT_SAMPLES)?;
+            run_flight_id::<IntFloat, W>(out, "", &craft, other_n)?;
             run_flight_id::<f32, W>(out, "info ", &craft, OTHER_CRAFT_SAMPLES)?;
         }
     }
@@ -209,6 +216,8 @@ pub fn run<S: RawBits, W: Write>(out: &mut W) -> fmt::Result {
 pub const INT_FLOAT_SAMPLES: usize = 2000;
 /// Samples the other craft's identifications run over (sums only).
 pub const OTHER_CRAFT_SAMPLES: usize = 500;
+/// Samples of each integer-float identification in the instruction-count image.
+pub const COUNT_INT_FLOAT_SAMPLES: usize = 150;
 
 /// A craft the identification runs for: its thruster table, model CoM and inertia, and how
 /// much of the embedded (SPHERES) sequence it takes.

@@ -484,7 +484,7 @@ fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()>
 
 /// The output-error identification of `flight` by each of `kernels`: the f64 reference
 /// (`reference_f64::flight_id`) and the onboard kernel's form (`massid_kernel::flight_id`,
-/// f32; Q8.24 cannot hold its sums yet and says so), printed, with each kernel's largest
+/// in f32 and in the fixed kernel's integer float), printed, with each kernel's largest
 /// differences from f64. A kernel reading rates other than gyro counts is told the sensor
 /// response the reference found likelier (`--sensor` overrides).
 fn output_error(

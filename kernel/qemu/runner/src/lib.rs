@@ -101,11 +101,10 @@ pub fn run_suite<W: Write>(out: &mut W, identification: bool) -> fmt::Result {
     run_craft_mixers::<f32, W>(out)?;
     if identification {
         // The integer float's result is compared bit for bit; the f32 one is `info` (its
-        // fit's rounding is not pinned across cores).
-        // The integer float's push is tens of times the f32 one on the M4F (no FPU work), so
-        // it runs over the first samples only: the instruction trace stays minutes long.
-        // The count image traces every instruction (about 3 per microsecond here): there the
-        // integer float runs over COUNT_INT_FLOAT_SAMPLES, enough for a push's mean and max.
+        // fit's rounding is not pinned across cores). The integer float's push is about 25
+        // times the f32 one on the M4F, so it runs over the first samples only, and in the
+        // count image, whose trace ran at about 0.4 million instructions a second here, over
+        // COUNT_INT_FLOAT_SAMPLES: enough for a push's mean and max.
         let (sph2_n, other_n) = if sequence::COUNT_RUN {
             (COUNT_INT_FLOAT_SAMPLES, COUNT_INT_FLOAT_SAMPLES)
         } else {

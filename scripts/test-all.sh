@@ -6,6 +6,9 @@ cd "$(dirname "$0")/.."
 
 step() { printf '\n==== %s ====\n' "$*"; }
 
+# A clean checkout builds once: incremental caches only cost disk here (4 GB).
+export CARGO_INCREMENTAL=0
+
 step "toolchain and system packages"
 scripts/setup.sh
 
@@ -30,5 +33,8 @@ if [ -x scripts/cross-check.sh ]; then
   step "embedded targets"
   scripts/cross-check.sh
 fi
+
+step "disk used by the build"
+du -sh "${CARGO_TARGET_DIR:-target}" 2>/dev/null || true
 
 step "all tests passed"

@@ -110,10 +110,32 @@ fn model_check_says_whether_the_kernel_flies_the_craft() {
     for name in ["airbearing-mpc", "cubesat8", "freeflyer16", "sph2"] {
         let out = ok(&["model", "check", &model(name)]);
         assert!(
-            out.contains("onboard kernel: mixer vs f64 reference") && !out.contains("CANNOT"),
+            out.contains("onboard kernel: Q8.24 envelope fits")
+                && out.contains("mixer vs f64 reference")
+                && !out.contains("CANNOT"),
             "{out}"
         );
     }
+    // Thrusters of 100 N: the craft's wrench leaves Q8.24's range, and the check names it.
+    let text = std::fs::read_to_string(model("airbearing-mpc")).unwrap();
+    let strong: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("thrust_n") {
+                "thrust_n = [100, 100, 100, 100, 100, 100, 100, 100]".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let path = common::tmp("strong", "mix_any_craft").join("strong.toml");
+    std::fs::write(&path, strong).unwrap();
+    let out = ok(&["model", "check", &s(&path)]);
+    assert!(
+        out.contains("Q8.24 CANNOT fly this craft: wrench T"),
+        "{out}"
+    );
     // Two thrusters 1e-5 as strong as the others: the kernel cannot balance them in its
     // formats and says which command it refuses.
     let text = std::fs::read_to_string(model("airbearing-mpc")).unwrap();

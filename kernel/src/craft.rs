@@ -97,6 +97,35 @@ impl<S: Scalar> Craft<S> {
         })
     }
 
+    /// The table from each thruster's wrench per newton (`unit`: torque about the CoM, then
+    /// the force direction) and its thrust, both already in `S`. The range analysis builds it
+    /// with interval thrusts and CoM (a craft's envelope, `massid_proofs::craft_envelope`);
+    /// [`Craft::new`] is the model's path.
+    pub fn from_unit_wrenches(
+        unit: &[[S; 6]],
+        thrust_n: &[S],
+        pressure_drop_n: S,
+    ) -> Result<Self, CraftError> {
+        if unit.is_empty() || unit.len() > MAX_THRUSTERS || thrust_n.len() != unit.len() {
+            return Err(CraftError::ThrusterCount);
+        }
+        let mut table = Craft {
+            wrench: [[S::ZERO; 6]; MAX_THRUSTERS],
+            unit: [[S::ZERO; 6]; MAX_THRUSTERS],
+            count: unit.len(),
+            pressure_drop_n,
+        };
+        for ((u, t), (w_dst, u_dst)) in unit
+            .iter()
+            .zip(thrust_n)
+            .zip(table.wrench.iter_mut().zip(table.unit.iter_mut()))
+        {
+            *u_dst = *u;
+            *w_dst = u.map(|v| v.times(*t));
+        }
+        Ok(table)
+    }
+
     /// Number of thrusters.
     pub fn count(&self) -> usize {
         self.count

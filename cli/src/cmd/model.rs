@@ -128,7 +128,45 @@ fn kernel_fit(sat: &reference_f64::satellite::Satellite) -> String {
         });
     }
     format!(
-        "onboard kernel: mixer vs f64 reference (worst pulse error, of the period) {}; identification f32 (Q8.24 not available)",
+        "onboard kernel: {}; mixer vs f64 reference (worst pulse error, of the period) {}; identification f32 and integer float",
+        fixed_envelope(sat),
         parts.join(", ")
     )
+}
+
+/// Whether the craft's envelope fits the kernel's fixed format (`massid_proofs::craft_envelope`:
+/// the wrench table's interval run over every word, thrusts widened by their uncertainty, the
+/// CoM anywhere in the thrusters' box), naming the quantity that does not.
+fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> String {
+    use massid_proofs::craft_envelope::{check, CraftEnvelope};
+    use massid_proofs::interval::Format;
+    let thrusters = match massid_kernel_host::craft::thrusters(sat) {
+        Ok(t) => t,
+        Err(e) => return format!("Q8.24 CANNOT fly this craft: {e}"),
+    };
+    let com = sat.com_m();
+    let env = CraftEnvelope::new(
+        &thrusters,
+        &sat.thrust_sigma_n,
+        sat.pressure_drop_n_per_extra,
+        [com.x, com.y, com.z],
+    );
+    match check(
+        &env,
+        Format::Q8_24,
+        massid_kernel_host::craft::MIXER_BUDGET_Q8_24,
+    ) {
+        Err(e) => format!("Q8.24 CANNOT fly this craft: {e}"),
+        Ok(fit) => match fit.refusal() {
+            Some(why) => format!("Q8.24 CANNOT fly this craft: {why}"),
+            None => format!(
+                "Q8.24 envelope fits (largest {} {:.3} of {}; half a step is {:.1e} of the thrusters' {})",
+                fit.largest().map(|v| v.name.as_str()).unwrap_or("-"),
+                fit.largest().map(|v| v.range.mag()).unwrap_or(0.0),
+                fit.ranges.format.max,
+                fit.duty_resolution,
+                fit.resolution_component
+            ),
+        },
+    }
 }

@@ -6,6 +6,7 @@
  *                              craft mixer's ON/OFF times, fixed and f32, per command
  *   capi_run --flight-id FILE  a craft, its nominal mass properties and a flight's samples:
  *                              the f32 identification's result (raw bits in hex)
+ *   capi_run --fixed-flight-id FILE  the same through the integer-float identification
  *   capi_run RECORDING.csv     runs the fixed and the f32 pipeline over a massid-recording/1
  *                              file and prints, at every solve and at the end, the estimates
  *                              (raw bits in hex) and the ON/OFF times of a set of mixer
@@ -148,6 +149,7 @@ static void print_firing(const char *name, long t, int k, massid_status s, const
 static void craft_selftest(const massid_satellite_params *sp) {
     static massid_craft_mixer cm;
     static massid_flight_id id;
+    static massid_fixed_flight_id fid;
     massid_craft c, one;
     massid_craft_firing cf;
     massid_flight_id_settings st;
@@ -165,7 +167,8 @@ static void craft_selftest(const massid_satellite_params *sp) {
     check(massid_craft_type_size(3) == sizeof(massid_flight_id), "sizeof(massid_flight_id)");
     check(massid_craft_type_size(4) == sizeof(massid_flight_id_settings), "sizeof(massid_flight_id_settings)");
     check(massid_craft_type_size(5) == sizeof(massid_flight_id_result), "sizeof(massid_flight_id_result)");
-    check(massid_craft_type_size(6) == 0, "craft type size of an unknown code");
+    check(massid_craft_type_size(6) == sizeof(massid_fixed_flight_id), "sizeof(massid_fixed_flight_id)");
+    check(massid_craft_type_size(7) == 0, "craft type size of an unknown code");
     check(offsetof(massid_craft, pressure_drop_n_per_extra) == 8 + 7 * 4 * MASSID_MAX_THRUSTERS,
           "massid_craft field offsets");
     check(offsetof(massid_flight_id_result, has_timing_statistic) + 1 <= sizeof(massid_flight_id_result),
@@ -173,6 +176,7 @@ static void craft_selftest(const massid_satellite_params *sp) {
     check(massid_craft_state_bytes(1) < sizeof(massid_craft_mixer), "fixed craft mixer fits the block");
     check(massid_craft_state_bytes(0) < sizeof(massid_craft_mixer), "f32 craft mixer fits the block");
     check(massid_craft_state_bytes(2) < sizeof(massid_flight_id), "identification fits the block");
+    check(massid_craft_state_bytes(3) < sizeof(massid_fixed_flight_id), "integer-float identification fits its block");
 
     check(massid_craft_from_params(NULL, &c) == MASSID_NULL_POINTER, "craft_from_params NULL");
     check(massid_craft_from_params(sp, &c) == MASSID_OK && c.count == 12 && c.planar == 0, "craft of SPH2");
@@ -248,6 +252,23 @@ static void craft_selftest(const massid_satellite_params *sp) {
     check(massid_f32_flight_id_push(&id, 0.0f, rate, 1, 0) == MASSID_OK, "push");
     check(massid_f32_flight_id_solve(&id, NULL) == MASSID_NULL_POINTER, "solve NULL out");
     check(massid_f32_flight_id_solve(&id, &res) == MASSID_NO_DATA, "solve without data");
+
+    /* The integer-float identification: its own block type, the same rules. */
+    memset(&fid, 0, sizeof fid);
+    check(massid_fixed_flight_id_finish(&fid) == MASSID_NOT_INITIALISED, "fixed flight_id before init");
+    check(massid_fixed_flight_id_init(NULL, &c, &st) == MASSID_NULL_POINTER, "fixed flight_id NULL block");
+    {
+        massid_flight_id_settings bad = st;
+        bad.inertia_kgm2[0] = 0.0f;
+        bad.inertia_kgm2[1] = 0.0f;
+        bad.inertia_kgm2[2] = 0.0f;
+        check(massid_fixed_flight_id_init(&fid, &c, &bad) == MASSID_BAD_PARAMETERS,
+              "fixed flight_id singular inertia");
+    }
+    check(massid_fixed_flight_id_init(&fid, &c, &st) == MASSID_OK, "fixed flight_id init");
+    check(massid_fixed_flight_id_push(&fid, 0.001f, NULL, 1, 0) == MASSID_NULL_POINTER, "fixed push NULL rate");
+    check(massid_fixed_flight_id_push(&fid, 0.0f, rate, 1, 0) == MASSID_OK, "fixed push");
+    check(massid_fixed_flight_id_solve(&fid, &res) == MASSID_NO_DATA, "fixed solve without data");
 }
 
 static int read_hex_f32(const char *tok, float *out) {
@@ -281,9 +302,11 @@ static int read_floats(float *v, int n) {
  *   id INERTIA[6] COM[3] PERIOD            (--flight-id: nominal mass properties, period s)
  *   s DT R0 R1 R2 VALID WORD               (--flight-id: one sample) */
 #define MAX_CMDS 256
+/* flight_id: 0 mixer commands, 1 the f32 identification, 2 the integer-float one. */
 static int run_craft_file(const char *path, int flight_id) {
     static massid_craft_mixer cm;
     static massid_flight_id id;
+    static massid_fixed_flight_id fid;
     massid_craft c;
     int32_t com[3] = {0, 0, 0};
     static int32_t cmds[MAX_CMDS][6];
@@ -343,7 +366,7 @@ static int run_craft_file(const char *path, int flight_id) {
             printf(" axes ");
             print_flags(st.axes, 3);
             printf("\n");
-            s = massid_f32_flight_id_init(&id, &c, &st);
+            s = flight_id == 2 ? massid_fixed_flight_id_init(&fid, &c, &st) : massid_f32_flight_id_init(&id, &c, &st);
             printf("init status=%d\n", (int)s);
             if (s != MASSID_OK) {
                 fclose(fp);
@@ -354,8 +377,10 @@ static int run_craft_file(const char *path, int flight_id) {
             float v[4];
             const char *va, *w;
             if (!have_id || !read_floats(v, 4) || !(va = next_tok()) || !(w = next_tok())) goto bad;
-            if (massid_f32_flight_id_push(&id, v[0], v + 1, (uint8_t)strtoul(va, NULL, 10),
-                                          (uint16_t)strtoul(w, NULL, 10)) != MASSID_OK)
+            uint8_t valid = (uint8_t)strtoul(va, NULL, 10);
+            uint16_t word = (uint16_t)strtoul(w, NULL, 10);
+            if ((flight_id == 2 ? massid_fixed_flight_id_push(&fid, v[0], v + 1, valid, word)
+                                : massid_f32_flight_id_push(&id, v[0], v + 1, valid, word)) != MASSID_OK)
                 goto bad;
             samples++;
         } else {
@@ -367,8 +392,13 @@ static int run_craft_file(const char *path, int flight_id) {
         massid_flight_id_result r;
         massid_status s;
         if (!have_id) return 1;
-        massid_f32_flight_id_finish(&id);
-        s = massid_f32_flight_id_solve(&id, &r);
+        if (flight_id == 2) {
+            massid_fixed_flight_id_finish(&fid);
+            s = massid_fixed_flight_id_solve(&fid, &r);
+        } else {
+            massid_f32_flight_id_finish(&id);
+            s = massid_f32_flight_id_solve(&id, &r);
+        }
         printf("solve status=%d samples=%ld", (int)s, samples);
         if (s == MASSID_OK) {
             printf(" steps=%u pd=%d timing=%d", r.steps, r.positive_definite, r.has_timing_statistic);
@@ -554,11 +584,12 @@ int main(int argc, char **argv) {
     if (argc == 2 && strcmp(argv[1], "--selftest") == 0) return selftest();
     if (argc == 3 && strcmp(argv[1], "--craft") == 0) return run_craft_file(argv[2], 0);
     if (argc == 3 && strcmp(argv[1], "--flight-id") == 0) return run_craft_file(argv[2], 1);
+    if (argc == 3 && strcmp(argv[1], "--fixed-flight-id") == 0) return run_craft_file(argv[2], 2);
     if (argc == 3 && strcmp(argv[1], "--options") == 0) {
         g_opts = &OPTIONS;
         g_gaps_at_once = 1;
     } else if (argc != 2) {
-        fprintf(stderr, "usage: capi_run --selftest | capi_run [--options] RECORDING.csv | capi_run --craft|--flight-id FILE\n");
+        fprintf(stderr, "usage: capi_run --selftest | capi_run [--options] RECORDING.csv | capi_run --craft|--flight-id|--fixed-flight-id FILE\n");
         return 2;
     }
     size_t n = 0;

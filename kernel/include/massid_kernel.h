@@ -210,9 +210,11 @@ massid_status massid_f32_mix(massid_mixer *m, const float force_n[3], const floa
 /* ==== Any craft: 1-16 thrusters, 3-D or planar (kernel/src/capi/craft.rs) ==== */
 
 #define MASSID_MAX_THRUSTERS 16
-/* Bytes reserved for the opaque blocks (capi/craft.rs: CRAFT_MIXER_BYTES, FLIGHT_ID_BYTES). */
+/* Bytes reserved for the opaque blocks (capi/craft.rs: CRAFT_MIXER_BYTES, FLIGHT_ID_BYTES,
+ * FIXED_FLIGHT_ID_BYTES). */
 #define MASSID_CRAFT_MIXER_BYTES 2048
 #define MASSID_FLIGHT_ID_BYTES 20480
+#define MASSID_FIXED_FLIGHT_ID_BYTES 32768
 /* Terms of the identification: inverse inertia xx yy zz xy xz yz, CoM x y z. */
 #define MASSID_ID_TERMS 9
 #define MASSID_ID_MAX_NOISE_ORDER 2
@@ -240,6 +242,11 @@ typedef struct massid_craft_mixer {
 typedef struct massid_flight_id {
     uint64_t opaque[MASSID_FLIGHT_ID_BYTES / 8];
 } massid_flight_id;
+
+/* The identification in the integer float (targets without an FPU): a larger block. */
+typedef struct massid_fixed_flight_id {
+    uint64_t opaque[MASSID_FIXED_FLIGHT_ID_BYTES / 8];
+} massid_fixed_flight_id;
 
 /* Identification settings (massid_flight_id_settings_default fills the ground tool's). */
 typedef struct massid_flight_id_settings {
@@ -275,9 +282,10 @@ typedef struct massid_flight_id_result {
 } massid_flight_id_result;
 
 /* Layout checks (0 craft, 1 craft firing, 2 craft mixer block, 3 flight_id block,
- * 4 flight_id settings, 5 flight_id result). */
+ * 4 flight_id settings, 5 flight_id result, 6 fixed flight_id block). */
 uint32_t massid_craft_type_size(uint32_t which);
-/* Kernel state inside a block: 1 fixed craft mixer, 0 f32 craft mixer, 2 identification. */
+/* Kernel state inside a block: 1 fixed craft mixer, 0 f32 craft mixer, 2 identification,
+ * 3 integer-float identification. */
 uint32_t massid_craft_state_bytes(uint8_t which);
 /* The SPHERES parameters as a craft (12 thrusters, 3-D). */
 massid_status massid_craft_from_params(const massid_satellite_params *params, massid_craft *out);
@@ -297,7 +305,8 @@ massid_status massid_f32_craft_mix(massid_craft_mixer *m, const float force_n[3]
                                    const float torque_nm[3], massid_craft_firing *out);
 massid_status massid_f32_craft_mixer_rule(massid_craft_mixer *m, uint8_t *opposing_pairs);
 
-/* Identification from any flight (f32 only: Q8.24 cannot hold its sums). */
+/* Identification from any flight, in f32 (massid_f32_*) or in the integer float
+ * (massid_fixed_*: integer instructions; same settings, samples and f32 result). */
 massid_status massid_flight_id_settings_default(const massid_craft *craft, const float inertia_kgm2[6],
                                                 const float com_m[3], float period_s,
                                                 massid_flight_id_settings *out);
@@ -314,6 +323,17 @@ massid_status massid_f32_flight_id_push_wrench(massid_flight_id *id, float dt_s,
 massid_status massid_f32_flight_id_finish(massid_flight_id *id);
 /* Outside the tick (copies the sums: ~14 KB of stack). */
 massid_status massid_f32_flight_id_solve(massid_flight_id *id, massid_flight_id_result *out);
+massid_status massid_fixed_flight_id_init(massid_fixed_flight_id *id, const massid_craft *craft,
+                                          const massid_flight_id_settings *settings);
+massid_status massid_fixed_flight_id_push(massid_fixed_flight_id *id, float dt_s,
+                                          const float rate_rad_s[3], uint8_t valid,
+                                          uint16_t thrusters);
+massid_status massid_fixed_flight_id_push_wrench(massid_fixed_flight_id *id, float dt_s,
+                                                 const float rate_rad_s[3], uint8_t valid,
+                                                 const float wrench[6]);
+massid_status massid_fixed_flight_id_finish(massid_fixed_flight_id *id);
+/* Outside the tick (copies the sums: ~28 KB of stack). */
+massid_status massid_fixed_flight_id_solve(massid_fixed_flight_id *id, massid_flight_id_result *out);
 
 #ifdef __cplusplus
 }

@@ -333,8 +333,11 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
 
 // ---- any craft: the craft mixer and the identification through the C ABI ----
 
-use massid_kernel::craft::Thruster;
+use massid_kernel::craft::{Craft, Thruster};
 use massid_kernel::craft_mixer::CraftMixer;
+use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig};
+use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+use massid_kernel::IntFloat;
 use rand::{Rng, SeedableRng};
 use reference_f64::satellite::Satellite;
 
@@ -594,9 +597,7 @@ fn settings_from_line(
 /// `massid_flight_id_settings_default` gives the ground tool's settings.
 #[test]
 fn c_flight_id_matches_the_rust_flight_id() {
-    use massid_kernel::craft::Craft;
-    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, MAX_ORDER};
-    use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+    use massid_kernel::flight_id::solve::MAX_ORDER;
     use massid_tests::identification_mc::{fly, Condition};
     use reference_f64::flight_id::flight::Command as Cmd;
 
@@ -720,7 +721,8 @@ fn c_flight_id_matches_the_rust_flight_id() {
             "{name}"
         );
 
-        // The same run through the Rust API.
+        // The same run through the Rust API, in f32 and in the integer float (the C ABI's
+        // settings are f32; each reaches the format by its exact conversion).
         let cfg = FlightIdConfig {
             period_s: period,
             sensor: SensorResponse::Point,
@@ -731,7 +733,7 @@ fn c_flight_id_matches_the_rust_flight_id() {
             turn_window,
             skip,
             solve: SolveConfig {
-                j_nominal: inverse_inertia(&inertia).expect("inertia"),
+                j_nominal: [0.0; 6],
                 free,
                 axes,
                 gyroscopic: gyro,
@@ -739,57 +741,117 @@ fn c_flight_id_matches_the_rust_flight_id() {
                 scale,
             },
         };
-        let table = Craft::<f32>::new(&thrusters, com, sat.pressure_drop_n_per_extra as f32)
-            .expect("craft");
-        let mut id = FlightId::new(cfg).expect("flight id");
-        for (dt, r, valid, w) in &samples {
-            id.push(*dt, *r, *valid, table.wrench(*w));
-        }
-        id.finish();
-        let mut expected = String::new();
-        match id.solve() {
-            Ok(s) => {
-                let _ = write!(
-                    expected,
-                    "solve status=0 samples={} steps={} pd={} timing={} {}",
-                    samples.len(),
-                    s.steps,
-                    u8::from(s.positive_definite),
-                    u8::from(s.timing_statistic.is_some()),
-                    hx(s.timing_statistic.unwrap_or(0.0))
-                );
-                expected.push_str(" theta");
-                for v in s.theta {
-                    let _ = write!(expected, " {}", hx(v));
-                }
-                expected.push_str(" held ");
-                for h in s.held {
-                    expected.push(if h { '1' } else { '0' });
-                }
-                expected.push_str(" noise");
-                for n in s.noise {
-                    let _ = write!(expected, " {}", n.order);
-                    for p in n.phi {
-                        let _ = write!(expected, " {}", hx(p));
-                    }
-                    let _ = write!(expected, " {}", hx(n.sigma2));
-                }
-                expected.push_str(" cov");
-                for row in s.covariance {
-                    for v in row {
-                        let _ = write!(expected, " {}", hx(v));
-                    }
-                }
-                println!(
-                    "{name}: {} samples, theta {:?}, held {:?}, timing {:?}",
-                    samples.len(),
-                    s.theta,
-                    s.held,
-                    s.timing_statistic
-                );
-            }
-            Err(e) => panic!("{name}: the Rust FlightId gives {e:?}"),
-        }
+        let drop = sat.pressure_drop_n_per_extra as f32;
+        let expected =
+            rust_flight_id_line::<f32>(name, &cfg, &inertia, &thrusters, com, drop, &samples);
         compare_lines(name, &lines.collect::<Vec<_>>().join("\n"), &expected);
+        let c_fixed = String::from_utf8(
+            run(Command::new(&exe).arg("--fixed-flight-id").arg(&path), name).stdout,
+        )
+        .expect("utf-8");
+        let mut fixed_lines = c_fixed.lines();
+        assert_eq!(
+            fixed_lines.next(),
+            Some(settings_line),
+            "{name}: fixed settings"
+        );
+        assert_eq!(
+            fixed_lines.next(),
+            Some("init status=0"),
+            "{name}: fixed init"
+        );
+        let expected =
+            rust_flight_id_line::<IntFloat>(name, &cfg, &inertia, &thrusters, com, drop, &samples);
+        compare_lines(
+            &format!("{name} (integer float)"),
+            &fixed_lines.collect::<Vec<_>>().join("\n"),
+            &expected,
+        );
     }
+}
+
+/// What `capi_run --flight-id` (f32) or `--fixed-flight-id` (the integer float) prints after
+/// its settings and init lines, made through the Rust API in format `S`: `cfg` is the f32
+/// settings (its nominal inverse inertia is recomputed in `S` from `inertia`, as the C ABI
+/// does).
+fn rust_flight_id_line<S: Scalar>(
+    name: &str,
+    cfg: &FlightIdConfig<f32>,
+    inertia: &[f32; 6],
+    thrusters: &[Thruster],
+    com: [f32; 3],
+    drop: f32,
+    samples: &[(f32, [f32; 3], bool, u16)],
+) -> String {
+    let c = S::from_f32;
+    let cfg = FlightIdConfig {
+        period_s: c(cfg.period_s),
+        sensor: cfg.sensor,
+        delay_periods: cfg.delay_periods,
+        cut_at_changes: cfg.cut_at_changes,
+        max_window: cfg.max_window,
+        max_window_turn_rad: c(cfg.max_window_turn_rad),
+        turn_window: cfg.turn_window,
+        skip: cfg.skip,
+        solve: SolveConfig {
+            j_nominal: inverse_inertia(&inertia.map(c)).expect("inertia"),
+            free: cfg.solve.free,
+            axes: cfg.solve.axes,
+            gyroscopic: cfg.solve.gyroscopic,
+            max_noise_order: cfg.solve.max_noise_order,
+            scale: cfg.solve.scale.map(c),
+        },
+    };
+    let table = Craft::<S>::new(thrusters, com, drop).expect("craft");
+    let mut id = FlightId::new(cfg).expect("flight id");
+    for (dt, r, valid, w) in samples {
+        id.push(c(*dt), r.map(c), *valid, table.wrench(*w));
+    }
+    id.finish();
+    let h = |v: S| hx(v.to_f32());
+    let mut expected = String::new();
+    match id.solve() {
+        Ok(s) => {
+            let _ = write!(
+                expected,
+                "solve status=0 samples={} steps={} pd={} timing={} {}",
+                samples.len(),
+                s.steps,
+                u8::from(s.positive_definite),
+                u8::from(s.timing_statistic.is_some()),
+                s.timing_statistic.map_or(hx(0.0), h)
+            );
+            expected.push_str(" theta");
+            for v in s.theta {
+                let _ = write!(expected, " {}", h(v));
+            }
+            expected.push_str(" held ");
+            for held in s.held {
+                expected.push(if held { '1' } else { '0' });
+            }
+            expected.push_str(" noise");
+            for n in s.noise {
+                let _ = write!(expected, " {}", n.order);
+                for p in n.phi {
+                    let _ = write!(expected, " {}", h(p));
+                }
+                let _ = write!(expected, " {}", h(n.sigma2));
+            }
+            expected.push_str(" cov");
+            for row in s.covariance {
+                for v in row {
+                    let _ = write!(expected, " {}", h(v));
+                }
+            }
+            println!(
+                "{name} ({}): {} samples, theta {:?}, held {:?}",
+                core::any::type_name::<S>(),
+                samples.len(),
+                s.theta.map(S::to_f32),
+                s.held
+            );
+        }
+        Err(e) => panic!("{name}: the Rust FlightId gives {e:?}"),
+    }
+    expected
 }

@@ -1,7 +1,8 @@
 //! C ABI for any craft (issue 23 item 4): a thruster table of 1-16 slots
 //! ([`MassidCraft`]), the craft's mixer ([`CraftMixer`], f32 and Q8.24 state blocks) and the
-//! onboard identification ([`FlightId`], f32 only: Q8.24 cannot hold its sums, see
-//! `kernel/README.md`). Same conventions as the SPHERES functions of the parent module:
+//! onboard identification ([`FlightId`]: in f32, and in the integer float [`IntFloat`] for
+//! targets without a floating-point unit, whose block is larger: Q8.24 cannot hold the sums,
+//! see `kernel/README.md`). Same conventions as the SPHERES functions of the parent module:
 //! caller-owned blocks with a magic word, every call a [`MassidStatus`], no panics.
 
 use core::mem::{align_of, size_of};
@@ -13,7 +14,8 @@ use crate::craft_mixer::CraftMixer;
 use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDER, NP};
 use crate::flight_id::{FlightId, FlightIdConfig, SensorResponse};
 use crate::mixer::MixerConfig;
-use crate::scalar::Q8_24;
+use crate::scalar::{Scalar, Q8_24};
+use crate::IntFloat;
 
 /// A craft's thruster table with C layout: `count` thrusters in the first slots (1-16),
 /// positions from the geometric centre.
@@ -62,6 +64,11 @@ pub const FLIGHT_ID_BYTES: usize = 20480;
 const MAGIC_FIXED_CRAFT_MIXER: u32 = 0x4d49_4643; // "MIFC"
 const MAGIC_F32_CRAFT_MIXER: u32 = 0x4d49_5343;
 const MAGIC_F32_FLIGHT_ID: u32 = 0x4d49_5349;
+const MAGIC_FIXED_FLIGHT_ID: u32 = 0x4d49_4649;
+
+/// Bytes reserved for an integer-float identification (header:
+/// `MASSID_FIXED_FLIGHT_ID_BYTES`): its numbers are 16 bytes where f32's are 4.
+pub const FIXED_FLIGHT_ID_BYTES: usize = 32768;
 
 /// Opaque craft mixer block.
 #[repr(C, align(8))]
@@ -75,11 +82,17 @@ pub struct MassidFlightId {
     bytes: [u8; FLIGHT_ID_BYTES],
 }
 
+/// Opaque integer-float identification block (`massid_fixed_flight_id_*`).
+#[repr(C, align(8))]
+pub struct MassidFixedFlightId {
+    bytes: [u8; FIXED_FLIGHT_ID_BYTES],
+}
+
 /// What an identification block holds: the craft's wrench table (thruster word -> body
-/// wrench) and the identification.
-struct FlightIdState {
-    craft: Craft<f32>,
-    id: FlightId<f32>,
+/// wrench) and the identification, in one number format.
+struct FlightIdState<S> {
+    craft: Craft<S>,
+    id: FlightId<S>,
 }
 
 // The header's MASSID_MAX_THRUSTERS, MASSID_ID_TERMS and MASSID_ID_MAX_NOISE_ORDER.
@@ -90,8 +103,11 @@ const _: () = assert!(
     align_of::<super::Slot<CraftMixer<Q8_24>>>() <= 8
         && align_of::<super::Slot<CraftMixer<f32>>>() <= 8
 );
-const _: () = assert!(size_of::<super::Slot<FlightIdState>>() <= FLIGHT_ID_BYTES);
-const _: () = assert!(align_of::<super::Slot<FlightIdState>>() <= 8);
+const _: () = assert!(size_of::<super::Slot<FlightIdState<f32>>>() <= FLIGHT_ID_BYTES);
+const _: () = assert!(align_of::<super::Slot<FlightIdState<f32>>>() <= 8);
+const _: () =
+    assert!(size_of::<super::Slot<FlightIdState<IntFloat>>>() <= FIXED_FLIGHT_ID_BYTES);
+const _: () = assert!(align_of::<super::Slot<FlightIdState<IntFloat>>>() <= 8);
 
 /// The thrusters of `c` and their count, or `None` if the count is not 1-16 or a value is not
 /// a finite number (thrust positive, pressure drop non-negative).
@@ -186,7 +202,8 @@ pub unsafe extern "C" fn massid_craft_from_params(
 
 /// Size in bytes of a craft ABI type as Rust lays it out: 0 `massid_craft`, 1
 /// `massid_craft_firing`, 2 `massid_craft_mixer`, 3 `massid_flight_id`, 4
-/// `massid_flight_id_settings`, 5 `massid_flight_id_result`; 0 for any other code.
+/// `massid_flight_id_settings`, 5 `massid_flight_id_result`, 6 `massid_fixed_flight_id`; 0 for
+/// any other code.
 #[no_mangle]
 pub extern "C" fn massid_craft_type_size(which: u32) -> u32 {
     let n = match which {
@@ -196,18 +213,20 @@ pub extern "C" fn massid_craft_type_size(which: u32) -> u32 {
         3 => size_of::<MassidFlightId>(),
         4 => size_of::<MassidFlightIdSettings>(),
         5 => size_of::<MassidFlightIdResult>(),
+        6 => size_of::<MassidFixedFlightId>(),
         _ => 0,
     };
     u32::try_from(n).unwrap_or(0)
 }
 
 /// Bytes of the kernel state inside a craft mixer block (`fixed_point` non-zero: Q8.24) or,
-/// for `fixed_point == 2`, inside an identification block.
+/// for `fixed_point == 2`, inside an identification block (3: the integer-float one).
 #[no_mangle]
 pub extern "C" fn massid_craft_state_bytes(fixed_point: u8) -> u32 {
     let n = match fixed_point {
         0 => size_of::<CraftMixer<f32>>(),
-        2 => size_of::<FlightIdState>(),
+        2 => size_of::<FlightIdState<f32>>(),
+        3 => size_of::<FlightIdState<IntFloat>>(),
         _ => size_of::<CraftMixer<Q8_24>>(),
     };
     u32::try_from(n).unwrap_or(u32::MAX)
@@ -442,7 +461,9 @@ fn sensor_of(code: u8) -> Option<SensorResponse> {
 }
 
 /// The kernel's configuration for `s`, or `None` if a setting is out of range.
-fn flight_id_config(s: &MassidFlightIdSettings) -> Option<FlightIdConfig<f32>> {
+/// (The settings are f32; each reaches `S` by its exact `from_f32`, and the nominal inverse
+/// inertia is computed in `S`, so the integer float's path has no floating-point instruction.)
+fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdConfig<S>> {
     let finite = s
         .inertia_kgm2
         .iter()
@@ -456,14 +477,14 @@ fn flight_id_config(s: &MassidFlightIdSettings) -> Option<FlightIdConfig<f32>> {
     if !finite {
         return None;
     }
-    let j_nominal = inverse_inertia(&s.inertia_kgm2)?;
+    let j_nominal = inverse_inertia(&s.inertia_kgm2.map(S::from_f32))?;
     Some(FlightIdConfig {
-        period_s: s.period_s,
+        period_s: S::from_f32(s.period_s),
         sensor: sensor_of(s.sensor)?,
         delay_periods: s.delay_periods,
         cut_at_changes: s.cut_at_changes != 0,
         max_window: s.max_window,
-        max_window_turn_rad: s.max_window_turn_rad,
+        max_window_turn_rad: S::from_f32(s.max_window_turn_rad),
         turn_window: s.turn_window,
         skip: s.skip,
         solve: SolveConfig {
@@ -472,7 +493,7 @@ fn flight_id_config(s: &MassidFlightIdSettings) -> Option<FlightIdConfig<f32>> {
             axes: s.axes.map(|v| v != 0),
             gyroscopic: s.gyroscopic != 0,
             max_noise_order: s.max_noise_order,
-            scale: s.scale,
+            scale: s.scale.map(S::from_f32),
         },
     })
 }
@@ -585,21 +606,18 @@ fn libm_sqrt(x: f32) -> f32 {
     y
 }
 
-/// Initialises an identification block for `craft` with `settings` (f32; the Q8.24 kernel
-/// cannot hold the identification's sums).
+/// Initialises the identification in `block` (checked non-NULL by the caller; a block of the
+/// format's size, see the asserts) for `craft` with `settings`.
 ///
 /// # Safety
-/// `block` is NULL or points to a writable, 8-aligned `massid_flight_id`; `craft` and
-/// `settings` are NULL or point to a readable `massid_craft` / `massid_flight_id_settings`.
-#[no_mangle]
-pub unsafe extern "C" fn massid_f32_flight_id_init(
-    block: *mut MassidFlightId,
+/// `block` points to a writable, 8-aligned block of at least `size_of::<Slot<FlightIdState<S>>>()`
+/// bytes; `craft` and `settings` are NULL or readable.
+unsafe fn flight_id_init<S: Scalar>(
+    block: *mut u8,
+    magic: u32,
     craft: *const MassidCraft,
     settings: *const MassidFlightIdSettings,
 ) -> MassidStatus {
-    if block.is_null() {
-        return MassidStatus::NullPointer;
-    }
     // SAFETY: NULL or readable (caller's contract).
     let (c, t, n) = match unsafe { read_craft(craft) } {
         Ok(v) => v,
@@ -609,53 +627,47 @@ pub unsafe extern "C" fn massid_f32_flight_id_init(
     let Some(s) = (unsafe { settings.as_ref() }) else {
         return MassidStatus::NullPointer;
     };
-    let Some(cfg) = flight_id_config(s) else {
+    let Some(cfg) = flight_id_config::<S>(s) else {
         return MassidStatus::BadParameters;
     };
     let Some(table) = t.get(..n) else {
         return MassidStatus::BadParameters;
     };
-    let Ok(craft) = Craft::<f32>::new(table, s.com_m, c.pressure_drop_n_per_extra) else {
+    let Ok(craft) = Craft::<S>::new(table, s.com_m, c.pressure_drop_n_per_extra) else {
         return MassidStatus::BadParameters;
     };
     let Some(id) = FlightId::new(cfg) else {
         return MassidStatus::BadParameters;
     };
-    // SAFETY: non-NULL MassidFlightId (size/alignment asserted above).
-    unsafe {
-        store(
-            block.cast::<u8>(),
-            MAGIC_F32_FLIGHT_ID,
-            FlightIdState { craft, id },
-        )
-    };
+    // SAFETY: the caller's contract (size and alignment asserted at compile time).
+    unsafe { store(block, magic, FlightIdState { craft, id }) };
     MassidStatus::Ok
 }
 
-fn with_flight_id(
-    block: *mut MassidFlightId,
-    f: impl FnOnce(&mut FlightIdState) -> MassidStatus,
+/// Runs `f` on the identification in `block`, or says why not.
+fn with_flight_id<S: Scalar>(
+    block: *mut u8,
+    magic: u32,
+    f: impl FnOnce(&mut FlightIdState<S>) -> MassidStatus,
 ) -> MassidStatus {
     if block.is_null() {
         return MassidStatus::NullPointer;
     }
-    // SAFETY: non-NULL MassidFlightId; only a block written by the init has the magic.
-    match unsafe { load::<FlightIdState>(block.cast::<u8>(), MAGIC_F32_FLIGHT_ID) } {
+    // SAFETY: non-NULL block of the format's type; only a block written by the init of that
+    // format has the magic.
+    match unsafe { load::<FlightIdState<S>>(block, magic) } {
         Some(slot) => f(&mut slot.value),
         None => MassidStatus::NotInitialised,
     }
 }
 
-/// One sample: `dt_s` since the previous sample, the measured body rate (3 floats, rad/s;
-/// `valid` zero for a missing or railed sample) and the thruster word commanded from this
-/// sample until the next (bit i = thruster i+1).
+/// One sample with a thruster word (see `massid_f32_flight_id_push`).
 ///
 /// # Safety
-/// `block` is NULL or points to a `massid_flight_id`; `rate_rad_s` is NULL or points to
-/// three readable floats.
-#[no_mangle]
-pub unsafe extern "C" fn massid_f32_flight_id_push(
-    block: *mut MassidFlightId,
+/// `block` as for [`with_flight_id`]; `rate_rad_s` NULL or three readable floats.
+unsafe fn flight_id_push<S: Scalar>(
+    block: *mut u8,
+    magic: u32,
     dt_s: f32,
     rate_rad_s: *const f32,
     valid: u8,
@@ -666,21 +678,21 @@ pub unsafe extern "C" fn massid_f32_flight_id_push(
     }
     // SAFETY: non-NULL; the caller passes three floats.
     let rate = unsafe { rate_rad_s.cast::<[f32; 3]>().read_unaligned() };
-    with_flight_id(block, |st| {
+    with_flight_id::<S>(block, magic, |st| {
         let w = st.craft.wrench(thrusters);
-        st.id.push(dt_s, rate, valid != 0, w);
+        st.id
+            .push(S::from_f32(dt_s), rate.map(S::from_f32), valid != 0, w);
         MassidStatus::Ok
     })
 }
 
-/// As `massid_f32_flight_id_push` with a commanded body wrench instead of a thruster word:
-/// 6 floats, torque about the model's CoM (N m) then force (N).
+/// One sample with a body wrench (see `massid_f32_flight_id_push_wrench`).
 ///
 /// # Safety
-/// As `massid_f32_flight_id_push`; `wrench` is NULL or points to six readable floats.
-#[no_mangle]
-pub unsafe extern "C" fn massid_f32_flight_id_push_wrench(
-    block: *mut MassidFlightId,
+/// As [`flight_id_push`]; `wrench` NULL or six readable floats.
+unsafe fn flight_id_push_wrench<S: Scalar>(
+    block: *mut u8,
+    magic: u32,
     dt_s: f32,
     rate_rad_s: *const f32,
     valid: u8,
@@ -696,47 +708,42 @@ pub unsafe extern "C" fn massid_f32_flight_id_push_wrench(
             wrench.cast::<[f32; 6]>().read_unaligned(),
         )
     };
-    with_flight_id(block, |st| {
-        st.id.push(dt_s, rate, valid != 0, w);
+    with_flight_id::<S>(block, magic, |st| {
+        st.id.push(
+            S::from_f32(dt_s),
+            rate.map(S::from_f32),
+            valid != 0,
+            w.map(S::from_f32),
+        );
         MassidStatus::Ok
     })
 }
 
-/// Ends the flight (closes the open window; call before the final solve).
-///
-/// # Safety
-/// `block` is NULL or points to a `massid_flight_id`.
-#[no_mangle]
-pub unsafe extern "C" fn massid_f32_flight_id_finish(block: *mut MassidFlightId) -> MassidStatus {
-    with_flight_id(block, |st| {
+/// Closes the open window.
+fn flight_id_finish<S: Scalar>(block: *mut u8, magic: u32) -> MassidStatus {
+    with_flight_id::<S>(block, magic, |st| {
         st.id.finish();
         MassidStatus::Ok
     })
 }
 
-/// Fits the mass properties to the windows closed so far (a background task's work: it
-/// copies the sums, about 14 KB of stack). Errors: `MASSID_NO_DATA`, `MASSID_SINGULAR`,
-/// `MASSID_OVERFLOW`, `MASSID_NOT_CONVERGED`.
-///
-/// # Safety
-/// `block` is NULL or points to a `massid_flight_id`; `out` is NULL or points to a writable
-/// `massid_flight_id_result`.
-#[no_mangle]
-pub unsafe extern "C" fn massid_f32_flight_id_solve(
-    block: *mut MassidFlightId,
+/// Fits and writes the result in f32 (see `massid_f32_flight_id_solve`).
+fn flight_id_solve<S: Scalar>(
+    block: *mut u8,
+    magic: u32,
     out: *mut MassidFlightIdResult,
 ) -> MassidStatus {
     if out.is_null() {
         return MassidStatus::NullPointer;
     }
-    with_flight_id(block, |st| match st.id.solve() {
+    with_flight_id::<S>(block, magic, |st| match st.id.solve() {
         Ok(sol) => {
             let mut r = MassidFlightIdResult {
-                theta: sol.theta,
-                covariance: sol.covariance,
+                theta: sol.theta.map(S::to_f32),
+                covariance: sol.covariance.map(|row| row.map(S::to_f32)),
                 noise_phi: [[0.0; MAX_ORDER]; 3],
                 noise_sigma2: [0.0; 3],
-                timing_statistic: sol.timing_statistic.unwrap_or(0.0),
+                timing_statistic: sol.timing_statistic.map_or(0.0, S::to_f32),
                 steps: sol.steps,
                 held: sol.held.map(u8::from),
                 noise_order: [0; 3],
@@ -745,10 +752,10 @@ pub unsafe extern "C" fn massid_f32_flight_id_solve(
             };
             for (a, n) in sol.noise.iter().enumerate() {
                 if let Some(p) = r.noise_phi.get_mut(a) {
-                    *p = n.phi;
+                    *p = n.phi.map(S::to_f32);
                 }
                 if let Some(s) = r.noise_sigma2.get_mut(a) {
-                    *s = n.sigma2;
+                    *s = n.sigma2.to_f32();
                 }
                 if let Some(o) = r.noise_order.get_mut(a) {
                     *o = n.order;
@@ -765,3 +772,116 @@ pub unsafe extern "C" fn massid_f32_flight_id_solve(
         },
     })
 }
+
+/// The identification's entry points for one block type, number format and magic word.
+macro_rules! flight_id_abi {
+    ($block:ty, $s:ty, $magic:expr, $what:literal,
+     $init:ident, $push:ident, $push_wrench:ident, $finish:ident, $solve:ident) => {
+        #[doc = concat!("Initialises an identification block for `craft` with `settings` (", $what, ").")]
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a writable, 8-aligned block of its type; `craft` and
+        /// `settings` are NULL or point to a readable `massid_craft` /
+        /// `massid_flight_id_settings`.
+        #[no_mangle]
+        pub unsafe extern "C" fn $init(
+            block: *mut $block,
+            craft: *const MassidCraft,
+            settings: *const MassidFlightIdSettings,
+        ) -> MassidStatus {
+            if block.is_null() {
+                return MassidStatus::NullPointer;
+            }
+            // SAFETY: non-NULL block of the type sized for this format (asserted above).
+            unsafe { flight_id_init::<$s>(block.cast::<u8>(), $magic, craft, settings) }
+        }
+
+        /// One sample: `dt_s` since the previous sample, the measured body rate (3 floats,
+        /// rad/s; `valid` zero for a missing or railed sample) and the thruster word commanded
+        /// from this sample until the next (bit i = thruster i+1).
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a block of its type; `rate_rad_s` is NULL or points to
+        /// three readable floats.
+        #[no_mangle]
+        pub unsafe extern "C" fn $push(
+            block: *mut $block,
+            dt_s: f32,
+            rate_rad_s: *const f32,
+            valid: u8,
+            thrusters: u16,
+        ) -> MassidStatus {
+            // SAFETY: the caller's contract, passed on.
+            unsafe {
+                flight_id_push::<$s>(block.cast::<u8>(), $magic, dt_s, rate_rad_s, valid, thrusters)
+            }
+        }
+
+        /// As the push with a thruster word, with a commanded body wrench instead: 6 floats,
+        /// torque about the model's CoM (N m) then force (N).
+        ///
+        /// # Safety
+        /// As the push; `wrench` is NULL or points to six readable floats.
+        #[no_mangle]
+        pub unsafe extern "C" fn $push_wrench(
+            block: *mut $block,
+            dt_s: f32,
+            rate_rad_s: *const f32,
+            valid: u8,
+            wrench: *const f32,
+        ) -> MassidStatus {
+            // SAFETY: the caller's contract, passed on.
+            unsafe {
+                flight_id_push_wrench::<$s>(block.cast::<u8>(), $magic, dt_s, rate_rad_s, valid, wrench)
+            }
+        }
+
+        /// Ends the flight (closes the open window; call before the final solve).
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a block of its type.
+        #[no_mangle]
+        pub unsafe extern "C" fn $finish(block: *mut $block) -> MassidStatus {
+            flight_id_finish::<$s>(block.cast::<u8>(), $magic)
+        }
+
+        /// Fits the mass properties to the windows closed so far (a background task's work: it
+        /// copies the sums onto the stack). Errors: `MASSID_NO_DATA`, `MASSID_SINGULAR`,
+        /// `MASSID_OVERFLOW`, `MASSID_NOT_CONVERGED`.
+        ///
+        /// # Safety
+        /// `block` is NULL or points to a block of its type; `out` is NULL or points to a
+        /// writable `massid_flight_id_result`.
+        #[no_mangle]
+        pub unsafe extern "C" fn $solve(
+            block: *mut $block,
+            out: *mut MassidFlightIdResult,
+        ) -> MassidStatus {
+            flight_id_solve::<$s>(block.cast::<u8>(), $magic, out)
+        }
+    };
+}
+
+flight_id_abi!(
+    MassidFlightId,
+    f32,
+    MAGIC_F32_FLIGHT_ID,
+    "f32",
+    massid_f32_flight_id_init,
+    massid_f32_flight_id_push,
+    massid_f32_flight_id_push_wrench,
+    massid_f32_flight_id_finish,
+    massid_f32_flight_id_solve
+);
+
+flight_id_abi!(
+    MassidFixedFlightId,
+    IntFloat,
+    MAGIC_FIXED_FLIGHT_ID,
+    "the integer float: its arithmetic in integer instructions; f32 at the boundary only, where the results are converted",
+    massid_fixed_flight_id_init,
+    massid_fixed_flight_id_push,
+    massid_fixed_flight_id_push_wrench,
+    massid_fixed_flight_id_finish,
+    massid_fixed_flight_id_solve
+);

@@ -131,9 +131,14 @@ fn model_check_says_whether_the_kernel_flies_the_craft() {
         .join("\n");
     let path = common::tmp("strong", "mix_any_craft").join("strong.toml");
     std::fs::write(&path, strong).unwrap();
-    let out = ok(&["model", "check", &s(&path)]);
+    let out = ok(&["model", "check", &s(&path), "--ranges"]);
     assert!(
         out.contains("Q8.24 CANNOT fly this craft: wrench T"),
+        "{out}"
+    );
+    // --ranges prints the envelope's table, the quantity past the limit marked.
+    assert!(
+        out.contains("DOES NOT FIT") && out.contains("OVERFLOW") && out.contains("wrench Tz"),
         "{out}"
     );
     // Two thrusters 1e-5 as strong as the others: the kernel cannot balance them in its

@@ -65,7 +65,7 @@ impl RangeReport {
                 "OVERFLOW"
             };
             s += &format!(
-                "  {:<24} [{:>12.6}, {:>12.6}]  {}\n",
+                "  {:<40} [{:>12.6}, {:>12.6}]  {}\n",
                 v.name,
                 v.range.lo(),
                 v.range.hi(),

@@ -14,6 +14,11 @@ pub enum Args {
     Check {
         /// Model file (TOML): either layout; or a built-in name (sph1..sph5).
         file: PathBuf,
+        /// Also print the craft's envelope in the kernel's fixed format: each quantity's
+        /// worst-case range against the format's limit (the interval run of the kernel's
+        /// wrench table over every thruster word).
+        #[arg(long)]
+        ranges: bool,
     },
 }
 
@@ -23,7 +28,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let m = ModelFile::read(&file)?;
             super::mix::emit(&m.to_toml_string())
         }
-        Args::Check { file } => {
+        Args::Check { file, ranges } => {
             let m = ModelFile::read(&file)?;
             let sat = &m.satellite;
             // Every craft is mixed: the seed's pair rules where thrusters come in SPHERES'
@@ -72,14 +77,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 format!("cannot produce {}", unreachable.join(", "))
             };
-            let mixer = format!("; {rule}, {reach}; {}", kernel_fit(sat));
-            super::mix::emit(&format!(
+            let (envelope, table) = fixed_envelope(sat);
+            let mixer = format!("; {rule}, {reach}; {}", kernel_fit(sat, &envelope));
+            let mut text = format!(
                 "{}: ok: satellite {}, {kind}, {} thrusters, {} effect(s) for the simulator{mixer}\n",
                 file.display(),
                 sat.name,
                 sat.n_thrusters(),
                 m.effects.len()
-            ))
+            );
+            if ranges {
+                text.push_str(&table);
+            }
+            super::mix::emit(&text)
         }
     }
 }
@@ -87,7 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// Whether the onboard kernel flies this craft: its mixer in f32 and Q8.24 against the f64
 /// reference on pure-axis commands (budgets `massid_kernel_host::craft::MIXER_BUDGET_*`),
 /// and which identification it runs.
-fn kernel_fit(sat: &reference_f64::satellite::Satellite) -> String {
+fn kernel_fit(sat: &reference_f64::satellite::Satellite, envelope: &str) -> String {
     use massid_kernel::scalar::Q8_24;
     use massid_kernel_host::craft::{
         axis_probes, mixer_deviation, MIXER_BUDGET_F32, MIXER_BUDGET_Q8_24,
@@ -128,21 +138,20 @@ fn kernel_fit(sat: &reference_f64::satellite::Satellite) -> String {
         });
     }
     format!(
-        "onboard kernel: {}; mixer vs f64 reference (worst pulse error, of the period) {}; identification f32 and integer float",
-        fixed_envelope(sat),
+        "onboard kernel: {envelope}; mixer vs f64 reference (worst pulse error, of the period) {}; identification f32 and integer float",
         parts.join(", ")
     )
 }
 
 /// Whether the craft's envelope fits the kernel's fixed format (`massid_proofs::craft_envelope`:
 /// the wrench table's interval run over every word, thrusts widened by their uncertainty, the
-/// CoM anywhere in the thrusters' box), naming the quantity that does not.
-fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> String {
+/// CoM anywhere in the thrusters' box), naming the quantity that does not; and the range table.
+fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> (String, String) {
     use massid_proofs::craft_envelope::{check, CraftEnvelope};
     use massid_proofs::interval::Format;
     let thrusters = match massid_kernel_host::craft::thrusters(sat) {
         Ok(t) => t,
-        Err(e) => return format!("Q8.24 CANNOT fly this craft: {e}"),
+        Err(e) => return (format!("Q8.24 CANNOT fly this craft: {e}"), String::new()),
     };
     let com = sat.com_m();
     let env = CraftEnvelope::new(
@@ -156,8 +165,16 @@ fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> String {
         Format::Q8_24,
         massid_kernel_host::craft::MIXER_BUDGET_Q8_24,
     ) {
-        Err(e) => format!("Q8.24 CANNOT fly this craft: {e}"),
-        Ok(fit) => match fit.refusal() {
+        Err(e) => (format!("Q8.24 CANNOT fly this craft: {e}"), String::new()),
+        Ok(fit) => {
+            let table = format!(
+                "{}  resolution: half a step is {:.1e} of the thrusters' {} (a duty error; budget {:.0e})\n",
+                fit.ranges.table(),
+                fit.duty_resolution,
+                fit.resolution_component,
+                fit.duty_budget
+            );
+            let verdict = match fit.refusal() {
             Some(why) => format!("Q8.24 CANNOT fly this craft: {why}"),
             None => format!(
                 "Q8.24 envelope fits (largest {} {:.3} of {}; half a step is {:.1e} of the thrusters' {})",
@@ -167,6 +184,8 @@ fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> String {
                 fit.duty_resolution,
                 fit.resolution_component
             ),
-        },
+            };
+            (verdict, table)
+        }
     }
 }

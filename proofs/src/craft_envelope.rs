@@ -1,28 +1,33 @@
 //! One craft's envelope, derived from its model, and whether the kernel's fixed-point format
-//! holds every quantity it keeps for that craft (issue 23 item 3).
+//! holds the craft's wrench table and the mixer's commands (issue 23 item 3).
 //!
 //! [`crate::envelope`] is SPHERES' envelope, written down once from the seed. Any other craft
-//! gets its own from its model file: each thruster's thrust widened by its stated uncertainty
-//! (or [`THRUST_MARGIN`] when none is stated), the CoM anywhere in the thrusters' bounding box
-//! (the mixer's lever arms are taken about the current CoM estimate), the pressure drop from
-//! none to the model's. Over that box the kernel's own code runs with [`Interval`] scalars in
-//! the format: [`Craft::wrench`] for **every** thruster word, which has no data-dependent
-//! branch, so one interval run per word covers every craft in the envelope.
+//! gets its own from its model file: each thruster's thrust widened by the larger of 4 sigma
+//! of its stated uncertainty and [`THRUST_MARGIN`]; the CoM anywhere in the box that holds
+//! the thrusters and the model's CoM, widened by [`COM_MARGIN`] of the craft's size (the
+//! mixer's lever arms are taken about the current CoM estimate); the pressure drop from none
+//! to the model's. Over that box the kernel's own code runs with [`Interval`] scalars in the
+//! format: [`Craft::wrench`] for **every** thruster word, which has no data-dependent branch,
+//! so one interval run per word covers every craft in the envelope. The table's inputs are
+//! widened by the f32 roundings [`Craft::new`] makes before they reach the format.
 //!
 //! What a craft can fail on, in the fixed format:
 //! * a range: a wrench component, the mixer's command (twice what the thrusters can do, so
 //!   that saturating commands are inside the envelope, as for SPHERES) or any intermediate
 //!   reaching the format's limit;
-//! * the resolution: the duties are linear in the command and a command is rounded into the
-//!   format (to nearest: up to half a step), so on the worst command the duty error is at
-//!   least half a step over the most the thrusters can give the component (all of them
-//!   firing the same sense, the whole period); it must stay below the mixer's budget against
-//!   the f64 reference. A necessary condition: `massid model check` also measures the mixer
-//!   against the reference on the pure-axis commands.
+//! * the resolution: a command is rounded into the format (to nearest: up to half a step).
+//!   Where the allocation is locally linear (`B du = dc` on a fixed set of firing
+//!   thrusters), a change `h` of one command component needs `h <= max|du| * sum_i |B_ki|`,
+//!   so on the worst command the duty error is at least half a step over the thrusters'
+//!   summed magnitude on that component (both senses, the whole period). It must stay below
+//!   the mixer's budget against the f64 reference: a necessary condition, judged on the
+//!   components the craft is commanded in (a planar craft: Fx, Fy, Tz). `massid model check`
+//!   also measures the mixer against the reference on the pure-axis commands.
 //!
-//! The allocation itself works in power-of-two scaled units (every quantity O(1) whatever the
-//! craft, `massid_kernel::allocation`), and the identification of any craft runs in the
-//! integer float, whose exponent (±2^20) holds the sums of any f32 inputs; neither needs a
+//! The allocation itself scales its rows by powers of two (every quantity's range O(1)
+//! whatever the craft, `massid_kernel::allocation`; its precision is what the resolution
+//! check and the measured mixer speak to), and the identification of any craft runs in f32 or
+//! the integer float, whose exponent (±2^20) holds the sums of any f32 inputs; neither needs a
 //! per-craft range. The Z3 obligations are about the integer primitives over all their inputs,
 //! so they hold for every envelope.
 
@@ -36,6 +41,12 @@ use massid_kernel::Scalar;
 pub const THRUST_MARGIN: f64 = 0.25;
 /// Sigmas of a stated thrust uncertainty the envelope spans (when wider than the margin).
 pub const THRUST_SIGMAS: f64 = 4.0;
+/// The CoM box's margin on each side, as a share of the largest distance of a thruster from
+/// the model's CoM (the estimate the mixer is rebuilt from may move).
+pub const COM_MARGIN: f64 = 0.1;
+/// Relative widening of the table's inputs for the f32 operations `Craft::new` makes before
+/// converting (lever, cross product, times the thrust: four roundings of 2^-24, doubled).
+const F32_INPUT_SLACK: f64 = 8.0 / 16_777_216.0;
 
 /// The component names of a wrench, in the kernel's order.
 const WRENCH: [&str; 6] = ["Tx", "Ty", "Tz", "Fx", "Fy", "Fz"];
@@ -53,17 +64,20 @@ pub struct CraftEnvelope {
     pub pressure_drop_n: (f64, f64),
     /// The model's CoM, m from the geometric centre (the resolution is taken about it).
     pub com_nominal_m: [f64; 3],
+    /// A planar craft: commanded in Fx, Fy and Tz only.
+    pub planar: bool,
 }
 
 impl CraftEnvelope {
     /// The envelope of a craft whose model states `thrusters`, per-thruster thrust sigmas
-    /// (N; empty or zero: none stated), a pressure drop (N per extra open thruster) and its
-    /// CoM `com_nominal_m` (m from the geometric centre).
+    /// (N; empty or zero: none stated), a pressure drop (N per extra open thruster), its
+    /// CoM `com_nominal_m` (m from the geometric centre), and whether it is `planar`.
     pub fn new(
         thrusters: &[Thruster],
         thrust_sigma_n: &[f64],
         pressure_drop_n: f64,
         com_nominal_m: [f64; 3],
+        planar: bool,
     ) -> Self {
         let thrust_n = thrusters
             .iter()
@@ -75,25 +89,30 @@ impl CraftEnvelope {
                 ((nominal - half).max(0.0), nominal + half)
             })
             .collect();
-        let mut com_m = [(f64::INFINITY, f64::NEG_INFINITY); 3];
+        let mut com_m = com_nominal_m.map(|c| (c, c));
+        let mut reach = 0.0f64;
         for t in thrusters {
-            for (c, p) in com_m.iter_mut().zip(t.pos_m) {
+            let mut d2 = 0.0;
+            for ((c, p), n) in com_m.iter_mut().zip(t.pos_m).zip(com_nominal_m) {
                 let p = f64::from(p);
                 *c = (c.0.min(p), c.1.max(p));
+                d2 += (p - n) * (p - n);
             }
+            reach = reach.max(d2.sqrt());
         }
+        let margin = COM_MARGIN * reach;
         CraftEnvelope {
             thrusters: thrusters.to_vec(),
             thrust_n,
-            com_m: com_m.map(|c| if c.0 <= c.1 { c } else { (0.0, 0.0) }),
+            com_m: com_m.map(|(lo, hi)| (lo - margin, hi + margin)),
             pressure_drop_n: (0.0, pressure_drop_n.max(0.0)),
             com_nominal_m,
+            planar,
         }
     }
 
-    /// Per wrench component, the most the thrusters give it at their nominal thrust about the
-    /// model's CoM, firing together the same sense (N m, N); 0 for a component no thruster
-    /// acts on.
+    /// Per wrench component, the thrusters' summed magnitude on it at their nominal thrust
+    /// about the model's CoM, `sum_i |B_ki|` (N m, N); 0 for a component no thruster acts on.
     pub fn authority(&self) -> [f64; 6] {
         let mut plus = [0.0f64; 6];
         let mut minus = [0.0f64; 6];
@@ -113,7 +132,7 @@ impl CraftEnvelope {
                 *m += (-v).max(0.0);
             }
         }
-        core::array::from_fn(|k| plus[k].max(minus[k]))
+        core::array::from_fn(|k| plus[k] + minus[k])
     }
 }
 
@@ -184,6 +203,8 @@ pub fn check(env: &CraftEnvelope, format: Format, duty_budget: f64) -> Result<Cr
     interval::set_format(format);
     interval::reset_watch();
     let com = env.com_m.map(Interval::of);
+    // The f32 operations of `Craft::new` (the model's path) round before the format does.
+    let f32_ops = Interval::of((1.0 - F32_INPUT_SLACK, 1.0 + F32_INPUT_SLACK));
     let unit: Vec<[Interval; 6]> = env
         .thrusters
         .iter()
@@ -192,10 +213,14 @@ pub fn check(env: &CraftEnvelope, format: Format, duty_budget: f64) -> Result<Cr
             let lever: [Interval; 3] =
                 core::array::from_fn(|k| Interval::point(f64::from(t.pos_m[k])) - com[k]);
             let torque = cross(lever, dir);
-            [torque[0], torque[1], torque[2], dir[0], dir[1], dir[2]]
+            [torque[0], torque[1], torque[2], dir[0], dir[1], dir[2]].map(|v| v * f32_ops)
         })
         .collect();
-    let thrust: Vec<Interval> = env.thrust_n.iter().copied().map(Interval::of).collect();
+    let thrust: Vec<Interval> = env
+        .thrust_n
+        .iter()
+        .map(|r| Interval::of(*r) * f32_ops)
+        .collect();
     let mut vars = Vec::new();
     let table = Craft::from_unit_wrenches(&unit, &thrust, Interval::of(env.pressure_drop_n));
     match table {
@@ -239,14 +264,24 @@ pub fn check(env: &CraftEnvelope, format: Format, duty_budget: f64) -> Result<Cr
     }
     let watch = interval::reset_watch();
     interval::set_format(Format::REAL);
-    // Components no thruster acts on (a planar craft's Fz, Tx, Ty) are not commanded.
+    // The components the craft is commanded in: a planar craft's Fx, Fy, Tz; a 3-D craft's
+    // every component a thruster acts on (beyond rounding: 1e-9 of the strongest of its kind,
+    // torques against torques, forces against forces).
     let authority = env.authority();
-    let strongest = authority.iter().copied().fold(0.0f64, f64::max);
-    let (duty_resolution, resolution_component) = authority
-        .iter()
-        .zip(WRENCH)
-        .filter(|(a, _)| **a > 1e-6 * strongest)
-        .map(|(a, name)| (0.5 * format.slack.abs / a, name))
+    let strongest = |k: usize| {
+        let kind = if k < 3 { 0..3 } else { 3..6 };
+        authority[kind].iter().copied().fold(0.0f64, f64::max)
+    };
+    let commanded = |k: usize| {
+        if env.planar {
+            matches!(k, 2..=4)
+        } else {
+            authority[k] > 1e-9 * strongest(k)
+        }
+    };
+    let (duty_resolution, resolution_component) = (0..6)
+        .filter(|&k| commanded(k) && authority[k] > 0.0)
+        .map(|k| (0.5 * format.slack.abs / authority[k], WRENCH[k]))
         .fold((0.0f64, "-"), |m, r| if r.0 > m.0 { r } else { m });
     Ok(CraftFit {
         ranges: RangeReport {

@@ -145,7 +145,8 @@ fn kernel_fit(sat: &reference_f64::satellite::Satellite, envelope: &str) -> Stri
 
 /// Whether the craft's envelope fits the kernel's fixed format (`massid_proofs::craft_envelope`:
 /// the wrench table's interval run over every word, thrusts widened by their uncertainty, the
-/// CoM anywhere in the thrusters' box), naming the quantity that does not; and the range table.
+/// CoM anywhere in the box of the thrusters and the model's CoM), naming the quantity that
+/// does not; and the range table.
 fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> (String, String) {
     use massid_proofs::craft_envelope::{check, CraftEnvelope};
     use massid_proofs::interval::Format;
@@ -159,6 +160,7 @@ fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> (String, String)
         &sat.thrust_sigma_n,
         sat.pressure_drop_n_per_extra,
         [com.x, com.y, com.z],
+        sat.planar,
     );
     match check(
         &env,
@@ -174,16 +176,17 @@ fn fixed_envelope(sat: &reference_f64::satellite::Satellite) -> (String, String)
                 fit.resolution_component,
                 fit.duty_budget
             );
+            let largest = fit.largest();
             let verdict = match fit.refusal() {
-            Some(why) => format!("Q8.24 CANNOT fly this craft: {why}"),
-            None => format!(
-                "Q8.24 envelope fits (largest {} {:.3} of {}; half a step is {:.1e} of the thrusters' {})",
-                fit.largest().map(|v| v.name.as_str()).unwrap_or("-"),
-                fit.largest().map(|v| v.range.mag()).unwrap_or(0.0),
-                fit.ranges.format.max,
-                fit.duty_resolution,
-                fit.resolution_component
-            ),
+                Some(why) => format!("Q8.24 CANNOT fly this craft: {why}"),
+                None => format!(
+                    "Q8.24 envelope fits (largest {} {:.3} of {}; half a step is {:.1e} of the thrusters' {})",
+                    largest.map(|v| v.name.as_str()).unwrap_or("-"),
+                    largest.map(|v| v.range.mag()).unwrap_or(0.0),
+                    fit.ranges.format.max,
+                    fit.duty_resolution,
+                    fit.resolution_component
+                ),
             };
             (verdict, table)
         }

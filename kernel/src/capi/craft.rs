@@ -67,7 +67,8 @@ const MAGIC_F32_FLIGHT_ID: u32 = 0x4d49_5349;
 const MAGIC_FIXED_FLIGHT_ID: u32 = 0x4d49_4649;
 
 /// Bytes reserved for an integer-float identification (header:
-/// `MASSID_FIXED_FLIGHT_ID_BYTES`): its numbers are 16 bytes where f32's are 4.
+/// `MASSID_FIXED_FLIGHT_ID_BYTES`): its numbers are 8 bytes where f32's are 4, so its state is
+/// twice f32's (`massid_craft_state_bytes(3)`).
 pub const FIXED_FLIGHT_ID_BYTES: usize = 32768;
 
 /// Opaque craft mixer block.
@@ -105,8 +106,7 @@ const _: () = assert!(
 );
 const _: () = assert!(size_of::<super::Slot<FlightIdState<f32>>>() <= FLIGHT_ID_BYTES);
 const _: () = assert!(align_of::<super::Slot<FlightIdState<f32>>>() <= 8);
-const _: () =
-    assert!(size_of::<super::Slot<FlightIdState<IntFloat>>>() <= FIXED_FLIGHT_ID_BYTES);
+const _: () = assert!(size_of::<super::Slot<FlightIdState<IntFloat>>>() <= FIXED_FLIGHT_ID_BYTES);
 const _: () = assert!(align_of::<super::Slot<FlightIdState<IntFloat>>>() <= 8);
 
 /// The thrusters of `c` and their count, or `None` if the count is not 1-16 or a value is not

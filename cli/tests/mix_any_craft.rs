@@ -105,6 +105,26 @@ fn unreachable_and_off_plane_commands_are_refused_clearly() {
     );
 }
 
+/// The air-bearing model with its `thrust_n` line replaced by `thrusts`, written to a
+/// temporary file named after `what`.
+fn airbearing_with_thrusts(what: &str, thrusts: &str) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(model("airbearing-mpc")).unwrap();
+    let edited: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("thrust_n") {
+                format!("thrust_n = {thrusts}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let path = common::tmp(what, "mix_any_craft").join(format!("{what}.toml"));
+    std::fs::write(&path, edited).unwrap();
+    path
+}
+
 #[test]
 fn model_check_says_whether_the_kernel_flies_the_craft() {
     for name in ["airbearing-mpc", "cubesat8", "freeflyer16", "sph2"] {
@@ -117,20 +137,7 @@ fn model_check_says_whether_the_kernel_flies_the_craft() {
         );
     }
     // Thrusters of 100 N: the craft's wrench leaves Q8.24's range, and the check names it.
-    let text = std::fs::read_to_string(model("airbearing-mpc")).unwrap();
-    let strong: String = text
-        .lines()
-        .map(|l| {
-            if l.starts_with("thrust_n") {
-                "thrust_n = [100, 100, 100, 100, 100, 100, 100, 100]".to_string()
-            } else {
-                l.to_string()
-            }
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    let path = common::tmp("strong", "mix_any_craft").join("strong.toml");
-    std::fs::write(&path, strong).unwrap();
+    let path = airbearing_with_thrusts("strong", "[100, 100, 100, 100, 100, 100, 100, 100]");
     let out = ok(&["model", "check", &s(&path), "--ranges"]);
     assert!(
         out.contains("Q8.24 CANNOT fly this craft: wrench T"),
@@ -143,20 +150,10 @@ fn model_check_says_whether_the_kernel_flies_the_craft() {
     );
     // Two thrusters 1e-5 as strong as the others: the kernel cannot balance them in its
     // formats and says which command it refuses.
-    let text = std::fs::read_to_string(model("airbearing-mpc")).unwrap();
-    let weak: String = text
-        .lines()
-        .map(|l| {
-            if l.starts_with("thrust_n") {
-                "thrust_n = [0.441450, 0.430659, 0.427716, 0.438017, 0.00000469, 0.00000447, 0.466956, 0.484124]".to_string()
-            } else {
-                l.to_string()
-            }
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    let path = common::tmp("weak", "mix_any_craft").join("weak.toml");
-    std::fs::write(&path, weak).unwrap();
+    let path = airbearing_with_thrusts(
+        "weak",
+        "[0.441450, 0.430659, 0.427716, 0.438017, 0.00000469, 0.00000447, 0.466956, 0.484124]",
+    );
     let out = ok(&["model", "check", &s(&path)]);
     assert!(
         out.contains("Q8.24 CANNOT") && out.contains("refuses force"),

@@ -6,6 +6,7 @@ use crate::craft::{craft, model_error};
 use crate::HostError;
 use massid_kernel::flight_id::consistency::REJECT_ABOVE;
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
+use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
 use massid_kernel::Scalar;
 use nalgebra::{DMatrix, Matrix3};
@@ -18,20 +19,6 @@ use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
 use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
-/// Longest window, s.
-pub const MAX_WINDOW_S: f64 = 60.0;
-/// Longest rotation a window spans past [`TURN_WINDOW_S`], rad (3-D craft). The kernel
-/// takes the gyroscopic products of the measured rates and has no variational equation;
-/// over a window that turns far that miscalibrates the products. Measured on 60 flights each
-/// (seeds 740-799, `identification_mc 60 740 FILTER f32`, the limits set by hand in the
-/// code): windows cut at 8 s: calibrated (rga12 1 kHz RMS up to 1.26), sigma 1.03-2.29x the
-/// reference's; at 60 s with no turn limit: rga12 RMS 1.55, sigma 0.82-1.07x; at 60 s with 4
-/// rad after 8 s (these constants): rga12 RMS 1.25, combo 1.17, closed loop 1.26, and sigma
-/// 0.95-1.01x the reference's on single and closed loop, 1.3-1.95x on rga12, combo and
-/// random-pwm.
-pub const MAX_WINDOW_TURN_RAD: f64 = 4.0;
-/// See [`MAX_WINDOW_TURN_RAD`], s.
-pub const TURN_WINDOW_S: f64 = 8.0;
 /// Shortest window cap, samples.
 const MIN_WINDOW: u32 = 20;
 
@@ -79,7 +66,12 @@ pub fn identify<S: Scalar>(
     };
     let j6 = sym_to_vec6(&j_nom);
     let period = flight.period_s;
-    let max_window = (MAX_WINDOW_S / period).clamp(MIN_WINDOW as f64, 1e9) as u32;
+    let max_window = (f64::from(MAX_WINDOW_S) / period).clamp(MIN_WINDOW as f64, 1e9) as u32;
+    // Windows end before they span much gyroscopic coupling: the limits measured on SPHERES,
+    // scaled by how much more this craft's inertia couples the axes (`window`).
+    let inertia6 = sat.inertia_kgm2.map(|v| v as f32);
+    let turn_weight = window::turn_weights(&inertia6)
+        .ok_or_else(|| model_error(sat, "inertia is singular".into()))?;
     // Format v1 logs the word at each sample while the valves switch on a 1 ms grid: below
     // 1 kHz the recording does not say when in an interval a word changed, so those
     // intervals are left out (a new window after each change of the acting, delayed, wrench; the
@@ -96,9 +88,11 @@ pub fn identify<S: Scalar>(
         max_window_turn_rad: S::from_f32(if sat.planar {
             f32::INFINITY
         } else {
-            MAX_WINDOW_TURN_RAD as f32
+            MAX_WINDOW_TURN_RAD
         }),
-        turn_window: (TURN_WINDOW_S / period).clamp(0.0, 1e9) as u32,
+        turn_weight: turn_weight.map(S::from_f32),
+        turn_window: (f64::from(window::turn_window_s(&turn_weight)) / period).clamp(0.0, 1e9)
+            as u32,
         skip: u32::from(max_noise_order),
         solve: SolveConfig {
             j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),

@@ -361,6 +361,8 @@ static int run_craft_file(const char *path, int flight_id) {
             print_hex_f32(st.scale, MASSID_ID_TERMS);
             printf(" window=%u turn_window=%u skip=%u turn", st.max_window, st.turn_window, st.skip);
             print_hex_f32(&st.max_window_turn_rad, 1);
+            printf(" weight");
+            print_hex_f32(st.turn_weight, 3);
             printf(" gyro=%d order=%d free ", st.gyroscopic, st.max_noise_order);
             print_flags(st.free, MASSID_ID_TERMS);
             printf(" axes ");

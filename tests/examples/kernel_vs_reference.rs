@@ -13,11 +13,17 @@ fn main() {
     let opts = Options::default();
     println!("| condition | flights | max mean abs(f32-f64)/sigma | max abs(f32-f64)/sigma | sigma f32/f64 (min-max) |");
     println!("|---|---|---|---|---|");
-    for cond in grid().into_iter().filter(|c| c.label().contains(&filter)) {
+    for cond in grid()
+        .into_iter()
+        .chain(craft_grid())
+        .filter(|c| c.label().contains(&filter))
+    {
         let mut diff_sum = [0.0f64; 9];
         let mut diff_max = [0.0f64; 9];
         let mut ratio = [0.0f64; 9];
         let mut n = [0u32; 9];
+        // Per term: sum of squared (kernel - truth)/kernel sigma and (f64 - truth)/f64 sigma.
+        let mut z2 = [[0.0f64; 2]; 9];
         for seed in seed0..seed0 + flights {
             let sim = fly(&cond, seed);
             let (Ok(a), Ok(b)) = (
@@ -65,6 +71,9 @@ fn main() {
                         b.inertia_stderr_kgm2[t - 3],
                     )
                 };
+                let truth = sim.truth[t];
+                z2[t][0] += ((vb - truth) / sb).powi(2);
+                z2[t][1] += ((va - truth) / sa).powi(2);
                 let d = ((vb - va) / sa).abs();
                 diff_sum[t] += d;
                 diff_max[t] = diff_max[t].max(d);
@@ -73,6 +82,17 @@ fn main() {
             }
         }
         let used: Vec<usize> = (0..9).filter(|&t| n[t] > 0).collect();
+        for &t in &used {
+            let k = f64::from(n[t]);
+            eprintln!(
+                "   {}: sigma f32/f64 {:.2}, RMS err/sigma f32 {:.2} f64 {:.2}, mean |f32-f64|/sigma {:.2}",
+                TERMS[t],
+                ratio[t] / k,
+                (z2[t][0] / k).sqrt(),
+                (z2[t][1] / k).sqrt(),
+                diff_sum[t] / k
+            );
+        }
         if used.is_empty() {
             println!("| {} | {flights} | - | - | - |", cond.label());
             continue;

@@ -559,10 +559,23 @@ fn hx(v: f32) -> String {
     format!("{:08x}", v.to_bits())
 }
 
+/// What `capi_run --flight-id` prints of its settings: scale, max_window, turn_window, skip,
+/// turn limit, turn weights, gyroscopic, noise order, free terms, axes.
+type Settings = (
+    [f32; 9],
+    u32,
+    u32,
+    u32,
+    f32,
+    [f32; 3],
+    bool,
+    u8,
+    [bool; 9],
+    [bool; 3],
+);
+
 /// Parses the hex floats of `capi_run --flight-id`'s settings line.
-fn settings_from_line(
-    line: &str,
-) -> ([f32; 9], u32, u32, u32, f32, bool, u8, [bool; 9], [bool; 3]) {
+fn settings_from_line(line: &str) -> Settings {
     let f: Vec<&str> = line.split_whitespace().collect();
     let hexf = |s: &str| f32::from_bits(u32::from_str_radix(s, 16).expect("hex"));
     let after = |key: &str| -> &str {
@@ -576,6 +589,8 @@ fn settings_from_line(
         f[i + 1].chars().map(|c| c == '1').collect()
     };
     let turn = hexf(f[f.iter().position(|t| *t == "turn").expect("turn") + 1]);
+    let w = f.iter().position(|t| *t == "weight").expect("weight");
+    let weight: [f32; 3] = std::array::from_fn(|i| hexf(f[w + 1 + i]));
     let free = flags("free");
     let axes = flags("axes");
     (
@@ -584,6 +599,7 @@ fn settings_from_line(
         after("turn_window=").parse().expect("turn_window"),
         after("skip=").parse().expect("skip"),
         turn,
+        weight,
         after("gyro=") == "1",
         after("order=").parse().expect("order"),
         std::array::from_fn(|i| free[i]),
@@ -677,7 +693,7 @@ fn c_flight_id_matches_the_rust_flight_id() {
             "{name}: {settings_line}"
         );
         assert_eq!(lines.next(), Some("init status=0"), "{name}");
-        let (scale, max_window, turn_window, skip, turn, gyro, order, free, axes) =
+        let (scale, max_window, turn_window, skip, turn, turn_weight, gyro, order, free, axes) =
             settings_from_line(settings_line);
 
         // The defaults are the ground tool's choices (kernel-host/src/flight_id.rs; its scale
@@ -701,6 +717,9 @@ fn c_flight_id_matches_the_rust_flight_id() {
             (60.0 / flight.period_s).round() as u32,
             "{name}"
         );
+        // The window rule follows the craft's gyroscopic coupling (`flight_id::window`): these
+        // two craft couple their axes no more than SPHERES, so they keep the 8 s floor.
+        assert_eq!(turn_weight, [1.0; 3], "{name}");
         assert_eq!(
             turn_window,
             (8.0 / flight.period_s).round() as u32,
@@ -730,6 +749,7 @@ fn c_flight_id_matches_the_rust_flight_id() {
             cut_at_changes: false,
             max_window,
             max_window_turn_rad: turn,
+            turn_weight,
             turn_window,
             skip,
             solve: SolveConfig {
@@ -791,6 +811,7 @@ fn rust_flight_id_line<S: Scalar>(
         cut_at_changes: cfg.cut_at_changes,
         max_window: cfg.max_window,
         max_window_turn_rad: c(cfg.max_window_turn_rad),
+        turn_weight: cfg.turn_weight.map(c),
         turn_window: cfg.turn_window,
         skip: cfg.skip,
         solve: SolveConfig {

@@ -12,6 +12,7 @@ use crate::allocation::CraftFiring;
 use crate::craft::{Craft, Thruster, MAX_THRUSTERS};
 use crate::craft_mixer::CraftMixer;
 use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDER, NP};
+use crate::flight_id::window;
 use crate::flight_id::{FlightId, FlightIdConfig, SensorResponse};
 use crate::mixer::MixerConfig;
 use crate::scalar::{Scalar, Q8_24};
@@ -398,9 +399,11 @@ pub struct MassidFlightIdSettings {
     pub period_s: f32,
     /// Known command-to-thrust delay, sample periods.
     pub delay_periods: f32,
-    /// Past `turn_window` samples a window is cut once the craft turned this far, rad
-    /// (infinity: never).
+    /// Past `turn_window` samples a window is cut once the craft turned this far, rad, each
+    /// axis' turn weighted by `turn_weight` (infinity: never).
     pub max_window_turn_rad: f32,
+    /// Per axis, how much its turn counts (`flight_id::window::turn_weights`).
+    pub turn_weight: [f32; 3],
     /// Per term (inverse inertia xx yy zz xy xz yz, CoM x y z), the standard error beyond
     /// which the term is held at the nominal (1/(kg m^2) and m).
     pub scale: [f32; NP],
@@ -473,6 +476,7 @@ fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdCon
         && s.period_s.is_finite()
         && s.period_s > 0.0
         && !s.max_window_turn_rad.is_nan()
+        && s.turn_weight.iter().all(|w| w.is_finite() && *w >= 0.0)
         && usize::from(s.max_noise_order) <= MAX_ORDER;
     if !finite {
         return None;
@@ -486,6 +490,7 @@ fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdCon
         max_window: s.max_window,
         max_window_turn_rad: S::from_f32(s.max_window_turn_rad),
         turn_window: s.turn_window,
+        turn_weight: s.turn_weight.map(S::from_f32),
         skip: s.skip,
         solve: SolveConfig {
             j_nominal,
@@ -501,7 +506,8 @@ fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdCon
 /// Fills `out` with the ground tool's settings for `craft` (`massid estimate --kernel f32`,
 /// `kernel-host/src/flight_id.rs`): planar craft fit Izz and the CoM's x and y from the z
 /// rate, 3-D craft every term from all three rates with the gyroscopic term; windows up to
-/// 60 s, cut after 8 s once a 3-D craft turned 4 rad; AR noise up to order 2; gyro sensor; no
+/// 60 s, cut after 8 s once a 3-D craft turned 4 rad (both for a craft whose inertia couples
+/// the axes like SPHERES'; `flight_id::window`); AR noise up to order 2; gyro sensor; no
 /// delay; `scale` as the reference's `term_scale` (half the nominal principal inverse
 /// inertia, a quarter of its mean for products, a quarter of the largest lever arm for the
 /// CoM).
@@ -536,7 +542,8 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
     if !(period_s.is_finite() && period_s > 0.0) {
         return MassidStatus::BadParameters;
     }
-    let Some(j) = inverse_inertia(&inertia) else {
+    let (Some(j), Some(turn_weight)) = (inverse_inertia(&inertia), window::turn_weights(&inertia))
+    else {
         return MassidStatus::BadParameters;
     };
     let planar = c.planar != 0;
@@ -569,10 +576,15 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
         com_m: com,
         period_s,
         delay_periods: 0.0,
-        max_window_turn_rad: if planar { f32::INFINITY } else { 4.0 },
+        max_window_turn_rad: if planar {
+            f32::INFINITY
+        } else {
+            window::MAX_WINDOW_TURN_RAD
+        },
+        turn_weight,
         scale,
-        max_window: samples(60.0).max(20),
-        turn_window: samples(8.0),
+        max_window: samples(window::MAX_WINDOW_S).max(20),
+        turn_window: samples(window::turn_window_s(&turn_weight)),
         skip: u32::try_from(MAX_ORDER).unwrap_or(0),
         sensor: 0,
         cut_at_changes: 0,

@@ -21,6 +21,7 @@ pub mod consistency;
 pub mod delay;
 pub mod solve;
 pub mod sums;
+pub mod window;
 
 use crate::scalar::Scalar;
 use solve::{Solution, SolveConfig, SolveError, NP};
@@ -54,10 +55,14 @@ pub struct FlightIdConfig<S> {
     /// Windows are cut at this many samples (bounds every sum).
     pub max_window: u32,
     /// Past `turn_window` samples, a window is also cut once the craft has turned this far in
-    /// it (rad, summed over the axes): the kernel takes the gyroscopic products of the
-    /// measured rates and has no variational equation, an approximation that degrades with the
-    /// rotation a long window spans.
+    /// it (rad, summed over the axes, each weighted by `turn_weight`): the kernel takes the
+    /// gyroscopic products of the measured rates and has no variational equation, an
+    /// approximation that degrades with the gyroscopic coupling a long window spans
+    /// ([`window`]).
     pub max_window_turn_rad: S,
+    /// Per axis, how much its turn counts ([`window::turn_weights`]: 1 for a craft that couples
+    /// the axes no more than SPHERES).
+    pub turn_weight: [S; 3],
     /// See `max_window_turn_rad`.
     pub turn_window: u32,
     /// Samples left out at each window's start: the noise model's highest order (their
@@ -82,7 +87,7 @@ pub struct FlightId<S> {
     /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
     recent: [([S; NZ], [S; 3]); 3],
     filled: u32,
-    /// Rotation in the window so far, rad (sum over the axes of `|omega| dt`).
+    /// Weighted rotation in the window so far, rad (sum over the axes of `w_a |omega_a| dt`).
     turned: S,
     /// The window's rate anchor (its first measurement).
     anchor: Option<[S; 3]>,
@@ -189,8 +194,8 @@ impl<S: Scalar> FlightId<S> {
             }
         }
         if joins {
-            for w in rate {
-                self.turned = self.turned.plus(w.abs().times(dt_s));
+            for (w, k) in rate.iter().zip(self.cfg.turn_weight) {
+                self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
             }
         }
         self.recent.rotate_right(1);
@@ -275,3 +280,51 @@ impl<S: Scalar> FlightId<S> {
 
 /// Terms of [`Solution::theta`], in order: inverse inertia xx yy zz xy xz yz, then the CoM.
 pub const THETA_TERMS: usize = NP;
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+    use super::*;
+
+    /// Windows of a craft turning about x at 1 rad/s for 1 s, cut after `limit` rad of
+    /// weighted turn.
+    fn windows_of(weight: [f32; 3], limit: f32) -> u32 {
+        let cfg = FlightIdConfig {
+            period_s: 1e-3,
+            sensor: SensorResponse::Point,
+            delay_periods: 0.0,
+            cut_at_changes: false,
+            max_window: 100_000,
+            max_window_turn_rad: limit,
+            turn_weight: weight,
+            turn_window: 0,
+            skip: 0,
+            solve: SolveConfig {
+                j_nominal: [10.0, 10.0, 10.0, 0.0, 0.0, 0.0],
+                free: [true; NP],
+                axes: [true; 3],
+                gyroscopic: true,
+                max_noise_order: 0,
+                scale: [1.0; NP],
+            },
+        };
+        let mut id = FlightId::new(cfg).expect("config");
+        for _ in 0..1000 {
+            id.push(1e-3, [1.0, 0.0, 0.0], true, [0.0; 6]);
+        }
+        id.finish();
+        id.sums().windows
+    }
+
+    #[test]
+    fn a_window_ends_after_its_weighted_turn() {
+        // No limit: one window; 0.1 rad: about ten; the x turn counted twice: about twenty.
+        assert_eq!(windows_of([1.0; 3], f32::INFINITY), 1);
+        let plain = windows_of([1.0; 3], 0.1);
+        let doubled = windows_of([2.0, 1.0, 1.0], 0.1);
+        assert!((9..=11).contains(&plain), "{plain}");
+        assert!((19..=21).contains(&doubled), "{doubled}");
+        // A weight on an axis the craft does not turn about changes nothing.
+        assert_eq!(windows_of([1.0, 5.0, 5.0], 0.1), plain);
+    }
+}

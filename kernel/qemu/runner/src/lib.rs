@@ -329,6 +329,7 @@ pub fn run_flight_id<S: RawBits, W: Write>(
         cut_at_changes: false,
         max_window: 8000,
         max_window_turn_rad: S::from_f32(1e9),
+        turn_weight: [S::ONE; 3],
         turn_window: 8000,
         skip: 2,
         solve: SolveConfig {

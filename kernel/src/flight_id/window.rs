@@ -1,0 +1,136 @@
+//! Where a window of the onboard identification ends, and why its limits follow the craft.
+//!
+//! The kernel takes Euler's gyroscopic products of the *measured* rates and has no variational
+//! equation, so how a parameter error moves the rate through the gyroscopic coupling is not in
+//! its model. Over a window that spans much coupling this miscalibrates the products of inertia
+//! (RMS error/sigma up to 1.55 on SPHERES rga12 at 60 s). The limits below were measured on
+//! SPHERES (seeds 740-799, `identification_mc 60 740 FILTER f32`): windows up to 60 s, cut after
+//! 8 s once the craft turned 4 rad (rga12 RMS 1.25, combo 1.17, closed loop 1.26; sigma
+//! 0.95-1.01x the reference's on single and closed loop, 1.3-1.95x on rga12, combo and
+//! random-pwm; windows cut at 8 s: sigma 1.03-2.29x; 60 s with no turn limit: RMS 1.55).
+//!
+//! What matters is not the turn but the coupling it brings: the rate Jacobian of Euler's
+//! equation, `-J([w]x I - [I w]x)`, is linear in the rate, so a turn about axis `a` couples the
+//! axes at the rate `kappa_a |w_a|` ([`coupling`]). A craft whose inertia couples no more than
+//! SPHERES' keeps the SPHERES limits (a near-spherical free-flyer, the planar craft); for one
+//! that couples more (a 3U cubesat: Izz a fifth of Ixx, kappa 3.56x SPHERES'), each axis' turn
+//! counts `kappa_a / kappa_SPHERES` times and the 8 s floor shrinks by the largest of those
+//! ratios ([`turn_weights`]). Before this rule the f32 kernel on that cubesat gave products with
+//! RMS error/sigma up to 1.39 and 2-sigma coverage 83 % with status `ok` (README, 100 flights).
+
+use super::solve::inverse_inertia;
+
+/// Longest window, s.
+pub const MAX_WINDOW_S: f32 = 60.0;
+/// Longest (weighted) turn a 3-D craft's window spans past [`TURN_WINDOW_S`], rad.
+pub const MAX_WINDOW_TURN_RAD: f32 = 4.0;
+/// Windows shorter than this are not cut for their turn, s (for a craft that couples like
+/// SPHERES; shorter in proportion for one that couples more).
+pub const TURN_WINDOW_S: f32 = 8.0;
+/// The nominal inertia the limits were measured on (SPHERES SPH2, kg m^2, xx yy zz xy xz yz).
+pub const SPHERES_INERTIA_KGM2: [f32; 6] = [0.0242, 0.0214, 0.0194, 0.000108, 0.000157, 0.0000123];
+
+/// Symmetric 3x3 from xx yy zz xy xz yz.
+fn sym(v: &[f32; 6]) -> [[f32; 3]; 3] {
+    let [xx, yy, zz, xy, xz, yz] = *v;
+    [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]
+}
+
+/// `[v]x`, the cross-product matrix.
+fn skew(v: [f32; 3]) -> [[f32; 3]; 3] {
+    let [x, y, z] = v;
+    [[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]]
+}
+
+/// `a b` for 3x3 matrices.
+fn mul(a: &[[f32; 3]; 3], b: &[[f32; 3]; 3]) -> [[f32; 3]; 3] {
+    let mut out = [[0.0f32; 3]; 3];
+    for (orow, arow) in out.iter_mut().zip(a) {
+        for (k, brow) in arow.iter().zip(b) {
+            for (o, bv) in orow.iter_mut().zip(brow) {
+                *o += k * bv;
+            }
+        }
+    }
+    out
+}
+
+/// Per axis `a`, the largest entry of `|J([e_a]x I - [I e_a]x)|`: how fast a turn about `a`
+/// at 1 rad/s couples the axes (1/s per rad/s; the spectral norm for a principal-axis
+/// inertia). None for a singular inertia.
+pub fn coupling(inertia_kgm2: &[f32; 6]) -> Option<[f32; 3]> {
+    let j = sym(&inverse_inertia(inertia_kgm2)?);
+    let i = sym(inertia_kgm2);
+    let mut out = [0.0f32; 3];
+    // `I e_a` is row `a` of the symmetric `I`.
+    for (a, (k, i_e)) in out.iter_mut().zip(i.iter()).enumerate() {
+        let e: [f32; 3] = core::array::from_fn(|r| if r == a { 1.0 } else { 0.0 });
+        let mut d = mul(&skew(e), &i);
+        for (drow, srow) in d.iter_mut().zip(skew(*i_e)) {
+            for (v, s) in drow.iter_mut().zip(srow) {
+                *v -= s;
+            }
+        }
+        *k = mul(&j, &d)
+            .iter()
+            .flatten()
+            .fold(0.0f32, |m, v| m.max(v.abs()));
+    }
+    Some(out)
+}
+
+/// Each axis' weight in the window's turn, `max(1, kappa_a / max kappa_SPHERES)`; the floor
+/// ([`TURN_WINDOW_S`]) is divided by the largest. All ones for a craft that couples no more
+/// than SPHERES. None for a singular inertia.
+pub fn turn_weights(inertia_kgm2: &[f32; 6]) -> Option<[f32; 3]> {
+    let reference = coupling(&SPHERES_INERTIA_KGM2)?
+        .into_iter()
+        .fold(0.0f32, f32::max);
+    let k = coupling(inertia_kgm2)?;
+    Some(k.map(|v| (v / reference).max(1.0)))
+}
+
+/// The floor of a craft with weights `w`, s.
+pub fn turn_window_s(weights: &[f32; 3]) -> f32 {
+    TURN_WINDOW_S / weights.iter().fold(1.0f32, |m, w| m.max(*w))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+    use super::*;
+
+    #[test]
+    fn spheres_keeps_its_limits_and_a_cubesat_counts_its_turn_more() {
+        assert_eq!(turn_weights(&SPHERES_INERTIA_KGM2), Some([1.0; 3]));
+        // A sphere does not couple at all: the SPHERES limits.
+        assert_eq!(
+            turn_weights(&[0.1, 0.1, 0.1, 0.0, 0.0, 0.0]),
+            Some([1.0; 3])
+        );
+        // A 3U cubesat: (Ixx - Izz) / Iyy = 0.8 for turns about x, y and z.
+        let w = turn_weights(&[0.0333, 0.0333, 0.0067, 0.0, 0.0, 0.0]).unwrap();
+        let k = coupling(&[0.0333, 0.0333, 0.0067, 0.0, 0.0, 0.0]).unwrap();
+        for v in k {
+            assert!((v - 0.7988).abs() < 1e-3, "{k:?}");
+        }
+        assert!(w.iter().all(|v| *v > 3.5 && *v < 3.6), "{w:?}");
+        assert!((turn_window_s(&w) - 8.0 / w[0]).abs() < 1e-6);
+        assert_eq!(turn_weights(&[1.0, 1.0, 0.0, 0.0, 0.0, 0.0]), None);
+    }
+
+    #[test]
+    fn coupling_is_euler_s_coefficient_for_principal_axes() {
+        let (a, b, c) = (0.3f32, 0.2f32, 0.1f32);
+        let k = coupling(&[a, b, c, 0.0, 0.0, 0.0]).unwrap();
+        // A turn about x: w_y' = -(a - c)/b w_x w_z ..., entries (a-c)/b and (b-a)/c.
+        let want = [
+            ((a - c) / b).abs().max(((b - a) / c).abs()),
+            ((c - b) / a).abs().max(((a - b) / c).abs()),
+            ((c - b) / a).abs().max(((a - c) / b).abs()),
+        ];
+        for (g, w) in k.iter().zip(want) {
+            assert!((g - w).abs() < 1e-5, "{k:?} {want:?}");
+        }
+    }
+}

@@ -25,9 +25,10 @@
 //! entry is in `[2^-4, 2^-3)` (duties O(1), the dual's `|u|^2` far inside Q8.24's range). Scaling rows of `B` and `c` alike leaves `u` unchanged, so every quantity is
 //! O(1) in Q8.24 and the duties come back exactly by the normalising power of two.
 
+use crate::craft::cross;
 use crate::craft::{Thruster, MAX_THRUSTERS};
 use crate::lu::Lu;
-use crate::mixer::{cross, pressure_correction, quantise, MixerConfig, MixerError};
+use crate::mixer::{pressure_correction, quantise, MixerConfig, MixerError};
 use crate::scalar::{max_abs, Scalar};
 
 /// Newton steps on the dual at most.

@@ -43,10 +43,16 @@ pub struct Craft<S> {
     pressure_drop_n: S,
 }
 
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    let [ax, ay, az] = a;
-    let [bx, by, bz] = b;
-    [ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx]
+/// `a x b`, in any scalar: the one cross product of the kernel (a thruster's torque in the
+/// wrench table, the mixer and the allocation), and of the envelope's interval run.
+pub fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
+    let [a0, a1, a2] = *a;
+    let [b0, b1, b2] = *b;
+    [
+        a1.times(b2).minus(a2.times(b1)),
+        a2.times(b0).minus(a0.times(b2)),
+        a0.times(b1).minus(a1.times(b0)),
+    ]
 }
 
 impl<S: Scalar> Craft<S> {
@@ -76,7 +82,7 @@ impl<S: Scalar> Craft<S> {
             }
             let [px, py, pz] = t.pos_m;
             let [cx, cy, cz] = com_m;
-            let torque = cross([px - cx, py - cy, pz - cz], t.dir);
+            let torque = cross(&[px - cx, py - cy, pz - cz], &t.dir);
             let per_n = [
                 torque[0], torque[1], torque[2], t.dir[0], t.dir[1], t.dir[2],
             ];

@@ -23,6 +23,7 @@
 //! beyond any SPHERES thruster's reach; larger ones give [`MixerError::BadCommand`]); times as fractions of the period until the final
 //! integer rounding, which is exact ([`Scalar::floor_times`]).
 
+use crate::craft::cross;
 use crate::lu::Lu;
 use crate::model::{SatelliteParams, N_THRUSTERS, OPPOSING_PAIRS};
 use crate::scalar::Scalar;
@@ -542,15 +543,4 @@ fn set<S: Scalar, const N: usize>(v: &mut [S; N], i: usize, x: S) {
     if let Some(e) = v.get_mut(i) {
         *e = x;
     }
-}
-
-/// `a x b`.
-pub(crate) fn cross<S: Scalar>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
-    let [a0, a1, a2] = *a;
-    let [b0, b1, b2] = *b;
-    [
-        a1.times(b2).minus(a2.times(b1)),
-        a2.times(b0).minus(a0.times(b2)),
-        a0.times(b1).minus(a1.times(b0)),
-    ]
 }

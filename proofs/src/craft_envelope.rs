@@ -190,12 +190,6 @@ impl CraftFit {
     }
 }
 
-fn cross(a: [Interval; 3], b: [Interval; 3]) -> [Interval; 3] {
-    let [ax, ay, az] = a;
-    let [bx, by, bz] = b;
-    [ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx]
-}
-
 /// Runs the kernel's wrench table for every thruster word over `env` in `format`, with
 /// `duty_budget` the mixer's budget (fraction of the period) for the resolution check.
 /// `Err` names why the kernel cannot even build the table (a thruster count outside 1-16).
@@ -212,7 +206,7 @@ pub fn check(env: &CraftEnvelope, format: Format, duty_budget: f64) -> Result<Cr
             let dir = t.dir.map(|d| Interval::point(f64::from(d)));
             let lever: [Interval; 3] =
                 core::array::from_fn(|k| Interval::point(f64::from(t.pos_m[k])) - com[k]);
-            let torque = cross(lever, dir);
+            let torque = massid_kernel::craft::cross(&lever, &dir);
             [torque[0], torque[1], torque[2], dir[0], dir[1], dir[2]].map(|v| v * f32_ops)
         })
         .collect();

@@ -19,9 +19,6 @@ use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
 use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
-/// Shortest window cap, samples.
-const MIN_WINDOW: u32 = 20;
-
 fn sensor(s: SensorResponse) -> KSensor {
     match s {
         SensorResponse::Point => KSensor::Point,
@@ -66,7 +63,8 @@ pub fn identify<S: Scalar>(
     };
     let j6 = sym_to_vec6(&j_nom);
     let period = flight.period_s;
-    let max_window = (f64::from(MAX_WINDOW_S) / period).clamp(MIN_WINDOW as f64, 1e9) as u32;
+    // Durations to sample counts as the C ABI's defaults do (one rounding for both).
+    let max_window = window::samples(MAX_WINDOW_S, period as f32).max(window::MIN_WINDOW);
     // Windows end before they span much gyroscopic coupling: the limits measured on SPHERES,
     // scaled by how much more this craft's inertia couples the axes (`window`).
     let inertia6 = sat.inertia_kgm2.map(|v| v as f32);
@@ -91,8 +89,7 @@ pub fn identify<S: Scalar>(
             MAX_WINDOW_TURN_RAD
         }),
         turn_weight: turn_weight.map(S::from_f32),
-        turn_window: (f64::from(window::turn_window_s(&turn_weight)) / period).clamp(0.0, 1e9)
-            as u32,
+        turn_window: window::samples(window::turn_window_s(&turn_weight), period as f32),
         skip: u32::from(max_noise_order),
         solve: SolveConfig {
             j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),

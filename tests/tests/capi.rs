@@ -608,7 +608,7 @@ fn settings_from_line(line: &str) -> Settings {
 }
 
 /// The onboard identification through `massid_f32_flight_id_*` on a simulated SPHERES flight
-/// (3-D, gyroscopic term) and a planar air-bearing one: the C result (estimate, covariance,
+/// (3-D, gyroscopic term), a planar air-bearing one and a cubesat's: the C result (estimate, covariance,
 /// noise model, held terms, timing statistic) equals the Rust `FlightId`'s bit for bit, and
 /// `massid_flight_id_settings_default` gives the ground tool's settings.
 #[test]
@@ -636,6 +636,16 @@ fn c_flight_id_matches_the_rust_flight_id() {
                 step_ms: 40,
                 control_ms: 80,
                 closed_loop: false,
+            },
+        ),
+        (
+            // A craft whose inertia couples the axes 3.56x more than SPHERES': its windows
+            // end sooner (`flight_id::window`).
+            "cubesat8-combo-100hz",
+            Condition::Craft {
+                model: "cubesat8",
+                maneuver: massid_sim::Maneuver::Combo,
+                rate_hz: 100.0,
             },
         ),
     ];
@@ -717,12 +727,19 @@ fn c_flight_id_matches_the_rust_flight_id() {
             (60.0 / flight.period_s).round() as u32,
             "{name}"
         );
-        // The window rule follows the craft's gyroscopic coupling (`flight_id::window`): these
-        // two craft couple their axes no more than SPHERES, so they keep the 8 s floor.
-        assert_eq!(turn_weight, [1.0; 3], "{name}");
+        // The window rule follows the craft's gyroscopic coupling (`flight_id::window`): SPHERES
+        // and the planar craft keep the 8 s floor, the cubesat counts its turns 3.56x.
+        let weights = massid_kernel::flight_id::window::turn_weights(&inertia).expect("inertia");
+        assert_eq!(turn_weight, weights, "{name}");
+        assert_eq!(
+            weights.iter().all(|w| *w > 3.5),
+            name.starts_with("cubesat8"),
+            "{name}: {weights:?}"
+        );
+        let floor_s = 8.0 / weights.iter().fold(1.0f32, |m, w| m.max(*w));
         assert_eq!(
             turn_window,
-            (8.0 / flight.period_s).round() as u32,
+            (f64::from(floor_s) / flight.period_s).round() as u32,
             "{name}"
         );
         assert_eq!((skip, order), (MAX_ORDER as u32, MAX_ORDER as u8), "{name}");

@@ -566,10 +566,7 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
             _ => 0.25 * radius,
         };
     }
-    // Sample counts of a duration, rounded to nearest (the quotient of an f32 period is not
-    // exact: 60 s / 0.001 s is 59999.996 in f32).
-    let samples =
-        |seconds: f32| -> u32 { float_to_u32((seconds / period_s + 0.5).clamp(0.0, 1e9)) };
+    let samples = |seconds: f32| window::samples(seconds, period_s);
     let free: [u8; NP] = core::array::from_fn(|m| u8::from(!planar || matches!(m, 2 | 6 | 7)));
     let settings = MassidFlightIdSettings {
         inertia_kgm2: inertia,
@@ -583,7 +580,7 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
         },
         turn_weight,
         scale,
-        max_window: samples(window::MAX_WINDOW_S).max(20),
+        max_window: samples(window::MAX_WINDOW_S).max(window::MIN_WINDOW),
         turn_window: samples(window::turn_window_s(&turn_weight)),
         skip: u32::try_from(MAX_ORDER).unwrap_or(0),
         sensor: 0,
@@ -595,14 +592,6 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
     };
     write_out(out, settings);
     MassidStatus::Ok
-}
-
-/// `v` truncated to an integer (0 for NaN and below, saturated above).
-fn float_to_u32(v: f32) -> u32 {
-    // `as` saturates and maps NaN to 0: no panic, no undefined behaviour.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let out = v as u32;
-    out
 }
 
 /// Square root without `std` (Newton from the exponent halved; exact to an ulp or two, used

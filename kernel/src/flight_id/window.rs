@@ -30,6 +30,19 @@ pub const TURN_WINDOW_S: f32 = 8.0;
 /// The nominal inertia the limits were measured on (SPHERES SPH2, kg m^2, xx yy zz xy xz yz).
 pub const SPHERES_INERTIA_KGM2: [f32; 6] = [0.0242, 0.0214, 0.0194, 0.000108, 0.000157, 0.0000123];
 
+/// Shortest window cap, samples.
+pub const MIN_WINDOW: u32 = 20;
+
+/// `seconds` in sample periods of `period_s`, rounded to nearest (the quotient of an f32
+/// period is not exact: 60 s / 0.001 s is 59999.996 in f32); 0 for NaN, at most 10^9.
+pub fn samples(seconds: f32, period_s: f32) -> u32 {
+    let v = (seconds / period_s + 0.5).clamp(0.0, 1e9);
+    // `as` saturates and maps NaN to 0: no panic, no undefined behaviour.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let n = v as u32;
+    n
+}
+
 /// Symmetric 3x3 from xx yy zz xy xz yz.
 fn sym(v: &[f32; 6]) -> [[f32; 3]; 3] {
     let [xx, yy, zz, xy, xz, yz] = *v;
@@ -116,6 +129,9 @@ mod tests {
         }
         assert!(w.iter().all(|v| *v > 3.5 && *v < 3.6), "{w:?}");
         assert!((turn_window_s(&w) - 8.0 / w[0]).abs() < 1e-6);
+        assert_eq!(samples(60.0, 0.001), 60_000);
+        assert_eq!(samples(turn_window_s(&w), 0.01), 225);
+        assert_eq!(samples(f32::NAN, 0.01), 0);
         assert_eq!(turn_weights(&[1.0, 1.0, 0.0, 0.0, 0.0, 0.0]), None);
     }
 

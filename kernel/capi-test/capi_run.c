@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <stddef.h>
+#include <math.h>
 
 #include "massid_kernel.h"
 
@@ -246,6 +247,16 @@ static void craft_selftest(const massid_satellite_params *sp) {
         bad = st;
         bad.sensor = 3;
         check(massid_f32_flight_id_init(&id, &c, &bad) == MASSID_BAD_PARAMETERS, "flight_id bad sensor");
+        /* A zeroed, negative or NaN turn weight would fly without a turn limit: refused. */
+        bad = st;
+        bad.turn_weight[1] = 0.0f;
+        check(massid_f32_flight_id_init(&id, &c, &bad) == MASSID_BAD_PARAMETERS, "flight_id zero turn weight");
+        bad.turn_weight[1] = -1.0f;
+        check(massid_f32_flight_id_init(&id, &c, &bad) == MASSID_BAD_PARAMETERS, "flight_id negative turn weight");
+        bad.turn_weight[1] = NAN;
+        check(massid_f32_flight_id_init(&id, &c, &bad) == MASSID_BAD_PARAMETERS, "flight_id NaN turn weight");
+        check(st.turn_weight[0] == 1.0f && st.turn_weight[1] == 1.0f && st.turn_weight[2] == 1.0f,
+              "SPHERES-like default turn weights");
     }
     check(massid_f32_flight_id_init(&id, &c, &st) == MASSID_OK, "flight_id init");
     check(massid_f32_flight_id_push(&id, 0.001f, NULL, 1, 0) == MASSID_NULL_POINTER, "push NULL rate");

@@ -255,7 +255,7 @@ typedef struct massid_flight_id_settings {
     float period_s;               /* nominal sample period; a step over 1.5 of it starts a window */
     float delay_periods;          /* known command-to-thrust delay, sample periods */
     float max_window_turn_rad;    /* past turn_window samples, cut a window after this weighted turn (INFINITY: never) */
-    float turn_weight[3];         /* per axis, how much its turn counts (1 for SPHERES-like coupling) */
+    float turn_weight[3];         /* per axis, how much its turn counts: finite, > 0 (1 for SPHERES-like coupling) */
     float scale[MASSID_ID_TERMS]; /* per term, the standard error beyond which it is held */
     uint32_t max_window;          /* samples */
     uint32_t turn_window;         /* samples */

@@ -402,7 +402,8 @@ pub struct MassidFlightIdSettings {
     /// Past `turn_window` samples a window is cut once the craft turned this far, rad, each
     /// axis' turn weighted by `turn_weight` (infinity: never).
     pub max_window_turn_rad: f32,
-    /// Per axis, how much its turn counts (`flight_id::window::turn_weights`).
+    /// Per axis, how much its turn counts (`flight_id::window::turn_weights`); finite and
+    /// positive (a zeroed struct is refused rather than flown without a turn limit).
     pub turn_weight: [f32; 3],
     /// Per term (inverse inertia xx yy zz xy xz yz, CoM x y z), the standard error beyond
     /// which the term is held at the nominal (1/(kg m^2) and m).
@@ -476,7 +477,7 @@ fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdCon
         && s.period_s.is_finite()
         && s.period_s > 0.0
         && !s.max_window_turn_rad.is_nan()
-        && s.turn_weight.iter().all(|w| w.is_finite() && *w >= 0.0)
+        && s.turn_weight.iter().all(|w| w.is_finite() && *w > 0.0)
         && usize::from(s.max_noise_order) <= MAX_ORDER;
     if !finite {
         return None;

@@ -102,14 +102,14 @@ fn add2<S: Scalar, const M: usize>(m: &mut [[S; M]], i: usize, j: usize, v: S) {
 }
 
 /// `[[xx xy xz] [xy yy yz] [xz yz zz]]`.
-fn sym3<S: Scalar>(p: &[S]) -> [[S; 3]; 3] {
+pub(super) fn sym3<S: Scalar>(p: &[S]) -> [[S; 3]; 3] {
     let g = |i| get(p, i);
     [[g(0), g(3), g(4)], [g(3), g(1), g(5)], [g(4), g(5), g(2)]]
 }
 
 type M3<S> = [[S; 3]; 3];
 
-fn mul3<S: Scalar>(a: &M3<S>, b: &M3<S>) -> M3<S> {
+pub(super) fn mul3<S: Scalar>(a: &M3<S>, b: &M3<S>) -> M3<S> {
     core::array::from_fn(|r| {
         core::array::from_fn(|c| {
             (0..3).fold(S::ZERO, |acc, k| acc.mul_add(get2(a, r, k), get2(b, k, c)))
@@ -183,7 +183,7 @@ fn gyro_map<S: Scalar>(i: &M3<S>) -> [[S; 6]; 3] {
 }
 
 /// `[dc]x`.
-fn skew<S: Scalar>(dc: &[S]) -> M3<S> {
+pub(super) fn skew<S: Scalar>(dc: &[S]) -> M3<S> {
     let (x, y, z) = (get(dc, 0), get(dc, 1), get(dc, 2));
     [
         [S::ZERO, z.negate(), y],

@@ -18,7 +18,7 @@
 //! ratios ([`turn_weights`]). Before this rule the f32 kernel on that cubesat gave products with
 //! RMS error/sigma up to 1.39 and 2-sigma coverage 83 % with status `ok` (README, 100 flights).
 
-use super::solve::inverse_inertia;
+use super::solve::{inverse_inertia, mul3, skew, sym3};
 
 /// Longest window, s.
 pub const MAX_WINDOW_S: f32 = 60.0;
@@ -28,7 +28,7 @@ pub const MAX_WINDOW_TURN_RAD: f32 = 4.0;
 /// SPHERES; shorter in proportion for one that couples more).
 pub const TURN_WINDOW_S: f32 = 8.0;
 /// The nominal inertia the limits were measured on (SPHERES SPH2, kg m^2, xx yy zz xy xz yz).
-pub const SPHERES_INERTIA_KGM2: [f32; 6] = [0.0242, 0.0214, 0.0194, 0.000108, 0.000157, 0.0000123];
+pub const SPHERES_INERTIA_KGM2: [f32; 6] = crate::model::SPH2.inertia_kgm2;
 
 /// Shortest window cap, samples.
 pub const MIN_WINDOW: u32 = 20;
@@ -43,64 +43,40 @@ pub fn samples(seconds: f32, period_s: f32) -> u32 {
     n
 }
 
-/// Symmetric 3x3 from xx yy zz xy xz yz.
-fn sym(v: &[f32; 6]) -> [[f32; 3]; 3] {
-    let [xx, yy, zz, xy, xz, yz] = *v;
-    [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]
-}
-
-/// `[v]x`, the cross-product matrix.
-fn skew(v: [f32; 3]) -> [[f32; 3]; 3] {
-    let [x, y, z] = v;
-    [[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]]
-}
-
-/// `a b` for 3x3 matrices.
-fn mul(a: &[[f32; 3]; 3], b: &[[f32; 3]; 3]) -> [[f32; 3]; 3] {
-    let mut out = [[0.0f32; 3]; 3];
-    for (orow, arow) in out.iter_mut().zip(a) {
-        for (k, brow) in arow.iter().zip(b) {
-            for (o, bv) in orow.iter_mut().zip(brow) {
-                *o += k * bv;
-            }
-        }
-    }
-    out
-}
-
 /// Per axis `a`, the largest entry of `|J([e_a]x I - [I e_a]x)|`: how fast a turn about `a`
 /// at 1 rad/s couples the axes (1/s per rad/s; the spectral norm for a principal-axis
 /// inertia). None for a singular inertia.
 pub fn coupling(inertia_kgm2: &[f32; 6]) -> Option<[f32; 3]> {
-    let j = sym(&inverse_inertia(inertia_kgm2)?);
-    let i = sym(inertia_kgm2);
+    let j = sym3(&inverse_inertia(inertia_kgm2)?);
+    let i = sym3(inertia_kgm2);
     let mut out = [0.0f32; 3];
     // `I e_a` is row `a` of the symmetric `I`.
     for (a, (k, i_e)) in out.iter_mut().zip(i.iter()).enumerate() {
         let e: [f32; 3] = core::array::from_fn(|r| if r == a { 1.0 } else { 0.0 });
-        let mut d = mul(&skew(e), &i);
-        for (drow, srow) in d.iter_mut().zip(skew(*i_e)) {
+        let mut d = mul3(&skew(&e), &i);
+        for (drow, srow) in d.iter_mut().zip(skew(i_e)) {
             for (v, s) in drow.iter_mut().zip(srow) {
                 *v -= s;
             }
         }
-        *k = mul(&j, &d)
+        *k = mul3(&j, &d)
             .iter()
             .flatten()
             .fold(0.0f32, |m, v| m.max(v.abs()));
     }
-    Some(out)
+    out.iter().all(|k| k.is_finite()).then_some(out)
 }
 
 /// Each axis' weight in the window's turn, `max(1, kappa_a / max kappa_SPHERES)`; the floor
 /// ([`TURN_WINDOW_S`]) is divided by the largest. All ones for a craft that couples no more
-/// than SPHERES. None for a singular inertia.
+/// than SPHERES. None for a singular inertia or one so ill-conditioned that a weight is not
+/// finite.
 pub fn turn_weights(inertia_kgm2: &[f32; 6]) -> Option<[f32; 3]> {
     let reference = coupling(&SPHERES_INERTIA_KGM2)?
         .into_iter()
         .fold(0.0f32, f32::max);
-    let k = coupling(inertia_kgm2)?;
-    Some(k.map(|v| (v / reference).max(1.0)))
+    let w = coupling(inertia_kgm2)?.map(|v| (v / reference).max(1.0));
+    w.iter().all(|v| v.is_finite()).then_some(w)
 }
 
 /// The floor of a craft with weights `w`, s.
@@ -133,6 +109,8 @@ mod tests {
         assert_eq!(samples(turn_window_s(&w), 0.01), 225);
         assert_eq!(samples(f32::NAN, 0.01), 0);
         assert_eq!(turn_weights(&[1.0, 1.0, 0.0, 0.0, 0.0, 0.0]), None);
+        // Invertible in f32, but its coupling overflows: no weights rather than infinite ones.
+        assert_eq!(turn_weights(&[1e30, 1e30, 1e-30, 0.0, 0.0, 0.0]), None);
     }
 
     #[test]

@@ -217,16 +217,48 @@ fn add_edge(
     }
 }
 
+/// A command's wrench and per-thruster thrusts, computed when first asked for. The intervals
+/// read the commands in order, at most three indices around the current one, so a few
+/// entries serve them and no per-sample table is held (it was 176 bytes a sample: 1.8 GB at
+/// 10^7 samples).
+struct CommandCache<'a> {
+    flight: &'a Flight,
+    sat: &'a Satellite,
+    slots: [Option<(usize, (Wrench, [f64; MAX_THRUSTERS]))>; 4],
+    oldest: usize,
+}
+
+impl CommandCache<'_> {
+    fn get(&mut self, i: usize) -> (Wrench, [f64; MAX_THRUSTERS]) {
+        if let Some((_, v)) = self.slots.iter().flatten().find(|(k, _)| *k == i) {
+            return *v;
+        }
+        let v = self
+            .flight
+            .commands
+            .get(i)
+            .map_or((Wrench::default(), [0.0; MAX_THRUSTERS]), |c| {
+                command_wrench(self.sat, c)
+            });
+        if let Some(slot) = self.slots.get_mut(self.oldest) {
+            *slot = Some((i, v));
+        }
+        self.oldest = (self.oldest + 1) % 4;
+        v
+    }
+}
+
 /// The intervals between consecutive samples. The command of sample `m` acts over
 /// `[t_m + latency, t_m+1 + latency)`; before the first command acts nothing fires.
 pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interval> {
     let n = flight.time_s.len();
     let t = &flight.time_s;
-    let cmds: Vec<(Wrench, [f64; MAX_THRUSTERS])> = flight
-        .commands
-        .iter()
-        .map(|c| command_wrench(sat, c))
-        .collect();
+    let mut cmds = CommandCache {
+        flight,
+        sat,
+        slots: [None; 4],
+        oldest: 0,
+    };
     let zero = (Wrench::default(), [0.0; MAX_THRUSTERS]);
     // Command index acting at time s: m with t_m + L <= s < t_m+1 + L (None before t_0 + L).
     let mut out = Vec::with_capacity(n.saturating_sub(1));
@@ -250,8 +282,8 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
         // An edge exactly at the interval's start belongs to it: a longer delay moves it in.
         if let Some(c) = cur {
             if t[c] + latency_s == a {
-                let f_old = if c == 0 { &zero.1 } else { &cmds[c - 1].1 };
-                add_edge(&mut iv, sat, f_old, &cmds[c].1);
+                let f_old = if c == 0 { zero.1 } else { cmds.get(c - 1).1 };
+                add_edge(&mut iv, sat, &f_old, &cmds.get(c).1);
             }
         }
         loop {
@@ -260,18 +292,18 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
             } else {
                 b
             };
-            let (w, f) = cur.map_or(&zero, |c| &cmds[c]);
+            let (w, f) = cur.map_or(zero, |c| cmds.get(c));
             let d = (end - s).max(0.0);
-            iv.impulse.add_scaled(w, d);
-            for (acc, fi) in iv.thruster_impulse.iter_mut().zip(f) {
+            iv.impulse.add_scaled(&w, d);
+            for (acc, fi) in iv.thruster_impulse.iter_mut().zip(&f) {
                 *acc += fi * d;
             }
             if next >= n || t[next] + latency_s >= b {
                 break;
             }
             // An edge inside the interval: from `cur` to `next`.
-            let f_old = cur.map_or(&zero.1, |c| &cmds[c].1);
-            add_edge(&mut iv, sat, f_old, &cmds[next].1);
+            let f_old = cur.map_or(zero.1, |c| cmds.get(c).1);
+            add_edge(&mut iv, sat, &f_old, &cmds.get(next).1);
             s = end;
             cur = Some(next);
             next += 1;

@@ -4,7 +4,7 @@
 //! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
 use crate::craft::{craft, model_error};
 use crate::HostError;
-use massid_kernel::flight_id::consistency::REJECT_ABOVE;
+use massid_kernel::flight_id::consistency::{REJECT_ABOVE, SYMMETRY_REJECT_ABOVE};
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
@@ -227,16 +227,32 @@ pub fn identify<S: Scalar>(
         .timing_statistic
         .filter(|_| tested)
         .map(|v| f64::from(v.to_f32()));
+    // The thrust-symmetry test per torque axis, each at a third of the level.
+    const SYMMETRY_NAMES: [&str; 3] = [
+        "thrust_symmetry_x",
+        "thrust_symmetry_y",
+        "thrust_symmetry_z",
+    ];
+    let symmetry: Vec<(&'static str, f64)> = SYMMETRY_NAMES
+        .iter()
+        .zip(sol.symmetry_statistic)
+        .filter_map(|(name, v)| v.filter(|_| tested).map(|v| (*name, f64::from(v.to_f32()))))
+        .collect();
     let consistency: Vec<ScoreTest> = timing
-        .map(|statistic| ScoreTest {
-            name: "valve_timing",
+        .map(|statistic| ("valve_timing", statistic))
+        .into_iter()
+        .chain(symmetry.iter().copied())
+        .map(|(name, statistic)| ScoreTest {
+            name,
             statistic,
             dof: 1,
             p_value: chi2_sf(statistic, 1.0),
         })
-        .into_iter()
         .collect();
-    let inconsistent = timing.is_some_and(|t| t > f64::from(REJECT_ABOVE));
+    let inconsistent = timing.is_some_and(|t| t > f64::from(REJECT_ABOVE))
+        || symmetry
+            .iter()
+            .any(|(_, t)| *t > f64::from(SYMMETRY_REJECT_ABOVE));
     let status = if principal.iter().all(|r| r.abs() < 0.125) {
         "no_gyro_response"
     } else if !sol.positive_definite && !sat.planar {

@@ -172,7 +172,7 @@ static void craft_selftest(const massid_satellite_params *sp) {
     check(massid_craft_type_size(7) == 0, "craft type size of an unknown code");
     check(offsetof(massid_craft, pressure_drop_n_per_extra) == 8 + 7 * 4 * MASSID_MAX_THRUSTERS,
           "massid_craft field offsets");
-    check(offsetof(massid_flight_id_result, has_timing_statistic) + 1 <= sizeof(massid_flight_id_result),
+    check(offsetof(massid_flight_id_result, has_symmetry_statistic) + 3 <= sizeof(massid_flight_id_result),
           "massid_flight_id_result field offsets");
     check(massid_craft_state_bytes(1) < sizeof(massid_craft_mixer), "fixed craft mixer fits the block");
     check(massid_craft_state_bytes(0) < sizeof(massid_craft_mixer), "f32 craft mixer fits the block");
@@ -416,6 +416,9 @@ static int run_craft_file(const char *path, int flight_id) {
         if (s == MASSID_OK) {
             printf(" steps=%u pd=%d timing=%d", r.steps, r.positive_definite, r.has_timing_statistic);
             print_hex_f32(&r.timing_statistic, 1);
+            printf(" symmetry ");
+            print_flags(r.has_symmetry_statistic, 3);
+            print_hex_f32(r.symmetry_statistic, 3);
             printf(" theta");
             print_hex_f32(r.theta, MASSID_ID_TERMS);
             printf(" held ");

@@ -275,11 +275,13 @@ typedef struct massid_flight_id_result {
     float noise_phi[3][MASSID_ID_MAX_NOISE_ORDER];   /* per axis AR coefficients */
     float noise_sigma2[3];          /* per axis innovation variance, (rad/s)^2 */
     float timing_statistic;         /* chi-square (1 dof) of a command delay, if has_timing_statistic */
+    float symmetry_statistic[3];    /* per torque axis, chi-square (1 dof) of a thrust asymmetry */
     uint32_t steps;                 /* Gauss-Newton steps */
     uint8_t held[MASSID_ID_TERMS];  /* non-zero: held at the nominal */
     uint8_t noise_order[3];
     uint8_t positive_definite;
     uint8_t has_timing_statistic;
+    uint8_t has_symmetry_statistic[3]; /* per axis, non-zero: symmetry_statistic is set */
 } massid_flight_id_result;
 
 /* Layout checks (0 craft, 1 craft firing, 2 craft mixer block, 3 flight_id block,

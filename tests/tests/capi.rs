@@ -859,6 +859,13 @@ fn rust_flight_id_line<S: Scalar>(
                 u8::from(s.timing_statistic.is_some()),
                 s.timing_statistic.map_or(hx(0.0), h)
             );
+            expected.push_str(" symmetry ");
+            for v in s.symmetry_statistic {
+                expected.push(if v.is_some() { '1' } else { '0' });
+            }
+            for v in s.symmetry_statistic {
+                let _ = write!(expected, " {}", v.map_or(hx(0.0), h));
+            }
             expected.push_str(" theta");
             for v in s.theta {
                 let _ = write!(expected, " {}", h(v));

@@ -165,19 +165,32 @@ fn kernel_status(flight: &reference_f64::flight_id::flight::Flight, latency_ms: 
     let sat = reference_f64::satellite::Satellite::builtin("sph2").expect("sph2");
     let e = massid_kernel_host::flight_id::identify::<f32>(flight, &sat, None, latency_ms)
         .expect("estimate");
-    format!(
-        "{} {:?}",
-        e.status,
-        e.consistency.first().map(|t| t.statistic)
-    )
+    let tests: Vec<String> = e
+        .consistency
+        .iter()
+        .map(|t| format!("{}={:.1}", t.name, t.statistic))
+        .collect();
+    format!("{} {}", e.status, tests.join(" "))
 }
 
-/// The onboard consistency test: an unmodelled 6 ms latency and a 10 ms thrust rise make
-/// the status `inconsistent`; the same flights without them, and the latency flight told its
-/// latency, stay `ok` (held-out seeds 31000+; development used 3000-3004).
+/// The largest thrust-symmetry statistic in a [`kernel_status`] line.
+fn largest_symmetry(status: &str) -> f64 {
+    status
+        .split(' ')
+        .filter_map(|t| t.strip_prefix("thrust_symmetry_"))
+        .filter_map(|t| t.split('=').nth(1)?.parse::<f64>().ok())
+        .fold(f64::NAN, f64::max)
+}
+
+/// The onboard consistency tests: an unmodelled 6 ms latency, a 10 ms thrust rise and one
+/// thruster at 90 % make the status `inconsistent`; the same flights without them, and the
+/// latency flight told its latency, stay `ok` (held-out seeds 31000+; development used
+/// 3000-3004 and, for the thrust-symmetry test, 44000-44039 and 45000-45009). The weak
+/// thruster is caught by the thrust-symmetry test: the flight fails without the
+/// timing test's help, so the assertion fails if the symmetry test is taken out.
 #[test]
 fn kernel_consistency_catches_timing_faults_and_passes_controls() {
-    use massid_sim::effects::{Effect, ThrustRise, ThrusterLatency};
+    use massid_sim::effects::{Effect, ThrustRise, ThrustScale, ThrusterLatency};
     let latency = || {
         vec![Effect::ThrusterLatency(ThrusterLatency {
             open_ms: 6.0,
@@ -185,10 +198,17 @@ fn kernel_consistency_catches_timing_faults_and_passes_controls() {
         })]
     };
     let rise = || vec![Effect::ThrustRise(ThrustRise { tau_ms: 10.0 })];
+    let weak = || {
+        let mut scale = vec![1.0; 12];
+        scale[massid_tests::planted_faults::WEAK] = 0.9;
+        vec![Effect::ThrustScale(ThrustScale { scale })]
+    };
+    let threshold = f64::from(massid_kernel::flight_id::consistency::SYMMETRY_REJECT_ABOVE);
     for (maneuver, rate) in [(Maneuver::Rga12, 1000.0), (Maneuver::Combo, 250.0)] {
         for seed in [31000, 31001] {
             let control = kernel_status(&sph2_flight(maneuver, rate, seed, vec![]), 0.0);
             assert!(control.starts_with("ok"), "{maneuver:?} control: {control}");
+            assert!(largest_symmetry(&control) < threshold, "{control}");
             let late = sph2_flight(maneuver, rate, seed, latency());
             let s = kernel_status(&late, 0.0);
             assert!(s.starts_with("inconsistent"), "{maneuver:?} latency: {s}");
@@ -196,6 +216,15 @@ fn kernel_consistency_catches_timing_faults_and_passes_controls() {
             assert!(told.starts_with("ok"), "{maneuver:?} latency told: {told}");
             let s = kernel_status(&sph2_flight(maneuver, rate, seed, rise()), 0.0);
             assert!(s.starts_with("inconsistent"), "{maneuver:?} rise: {s}");
+            let s = kernel_status(&sph2_flight(maneuver, rate, seed, weak()), 0.0);
+            assert!(
+                s.starts_with("inconsistent"),
+                "{maneuver:?} weak thruster: {s}"
+            );
+            assert!(
+                largest_symmetry(&s) > threshold,
+                "{maneuver:?} weak thruster: {s}"
+            );
         }
     }
 }

@@ -443,6 +443,9 @@ pub struct MassidFlightIdResult {
     pub noise_sigma2: [f32; 3],
     /// The timing consistency statistic (chi-square, 1 dof), if `has_timing_statistic`.
     pub timing_statistic: f32,
+    /// Per torque axis, the thrust-symmetry statistic (chi-square, 1 dof), where
+    /// `has_symmetry_statistic`.
+    pub symmetry_statistic: [f32; 3],
     /// Gauss-Newton steps taken.
     pub steps: u32,
     /// Per term, non-zero: held at the nominal (not free, or not determined by the data).
@@ -453,6 +456,8 @@ pub struct MassidFlightIdResult {
     pub positive_definite: u8,
     /// Non-zero: `timing_statistic` is set.
     pub has_timing_statistic: u8,
+    /// Per axis, non-zero: `symmetry_statistic` is set.
+    pub has_symmetry_statistic: [u8; 3],
 }
 
 fn sensor_of(code: u8) -> Option<SensorResponse> {
@@ -746,11 +751,13 @@ fn flight_id_solve<S: Scalar>(
                 noise_phi: [[0.0; MAX_ORDER]; 3],
                 noise_sigma2: [0.0; 3],
                 timing_statistic: sol.timing_statistic.map_or(0.0, S::to_f32),
+                symmetry_statistic: sol.symmetry_statistic.map(|v| v.map_or(0.0, S::to_f32)),
                 steps: sol.steps,
                 held: sol.held.map(u8::from),
                 noise_order: [0; 3],
                 positive_definite: u8::from(sol.positive_definite),
                 has_timing_statistic: u8::from(sol.timing_statistic.is_some()),
+                has_symmetry_statistic: sol.symmetry_statistic.map(|v| u8::from(v.is_some())),
             };
             for (a, n) in sol.noise.iter().enumerate() {
                 if let Some(p) = r.noise_phi.get_mut(a) {

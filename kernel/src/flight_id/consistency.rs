@@ -1,25 +1,74 @@
-//! The onboard consistency test: does the flight agree with the model's command timing?
+//! The onboard consistency tests: does the flight agree with the model's command timing
+//! and with its thrusts?
 //!
-//! A command-to-thrust delay `L` the model leaves out moves the accumulated drive by `-L`
-//! times the wrench being applied, so its rate signature is `A_(torque, force) w_k` (the sums
-//! carry `w_k` as drive components 12-17). The score test of `L = 0` at the fitted mass
-//! properties, with the noise model's whitening and the initial rates eliminated, is
-//! chi-square with one degree of freedom when the model is right. An unmodelled latency, a
-//! thrust rise (a delay of the openings) and other timing errors give a large statistic, and
-//! the estimate is then `inconsistent`, never `ok`. (The reference tests per-thruster thrust
-//! scales too; the kernel does not: see `kernel/README.md`.)
+//! Each is the score test of one extra parameter at the fitted mass properties, with the
+//! noise model's whitening and the initial rates eliminated: chi-square with one degree of
+//! freedom when the model is right.
+//! - **Timing.** A command-to-thrust delay `L` the model leaves out moves the accumulated
+//!   torque by `-L` times the torque being applied, so its rate signature is `J tau_k` (the
+//!   sums carry `tau_k` as drive components 12-14). An unmodelled latency, a thrust rise (a
+//!   delay of the openings) and other timing errors give a large statistic. (The force's part
+//!   of the signature, `-J [dc]x f_k`, is left out: the CoM offset `dc` is millimetres against
+//!   lever arms of decimetres.)
+//! - **Thrust symmetry, per axis.** A uniform thrust error is exactly an inertia error on
+//!   rates and no test can see it, but one weak or strong thruster scales the turns it drives
+//!   one way and not the other: its signature is `J e_b` times the accumulated positive part
+//!   of the torque about axis `b` (components 15-17). The three axes are tested at a third of
+//!   the level each (Bonferroni). The reference tests each thruster's scale; the kernel cannot
+//!   afford a drive component per thruster in the tick, and tests the symmetry it breaks.
+//!
+//! Either test over its threshold makes the estimate `inconsistent`, never `ok`.
 use super::solve::{
     ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
 };
-use super::sums::{FlightSums, NZ, N_MODEL};
+use super::sums::{FlightSums, NZ, N_MODEL, SPLIT_TORQUE};
 use crate::scalar::Scalar;
 
-/// Chi-square(1) at which the test rejects: the 0.999 quantile (level 1e-3, the reference's).
+/// Chi-square(1) at which the timing test rejects: the 0.999 quantile (level 1e-3, the
+/// reference's).
 pub const REJECT_ABOVE: f32 = 10.828;
 
-/// Share of the timing direction's information that must remain after the fitted terms
-/// explain what they can, for the direction to be tested (the reference's).
+/// Chi-square(1) at which one axis' thrust-symmetry test rejects: the quantile at
+/// `1 - 1e-3 / 3`, so that the three axes together reject a right model at 1e-3.
+pub const SYMMETRY_REJECT_ABOVE: f32 = 12.873;
+
+/// Share of a direction's information that must remain after the fitted terms explain what
+/// they can, for the direction to be tested (the reference's).
 const MIN_RESIDUAL_SHARE: f32 = 1e-3;
+
+/// Which extra parameter a score test is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// A common command delay.
+    Timing,
+    /// A scale of the positive torque about axis `b` (0, 1, 2) relative to the negative.
+    Symmetry(usize),
+}
+
+impl Direction {
+    /// Axis `a`'s rate signature of the parameter, as coefficients of `(z, y)`, from the
+    /// model's row `row` (its torque block is `J`'s row `a`).
+    fn signature<S: Scalar>(self, row: &[S; NZ]) -> [S; NV] {
+        let mut e = [S::ZERO; NV];
+        match self {
+            Direction::Timing => {
+                for (c, coefficient) in row.iter().take(3).enumerate() {
+                    if let Some(v) = e.get_mut(N_MODEL.saturating_add(c)) {
+                        *v = *coefficient;
+                    }
+                }
+            }
+            Direction::Symmetry(b) => {
+                if let (Some(v), Some(coefficient)) =
+                    (e.get_mut(SPLIT_TORQUE.saturating_add(b)), row.get(b))
+                {
+                    *v = *coefficient;
+                }
+            }
+        }
+        e
+    }
+}
 
 /// The score statistic of a common command delay at `theta` (None if the direction is not
 /// distinguishable from the fitted terms, or a value left the format).
@@ -31,6 +80,20 @@ pub fn timing_statistic<S: Scalar>(
     free: &[bool; NP],
     covariance: &[[S; NP]; NP],
 ) -> Option<S> {
+    score_statistic(s, cfg, theta, noise, free, covariance, Direction::Timing)
+}
+
+/// The score statistic of `direction`'s parameter at `theta` (None if the direction is not
+/// distinguishable from the fitted terms, or a value left the format).
+pub fn score_statistic<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+    theta: &[S; NP],
+    noise: &[ArNoise<S>; 3],
+    free: &[bool; NP],
+    covariance: &[[S; NP]; NP],
+    direction: Direction,
+) -> Option<S> {
     let mut score = S::ZERO;
     let mut info_ll = S::ZERO;
     let mut info_lt = [S::ZERO; NP];
@@ -41,16 +104,10 @@ pub fn timing_statistic<S: Scalar>(
         let (w, c2) = ar_weights(&nz.phi);
         let wm = weighted(s, a, &w, c2);
         let (u, d) = residual_and_jacobian(theta, cfg, a)?;
-        // d residual / d L: the model's torque-and-force row at the held-wrench components.
         let (j6, dc) = theta.split_at(6);
         let model = model_matrix(j6, dc, cfg.gyroscopic)?;
         let row = model.get(a).copied().unwrap_or([S::ZERO; NZ]);
-        let mut e = [S::ZERO; NV];
-        for (c, coefficient) in row.iter().take(6).enumerate() {
-            if let Some(v) = e.get_mut(N_MODEL.saturating_add(c)) {
-                *v = *coefficient;
-            }
-        }
+        let e = direction.signature(&row);
         let inv = S::ONE.checked_div(nz.sigma2)?;
         score = score.minus(inv.times(quad(&wm, &e, &u)));
         info_ll = info_ll.plus(inv.times(quad(&wm, &e, &e)));

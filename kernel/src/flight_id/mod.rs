@@ -180,8 +180,17 @@ impl<S: Scalar> FlightId<S> {
                     let then = get(&r_prev, b).times(get(&r_prev, d));
                     let now = get(&rate, b).times(get(&rate, d));
                     h.times(then.plus(now))
+                } else if let Some(b) = i.checked_sub(sums::SPLIT_TORQUE) {
+                    // The positive part of the torque about axis b, accumulated (the
+                    // thrust-symmetry test's direction, [`consistency`]).
+                    let torque = get(&w_prev, b);
+                    if S::ZERO.lt(torque) {
+                        torque.times(dt_s)
+                    } else {
+                        S::ZERO
+                    }
                 } else if i >= N_MODEL {
-                    // The held wrench itself (the consistency test's direction), not summed.
+                    // The held torque itself (the timing test's direction), not summed.
                     *zi = get(&w_prev, i.saturating_sub(N_MODEL));
                     continue;
                 } else {
@@ -261,14 +270,21 @@ impl<S: Scalar> FlightId<S> {
         sums.fold_all();
         let mut solution = solve::solve(&sums, &self.cfg.solve)?;
         let free = solution.held.map(|h| !h);
-        solution.timing_statistic = consistency::timing_statistic(
-            &sums,
-            &self.cfg.solve,
-            &solution.theta,
-            &solution.noise,
-            &free,
-            &solution.covariance,
-        );
+        let test = |direction| {
+            consistency::score_statistic(
+                &sums,
+                &self.cfg.solve,
+                &solution.theta,
+                &solution.noise,
+                &free,
+                &solution.covariance,
+                direction,
+            )
+        };
+        let timing = test(consistency::Direction::Timing);
+        let symmetry = core::array::from_fn(|b| test(consistency::Direction::Symmetry(b)));
+        solution.timing_statistic = timing;
+        solution.symmetry_statistic = symmetry;
         Ok(solution)
     }
 

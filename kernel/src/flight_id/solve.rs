@@ -85,6 +85,9 @@ pub struct Solution<S> {
     /// direction is distinguishable from the fitted terms ([`super::consistency`]; filled by
     /// [`super::FlightId::solve`], `None` from [`solve`] alone).
     pub timing_statistic: Option<S>,
+    /// The thrust-symmetry test's statistic per torque axis (chi-square, 1 degree of
+    /// freedom each), where that direction is distinguishable (filled as `timing_statistic`).
+    pub symmetry_statistic: [Option<S>; 3],
 }
 
 fn get<S: Scalar>(v: &[S], i: usize) -> S {
@@ -724,6 +727,7 @@ pub fn solve<S: Scalar>(
             steps,
             positive_definite,
             timing_statistic: None,
+            symmetry_statistic: [None; 3],
         });
     }
     Err(SolveError::Singular)

@@ -4,7 +4,7 @@
 //! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
 use crate::craft::{craft, model_error};
 use crate::HostError;
-use massid_kernel::flight_id::consistency::{REJECT_ABOVE, SYMMETRY_REJECT_ABOVE};
+use massid_kernel::flight_id::consistency::rejects;
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
@@ -249,10 +249,7 @@ pub fn identify<S: Scalar>(
             p_value: chi2_sf(statistic, 1.0),
         })
         .collect();
-    let inconsistent = timing.is_some_and(|t| t > f64::from(REJECT_ABOVE))
-        || symmetry
-            .iter()
-            .any(|(_, t)| *t > f64::from(SYMMETRY_REJECT_ABOVE));
+    let inconsistent = tested && rejects(sol.timing_statistic, &sol.symmetry_statistic);
     let status = if principal.iter().all(|r| r.abs() < 0.125) {
         "no_gyro_response"
     } else if !sol.positive_definite && !sat.planar {

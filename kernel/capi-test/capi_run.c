@@ -174,6 +174,27 @@ static void craft_selftest(const massid_satellite_params *sp) {
           "massid_craft field offsets");
     check(offsetof(massid_flight_id_result, has_symmetry_statistic) + 3 <= sizeof(massid_flight_id_result),
           "massid_flight_id_result field offsets");
+    {
+        /* The status rule: a statistic counts only where it is set, each against its level. */
+        massid_flight_id_result r;
+        memset(&r, 0, sizeof r);
+        check(massid_flight_id_inconsistent(NULL) == 1, "inconsistent NULL");
+        check(massid_flight_id_inconsistent(&r) == 0, "no statistic: consistent");
+        r.timing_statistic = 1e6f;
+        r.symmetry_statistic[1] = 1e6f;
+        check(massid_flight_id_inconsistent(&r) == 0, "statistics not set: consistent");
+        r.has_timing_statistic = 1;
+        r.timing_statistic = 10.5f;
+        check(massid_flight_id_inconsistent(&r) == 0, "timing 10.5: consistent");
+        r.timing_statistic = 11.0f;
+        check(massid_flight_id_inconsistent(&r) == 1, "timing 11: inconsistent");
+        r.timing_statistic = 0.0f;
+        r.has_symmetry_statistic[1] = 1;
+        r.symmetry_statistic[1] = 12.5f;
+        check(massid_flight_id_inconsistent(&r) == 0, "symmetry 12.5: consistent (a third of the level)");
+        r.symmetry_statistic[1] = 13.0f;
+        check(massid_flight_id_inconsistent(&r) == 1, "symmetry 13: inconsistent");
+    }
     check(massid_craft_state_bytes(1) < sizeof(massid_craft_mixer), "fixed craft mixer fits the block");
     check(massid_craft_state_bytes(0) < sizeof(massid_craft_mixer), "f32 craft mixer fits the block");
     check(massid_craft_state_bytes(2) < sizeof(massid_flight_id), "identification fits the block");
@@ -419,6 +440,7 @@ static int run_craft_file(const char *path, int flight_id) {
             printf(" symmetry ");
             print_flags(r.has_symmetry_statistic, 3);
             print_hex_f32(r.symmetry_statistic, 3);
+            printf(" inconsistent=%d", massid_flight_id_inconsistent(&r));
             printf(" theta");
             print_hex_f32(r.theta, MASSID_ID_TERMS);
             printf(" held ");

@@ -339,6 +339,10 @@ massid_status massid_fixed_flight_id_finish(massid_fixed_flight_id *id);
 /* Outside the tick (49,996 bytes of stack on the M4F, 53,152 on the M0); as above, never
  * while a push on the same block can run. */
 massid_status massid_fixed_flight_id_solve(massid_fixed_flight_id *id, massid_flight_id_result *out);
+/* 1 if the result's consistency tests reject the model (timing, or any axis' thrust symmetry):
+ * the estimate is then inconsistent, not to be vouched for; 0 if not; 1 for NULL. Sized for a
+ * gyro (sensor 0): for rates differenced from attitude the tests are not applied. */
+uint8_t massid_flight_id_inconsistent(const massid_flight_id_result *result);
 
 #ifdef __cplusplus
 }

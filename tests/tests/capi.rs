@@ -866,6 +866,14 @@ fn rust_flight_id_line<S: Scalar>(
             for v in s.symmetry_statistic {
                 let _ = write!(expected, " {}", v.map_or(hx(0.0), h));
             }
+            let _ = write!(
+                expected,
+                " inconsistent={}",
+                u8::from(massid_kernel::flight_id::consistency::rejects(
+                    s.timing_statistic,
+                    &s.symmetry_statistic
+                ))
+            );
             expected.push_str(" theta");
             for v in s.theta {
                 let _ = write!(expected, " {}", h(v));

@@ -734,6 +734,27 @@ fn flight_id_finish<S: Scalar>(block: *mut u8, magic: u32) -> MassidStatus {
     })
 }
 
+/// 1 if the result's consistency tests reject the model (the timing test, or any axis' thrust
+/// symmetry; the estimate is then `inconsistent` and not to be vouched for), 0 if not; 1 for
+/// NULL. The tests are sized for a gyro (sensor 0): for rates differenced from attitude the
+/// ground tool does not apply them and says `consistency_untested`.
+///
+/// # Safety
+/// `result` is NULL or points to a readable `massid_flight_id_result`.
+#[no_mangle]
+pub unsafe extern "C" fn massid_flight_id_inconsistent(result: *const MassidFlightIdResult) -> u8 {
+    // SAFETY: NULL or readable (caller's contract).
+    let Some(r) = (unsafe { result.as_ref() }) else {
+        return 1;
+    };
+    let timing = (r.has_timing_statistic != 0).then_some(r.timing_statistic);
+    let symmetry: [Option<f32>; 3] = core::array::from_fn(|b| {
+        let set = r.has_symmetry_statistic.get(b).is_some_and(|h| *h != 0);
+        r.symmetry_statistic.get(b).copied().filter(|_| set)
+    });
+    u8::from(crate::flight_id::consistency::rejects(timing, &symmetry))
+}
+
 /// Fits and writes the result in f32 (see `massid_f32_flight_id_solve`).
 fn flight_id_solve<S: Scalar>(
     block: *mut u8,

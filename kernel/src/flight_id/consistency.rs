@@ -32,6 +32,13 @@ pub const REJECT_ABOVE: f32 = 10.828;
 /// `1 - 1e-3 / 3`, so that the three axes together reject a right model at 1e-3.
 pub const SYMMETRY_REJECT_ABOVE: f32 = 12.873;
 
+/// The status rule: true if the timing test or any axis' thrust-symmetry test rejects (the
+/// estimate is then `inconsistent`; a test that could not be run rejects nothing).
+pub fn rejects<S: Scalar>(timing: Option<S>, symmetry: &[Option<S>; 3]) -> bool {
+    let over = |v: Option<S>, limit: f32| v.is_some_and(|v| S::from_f32(limit).lt(v));
+    over(timing, REJECT_ABOVE) || symmetry.iter().any(|v| over(*v, SYMMETRY_REJECT_ABOVE))
+}
+
 /// Share of a direction's information that must remain after the fitted terms explain what
 /// they can, for the direction to be tested (the reference's).
 const MIN_RESIDUAL_SHARE: f32 = 1e-3;

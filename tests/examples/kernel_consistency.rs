@@ -9,9 +9,11 @@ use massid_sim::effects::{Effect, ThrustScale};
 use massid_sim::{simulate, Maneuver, SimSpec};
 use massid_tests::identification_mc::model_of;
 use reference_f64::flight_id::flight::Flight;
+use reference_f64::mass_id::{COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
-/// One flight through the f32 kernel: (status, timing statistic, largest symmetry statistic).
+/// One flight through the f32 kernel: its status, the timing statistic / the largest symmetry
+/// statistic, and the largest error of a reported term in its sigmas.
 fn fly(sat: &Satellite, effects: &[Effect], m: Maneuver, rate: f64, seed: u64) -> String {
     let mut spec = SimSpec::new(sat.clone(), effects.to_vec(), m);
     spec.rate_hz = rate;
@@ -30,8 +32,18 @@ fn fly(sat: &Satellite, effects: &[Effect], m: Maneuver, rate: f64, seed: u64) -
                     .map(|t| t.statistic)
                     .fold(f64::NAN, f64::max)
             };
+            // The largest error of a term the estimate reports, in its sigmas (the truth is
+            // the model: the effects change no mass property).
+            let truth = sat.inertia_kgm2;
+            let inertia = (0..6)
+                .filter(|&m| !e.unobservable.contains(&INERTIA_TERMS[m]))
+                .map(|m| (e.inertia_kgm2[m] - truth[m]).abs() / e.inertia_stderr_kgm2[m]);
+            let com = (0..3)
+                .filter(|&a| !e.unobservable.contains(&COM_TERMS[a]))
+                .map(|a| e.com_offset_mm[a].abs() / e.com_offset_stderr_mm[a]);
+            let worst = inertia.chain(com).fold(0.0, f64::max);
             format!(
-                "{} {:.1}/{:.1}",
+                "{} {:.1}/{:.1} worst error {worst:.1} sigma",
                 e.status,
                 of("valve_timing"),
                 of("thrust_symmetry")
@@ -64,7 +76,7 @@ fn main() {
                     .count();
                 let stats: Vec<&str> = runs
                     .iter()
-                    .map(|r| r.rsplit(' ').next().unwrap_or(""))
+                    .map(|r| r.split(' ').nth(1).unwrap_or(""))
                     .collect();
                 println!(
                     "| {} {} Hz | {name} | {inconsistent}/{flights} | {} |",

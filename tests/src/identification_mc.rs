@@ -251,7 +251,7 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
             time_s,
             rate,
             axes: [false, false, true],
-            commands,
+            commands: commands.into(),
             period_s: step_ms as f64 * 1e-3,
             from_gyro_counts: false,
         },

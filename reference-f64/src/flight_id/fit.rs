@@ -5,7 +5,7 @@
 //! window and axis), so the information matrix is the profile information of the parameters.
 //! The same sums carry extra columns (per-thruster thrust scale, valve timing) for the
 //! consistency test and the thrust-uncertainty term, at no second pass.
-use super::flight::{Flight, Interval, Wrench};
+use super::flight::{Flight, Interval, Intervals, Wrench};
 use super::noise::ArNoise;
 use super::rigid::{Rigid, Term, TrajectoryTerms};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -72,7 +72,7 @@ pub enum Extra {
 /// What is fitted and how.
 pub struct Problem<'a> {
     pub flight: &'a Flight,
-    pub intervals: &'a [Interval],
+    pub intervals: &'a Intervals<'a>,
     pub windows: &'a [(usize, usize)],
     pub sensor: SensorResponse,
     /// Axes whose measured rate enters the fit.
@@ -189,7 +189,7 @@ impl Problem<'_> {
                 if k + 1 == e {
                     break;
                 }
-                let iv = &self.intervals[k];
+                let iv = &self.intervals.at(k);
                 let euler = TrajectoryTerms::trapezoid(&wk, &wk, &i_gyro, iv.dt);
                 let predicted = wk + rigid.increment(iv, &euler);
                 let tr = TrajectoryTerms::trapezoid(&wk, &predicted, &i_gyro, iv.dt);
@@ -316,7 +316,7 @@ impl Problem<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::flight_id::flight::{intervals, unit_wrench, windows, Command};
+    use crate::flight_id::flight::{unit_wrench, windows, Command, Intervals};
     use crate::flight_id::noise::ArNoise;
     use crate::flight_id::rigid::{Dynamics, Rigid};
     use crate::satellite::Satellite;
@@ -344,11 +344,11 @@ mod tests {
             time_s: (0..n).map(|k| k as f64 * 1e-3).collect(),
             rate: vec![[0.0; 3]; n],
             axes: [true; 3],
-            commands,
+            commands: commands.into(),
             period_s: 1e-3,
             from_gyro_counts: false,
         };
-        let ivs = intervals(&flight, &sat, 0.0);
+        let ivs = Intervals::new(&flight, &sat, 0.0);
         let wins = windows(&flight, 20, false);
         let j_nom = sat.inertia_matrix().try_inverse().unwrap();
         let truth = Rigid {
@@ -381,9 +381,12 @@ mod tests {
             inertia_fallback: i_nom,
             unit_wrenches: unit.clone(),
         };
-        for (k, w) in p.accumulate(&st).fitted {
+        let fitted = p.accumulate(&st).fitted;
+        for (k, w) in fitted {
             flight.rate[k] = [w.x, w.y, w.z];
         }
+        // The intervals read the commands and times only; the rates changed.
+        let ivs = Intervals::new(&flight, &sat, 0.0);
         let p = Problem {
             flight: &flight,
             intervals: &ivs,

@@ -6,6 +6,8 @@ use crate::rate_recording::{Commands, RateRecording};
 use crate::recording::Recording;
 use crate::satellite::{Satellite, MAX_THRUSTERS};
 use nalgebra::Vector3;
+use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
 
 /// One sample's command, held until the next sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,6 +16,102 @@ pub enum Command {
     Word(u16),
     /// Body force (N) and torque about the model's CoM (N m).
     Wrench { force: [f64; 3], torque: [f64; 3] },
+}
+
+/// The command of every sample, stored once per run of equal commands: a recording holds each
+/// command over many samples (a 1 kHz recording of 5-50 Hz control), so this is a few bytes a
+/// sample where a `Vec<Command>` was 56 (560 MB at 10^7 samples).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CommandLog {
+    /// First sample of each run.
+    starts: Vec<usize>,
+    /// Each run's command.
+    runs: Vec<Command>,
+    len: usize,
+}
+
+impl CommandLog {
+    /// Appends the next sample's command.
+    pub fn push(&mut self, c: Command) {
+        if self.runs.last() != Some(&c) {
+            self.starts.push(self.len);
+            self.runs.push(c);
+        }
+        self.len += 1;
+    }
+
+    /// Samples.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True if no sample has a command.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Sample `i`'s command.
+    pub fn get(&self, i: usize) -> Option<&Command> {
+        if i >= self.len {
+            return None;
+        }
+        let run = self.starts.partition_point(|&s| s <= i).checked_sub(1)?;
+        self.runs.get(run)
+    }
+
+    /// Sample `i`'s command, starting the search at run `hint` (updated): sequential reads
+    /// cost no search.
+    pub fn get_near(&self, i: usize, hint: &Cell<usize>) -> Option<&Command> {
+        if i >= self.len {
+            return None;
+        }
+        let covers = |r: usize| {
+            self.starts.get(r).is_some_and(|&s| s <= i)
+                && self.starts.get(r + 1).is_none_or(|&e| i < e)
+        };
+        let h = hint.get();
+        let run = if covers(h) {
+            h
+        } else if covers(h + 1) {
+            h + 1
+        } else {
+            self.starts.partition_point(|&s| s <= i).checked_sub(1)?
+        };
+        hint.set(run);
+        self.runs.get(run)
+    }
+
+    /// Every sample's command, in order.
+    pub fn iter(&self) -> impl Iterator<Item = &Command> + '_ {
+        self.runs.iter().enumerate().flat_map(move |(r, c)| {
+            let end = self.starts.get(r + 1).copied().unwrap_or(self.len);
+            std::iter::repeat_n(c, end - self.starts[r])
+        })
+    }
+}
+
+impl FromIterator<Command> for CommandLog {
+    fn from_iter<I: IntoIterator<Item = Command>>(iter: I) -> Self {
+        let mut log = CommandLog::default();
+        for c in iter {
+            log.push(c);
+        }
+        log
+    }
+}
+
+impl From<Vec<Command>> for CommandLog {
+    fn from(v: Vec<Command>) -> Self {
+        v.into_iter().collect()
+    }
+}
+
+impl<'a> IntoIterator for &'a CommandLog {
+    type Item = &'a Command;
+    type IntoIter = Box<dyn Iterator<Item = &'a Command> + 'a>;
+    fn into_iter(self) -> Self::IntoIter {
+        Box::new(self.iter())
+    }
 }
 
 /// A flight as the identification sees it.
@@ -26,7 +124,7 @@ pub struct Flight {
     /// Which axes are measured.
     pub axes: [bool; 3],
     /// Command of each sample.
-    pub commands: Vec<Command>,
+    pub commands: CommandLog,
     /// Nominal sample period, s (a step over 1.5 of it is a gap).
     pub period_s: f64,
     /// Whether the rates are 12-bit gyro counts converted (v1), which fixes the sensor
@@ -154,7 +252,7 @@ impl Wrench {
 }
 
 /// What one interval between consecutive samples delivered, with the latency applied.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Interval {
     /// Length, s.
     pub dt: f64,
@@ -217,73 +315,104 @@ fn add_edge(
     }
 }
 
-/// A command's wrench and per-thruster thrusts, computed when first asked for. The intervals
-/// read the commands in order, at most three indices around the current one, so a few
-/// entries serve them and no per-sample table is held (it was 176 bytes a sample: 1.8 GB at
-/// 10^7 samples).
-struct CommandCache<'a> {
+/// The intervals between consecutive samples, each computed when the fit asks for it. The
+/// command of sample `m` acts over `[t_m + latency, t_m+1 + latency)`; before the first
+/// command acts nothing fires. No per-sample table is held: a table of intervals was 280
+/// bytes a sample (2.8 GB at 10^7 samples), and before 891f350 a table of the commands'
+/// wrenches another 176. A thruster word's wrench and thrusts are computed once per distinct
+/// word (at most 2^16 of them); a wrench command needs no work.
+pub struct Intervals<'a> {
     flight: &'a Flight,
     sat: &'a Satellite,
-    slots: [Option<(usize, (Wrench, [f64; MAX_THRUSTERS]))>; 4],
-    oldest: usize,
+    latency_s: f64,
+    words: RefCell<HashMap<u16, Delivered>>,
+    /// The command run last read, and the command index last found acting: the fit reads the
+    /// intervals in order, so both searches usually end where they start.
+    run_hint: Cell<usize>,
+    acting_hint: Cell<usize>,
 }
 
-impl CommandCache<'_> {
-    fn get(&mut self, i: usize) -> (Wrench, [f64; MAX_THRUSTERS]) {
-        if let Some((_, v)) = self.slots.iter().flatten().find(|(k, _)| *k == i) {
-            return *v;
+/// A command's wrench and per-thruster thrusts.
+type Delivered = (Wrench, [f64; MAX_THRUSTERS]);
+
+impl<'a> Intervals<'a> {
+    pub fn new(flight: &'a Flight, sat: &'a Satellite, latency_s: f64) -> Self {
+        Intervals {
+            flight,
+            sat,
+            latency_s,
+            words: RefCell::new(HashMap::new()),
+            run_hint: Cell::new(0),
+            acting_hint: Cell::new(0),
         }
-        let v = self
-            .flight
-            .commands
-            .get(i)
-            .map_or((Wrench::default(), [0.0; MAX_THRUSTERS]), |c| {
-                command_wrench(self.sat, c)
-            });
-        if let Some(slot) = self.slots.get_mut(self.oldest) {
-            *slot = Some((i, v));
-        }
-        self.oldest = (self.oldest + 1) % 4;
-        v
     }
-}
 
-/// The intervals between consecutive samples. The command of sample `m` acts over
-/// `[t_m + latency, t_m+1 + latency)`; before the first command acts nothing fires.
-pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interval> {
-    let n = flight.time_s.len();
-    let t = &flight.time_s;
-    let mut cmds = CommandCache {
-        flight,
-        sat,
-        slots: [None; 4],
-        oldest: 0,
-    };
-    let zero = (Wrench::default(), [0.0; MAX_THRUSTERS]);
-    // Command index acting at time s: m with t_m + L <= s < t_m+1 + L (None before t_0 + L).
-    let mut out = Vec::with_capacity(n.saturating_sub(1));
-    let mut m: usize = 0;
-    for j in 0..n.saturating_sub(1) {
-        let (a, b) = (t[j], t[j + 1]);
+    /// Intervals: one fewer than the samples.
+    pub fn len(&self) -> usize {
+        self.flight.time_s.len().saturating_sub(1)
+    }
+
+    /// True if the flight has fewer than two samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Every interval, in order.
+    pub fn iter(&self) -> impl Iterator<Item = Interval> + '_ {
+        (0..self.len()).map(|j| self.at(j))
+    }
+
+    /// Command `i`'s wrench and thrusts (nothing before the first or past the last).
+    fn command(&self, i: usize) -> Delivered {
+        match self.flight.commands.get_near(i, &self.run_hint) {
+            None => (Wrench::default(), [0.0; MAX_THRUSTERS]),
+            Some(Command::Word(w)) => *self
+                .words
+                .borrow_mut()
+                .entry(*w)
+                .or_insert_with(|| command_wrench(self.sat, &Command::Word(*w))),
+            Some(c) => command_wrench(self.sat, c),
+        }
+    }
+
+    /// The interval from sample `j` to sample `j + 1` (`j < len()`; past it, an empty one).
+    pub fn at(&self, j: usize) -> Interval {
+        let t = &self.flight.time_s;
+        let (n, latency_s, sat) = (t.len(), self.latency_s, self.sat);
+        let zero = (Wrench::default(), [0.0; MAX_THRUSTERS]);
+        let (Some(&a), Some(&b)) = (t.get(j), t.get(j + 1)) else {
+            return Interval::default();
+        };
         let mut iv = Interval {
             dt: b - a,
-            impulse: Wrench::default(),
-            thruster_impulse: [0.0; MAX_THRUSTERS],
-            open_edges: Wrench::default(),
-            close_edges: Wrench::default(),
+            ..Interval::default()
         };
-        // Advance m to the last command whose start (shifted) is <= a.
-        while m + 1 < n && t[m + 1] + latency_s <= a {
-            m += 1;
-        }
+        // The last command whose start (shifted) is <= a, or 0 if none is (then nothing acts
+        // yet); the shifted starts are non-decreasing, so a binary search finds it.
+        let starts_by = |k: usize| t.get(k).is_some_and(|&tk| tk + latency_s <= a);
+        let is_last = |k: usize| starts_by(k) && !starts_by(k + 1);
+        let h = self.acting_hint.get();
+        let m = if is_last(h) {
+            h
+        } else if is_last(h + 1) {
+            h + 1
+        } else {
+            t.partition_point(|&tm| tm + latency_s <= a)
+                .saturating_sub(1)
+        };
+        self.acting_hint.set(m);
         let mut s = a;
         let mut cur: Option<usize> = if t[m] + latency_s <= a { Some(m) } else { None };
         let mut next = if cur.is_some() { m + 1 } else { m };
         // An edge exactly at the interval's start belongs to it: a longer delay moves it in.
         if let Some(c) = cur {
             if t[c] + latency_s == a {
-                let f_old = if c == 0 { zero.1 } else { cmds.get(c - 1).1 };
-                add_edge(&mut iv, sat, &f_old, &cmds.get(c).1);
+                let f_old = if c == 0 {
+                    zero.1
+                } else {
+                    self.command(c - 1).1
+                };
+                add_edge(&mut iv, sat, &f_old, &self.command(c).1);
             }
         }
         loop {
@@ -292,7 +421,7 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
             } else {
                 b
             };
-            let (w, f) = cur.map_or(zero, |c| cmds.get(c));
+            let (w, f) = cur.map_or(zero, |c| self.command(c));
             let d = (end - s).max(0.0);
             iv.impulse.add_scaled(&w, d);
             for (acc, fi) in iv.thruster_impulse.iter_mut().zip(&f) {
@@ -302,15 +431,14 @@ pub fn intervals(flight: &Flight, sat: &Satellite, latency_s: f64) -> Vec<Interv
                 break;
             }
             // An edge inside the interval: from `cur` to `next`.
-            let f_old = cur.map_or(zero.1, |c| cmds.get(c).1);
-            add_edge(&mut iv, sat, &f_old, &cmds.get(next).1);
+            let f_old = cur.map_or(zero.1, |c| self.command(c).1);
+            add_edge(&mut iv, sat, &f_old, &self.command(next).1);
             s = end;
             cur = Some(next);
             next += 1;
         }
-        out.push(iv);
+        iv
     }
-    out
 }
 
 /// Runs of consecutive samples the fit uses: every measured axis present, steps within 1.5
@@ -322,7 +450,7 @@ pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(us
     let valid = |k: usize| (0..3).all(|a| !flight.axes[a] || flight.rate[k][a].is_finite());
     let joins = |k: usize| {
         flight.time_s[k] - flight.time_s[k - 1] <= 1.5 * flight.period_s
-            && !(cut_at_changes && flight.commands[k] != flight.commands[k - 1])
+            && !(cut_at_changes && flight.commands.get(k) != flight.commands.get(k - 1))
     };
     let mut out = Vec::new();
     let mut start: Option<usize> = None;
@@ -340,4 +468,125 @@ pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(us
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flight whose commands change every few samples, words and (with `wrench`) wrenches,
+    /// a NaN among them; times jittered.
+    fn flight(n: usize, wrench: bool) -> Flight {
+        let mut x = 11u64;
+        let mut rnd = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) as u32
+        };
+        let mut commands = Vec::with_capacity(n);
+        let mut c = Command::Word(0);
+        for k in 0..n {
+            if rnd() % 5 == 0 {
+                c = if wrench {
+                    let v = f64::from(rnd() % 7) - 3.0;
+                    let v = if k == n / 2 { f64::NAN } else { v };
+                    Command::Wrench {
+                        force: [v, 0.0, 0.1],
+                        torque: [0.0, v * 0.01, 0.0],
+                    }
+                } else {
+                    Command::Word((rnd() & 0x0fff) as u16)
+                };
+            }
+            commands.push(c);
+        }
+        let time_s = (0..n)
+            .map(|k| k as f64 * 1e-3 + f64::from(rnd() % 100) * 1e-7)
+            .collect();
+        Flight {
+            time_s,
+            rate: vec![[0.0; 3]; n],
+            axes: [true; 3],
+            commands: commands.into(),
+            period_s: 1e-3,
+            from_gyro_counts: !wrench,
+        }
+    }
+
+    fn bits(iv: &Interval) -> Vec<u64> {
+        let w = |w: &Wrench| {
+            w.torque
+                .iter()
+                .chain(w.force.iter())
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        let mut out = vec![iv.dt.to_bits()];
+        out.extend(w(&iv.impulse));
+        out.extend(iv.thruster_impulse.iter().map(|v| v.to_bits()));
+        out.extend(w(&iv.open_edges));
+        out.extend(w(&iv.close_edges));
+        out
+    }
+
+    #[test]
+    fn the_command_log_reads_back_every_sample() {
+        for wrench in [false, true] {
+            let f = flight(2000, wrench);
+            let plain: Vec<Command> = f.commands.iter().copied().collect();
+            assert_eq!(plain.len(), 2000);
+            assert!(
+                f.commands.runs.len() < 700,
+                "{} runs",
+                f.commands.runs.len()
+            );
+            let hint = Cell::new(0);
+            for (i, c) in plain.iter().enumerate() {
+                let bits = |c: &Command| format!("{c:?}");
+                assert_eq!(f.commands.get(i).map(bits), Some(bits(c)));
+                assert_eq!(f.commands.get_near(i, &hint).map(bits), Some(bits(c)));
+            }
+            // Backwards, so that the hint misses.
+            for i in (0..2000).rev() {
+                assert_eq!(
+                    f.commands.get_near(i, &hint).map(|c| format!("{c:?}")),
+                    Some(format!("{:?}", plain[i]))
+                );
+            }
+            assert!(f.commands.get(2000).is_none());
+        }
+    }
+
+    /// An interval is the same whatever was asked for before it (the searches' hints), at any
+    /// latency: in order, backwards, and by a stride that jumps over runs.
+    #[test]
+    fn an_interval_does_not_depend_on_the_order_of_asking() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        for wrench in [false, true] {
+            let f = flight(1500, wrench);
+            for latency in [0.0, 1e-3, 0.0065, 0.2] {
+                let ivs = Intervals::new(&f, &sat, latency);
+                let ordered: Vec<Vec<u64>> = ivs.iter().map(|iv| bits(&iv)).collect();
+                let fresh = Intervals::new(&f, &sat, latency);
+                for j in (0..ivs.len()).rev() {
+                    assert_eq!(
+                        bits(&fresh.at(j)),
+                        ordered[j],
+                        "latency {latency}, interval {j}"
+                    );
+                }
+                let fresh = Intervals::new(&f, &sat, latency);
+                for j in (0..ivs.len()).map(|k| (k * 397) % ivs.len()) {
+                    assert_eq!(
+                        bits(&fresh.at(j)),
+                        ordered[j],
+                        "latency {latency}, interval {j}"
+                    );
+                }
+                // Something fires once the latency has passed.
+                assert!(ordered.iter().any(|b| b[1..].iter().any(|v| *v != 0)));
+            }
+        }
+    }
 }

@@ -22,7 +22,7 @@ use crate::mass_id::{physical_validity, COM_TERMS, INERTIA_TERMS};
 use crate::satellite::Satellite;
 use consistency::{score_test, ScoreTest};
 use fit::{Extra, Normal, Problem, SensorResponse, State};
-use flight::{intervals, unit_wrench, windows, Flight};
+use flight::{unit_wrench, windows, Flight, Intervals};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use noise::ArNoise;
 use rigid::{sym_basis, Dynamics, Rigid, Term};
@@ -277,7 +277,7 @@ fn identify_in(
     axes: [bool; 3],
     wins: &[(usize, usize)],
 ) -> Result<FlightEstimate, IdError> {
-    let ivs = intervals(flight, sat, opts.latency_ms * 1e-3);
+    let ivs = Intervals::new(flight, sat, opts.latency_ms * 1e-3);
     let i_nom = sat.inertia_matrix();
     let j_nom = i_nom
         .try_inverse()
@@ -418,9 +418,13 @@ fn identify_in(
     };
 
     // Final pass with the extra directions: consistency and thrust uncertainty.
-    let firing: Vec<usize> = (0..sat.n_thrusters())
-        .filter(|&i| ivs.iter().any(|iv| iv.thruster_impulse[i] > 0.0))
-        .collect();
+    let mut fires = [false; crate::satellite::MAX_THRUSTERS];
+    for iv in ivs.iter() {
+        for (f, impulse) in fires.iter_mut().zip(&iv.thruster_impulse) {
+            *f |= *impulse > 0.0;
+        }
+    }
+    let firing: Vec<usize> = (0..sat.n_thrusters()).filter(|&i| fires[i]).collect();
     let mut extras: Vec<Extra> = firing.iter().map(|&i| Extra::ThrustScale(i)).collect();
     extras.push(Extra::OpenDelay);
     extras.push(Extra::CloseDelay);
@@ -658,7 +662,7 @@ pub fn cramer_rao_bound(
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(20));
     }
-    let ivs = intervals(flight, sat, 0.0);
+    let ivs = Intervals::new(flight, sat, 0.0);
     let i_true = Matrix3::new(
         truth_inertia[0],
         truth_inertia[3],

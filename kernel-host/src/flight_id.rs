@@ -112,7 +112,12 @@ pub fn identify<S: Scalar>(
         )
     })?;
     let mut prev_t: Option<f64> = None;
-    for ((t, rate), cmd) in flight.time_s.iter().zip(&flight.rate).zip(&flight.commands) {
+    for ((t, rate), cmd) in flight
+        .time_s
+        .iter()
+        .zip(flight.rate.iter())
+        .zip(&flight.commands)
+    {
         let dt = prev_t.map_or(0.0, |p| t - p);
         prev_t = Some(*t);
         let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());

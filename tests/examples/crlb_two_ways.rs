@@ -149,12 +149,12 @@ fn diagnose(maneuver: Maneuver, flights: u64, seed0: u64) {
         let out = massid_sim::simulate(&quiet).expect("simulation");
         let counts = Flight::from_v1(&out.recording, &sat);
         let mut exact = counts.clone();
-        exact.rate = out.body_rate.clone();
+        exact.rate = out.body_rate.clone().into();
         let rho = massid_tests::crlb::gyro_rho(&spec);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xC0FFEE);
         let mut noisy = exact.clone();
         let mut v = [0.0f64; 3];
-        for (k, r) in noisy.rate.iter_mut().enumerate() {
+        for (k, r) in noisy.rate.to_mut().iter_mut().enumerate() {
             for a in 0..3 {
                 let w: f64 = StandardNormal.sample(&mut rng);
                 let sigma = spec.sensors.gyro_noise_rad_s[a];

@@ -265,14 +265,14 @@ fn analytic(
         out.body_rate.len(),
         "recording and true rates differ in length (artefacts?)"
     );
-    flight.rate = out.body_rate;
+    flight.rate = out.body_rate.into();
     if let Some(d) = delivered {
         assert_eq!(
             d.rate.len(),
             flight.rate.len(),
             "delivered flight differs in length"
         );
-        for (r, dr) in flight.rate.iter_mut().zip(&d.rate) {
+        for (r, dr) in flight.rate.to_mut().iter_mut().zip(d.rate.iter()) {
             if dr.iter().any(|v| !v.is_finite()) {
                 *r = [f64::NAN; 3];
             }

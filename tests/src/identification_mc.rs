@@ -249,7 +249,7 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
     Simulated {
         flight: Flight {
             time_s,
-            rate,
+            rate: rate.into(),
             axes: [false, false, true],
             commands: commands.into(),
             period_s: step_ms as f64 * 1e-3,

@@ -666,7 +666,12 @@ fn c_flight_id_matches_the_rust_flight_id() {
         // The samples as the ground tool pushes them (kernel-host/src/flight_id.rs).
         let mut samples: Vec<(f32, [f32; 3], bool, u16)> = Vec::new();
         let mut prev: Option<f64> = None;
-        for ((t, rate), cmd) in flight.time_s.iter().zip(&flight.rate).zip(&flight.commands) {
+        for ((t, rate), cmd) in flight
+            .time_s
+            .iter()
+            .zip(flight.rate.iter())
+            .zip(&flight.commands)
+        {
             let dt = prev.map_or(0.0, |p| t - p) as f32;
             prev = Some(*t);
             let axes = if sat.planar {

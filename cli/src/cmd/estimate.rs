@@ -478,8 +478,9 @@ fn run_v2(args: &Args, kernels: &[Kernel], method: Method) -> anyhow::Result<()>
         &crate::cmd::inputs::Needs::estimate(false),
     )?;
     check_json_output(args)?;
-    let results = output_error(args, &Flight::from_v2(&rec), &sat, kernels, &rec.source)?;
-    write_json(args, &rec.source, &sat, &results)
+    let source = rec.source.clone();
+    let results = output_error(args, &Flight::from_v2_owned(rec), &sat, kernels, &source)?;
+    write_json(args, &source, &sat, &results)
 }
 
 /// The output-error identification of `flight` by each of `kernels`: the f64 reference
@@ -639,9 +640,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ReferenceForm::Online
     };
     if method == Method::OutputError {
+        // The flight keeps what the fit reads; the rows as read are freed before it runs.
         let flight = Flight::from_v1(&rec, &sat);
-        let results = output_error(&args, &flight, &sat, &kernels, &rec.source)?;
-        return write_json(&args, &rec.source, &sat, &results);
+        let source = rec.source.clone();
+        drop(rec);
+        let results = output_error(&args, &flight, &sat, &kernels, &source)?;
+        return write_json(&args, &source, &sat, &results);
     }
     let out = args.text();
     let mut results = Vec::new();

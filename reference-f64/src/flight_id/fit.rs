@@ -228,7 +228,7 @@ impl Problem<'_> {
                 let om: Vec<f64> = omega.iter().map(|w| w[a]).collect();
                 let res: Vec<f64> = rows
                     .clone()
-                    .map(|r| self.flight.rate[s + r][a] - self.sensor.at(&om, r))
+                    .map(|r| self.flight.rate.at(s + r)[a] - self.sensor.at(&om, r))
                     .collect();
                 let we = noise.whiten(&res);
                 if we.is_empty() {
@@ -342,7 +342,7 @@ mod tests {
             .collect();
         let mut flight = Flight {
             time_s: (0..n).map(|k| k as f64 * 1e-3).collect(),
-            rate: vec![[0.0; 3]; n],
+            rate: vec![[0.0; 3]; n].into(),
             axes: [true; 3],
             commands: commands.into(),
             period_s: 1e-3,
@@ -383,7 +383,7 @@ mod tests {
         };
         let fitted = p.accumulate(&st).fitted;
         for (k, w) in fitted {
-            flight.rate[k] = [w.x, w.y, w.z];
+            flight.rate.to_mut()[k] = [w.x, w.y, w.z];
         }
         // The intervals read the commands and times only; the rates changed.
         let ivs = Intervals::new(&flight, &sat, 0.0);

@@ -114,13 +114,96 @@ impl<'a> IntoIterator for &'a CommandLog {
     }
 }
 
+/// The measured rate of every sample, rad/s (NaN where missing or unmeasured). A v1
+/// recording's gyro counts stay counts, 6 bytes a sample instead of 24, and are converted when
+/// read, through a table of the model's conversion for each of the 4,096 counts (the values
+/// [`Satellite::gyro_counts_to_rad_s`] gives; 0 and 4,095 are saturated, so missing).
+#[derive(Clone, Debug)]
+pub enum Rates {
+    RadS(Vec<[f64; 3]>),
+    Counts {
+        counts: Vec<[u16; 3]>,
+        table: Box<[[f64; COUNTS]; 3]>,
+    },
+}
+
+/// Gyro counts of a 12-bit converter.
+const COUNTS: usize = crate::recording::MAX_COUNT as usize + 1;
+
+impl Rates {
+    /// Samples.
+    pub fn len(&self) -> usize {
+        match self {
+            Rates::RadS(v) => v.len(),
+            Rates::Counts { counts, .. } => counts.len(),
+        }
+    }
+
+    /// True if there is no sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Sample `k`'s rate (NaN on every axis past the end).
+    pub fn at(&self, k: usize) -> [f64; 3] {
+        match self {
+            Rates::RadS(v) => v.get(k).copied().unwrap_or([f64::NAN; 3]),
+            Rates::Counts { counts, table } => counts.get(k).map_or([f64::NAN; 3], |c| {
+                std::array::from_fn(|a| {
+                    table[a].get(usize::from(c[a])).copied().unwrap_or(f64::NAN)
+                })
+            }),
+        }
+    }
+
+    /// Every sample's rate, in order.
+    pub fn iter(&self) -> impl Iterator<Item = [f64; 3]> + '_ {
+        (0..self.len()).map(|k| self.at(k))
+    }
+
+    /// The rates as a vector to change (counts are converted first).
+    pub fn to_mut(&mut self) -> &mut Vec<[f64; 3]> {
+        if let Rates::Counts { .. } = self {
+            *self = Rates::RadS(self.iter().collect());
+        }
+        match self {
+            Rates::RadS(v) => v,
+            Rates::Counts { .. } => unreachable!("converted above"),
+        }
+    }
+}
+
+impl From<Vec<[f64; 3]>> for Rates {
+    fn from(v: Vec<[f64; 3]>) -> Self {
+        Rates::RadS(v)
+    }
+}
+
+/// A v2 recording's commands as the identification reads them: a wrench's absent components
+/// are zero.
+fn command_log(commands: &Commands) -> CommandLog {
+    match commands {
+        Commands::Thrusters { words, .. } => words.iter().map(|&w| Command::Word(w)).collect(),
+        Commands::Wrench { values, .. } => values
+            .iter()
+            .map(|v| {
+                let z = |x: f64| if x.is_finite() { x } else { 0.0 };
+                Command::Wrench {
+                    force: [z(v[0]), z(v[1]), z(v[2])],
+                    torque: [z(v[3]), z(v[4]), z(v[5])],
+                }
+            })
+            .collect(),
+    }
+}
+
 /// A flight as the identification sees it.
 #[derive(Clone, Debug)]
 pub struct Flight {
     /// Sample times, s, strictly increasing.
     pub time_s: Vec<f64>,
     /// Measured rates, rad/s; NaN where missing (or on an unmeasured axis).
-    pub rate: Vec<[f64; 3]>,
+    pub rate: Rates,
     /// Which axes are measured.
     pub axes: [bool; 3],
     /// Command of each sample.
@@ -143,20 +226,19 @@ impl Flight {
     /// A v1 recording: counts to rad/s with the model's bias and scale; saturated counts (0 or
     /// 4095) are missing samples.
     pub fn from_v1(rec: &Recording, sat: &Satellite) -> Flight {
-        let rate = rec
-            .samples
-            .iter()
-            .map(|s| {
-                std::array::from_fn(|a| {
-                    let c = s.gyro[a];
-                    if c == 0 || c >= crate::recording::MAX_COUNT {
-                        f64::NAN
-                    } else {
-                        sat.gyro_counts_to_rad_s(a, c as f64)
-                    }
-                })
+        let table = Box::new(std::array::from_fn(|a| {
+            std::array::from_fn(|c| {
+                if c == 0 || c >= usize::from(crate::recording::MAX_COUNT) {
+                    f64::NAN
+                } else {
+                    sat.gyro_counts_to_rad_s(a, c as f64)
+                }
             })
-            .collect();
+        }));
+        let rate = Rates::Counts {
+            counts: rec.samples.iter().map(|s| s.gyro).collect(),
+            table,
+        };
         Flight {
             time_s: rec
                 .samples
@@ -177,25 +259,37 @@ impl Flight {
 
     /// A v2 recording (rates in rad/s). A wrench's absent components are zero.
     pub fn from_v2(rec: &RateRecording) -> Flight {
-        let commands = match &rec.commands {
-            Commands::Thrusters { words, .. } => words.iter().map(|&w| Command::Word(w)).collect(),
-            Commands::Wrench { values, .. } => values
-                .iter()
-                .map(|v| {
-                    let z = |x: f64| if x.is_finite() { x } else { 0.0 };
-                    Command::Wrench {
-                        force: [z(v[0]), z(v[1]), z(v[2])],
-                        torque: [z(v[3]), z(v[4]), z(v[5])],
-                    }
-                })
-                .collect(),
-        };
+        let commands = command_log(&rec.commands);
         Flight {
             time_s: rec.time_ms.iter().map(|&t| t as f64 * 1e-3).collect(),
-            rate: rec.rate.clone(),
+            rate: rec.rate.clone().into(),
             axes: rec.axes,
             commands,
             period_s: 1.0 / rec.sample_rate_hz(),
+            from_gyro_counts: false,
+        }
+    }
+
+    /// [`Flight::from_v2`], taking the recording over: its rates are moved, not copied, and
+    /// its rows freed as they are converted (a 10^7-row recording is 240 MB of rates).
+    pub fn from_v2_owned(rec: RateRecording) -> Flight {
+        let period_s = 1.0 / rec.sample_rate_hz();
+        let RateRecording {
+            time_ms,
+            rate,
+            axes,
+            commands,
+            ..
+        } = rec;
+        let time_s: Vec<f64> = time_ms.iter().map(|&t| t as f64 * 1e-3).collect();
+        drop(time_ms);
+        let commands = command_log(&commands);
+        Flight {
+            time_s,
+            rate: rate.into(),
+            axes,
+            commands,
+            period_s,
             from_gyro_counts: false,
         }
     }
@@ -447,7 +541,10 @@ impl<'a> Intervals<'a> {
 /// Runs shorter than `min_len` are dropped.
 pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(usize, usize)> {
     let n = flight.time_s.len();
-    let valid = |k: usize| (0..3).all(|a| !flight.axes[a] || flight.rate[k][a].is_finite());
+    let valid = |k: usize| {
+        let r = flight.rate.at(k);
+        (0..3).all(|a| !flight.axes[a] || r[a].is_finite())
+    };
     let joins = |k: usize| {
         flight.time_s[k] - flight.time_s[k - 1] <= 1.5 * flight.period_s
             && !(cut_at_changes && flight.commands.get(k) != flight.commands.get(k - 1))
@@ -506,7 +603,7 @@ mod tests {
             .collect();
         Flight {
             time_s,
-            rate: vec![[0.0; 3]; n],
+            rate: vec![[0.0; 3]; n].into(),
             axes: [true; 3],
             commands: commands.into(),
             period_s: 1e-3,
@@ -556,6 +653,48 @@ mod tests {
             }
             assert!(f.commands.get(2000).is_none());
         }
+    }
+
+    /// A v1 flight's rates, kept as counts, read back as the model's conversion of every
+    /// count (bit for bit), NaN for the saturated 0 and 4,095 and for counts past them.
+    #[test]
+    fn counts_read_back_as_the_models_rates() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let samples: Vec<crate::recording::Sample> = (0..4200u16)
+            .map(|c| crate::recording::Sample {
+                time_ms: u64::from(c),
+                gyro: [c, 4199 - c, c / 2],
+                accel: [2048; 3],
+                thrusters: 0,
+            })
+            .collect();
+        let rec = Recording {
+            source: "counts".into(),
+            metadata: Vec::new(),
+            samples,
+            issues: Default::default(),
+            rate_line: None,
+        };
+        let mut f = Flight::from_v1(&rec, &sat);
+        assert!(matches!(f.rate, Rates::Counts { .. }));
+        for (k, s) in rec.samples.iter().enumerate() {
+            let r = f.rate.at(k);
+            for a in 0..3 {
+                let c = s.gyro[a];
+                if c == 0 || c >= crate::recording::MAX_COUNT {
+                    assert!(r[a].is_nan(), "count {c}");
+                } else {
+                    assert_eq!(
+                        r[a].to_bits(),
+                        sat.gyro_counts_to_rad_s(a, f64::from(c)).to_bits()
+                    );
+                }
+            }
+        }
+        let read: Vec<[f64; 3]> = f.rate.iter().collect();
+        let owned = f.rate.to_mut().clone();
+        assert_eq!(format!("{read:?}"), format!("{owned:?}"));
+        assert!(f.rate.at(4200)[0].is_nan());
     }
 
     /// An interval is the same whatever was asked for before it (the searches' hints), at any

@@ -319,7 +319,7 @@ fn identify_in(
             omega0: wins
                 .iter()
                 .map(|&(s, _)| {
-                    let r = flight.rate[(s + t0).min(flight.time_s.len() - 1)];
+                    let r = flight.rate.at((s + t0).min(flight.time_s.len() - 1));
                     Vector3::from_fn(|a, _| {
                         if axes[a] && r[a].is_finite() {
                             r[a]
@@ -706,7 +706,7 @@ pub fn cramer_rao_bound(
         // measured ones (a noise-free flight gives the true ones).
         omega0: wins
             .iter()
-            .map(|&(s, _)| Vector3::from_fn(|a, _| flight.rate[s][a]))
+            .map(|&(s, _)| Vector3::from_fn(|a, _| flight.rate.at(s)[a]))
             .collect(),
         noise: noise.clone(),
     };

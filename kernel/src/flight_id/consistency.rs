@@ -77,19 +77,6 @@ impl Direction {
     }
 }
 
-/// The score statistic of a common command delay at `theta` (None if the direction is not
-/// distinguishable from the fitted terms, or a value left the format).
-pub fn timing_statistic<S: Scalar>(
-    s: &FlightSums<S>,
-    cfg: &SolveConfig<S>,
-    theta: &[S; NP],
-    noise: &[ArNoise<S>; 3],
-    free: &[bool; NP],
-    covariance: &[[S; NP]; NP],
-) -> Option<S> {
-    score_statistic(s, cfg, theta, noise, free, covariance, Direction::Timing)
-}
-
 /// The score statistic of `direction`'s parameter at `theta` (None if the direction is not
 /// distinguishable from the fitted terms, or a value left the format).
 pub fn score_statistic<S: Scalar>(

@@ -5,7 +5,8 @@
 //! window and axis), so the information matrix is the profile information of the parameters.
 //! The same sums carry extra columns (per-thruster thrust scale, valve timing) for the
 //! consistency test and the thrust-uncertainty term, at no second pass.
-use super::flight::{Flight, Interval, Intervals, Wrench};
+use super::flight::Flight;
+use super::intervals::{Interval, Intervals, Wrench};
 use super::noise::ArNoise;
 use super::rigid::{Rigid, Term, TrajectoryTerms};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -316,7 +317,8 @@ impl Problem<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::flight_id::flight::{unit_wrench, windows, Command, Intervals};
+    use crate::flight_id::flight::{windows, Command};
+    use crate::flight_id::intervals::{unit_wrench, Intervals};
     use crate::flight_id::noise::ArNoise;
     use crate::flight_id::rigid::{Dynamics, Rigid};
     use crate::satellite::Satellite;

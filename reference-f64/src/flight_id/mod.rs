@@ -9,12 +9,14 @@
 //! the maximum-likelihood estimate under the fitted noise model, with its Fisher-information
 //! covariance; a score test (`consistency`) says when the data disagree with the model.
 //!
-//! Layout: [`flight`] (what a recording delivered), [`rigid`] (Euler's equation and its
+//! Layout: [`flight`] (what a recording delivered), [`intervals`] (what each interval's commands
+//! delivered), [`rigid`] (Euler's equation and its
 //! derivatives), [`noise`] (the rate noise model), [`fit`] (the whitened Gauss-Newton
 //! normal equations), [`consistency`] (the score tests), and [`identify`] here.
 pub mod consistency;
 pub mod fit;
 pub mod flight;
+pub mod intervals;
 pub mod noise;
 pub mod rigid;
 
@@ -22,7 +24,8 @@ use crate::mass_id::{physical_validity, COM_TERMS, INERTIA_TERMS};
 use crate::satellite::Satellite;
 use consistency::{score_test, ScoreTest};
 use fit::{Extra, Normal, Problem, SensorResponse, State};
-use flight::{unit_wrench, windows, Flight, Intervals};
+use flight::{windows, Flight};
+use intervals::{unit_wrench, Intervals};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use noise::ArNoise;
 use rigid::{sym_basis, Dynamics, Rigid, Term};

@@ -14,7 +14,7 @@
 //! `Delta omega_z = (U_tau,z + (U_F x dc)_z + d_z dt - b integral omega_z) / Izz`.
 //! The parameters enter through `J` (inverse inertia) so the model is linear in them but for
 //! the CoM term; Gauss-Newton converges in a few steps.
-use super::flight::{Interval, Wrench};
+use super::intervals::{Interval, Wrench};
 use nalgebra::{Matrix3, Vector3};
 
 /// Euler's full equation, or yaw only (an air-bearing craft).

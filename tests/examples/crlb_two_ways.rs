@@ -154,7 +154,8 @@ fn diagnose(maneuver: Maneuver, flights: u64, seed0: u64) {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xC0FFEE);
         let mut noisy = exact.clone();
         let mut v = [0.0f64; 3];
-        for (k, r) in noisy.rate.to_mut().iter_mut().enumerate() {
+        let rates = noisy.rate.rad_s_mut().expect("true rates, rad/s");
+        for (k, r) in rates.iter_mut().enumerate() {
             for a in 0..3 {
                 let w: f64 = StandardNormal.sample(&mut rng);
                 let sigma = spec.sensors.gyro_noise_rad_s[a];

@@ -272,7 +272,8 @@ fn analytic(
             flight.rate.len(),
             "delivered flight differs in length"
         );
-        for (r, dr) in flight.rate.to_mut().iter_mut().zip(d.rate.iter()) {
+        let rates = flight.rate.rad_s_mut().expect("true rates, rad/s");
+        for (r, dr) in rates.iter_mut().zip(d.rate.iter()) {
             if dr.iter().any(|v| !v.is_finite()) {
                 *r = [f64::NAN; 3];
             }

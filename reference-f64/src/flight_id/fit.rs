@@ -385,7 +385,7 @@ mod tests {
         };
         let fitted = p.accumulate(&st).fitted;
         for (k, w) in fitted {
-            flight.rate.to_mut()[k] = [w.x, w.y, w.z];
+            flight.rate.rad_s_mut().unwrap()[k] = [w.x, w.y, w.z];
         }
         // The intervals read the commands and times only; the rates changed.
         let ivs = Intervals::new(&flight, &sat, 0.0);

@@ -159,14 +159,17 @@ impl Rates {
         (0..self.len()).map(|k| self.at(k))
     }
 
-    /// The rates as a vector to change (counts are converted first).
-    pub fn to_mut(&mut self) -> &mut Vec<[f64; 3]> {
-        if let Rates::Counts { .. } = self {
-            *self = Rates::RadS(self.iter().collect());
-        }
+    /// The rates in rad/s, as a new vector.
+    pub fn to_rad_s(&self) -> Vec<[f64; 3]> {
+        self.iter().collect()
+    }
+
+    /// The rates to change in place, if they are held in rad/s (None for gyro counts: assign
+    /// `to_rad_s()` changed instead).
+    pub fn rad_s_mut(&mut self) -> Option<&mut Vec<[f64; 3]>> {
         match self {
-            Rates::RadS(v) => v,
-            Rates::Counts { .. } => unreachable!("converted above"),
+            Rates::RadS(v) => Some(v),
+            Rates::Counts { .. } => None,
         }
     }
 }
@@ -476,7 +479,8 @@ mod tests {
             }
         }
         let read: Vec<[f64; 3]> = f.rate.iter().collect();
-        let owned = f.rate.to_mut().clone();
+        let owned = f.rate.to_rad_s();
+        assert!(f.rate.rad_s_mut().is_none());
         assert_eq!(format!("{read:?}"), format!("{owned:?}"));
         assert!(f.rate.at(4200)[0].is_nan());
     }

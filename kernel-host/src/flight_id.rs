@@ -243,15 +243,21 @@ pub fn identify<S: Scalar>(
         .zip(sol.symmetry_statistic)
         .filter_map(|(name, v)| v.filter(|_| tested).map(|v| (*name, f64::from(v.to_f32()))))
         .collect();
+    // p-values at the level each test is held to: a symmetry axis' is multiplied by the three
+    // axes (Bonferroni), so that every test rejects where its p-value is below 1e-3.
     let consistency: Vec<ScoreTest> = timing
-        .map(|statistic| ("valve_timing", statistic))
+        .map(|statistic| ("valve_timing", statistic, 1.0))
         .into_iter()
-        .chain(symmetry.iter().copied())
-        .map(|(name, statistic)| ScoreTest {
+        .chain(
+            symmetry
+                .iter()
+                .map(|&(name, statistic)| (name, statistic, 3.0)),
+        )
+        .map(|(name, statistic, tests)| ScoreTest {
             name,
             statistic,
             dof: 1,
-            p_value: chi2_sf(statistic, 1.0),
+            p_value: (tests * chi2_sf(statistic, 1.0)).min(1.0),
         })
         .collect();
     let inconsistent = tested && rejects(sol.timing_statistic, &sol.symmetry_statistic);

@@ -172,7 +172,10 @@ static void craft_selftest(const massid_satellite_params *sp) {
     check(massid_craft_type_size(7) == 0, "craft type size of an unknown code");
     check(offsetof(massid_craft, pressure_drop_n_per_extra) == 8 + 7 * 4 * MASSID_MAX_THRUSTERS,
           "massid_craft field offsets");
-    check(offsetof(massid_flight_id_result, has_symmetry_statistic) + 3 <= sizeof(massid_flight_id_result),
+    check(offsetof(massid_flight_id_result, has_symmetry_statistic) ==
+              offsetof(massid_flight_id_result, has_timing_statistic) + 1 &&
+              offsetof(massid_flight_id_result, symmetry_statistic) ==
+              offsetof(massid_flight_id_result, timing_statistic) + 4,
           "massid_flight_id_result field offsets");
     {
         /* The status rule: a statistic counts only where it is set, each against its level. */

@@ -275,7 +275,7 @@ typedef struct massid_flight_id_result {
     float noise_phi[3][MASSID_ID_MAX_NOISE_ORDER];   /* per axis AR coefficients */
     float noise_sigma2[3];          /* per axis innovation variance, (rad/s)^2 */
     float timing_statistic;         /* chi-square (1 dof) of a command delay, if has_timing_statistic */
-    float symmetry_statistic[3];    /* per torque axis, chi-square (1 dof) of a thrust asymmetry */
+    float symmetry_statistic[3];    /* per torque axis, chi-square (1 dof) of a thrust asymmetry, if has_symmetry_statistic */
     uint32_t steps;                 /* Gauss-Newton steps */
     uint8_t held[MASSID_ID_TERMS];  /* non-zero: held at the nominal */
     uint8_t noise_order[3];

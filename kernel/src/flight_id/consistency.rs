@@ -65,13 +65,15 @@ impl Direction {
                     }
                 }
             }
-            Direction::Symmetry(b) => {
+            // An axis past z has no direction (its statistic is then not computed).
+            Direction::Symmetry(b) if b < 3 => {
                 if let (Some(v), Some(coefficient)) =
                     (e.get_mut(SPLIT_TORQUE.saturating_add(b)), row.get(b))
                 {
                     *v = *coefficient;
                 }
             }
+            Direction::Symmetry(_) => {}
         }
         e
     }
@@ -129,4 +131,50 @@ pub fn score_statistic<S: Scalar>(
     }
     let stat = score.times(score).checked_div(efficient)?;
     stat.is_valid().then_some(stat)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )]
+    use super::*;
+
+    /// Each direction puts the model row's torque coefficients on its own drive components
+    /// and nowhere else; an axis past z has none.
+    #[test]
+    fn each_direction_reads_its_own_components() {
+        let row: [f32; NZ] = core::array::from_fn(|i| i as f32 + 1.0);
+        let timing = Direction::Timing.signature(&row);
+        for (i, v) in timing.iter().enumerate() {
+            let want = if (N_MODEL..N_MODEL + 3).contains(&i) {
+                row[i - N_MODEL]
+            } else {
+                0.0
+            };
+            assert_eq!(*v, want, "timing, component {i}");
+        }
+        for b in 0..3 {
+            let e = Direction::Symmetry(b).signature(&row);
+            for (i, v) in e.iter().enumerate() {
+                let want = if i == SPLIT_TORQUE + b { row[b] } else { 0.0 };
+                assert_eq!(*v, want, "symmetry {b}, component {i}");
+            }
+        }
+        assert!(Direction::Symmetry(3)
+            .signature(&row)
+            .iter()
+            .all(|v| *v == 0.0));
+    }
+
+    #[test]
+    fn the_status_rule_holds_each_test_to_its_level() {
+        assert!(!rejects::<f32>(None, &[None; 3]));
+        assert!(!rejects(Some(10.5f32), &[Some(12.5), None, Some(0.0)]));
+        assert!(rejects(Some(11.0f32), &[None; 3]));
+        assert!(rejects(None, &[None, None, Some(13.0f32)]));
+    }
 }

@@ -15,8 +15,9 @@
 //! `omega_i omega_j`, so their integrals are six more drive components and the inertia's
 //! information in the gyroscopic dynamics is used as the reference uses it (the reference
 //! integrates the model's rate, this the measured one). What the reference does and this does
-//! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and there are
-//! no score tests.
+//! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and the score
+//! tests are of a command delay and of thrust symmetry per torque axis ([`consistency`]), not
+//! of each thruster's thrust.
 pub mod consistency;
 pub mod delay;
 pub mod solve;

@@ -81,7 +81,7 @@ pub struct Solution<S> {
     pub steps: u32,
     /// The inverse inertia is positive definite (else not a rigid body).
     pub positive_definite: bool,
-    /// The consistency test's statistic (chi-square, 1 degree of freedom), if the timing
+    /// The timing consistency test's statistic (chi-square, 1 degree of freedom), if the timing
     /// direction is distinguishable from the fitted terms ([`super::consistency`]; filled by
     /// [`super::FlightId::solve`], `None` from [`solve`] alone).
     pub timing_statistic: Option<S>,

@@ -382,7 +382,7 @@ pub(crate) mod samples {
         let mut commands = Vec::with_capacity(n);
         let mut c = Command::Word(0);
         for k in 0..n {
-            if rnd() % 5 == 0 {
+            if rnd() % 5 == 0 || k == n / 2 {
                 c = if wrench {
                     let v = f64::from(rnd() % 7) - 3.0;
                     let v = if k == n / 2 { f64::NAN } else { v };
@@ -420,6 +420,10 @@ mod tests {
             let f = samples::flight(2000, wrench);
             let plain: Vec<Command> = f.commands.iter().copied().collect();
             assert_eq!(plain.len(), 2000);
+            // The fixture holds what it says: with wrenches, a NaN command.
+            let has_nan =
+                |c: &Command| matches!(c, Command::Wrench { force, .. } if force[0].is_nan());
+            assert_eq!(plain.iter().any(has_nan), wrench);
             assert!(
                 f.commands.runs.len() < 700,
                 "{} runs",

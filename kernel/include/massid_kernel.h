@@ -324,7 +324,7 @@ massid_status massid_f32_flight_id_push_wrench(massid_flight_id *id, float dt_s,
                                                const float rate_rad_s[3], uint8_t valid,
                                                const float wrench[6]);
 massid_status massid_f32_flight_id_finish(massid_flight_id *id);
-/* Outside the tick (copies the sums: 23,520 bytes of stack on the M4F, 23,952 on the M0).
+/* Outside the tick (copies the sums: 21,728 bytes of stack on the M4F, 22,160 on the M0).
  * Never while a push on the same block can run (mask it, or push into a second block). */
 massid_status massid_f32_flight_id_solve(massid_flight_id *id, massid_flight_id_result *out);
 massid_status massid_fixed_flight_id_init(massid_fixed_flight_id *id, const massid_craft *craft,
@@ -336,7 +336,7 @@ massid_status massid_fixed_flight_id_push_wrench(massid_fixed_flight_id *id, flo
                                                  const float rate_rad_s[3], uint8_t valid,
                                                  const float wrench[6]);
 massid_status massid_fixed_flight_id_finish(massid_fixed_flight_id *id);
-/* Outside the tick (49,996 bytes of stack on the M4F, 53,152 on the M0); as above, never
+/* Outside the tick (45,732 bytes of stack on the M4F, 46,792 on the M0); as above, never
  * while a push on the same block can run. */
 massid_status massid_fixed_flight_id_solve(massid_fixed_flight_id *id, massid_flight_id_result *out);
 /* 1 if the result's consistency tests reject the model (timing, or any axis' thrust symmetry):

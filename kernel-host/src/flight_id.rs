@@ -5,10 +5,11 @@
 use crate::craft::{craft, model_error};
 use crate::HostError;
 use massid_kernel::flight_id::consistency::rejects;
+use massid_kernel::flight_id::exact::{Envelope, RATE_LIMIT_RAD_S};
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
+use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
-use massid_kernel::Scalar;
 use nalgebra::{DMatrix, Matrix3};
 use reference_f64::flight_id::consistency::{chi2_sf, ScoreTest};
 use reference_f64::flight_id::fit::SensorResponse;
@@ -29,7 +30,7 @@ fn sensor(s: SensorResponse) -> KSensor {
 
 /// Identifies `sat` from `flight` with the kernel in format `S`; `response` is the rate
 /// sensor's (a gyro's point sample when `None`).
-pub fn identify<S: Scalar>(
+pub fn identify<S: SumScalar>(
     flight: &Flight,
     sat: &Satellite,
     response: Option<SensorResponse>,
@@ -77,6 +78,28 @@ pub fn identify<S: Scalar>(
     let coarse = flight.from_gyro_counts && period > 1.5e-3;
     let max_noise_order: u8 = if coarse { 0 } else { MAX_ORDER as u8 };
     let response = response.unwrap_or(SensorResponse::Point);
+    // The C ABI's envelope (the thrusters' wrench, one turn a second), widened to what this
+    // recording holds: commanded wrenches beyond the thrusters', rates beyond a turn a second.
+    let mut wrench = table.wrench_bound().map(|v| f64::from(v.to_f32()));
+    let mut rate = f64::from(RATE_LIMIT_RAD_S);
+    for (r, cmd) in flight.rate.iter().zip(&flight.commands) {
+        for (a, v) in r.iter().enumerate() {
+            if axes[a] && v.is_finite() {
+                rate = rate.max(v.abs());
+            }
+        }
+        if let Command::Wrench { force, torque } = cmd {
+            for (w, v) in wrench.iter_mut().zip(torque.iter().chain(force.iter())) {
+                if v.is_finite() {
+                    *w = w.max(v.abs());
+                }
+            }
+        }
+    }
+    let envelope = Envelope {
+        wrench: wrench.map(|v| S::from_f32(v as f32)),
+        rate: S::from_f32(rate as f32),
+    };
     let cfg = FlightIdConfig {
         period_s: S::from_f32(period as f32),
         sensor: sensor(response),
@@ -101,6 +124,7 @@ pub fn identify<S: Scalar>(
             max_noise_order,
             scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
         },
+        envelope,
     };
     let mut id = FlightId::new(cfg).ok_or_else(|| {
         model_error(

@@ -142,6 +142,23 @@ impl<S: Scalar> Craft<S> {
         u16::try_from((1u32 << self.count.min(MAX_THRUSTERS)).saturating_sub(1)).unwrap_or(u16::MAX)
     }
 
+    /// Per wrench component, a bound on its magnitude for any word: each thruster's own
+    /// wrench plus the most the pressure drop can take from it (every other thruster open).
+    pub fn wrench_bound(&self) -> [S; 6] {
+        let others = S::from_int_pow2(
+            i32::try_from(self.count.saturating_sub(1)).unwrap_or(i32::MAX),
+            0,
+        );
+        let drop = self.pressure_drop_n.abs().times(others);
+        let mut out = [S::ZERO; 6];
+        for (w, u) in self.wrench.iter().zip(self.unit.iter()).take(self.count) {
+            for ((o, wv), uv) in out.iter_mut().zip(w).zip(u) {
+                *o = o.plus(wv.abs()).plus(drop.times(uv.abs()));
+            }
+        }
+        out
+    }
+
     /// The body wrench (torque N m, force N) while `word` is open; bits beyond the craft's
     /// thrusters are ignored (the host checks words against the model before flying).
     pub fn wrench(&self, word: u16) -> [S; 6] {

@@ -45,6 +45,12 @@ impl IntFloat {
         (self.m, self.e)
     }
 
+    /// `v 2^e`, rounded once to `MANT_BITS` bits (an exact integer sum's value).
+    #[inline]
+    pub fn from_i64_pow2(v: i64, e: i32) -> Self {
+        Self::from_wide(v, e)
+    }
+
     /// `v 2^e`, rounded to `MANT_BITS` bits, saturated or flushed outside the range.
     #[inline]
     fn from_wide(v: i64, e: i32) -> Self {

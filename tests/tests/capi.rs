@@ -335,7 +335,9 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
 
 use massid_kernel::craft::{Craft, Thruster};
 use massid_kernel::craft_mixer::CraftMixer;
+use massid_kernel::flight_id::exact::Envelope;
 use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig};
+use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
 use massid_kernel::IntFloat;
 use rand::{Rng, SeedableRng};
@@ -782,6 +784,8 @@ fn c_flight_id_matches_the_rust_flight_id() {
                 max_noise_order: order,
                 scale,
             },
+            // Replaced by the craft's own in `rust_flight_id_line`, as the C ABI's init does.
+            envelope: Envelope::of_craft([0.0; 6]),
         };
         let drop = sat.pressure_drop_n_per_extra as f32;
         let expected =
@@ -816,7 +820,7 @@ fn c_flight_id_matches_the_rust_flight_id() {
 /// its settings and init lines, made through the Rust API in format `S`: `cfg` is the f32
 /// settings (its nominal inverse inertia is recomputed in `S` from `inertia`, as the C ABI
 /// does).
-fn rust_flight_id_line<S: Scalar>(
+fn rust_flight_id_line<S: SumScalar>(
     name: &str,
     cfg: &FlightIdConfig<f32>,
     inertia: &[f32; 6],
@@ -844,8 +848,13 @@ fn rust_flight_id_line<S: Scalar>(
             max_noise_order: cfg.solve.max_noise_order,
             scale: cfg.solve.scale.map(c),
         },
+        envelope: Envelope::of_craft([S::ZERO; 6]),
     };
     let table = Craft::<S>::new(thrusters, com, drop).expect("craft");
+    let cfg = FlightIdConfig {
+        envelope: Envelope::of_craft(table.wrench_bound()),
+        ..cfg
+    };
     let mut id = FlightId::new(cfg).expect("flight id");
     for (dt, r, valid, w) in samples {
         id.push(c(*dt), r.map(c), *valid, table.wrench(*w));

@@ -11,7 +11,9 @@ use super::{load, mix_block, store, write_out, CScalar, MassidSatelliteParams, M
 use crate::allocation::CraftFiring;
 use crate::craft::{Craft, Thruster, MAX_THRUSTERS};
 use crate::craft_mixer::CraftMixer;
+use crate::flight_id::exact::Envelope;
 use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDER, NP};
+use crate::flight_id::sums::SumScalar;
 use crate::flight_id::window;
 use crate::flight_id::{FlightId, FlightIdConfig, SensorResponse};
 use crate::mixer::MixerConfig;
@@ -92,7 +94,7 @@ pub struct MassidFixedFlightId {
 
 /// What an identification block holds: the craft's wrench table (thruster word -> body
 /// wrench) and the identification, in one number format.
-struct FlightIdState<S> {
+struct FlightIdState<S: SumScalar> {
     craft: Craft<S>,
     id: FlightId<S>,
 }
@@ -472,7 +474,10 @@ fn sensor_of(code: u8) -> Option<SensorResponse> {
 /// The kernel's configuration for `s`, or `None` if a setting is out of range.
 /// (The settings are f32; each reaches `S` by its exact `from_f32`, and the nominal inverse
 /// inertia is computed in `S`, so the integer float's path has no floating-point instruction.)
-fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdConfig<S>> {
+fn flight_id_config<S: Scalar>(
+    s: &MassidFlightIdSettings,
+    envelope: Envelope<S>,
+) -> Option<FlightIdConfig<S>> {
     let finite = s
         .inertia_kgm2
         .iter()
@@ -506,6 +511,7 @@ fn flight_id_config<S: Scalar>(s: &MassidFlightIdSettings) -> Option<FlightIdCon
             max_noise_order: s.max_noise_order,
             scale: s.scale.map(S::from_f32),
         },
+        envelope,
     })
 }
 
@@ -619,7 +625,7 @@ fn libm_sqrt(x: f32) -> f32 {
 /// # Safety
 /// `block` points to a writable, 8-aligned block of at least `size_of::<Slot<FlightIdState<S>>>()`
 /// bytes; `craft` and `settings` are NULL or readable.
-unsafe fn flight_id_init<S: Scalar>(
+unsafe fn flight_id_init<S: SumScalar>(
     block: *mut u8,
     magic: u32,
     craft: *const MassidCraft,
@@ -634,13 +640,13 @@ unsafe fn flight_id_init<S: Scalar>(
     let Some(s) = (unsafe { settings.as_ref() }) else {
         return MassidStatus::NullPointer;
     };
-    let Some(cfg) = flight_id_config::<S>(s) else {
-        return MassidStatus::BadParameters;
-    };
     let Some(table) = t.get(..n) else {
         return MassidStatus::BadParameters;
     };
     let Ok(craft) = Craft::<S>::new(table, s.com_m, c.pressure_drop_n_per_extra) else {
+        return MassidStatus::BadParameters;
+    };
+    let Some(cfg) = flight_id_config::<S>(s, Envelope::of_craft(craft.wrench_bound())) else {
         return MassidStatus::BadParameters;
     };
     let Some(id) = FlightId::new(cfg) else {
@@ -652,7 +658,7 @@ unsafe fn flight_id_init<S: Scalar>(
 }
 
 /// Runs `f` on the identification in `block`, or says why not.
-fn with_flight_id<S: Scalar>(
+fn with_flight_id<S: SumScalar>(
     block: *mut u8,
     magic: u32,
     f: impl FnOnce(&mut FlightIdState<S>) -> MassidStatus,
@@ -672,7 +678,7 @@ fn with_flight_id<S: Scalar>(
 ///
 /// # Safety
 /// `block` as for [`with_flight_id`]; `rate_rad_s` NULL or three readable floats.
-unsafe fn flight_id_push<S: Scalar>(
+unsafe fn flight_id_push<S: SumScalar>(
     block: *mut u8,
     magic: u32,
     dt_s: f32,
@@ -697,7 +703,7 @@ unsafe fn flight_id_push<S: Scalar>(
 ///
 /// # Safety
 /// As [`flight_id_push`]; `wrench` NULL or six readable floats.
-unsafe fn flight_id_push_wrench<S: Scalar>(
+unsafe fn flight_id_push_wrench<S: SumScalar>(
     block: *mut u8,
     magic: u32,
     dt_s: f32,
@@ -727,7 +733,7 @@ unsafe fn flight_id_push_wrench<S: Scalar>(
 }
 
 /// Closes the open window.
-fn flight_id_finish<S: Scalar>(block: *mut u8, magic: u32) -> MassidStatus {
+fn flight_id_finish<S: SumScalar>(block: *mut u8, magic: u32) -> MassidStatus {
     with_flight_id::<S>(block, magic, |st| {
         st.id.finish();
         MassidStatus::Ok
@@ -756,7 +762,7 @@ pub unsafe extern "C" fn massid_flight_id_inconsistent(result: *const MassidFlig
 }
 
 /// Fits and writes the result in f32 (see `massid_f32_flight_id_solve`).
-fn flight_id_solve<S: Scalar>(
+fn flight_id_solve<S: SumScalar>(
     block: *mut u8,
     magic: u32,
     out: *mut MassidFlightIdResult,

@@ -20,13 +20,14 @@
 //! of each thruster's thrust.
 pub mod consistency;
 pub mod delay;
+pub mod exact;
 pub mod solve;
 pub mod sums;
 pub mod window;
 
 use crate::scalar::Scalar;
 use solve::{Solution, SolveConfig, SolveError, NP};
-use sums::{FlightSums, Sample, WindowSums, NZ, N_MODEL};
+use sums::{FlightSums, RecentSums, Sample, SumScalar, WindowSums, NZ, N_MODEL};
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,13 +72,18 @@ pub struct FlightIdConfig<S> {
     pub skip: u32,
     /// What the fit estimates and how ([`solve::SolveConfig`]).
     pub solve: SolveConfig<S>,
+    /// The largest wrench and rate the flight brings: the fixed kernel's exact sums are
+    /// scaled to it ([`exact`]; a sample beyond it makes its fit answer `Overflow`).
+    pub envelope: exact::Envelope<S>,
 }
 
 /// The streaming identification.
 #[derive(Clone, Copy, Debug)]
-pub struct FlightId<S> {
+pub struct FlightId<S: SumScalar> {
     cfg: FlightIdConfig<S>,
     sums: FlightSums<S>,
+    /// The last samples' products, folded into `sums` a few entries per sample.
+    recent: RecentSums<S::Recent>,
     window: WindowSums<S>,
     /// Drive accumulated since the window's first sample.
     z: [S; NZ],
@@ -86,7 +92,7 @@ pub struct FlightId<S> {
     /// kernel's integer float ([`crate::IntFloat`]); zero where additions are exact.
     z_carry: [S; NZ],
     /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
-    recent: [([S; NZ], [S; 3]); 3],
+    last: [([S; NZ], [S; 3]); 3],
     filled: u32,
     /// Weighted rotation in the window so far, rad (sum over the axes of `w_a |omega_a| dt`).
     turned: S,
@@ -110,20 +116,26 @@ fn differs<S: Scalar>(a: &[S; 6], b: &[S; 6]) -> bool {
     a.iter().zip(b).any(|(x, y)| x.lt(*y) || y.lt(*x))
 }
 
-impl<S: Scalar> FlightId<S> {
+impl<S: SumScalar> FlightId<S> {
     /// Nothing measured yet; None if the nominal inverse inertia is singular or the delay is
     /// out of range.
     pub fn new(cfg: FlightIdConfig<S>) -> Option<Self> {
         let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
+        // The longest window: `max_window` samples, each step up to 1.5 periods.
+        let window_s = S::from_int_pow2(i32::try_from(cfg.max_window).unwrap_or(i32::MAX), 0)
+            .times(cfg.period_s)
+            .times(S::from_f32(1.5));
+        let recent = S::recent(&cfg.envelope.component_bounds(window_s, &nominal))?;
         Some(FlightId {
             cfg,
             sums: FlightSums::default(),
+            recent: RecentSums::new(recent),
             window: WindowSums::default(),
             z: [S::ZERO; NZ],
             z_carry: [S::ZERO; NZ],
-            recent: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
+            last: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
             filled: 0,
             turned: S::ZERO,
             anchor: None,
@@ -208,8 +220,8 @@ impl<S: Scalar> FlightId<S> {
                 self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
             }
         }
-        self.recent.rotate_right(1);
-        if let Some(r) = self.recent.first_mut() {
+        self.last.rotate_right(1);
+        if let Some(r) = self.last.first_mut() {
             *r = (self.z, rate);
         }
         self.filled = self.filled.saturating_add(1);
@@ -219,7 +231,7 @@ impl<S: Scalar> FlightId<S> {
 
     /// The measurement the newest sample completes, through the sensor's response.
     fn emit(&mut self) {
-        let [(z2, y2), (z1, y1), (z0, _)] = &self.recent;
+        let [(z2, y2), (z1, y1), (z0, _)] = &self.last;
         let q = S::from_int_pow2(1, -2);
         let h = S::from_int_pow2(1, -1);
         let (z, y) = match self.cfg.sensor {
@@ -245,8 +257,12 @@ impl<S: Scalar> FlightId<S> {
                 .fold(S::ZERO, |acc, (r, zc)| acc.mul_add(*r, *zc));
             *out = get(&y, a).minus(get(&anchor, a)).minus(pred);
         }
-        self.window
-            .push(&mut self.sums, &Sample { z, y: y_anchored }, self.cfg.skip);
+        self.window.push(
+            &mut self.sums,
+            &mut self.recent,
+            &Sample { z, y: y_anchored },
+            self.cfg.skip,
+        );
     }
 
     fn close_window(&mut self) {
@@ -268,7 +284,11 @@ impl<S: Scalar> FlightId<S> {
     /// folded copy of the sums: this is a background task's work, not a tick's).
     pub fn solve(&self) -> Result<Solution<S>, SolveError> {
         let mut sums = self.sums;
-        sums.fold_all();
+        let mut recent = self.recent;
+        recent.fold_all(&mut sums);
+        if sums.out_of_range {
+            return Err(SolveError::Overflow);
+        }
         let mut solution = solve::solve(&sums, &self.cfg.solve)?;
         let free = solution.held.map(|h| !h);
         let test = |direction| {
@@ -324,6 +344,7 @@ mod tests {
                 max_noise_order: 0,
                 scale: [1.0; NP],
             },
+            envelope: exact::Envelope::of_craft([1.0; 6]),
         };
         let mut id = FlightId::new(cfg).expect("config");
         for _ in 0..1000 {

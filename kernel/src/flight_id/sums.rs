@@ -45,21 +45,29 @@ pub struct LagMoments<S> {
     pub yy: [[S; 3]; LAGS],
 }
 
-impl<S: Scalar> LagMoments<S> {
-    /// All zero.
-    pub const fn zero() -> Self {
+impl<T: Copy> LagMoments<T> {
+    /// Every entry `v`.
+    pub const fn filled(v: T) -> Self {
         LagMoments {
-            zz: [[[S::ZERO; NZ]; NZ]; LAGS],
-            zy: [[[S::ZERO; NZ]; 3]; LAGS],
-            yz: [[[S::ZERO; NZ]; 3]; LAGS],
-            yy: [[S::ZERO; 3]; LAGS],
+            zz: [[[v; NZ]; NZ]; LAGS],
+            zy: [[[v; NZ]; 3]; LAGS],
+            yz: [[[v; NZ]; 3]; LAGS],
+            yy: [[v; 3]; LAGS],
         }
     }
 
-    /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)). At lag 0 the
-    /// products are symmetric: only `zz[0][i][j]` with `i <= j` and `zy[0]` are kept (read
-    /// them through [`LagMoments::zz_sym`] and [`LagMoments::zy_sym`]).
-    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>) {
+    /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)) by `mac(entry, a, b)`,
+    /// which adds `a b` to the entry. At lag 0 the products are symmetric: only `zz[0][i][j]`
+    /// with `i <= j` and `zy[0]` are kept (read them through [`LagMoments::zz_sym`] and
+    /// [`LagMoments::zy_sym`]).
+    #[inline(always)]
+    pub(crate) fn add_pair_by<A: Copy>(
+        &mut self,
+        l: usize,
+        now: &Sample<A>,
+        then: &Sample<A>,
+        mac: impl Fn(&mut T, A, A),
+    ) {
         let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
             self.zz.get_mut(l),
             self.zy.get_mut(l),
@@ -75,29 +83,32 @@ impl<S: Scalar> LagMoments<S> {
                 continue;
             };
             for (m, zj) in dst.iter_mut().zip(src) {
-                *m = m.mul_add(*zi, *zj);
+                mac(m, *zi, *zj);
             }
         }
-        for (a, ((zya, yza), yya)) in zy
+        for (((zya, yza), yya), (yn, yt)) in zy
             .iter_mut()
             .zip(yz.iter_mut())
             .zip(yy.iter_mut())
-            .enumerate()
+            .zip(now.y.iter().zip(then.y.iter()))
         {
-            let (yn, yt) = (
-                now.y.get(a).copied().unwrap_or(S::ZERO),
-                then.y.get(a).copied().unwrap_or(S::ZERO),
-            );
-            for (m, zi) in zya.iter_mut().zip(now.z) {
-                *m = m.mul_add(zi, yt);
+            for (m, zi) in zya.iter_mut().zip(now.z.iter()) {
+                mac(m, *zi, *yt);
             }
             if l > 0 {
-                for (m, zj) in yza.iter_mut().zip(then.z) {
-                    *m = m.mul_add(yn, zj);
+                for (m, zj) in yza.iter_mut().zip(then.z.iter()) {
+                    mac(m, *yn, *zj);
                 }
             }
-            *yya = yya.mul_add(yn, yt);
+            mac(yya, *yn, *yt);
         }
+    }
+}
+
+impl<S: Scalar> LagMoments<S> {
+    /// All zero.
+    pub const fn zero() -> Self {
+        Self::filled(S::ZERO)
     }
 
     /// `(L_l + L_l^T) / 2` of the `z` block, entry `(i, j)`.
@@ -156,7 +167,8 @@ pub struct Sample<S> {
 }
 
 impl<S: Scalar> Sample<S> {
-    const ZERO: Self = Sample {
+    /// Every component zero.
+    pub const ZERO: Self = Sample {
         z: [S::ZERO; NZ],
         y: [S::ZERO; 3],
     };
@@ -170,44 +182,169 @@ pub const ENTRIES: usize = LAGS * NZ * NZ + 2 * LAGS * 3 * NZ + LAGS * 3;
 pub const BLOCK: usize = 256;
 
 /// Entries folded per sample (a rolling fold: no tick carries the whole fold).
-const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil(BLOCK);
+pub const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil(BLOCK);
 
-impl<S: Scalar> LagMoments<S> {
+/// Samples between two folds of one entry, at most: each sample adds at most one product to
+/// an entry, so this bounds the products a recent entry holds ([`super::exact`]).
+pub const FOLD_PERIOD: usize = ENTRIES.div_ceil(FOLD_PER_SAMPLE);
+
+/// Which two components of `v = (z, y)` entry `k` of the flat order multiplies (`z[i]` is
+/// component `i`, `y[a]` is `NZ + a`), or None past the last entry.
+pub fn entry_components(k: usize) -> Option<(usize, usize)> {
+    match locate(k)? {
+        (Block::Zz, _, r, c) => Some((r, c)),
+        (Block::Zy, _, a, c) => Some((c, NZ.checked_add(a)?)),
+        (Block::Yz, _, a, c) => Some((NZ.checked_add(a)?, c)),
+        (Block::Yy, _, a, _) => Some((NZ.checked_add(a)?, NZ.checked_add(a)?)),
+    }
+}
+
+/// The blocks of a [`LagMoments`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Block {
+    Zz,
+    Zy,
+    Yz,
+    Yy,
+}
+
+/// Entry `k` of the flat order (`zz`, `zy`, `yz`, `yy`) as (block, lag, row, column).
+fn locate(k: usize) -> Option<(Block, usize, usize, usize)> {
+    const ZZ: usize = LAGS * NZ * NZ;
+    const ZY: usize = LAGS * 3 * NZ;
+    let split3 = |k: usize, inner: usize, mid: usize| {
+        let outer = k.checked_div(inner.checked_mul(mid)?)?;
+        let rest = k.checked_rem(inner.checked_mul(mid)?)?;
+        Some((outer, rest.checked_div(inner)?, rest.checked_rem(inner)?))
+    };
+    if k < ZZ {
+        let (l, r, c) = split3(k, NZ, NZ)?;
+        Some((Block::Zz, l, r, c))
+    } else if let Some(k) = k.checked_sub(ZZ).filter(|k| *k < ZY) {
+        let (l, a, c) = split3(k, NZ, 3)?;
+        Some((Block::Zy, l, a, c))
+    } else if let Some(k) = k.checked_sub(ZZ + ZY).filter(|k| *k < ZY) {
+        let (l, a, c) = split3(k, NZ, 3)?;
+        Some((Block::Yz, l, a, c))
+    } else {
+        let k = k.checked_sub(ZZ + 2 * ZY).filter(|k| *k < LAGS * 3)?;
+        Some((Block::Yy, k.checked_div(3)?, k.checked_rem(3)?, 0))
+    }
+}
+
+impl<T> LagMoments<T> {
     /// Entry `k` of the flat order (`zz`, `zy`, `yz`, `yy`).
-    fn entry_mut(&mut self, k: usize) -> Option<&mut S> {
-        const ZZ: usize = LAGS * NZ * NZ;
-        const ZY: usize = LAGS * 3 * NZ;
-        let split3 = |k: usize, inner: usize, mid: usize| {
-            let outer = k.checked_div(inner.checked_mul(mid)?)?;
-            let rest = k.checked_rem(inner.checked_mul(mid)?)?;
-            Some((outer, rest.checked_div(inner)?, rest.checked_rem(inner)?))
-        };
-        if k < ZZ {
-            let (l, r, c) = split3(k, NZ, NZ)?;
-            self.zz.get_mut(l)?.get_mut(r)?.get_mut(c)
-        } else if let Some(k) = k.checked_sub(ZZ).filter(|k| *k < ZY) {
-            let (l, a, c) = split3(k, NZ, 3)?;
-            self.zy.get_mut(l)?.get_mut(a)?.get_mut(c)
-        } else if let Some(k) = k.checked_sub(ZZ + ZY).filter(|k| *k < ZY) {
-            let (l, a, c) = split3(k, NZ, 3)?;
-            self.yz.get_mut(l)?.get_mut(a)?.get_mut(c)
-        } else {
-            let k = k.checked_sub(ZZ + 2 * ZY)?;
-            self.yy
-                .get_mut(k.checked_div(3)?)?
-                .get_mut(k.checked_rem(3)?)
+    pub(crate) fn entry_mut(&mut self, k: usize) -> Option<&mut T> {
+        match locate(k)? {
+            (Block::Zz, l, r, c) => self.zz.get_mut(l)?.get_mut(r)?.get_mut(c),
+            (Block::Zy, l, a, c) => self.zy.get_mut(l)?.get_mut(a)?.get_mut(c),
+            (Block::Yz, l, a, c) => self.yz.get_mut(l)?.get_mut(a)?.get_mut(c),
+            (Block::Yy, l, a, _) => self.yy.get_mut(l)?.get_mut(a),
         }
+    }
+}
+
+/// The lagged moments of the last few samples, before they are folded into the flight's:
+/// how a number type accumulates them. Floating point adds products in its own format (to
+/// short sums, [`BLOCK`]); the fixed kernel's integer float adds exact integer products
+/// ([`super::exact`]), a multiply-accumulate each instead of a rounded sum.
+pub trait Recent<S>: Copy + core::fmt::Debug {
+    /// A sample as these sums take it.
+    type Item: Copy + core::fmt::Debug;
+    /// The item of an all-zero sample.
+    const ZERO_ITEM: Self::Item;
+    /// `v` as an item; None if it cannot be represented (the flight's sums are then
+    /// [`FlightSums::out_of_range`]).
+    fn item(&self, v: &Sample<S>) -> Option<Self::Item>;
+    /// Adds `now then^T` at lag `l` (see [`LagMoments::add_pair_by`]).
+    fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item);
+    /// Entry `k` of the flat order, in `S`, and empties it.
+    fn take(&mut self, k: usize) -> S;
+}
+
+/// A number type the identification's sums can be kept in.
+pub trait SumScalar: Scalar {
+    /// Its recent sums.
+    type Recent: Recent<Self>;
+    /// Empty recent sums for samples whose components (`z` then `y`) stay within `bounds`
+    /// in magnitude; None if the bounds are not usable.
+    fn recent(bounds: &[Self; NZ + 3]) -> Option<Self::Recent>;
+}
+
+impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
+    type Item = Sample<S>;
+    const ZERO_ITEM: Sample<S> = Sample::ZERO;
+    fn item(&self, v: &Sample<S>) -> Option<Sample<S>> {
+        Some(*v)
+    }
+    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>) {
+        self.add_pair_by(l, now, then, |m, a, b| *m = m.mul_add(a, b));
+    }
+    fn take(&mut self, k: usize) -> S {
+        self.entry_mut(k)
+            .map_or(S::ZERO, |v| core::mem::replace(v, S::ZERO))
+    }
+}
+
+impl SumScalar for f32 {
+    type Recent = LagMoments<f32>;
+    fn recent(_: &[f32; NZ + 3]) -> Option<Self::Recent> {
+        Some(LagMoments::zero())
+    }
+}
+
+impl SumScalar for f64 {
+    type Recent = LagMoments<f64>;
+    fn recent(_: &[f64; NZ + 3]) -> Option<Self::Recent> {
+        Some(LagMoments::zero())
+    }
+}
+
+/// The recent sums and where their rolling fold stands.
+#[derive(Clone, Copy, Debug)]
+pub struct RecentSums<R> {
+    sums: R,
+    cursor: usize,
+}
+
+impl<R> RecentSums<R> {
+    /// Empty `sums`, the fold at the first entry.
+    pub fn new(sums: R) -> Self {
+        RecentSums { sums, cursor: 0 }
+    }
+
+    /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
+    fn fold<S: Scalar>(&mut self, flight: &mut FlightSums<S>, count: usize)
+    where
+        R: Recent<S>,
+    {
+        for _ in 0..count {
+            let k = self.cursor;
+            let moved = self.sums.take(k);
+            if let Some(d) = flight.lag.entry_mut(k) {
+                *d = d.plus(moved);
+            }
+            self.cursor = k.saturating_add(1);
+            if self.cursor >= ENTRIES {
+                self.cursor = 0;
+            }
+        }
+    }
+
+    /// Folds everything into `flight` (before a fit; outside the tick).
+    pub fn fold_all<S: Scalar>(&mut self, flight: &mut FlightSums<S>)
+    where
+        R: Recent<S>,
+    {
+        self.fold(flight, ENTRIES);
     }
 }
 
 /// The flight's sums: lagged moments and the windows' initial-rate terms.
 #[derive(Clone, Copy, Debug)]
 pub struct FlightSums<S> {
-    /// Lagged moments, folded (see [`FlightSums::fold_all`]: the fit reads them folded).
+    /// Lagged moments, folded (the fit reads them after [`RecentSums::fold_all`]).
     pub lag: LagMoments<S>,
-    /// Recent lagged moments, folded into `lag` a few entries per sample.
-    recent: LagMoments<S>,
-    cursor: usize,
     /// `sum_w s_w s_w^T / n_w` by the same blocks (`s_w` the window's sum of `v`).
     pub czz: [[S; NZ]; NZ],
     /// See `czz`: `z` sum times axis `a`'s `y` sum.
@@ -218,73 +355,50 @@ pub struct FlightSums<S> {
     pub samples: u32,
     /// Closed windows.
     pub windows: u32,
+    /// A sample could not be represented in the recent sums (the fixed kernel's: a value
+    /// beyond the envelope its exact sums are scaled to): the sums do not hold the flight.
+    pub out_of_range: bool,
 }
 
 impl<S: Scalar> Default for FlightSums<S> {
     fn default() -> Self {
         FlightSums {
             lag: LagMoments::zero(),
-            recent: LagMoments::zero(),
-            cursor: 0,
             czz: [[S::ZERO; NZ]; NZ],
             czy: [[S::ZERO; NZ]; 3],
             cyy: [S::ZERO; 3],
             samples: 0,
             windows: 0,
+            out_of_range: false,
         }
-    }
-}
-
-impl<S: Scalar> FlightSums<S> {
-    /// Moves `count` entries of the recent sums, from the cursor on, into the folded ones.
-    fn fold(&mut self, count: usize) {
-        for _ in 0..count {
-            let k = self.cursor;
-            if let Some(v) = self.recent.entry_mut(k) {
-                let moved = *v;
-                *v = S::ZERO;
-                if let Some(d) = self.lag.entry_mut(k) {
-                    *d = d.plus(moved);
-                }
-            }
-            self.cursor = k.saturating_add(1);
-            if self.cursor >= ENTRIES {
-                self.cursor = 0;
-            }
-        }
-    }
-
-    /// Folds everything (before a fit; outside the tick).
-    pub fn fold_all(&mut self) {
-        self.fold(ENTRIES);
     }
 }
 
 /// The open window's sums.
 #[derive(Clone, Copy, Debug)]
-pub struct WindowSums<S> {
+pub struct WindowSums<S: SumScalar> {
     sz: [S; NZ],
     sy: [S; 3],
     n: u32,
     /// Samples seen, including those left out at the start.
     seen: u32,
     /// The last two samples used (newest first) for the lagged products.
-    history: [Sample<S>; LAGS - 1],
+    history: [<S::Recent as Recent<S>>::Item; LAGS - 1],
 }
 
-impl<S: Scalar> Default for WindowSums<S> {
+impl<S: SumScalar> Default for WindowSums<S> {
     fn default() -> Self {
         WindowSums {
             sz: [S::ZERO; NZ],
             sy: [S::ZERO; 3],
             n: 0,
             seen: 0,
-            history: [Sample::ZERO; LAGS - 1],
+            history: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS - 1],
         }
     }
 }
 
-impl<S: Scalar> WindowSums<S> {
+impl<S: SumScalar> WindowSums<S> {
     /// Samples of the window in the sums.
     pub fn len(&self) -> u32 {
         self.n
@@ -295,18 +409,29 @@ impl<S: Scalar> WindowSums<S> {
         self.n == 0
     }
 
-    /// Adds one measurement to `flight`'s sums, except the window's first `skip` (the noise
-    /// model's order: their whitened residual would need samples before the window).
-    pub fn push(&mut self, flight: &mut FlightSums<S>, v: &Sample<S>, skip: u32) {
+    /// Adds one measurement to `flight`'s sums (its products through `recent`), except the
+    /// window's first `skip` (the noise model's order: their whitened residual would need
+    /// samples before the window).
+    pub fn push(
+        &mut self,
+        flight: &mut FlightSums<S>,
+        recent: &mut RecentSums<S::Recent>,
+        v: &Sample<S>,
+        skip: u32,
+    ) {
         self.seen = self.seen.saturating_add(1);
         if self.seen <= skip {
             return;
         }
-        flight.recent.add_pair(0, v, v);
+        let Some(item) = recent.sums.item(v) else {
+            flight.out_of_range = true;
+            return;
+        };
+        recent.sums.add_pair(0, &item, &item);
         let back = usize::try_from(self.n).unwrap_or(usize::MAX);
         for (l, then) in self.history.iter().enumerate() {
             if l < back {
-                flight.recent.add_pair(l.saturating_add(1), v, then);
+                recent.sums.add_pair(l.saturating_add(1), &item, then);
             }
         }
         for (s, z) in self.sz.iter_mut().zip(v.z) {
@@ -317,13 +442,12 @@ impl<S: Scalar> WindowSums<S> {
         }
         self.history.rotate_right(1);
         if let Some(h) = self.history.first_mut() {
-            *h = *v;
+            *h = item;
         }
         self.n = self.n.saturating_add(1);
         flight.samples = flight.samples.saturating_add(1);
-        flight.fold(FOLD_PER_SAMPLE);
+        recent.fold(flight, FOLD_PER_SAMPLE);
     }
-
     /// Closes the window: its initial rate's term into `flight`; empties the window.
     pub fn close_into(&mut self, flight: &mut FlightSums<S>) {
         if self.n > 0 {

@@ -17,6 +17,7 @@ pub mod markers;
 pub mod sequence;
 
 use core::fmt::{self, Write};
+use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::mixer::{Mixer, MixerConfig};
 use massid_kernel::model::SPH2;
 use massid_kernel::{Estimates, IntFloat, Pipeline, PipelineConfig, Scalar, TickEvent, Q8_24};
@@ -296,7 +297,7 @@ impl<'a> FlightCraft<'a> {
 /// runs once, outside the tick (it is not measured: a background task's work). Its sums'
 /// counts and a digest of them (every push feeds them), and its fit, are printed on lines
 /// starting with `prefix` (`info `: not compared), the kernel's name and the craft's.
-pub fn run_flight_id<S: RawBits, W: Write>(
+pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
     out: &mut W,
     prefix: &str,
     craft: &FlightCraft<'_>,
@@ -304,6 +305,7 @@ pub fn run_flight_id<S: RawBits, W: Write>(
 ) -> fmt::Result {
     use massid_kernel::craft::Craft;
     use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
+    use massid_kernel::flight_id::exact::Envelope;
     use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
     use massid_kernel::model::SPH2_GYRO_BIAS_COUNTS;
     let name = craft.name;
@@ -340,6 +342,7 @@ pub fn run_flight_id<S: RawBits, W: Write>(
             max_noise_order: 2,
             scale,
         },
+        envelope: Envelope::of_craft(table.wrench_bound()),
     };
     let Some(mut id) = FlightId::new(cfg) else {
         return writeln!(out, "{prefix}{} {name} flight_id init-error", S::NAME);

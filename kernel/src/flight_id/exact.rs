@@ -1,0 +1,232 @@
+//! The fixed kernel's recent sums, exact: each sample's lagged products as integer
+//! multiply-accumulates instead of integer-float sums.
+//!
+//! Why: in the integer float ([`crate::IntFloat`]) every product added to the sums is a
+//! widening product, a normalisation and an aligned, rounded sum, about 200 instructions
+//! where the FPU does one `vfma`; the ~1,100 products of a sample were 90 % of the fixed
+//! kernel's tick. Here each component of a sample, `v = (z, y)`, is first rounded to a
+//! signed integer at a per-component power of two chosen from the flight's [`Envelope`]
+//! (`|q| < 2^VALUE_BITS`), and the products are summed exactly in `i64`: one 32 x 32 -> 64
+//! multiply-accumulate each (`smlal` on the M4F). Every entry is folded into the flight's
+//! integer-float sums (rounded once) at least every [`FOLD_PERIOD`] samples, so it holds at
+//! most that many products: `FOLD_PERIOD 2^(2 VALUE_BITS) < 2^63`, checked below at compile
+//! time and proved by Z3 (`massid_proofs_solver`, obligation `exact_moments`).
+//!
+//! What it costs in accuracy: a component is resolved to `2^-VALUE_BITS` of its bound, about
+//! 10^-8; a rate residual to 10^-8 of twice the rate limit plus the drive's nominal rate,
+//! far below any gyro's noise. A value beyond its bound (a wrench or rate the envelope does
+//! not allow) is not rounded into a wrong sum: the flight's sums are marked out of range and
+//! the fit answers `Overflow`.
+
+use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
+use crate::int::shift::shift_nearest;
+use crate::int::Native;
+use crate::scalar::Scalar;
+use crate::IntFloat;
+
+/// Bits of a rounded component: `|q| < 2^VALUE_BITS`.
+pub const VALUE_BITS: u32 = 27;
+
+// An entry's products between two folds cannot overflow i64.
+const _: () = assert!((FOLD_PERIOD as u128) << (2 * VALUE_BITS) < i64::MAX as u128);
+
+/// What the flight can bring: the largest magnitude of each component of the commanded
+/// wrench, and of each rate. The fixed kernel scales its exact sums to it; f32 ignores it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Envelope<S> {
+    /// Torque N m, force N.
+    pub wrench: [S; 6],
+    /// Body rate, rad/s.
+    pub rate: S,
+}
+
+/// The rate limit of [`Envelope::of_craft`]: one turn a second, beyond the maneuvers of the
+/// craft this kernel is for (a rate beyond it makes the fixed kernel's fit answer `Overflow`).
+pub const RATE_LIMIT_RAD_S: f32 = core::f32::consts::TAU;
+
+impl<S: Scalar> Envelope<S> {
+    /// The envelope of a craft whose thrusters deliver at most `wrench` (per component, in
+    /// magnitude; [`crate::craft::Craft::wrench_bound`]) and that turns at most
+    /// [`RATE_LIMIT_RAD_S`].
+    pub fn of_craft(wrench: [S; 6]) -> Self {
+        Envelope {
+            wrench,
+            rate: S::from_f32(RATE_LIMIT_RAD_S),
+        }
+    }
+
+    /// Per component of a sample (`z`, then `y`), a bound on its magnitude in a window of at
+    /// most `window_s` seconds, for the nominal model's matrix `nominal` (its prediction is
+    /// taken out of `y`) and twice that for rounding's sake: the drive integrates the wrench and
+    /// the rate products over the window, the held torque is the wrench itself, and the
+    /// anchored rate residual is at most twice the rate plus the nominal prediction.
+    pub fn component_bounds(&self, window_s: S, nominal: &[[S; NZ]; 3]) -> [S; NZ + 3] {
+        use super::sums::{N_MODEL, SPLIT_TORQUE};
+        let w = |c: usize| self.wrench.get(c).copied().unwrap_or(S::ZERO).abs();
+        let rate = self.rate.abs();
+        let mut out = [S::ZERO; NZ + 3];
+        for (i, b) in out.iter_mut().enumerate().take(NZ) {
+            *b = if i < 6 {
+                w(i).times(window_s)
+            } else if i < N_MODEL {
+                rate.times(rate).times(window_s)
+            } else if i < SPLIT_TORQUE {
+                w(i.saturating_sub(N_MODEL))
+            } else {
+                w(i.saturating_sub(SPLIT_TORQUE)).times(window_s)
+            };
+        }
+        let (z_bounds, y_bounds) = out.split_at_mut(NZ);
+        for (y, row) in y_bounds.iter_mut().zip(nominal) {
+            let pred = row
+                .iter()
+                .zip(z_bounds.iter())
+                .fold(S::ZERO, |acc, (n, z)| acc.mul_add(n.abs(), *z));
+            *y = rate.mul_pow2(1).plus(pred);
+        }
+        out.map(|b| b.mul_pow2(1))
+    }
+}
+
+/// The recent sums of the integer float: exact `i64` sums of the rounded components'
+/// products, and each component's power of two.
+#[derive(Clone, Copy, Debug)]
+pub struct ExactMoments {
+    sums: LagMoments<i64>,
+    /// Component `c` is `q 2^exp[c]`.
+    exp: [i32; NZ + 3],
+}
+
+/// An exponent for components of magnitude below `bound`: `|v| < 2^(exp + VALUE_BITS)`. A zero
+/// bound (a component that is always zero) gets one far below any value.
+fn exponent_for(bound: IntFloat) -> Option<i32> {
+    if !bound.is_valid() {
+        return None;
+    }
+    let (m, e) = bound.parts();
+    if m == 0 {
+        return Some(-100);
+    }
+    // |bound| < 2^(MANT_BITS + e)
+    let bits = i32::try_from(crate::int::float::MANT_BITS).ok()?;
+    let v = i32::try_from(VALUE_BITS).ok()?;
+    e.checked_add(bits)?.checked_sub(v)
+}
+
+impl ExactMoments {
+    /// `v` rounded to the integer multiple of `2^exp`, if `|q| < 2^VALUE_BITS`.
+    fn round(v: IntFloat, exp: i32) -> Option<i32> {
+        if !v.is_valid() {
+            return None;
+        }
+        let (m, e) = v.parts();
+        let q = shift_nearest(&Native, &(m as u32), &(e.saturating_sub(exp) as u32)) as i32;
+        (q.unsigned_abs() < 1u32 << VALUE_BITS).then_some(q)
+    }
+}
+
+impl Recent<IntFloat> for ExactMoments {
+    type Item = Sample<i32>;
+    const ZERO_ITEM: Sample<i32> = Sample {
+        z: [0; NZ],
+        y: [0; 3],
+    };
+
+    fn item(&self, v: &Sample<IntFloat>) -> Option<Sample<i32>> {
+        let (ez, ey) = self.exp.split_at(NZ);
+        let mut out = Self::ZERO_ITEM;
+        for (o, (x, e)) in out.z.iter_mut().zip(v.z.iter().zip(ez)) {
+            *o = Self::round(*x, *e)?;
+        }
+        for (o, (x, e)) in out.y.iter_mut().zip(v.y.iter().zip(ey)) {
+            *o = Self::round(*x, *e)?;
+        }
+        Some(out)
+    }
+
+    fn add_pair(&mut self, l: usize, now: &Sample<i32>, then: &Sample<i32>) {
+        // |a b| < 2^(2 VALUE_BITS) and an entry holds at most FOLD_PERIOD products between
+        // folds (the assertion above): no wrap.
+        self.sums.add_pair_by(l, now, then, |m, a, b| {
+            *m = m.wrapping_add(i64::from(a).wrapping_mul(i64::from(b)));
+        });
+    }
+
+    fn take(&mut self, k: usize) -> IntFloat {
+        let v = self
+            .sums
+            .entry_mut(k)
+            .map_or(0, |v| core::mem::replace(v, 0));
+        let e = entry_components(k)
+            .and_then(|(i, j)| Some(self.exp.get(i)?.saturating_add(*self.exp.get(j)?)))
+            .unwrap_or(0);
+        IntFloat::from_i64_pow2(v, e)
+    }
+}
+
+impl SumScalar for IntFloat {
+    type Recent = ExactMoments;
+    fn recent(bounds: &[IntFloat; NZ + 3]) -> Option<ExactMoments> {
+        let mut exp = [0i32; NZ + 3];
+        for (e, b) in exp.iter_mut().zip(bounds) {
+            *e = exponent_for(*b)?;
+        }
+        Some(ExactMoments {
+            sums: LagMoments::filled(0),
+            exp,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+    use super::*;
+
+    #[test]
+    fn components_round_to_nearest_within_their_bound_and_refuse_beyond_it() {
+        let bound = IntFloat::from_f32(3.0);
+        let e = exponent_for(bound).unwrap();
+        // 3 < 2^2: the exponent leaves VALUE_BITS bits below 4.
+        assert_eq!(e, 2 - VALUE_BITS as i32);
+        let q = ExactMoments::round(IntFloat::from_f32(1.0), e).unwrap();
+        assert_eq!(q, 1 << (VALUE_BITS - 2));
+        let q = ExactMoments::round(IntFloat::from_f32(-2.9), e).unwrap();
+        assert!((f64::from(q) * 2f64.powi(e) + 2.9).abs() <= 2f64.powi(e - 1) + 1e-7);
+        assert_eq!(ExactMoments::round(IntFloat::from_f32(4.0), e), None);
+        assert_eq!(ExactMoments::round(IntFloat::from_f32(-4.0), e), None);
+        assert_eq!(ExactMoments::round(IntFloat::from_f32(1e-12), e), Some(0));
+        assert_eq!(exponent_for(IntFloat::ZERO), Some(-100));
+    }
+
+    #[test]
+    fn exact_sums_equal_the_integer_products_and_fold_to_their_value() {
+        let bounds = [IntFloat::from_f32(2.0); NZ + 3];
+        let mut r = IntFloat::recent(&bounds).unwrap();
+        let v = Sample {
+            z: core::array::from_fn(|i| IntFloat::from_f32(0.1 * i as f32 - 0.7)),
+            y: [0.25, -0.5, 1.5].map(IntFloat::from_f32),
+        };
+        let item = r.item(&v).unwrap();
+        for _ in 0..FOLD_PERIOD {
+            r.add_pair(0, &item, &item);
+        }
+        // Entry (0, 1) of zz at lag 0: z0 z1 FOLD_PERIOD times, exactly.
+        let want = f64::from(item.z[0]) * f64::from(item.z[1]) * FOLD_PERIOD as f64;
+        let got = r.take(1).to_f32();
+        let e = 2.0 * f64::from(r.exp[0]);
+        assert!((f64::from(got) - want * 2f64.powf(e)).abs() <= 1e-6 * want.abs() * 2f64.powf(e));
+        // And close to the values' own products.
+        let exact = (-0.7f64) * (0.1 - 0.7) * FOLD_PERIOD as f64;
+        assert!(
+            (f64::from(got) - exact).abs() < 1e-5 * exact.abs(),
+            "{got} {exact}"
+        );
+        // Taken: empty.
+        assert_eq!(r.take(1), IntFloat::ZERO);
+        // A component beyond its bound is refused, not wrapped.
+        let mut big = v;
+        big.y[2] = IntFloat::from_f32(9.0);
+        assert!(r.item(&big).is_none());
+    }
+}

@@ -10,7 +10,7 @@
 //! multiply-accumulate each (`smlal` on the M4F). Every entry is folded into the flight's
 //! integer-float sums (rounded once) at least every [`FOLD_PERIOD`] samples, so it holds at
 //! most that many products: `FOLD_PERIOD 2^(2 VALUE_BITS) < 2^63`, checked below at compile
-//! time and proved by Z3 (`massid_proofs_solver`, obligation `exact_moments`).
+//! time and proved by Z3 (`massid_proofs_solver`, obligation `mul_acc`).
 //!
 //! What it costs in accuracy: a component is resolved to `2^-VALUE_BITS` of its bound, about
 //! 10^-8; a rate residual to 10^-8 of twice the rate limit plus the drive's nominal rate,
@@ -19,6 +19,7 @@
 //! the fit answers `Overflow`.
 
 use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
+use crate::int::mul::mul_acc;
 use crate::int::shift::shift_nearest;
 use crate::int::Native;
 use crate::scalar::Scalar;
@@ -148,7 +149,7 @@ impl Recent<IntFloat> for ExactMoments {
         // |a b| < 2^(2 VALUE_BITS) and an entry holds at most FOLD_PERIOD products between
         // folds (the assertion above): no wrap.
         self.sums.add_pair_by(l, now, then, |m, a, b| {
-            *m = m.wrapping_add(i64::from(a).wrapping_mul(i64::from(b)));
+            *m = mul_acc(&Native, &(*m as u64), &(a as u32), &(b as u32)) as i64;
         });
     }
 

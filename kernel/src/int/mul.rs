@@ -50,6 +50,15 @@ pub fn round_product<M: Machine>(m: &M, p: &M::D, frac: u32) -> M::W {
     m.saturate_to_w(&r)
 }
 
+/// `acc + a * b` with the target's widening product: the multiply-accumulate of the fixed
+/// kernel's exact sums (`flight_id::exact`), which keep `|a|, |b| < 2^27` and few enough
+/// products per sum that it cannot wrap (proved for that envelope: `massid_proofs_solver`,
+/// obligation `mul_acc`).
+#[inline(always)]
+pub fn mul_acc<M: Machine>(m: &M, acc: &M::D, a: &M::W, b: &M::W) -> M::D {
+    m.add_d(acc, &widening_mul(m, a, b))
+}
+
 /// The widening product this target compiles: by halves on ARM soft-float ABI targets
 /// (Cortex-M0/M0+ have no 32 x 32 -> 64 multiply; the ARM core features are not stable
 /// `cfg`s, so the soft-float ABI stands in for them), the 64-bit multiply elsewhere.

@@ -24,6 +24,8 @@ pub fn all() -> Vec<Box<dyn Discharge>> {
             widening: Widening::Direct,
         }),
         Box::new(UnsignedByHalves),
+        // the fixed kernel's exact sums (`massid_kernel::flight_id::exact`)
+        Box::new(MulAcc),
         Box::new(shift::ShiftSaturating),
         Box::new(shift::ShiftNearest),
         Box::new(split::SplitWord { frac: FRAC }),

@@ -3,7 +3,7 @@
 use crate::discharge::{Engine, Obligation, PRODUCT_MUTANT_RLIMIT};
 use crate::prover::{Prover, ProverExt};
 use massid_kernel::int::mul::{
-    round_product, unsigned_mul_by_halves, widening_mul_by_halves, widening_mul_direct,
+    mul_acc, round_product, unsigned_mul_by_halves, widening_mul_by_halves, widening_mul_direct,
 };
 use massid_kernel::int::MachineExt;
 
@@ -38,9 +38,6 @@ impl Obligation for WideningProduct {
         let got = p.under_test(|m| widen(m, self.0, a, b));
         let exact = p.i_mul(&p.sw(a), &p.sw(b));
         (p.b(true), p.i_eq(&p.int_d(&got, true), &exact))
-    }
-    fn engine(&self) -> Engine {
-        engine_for(self.0)
     }
     fn mutant_rlimit(&self) -> u32 {
         PRODUCT_MUTANT_RLIMIT
@@ -131,5 +128,50 @@ impl Obligation for UnsignedByHalves {
     }
     fn engine(&self) -> Engine {
         Engine::Integer
+    }
+}
+
+/// `mul_acc(acc, a, b) = acc + a b` exactly, and the sum stays within the bound of a full
+/// sum, for the envelope of the fixed kernel's exact sums (`massid_kernel::flight_id::exact`):
+/// `|a|, |b| < 2^VALUE_BITS` and `|acc|` at most `FOLD_PERIOD - 1` such products. By
+/// induction over the products an entry takes between two folds, no sum wraps. The code
+/// under proof is the kernel's `mul_acc` as the host compiles it (the 64-bit multiply; the
+/// Cortex-M0's product by halves is the open `widening_mul_byhalves`).
+pub struct MulAcc;
+
+impl Obligation for MulAcc {
+    fn name(&self) -> String {
+        "mul_acc".into()
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["acc_hi", "acc_lo", "a", "b"]
+    }
+    fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
+        use massid_kernel::flight_id::exact::VALUE_BITS;
+        use massid_kernel::flight_id::sums::FOLD_PERIOD;
+        let acc = p.d_of(&x[0], &x[1]);
+        let (a, b) = (&x[2], &x[3]);
+        let got = p.under_test(|m| mul_acc(m, &acc, a, b));
+        let value = (1i128 << VALUE_BITS) - 1;
+        let product = value * value;
+        let before = product * (FOLD_PERIOD as i128 - 1);
+        let acc_i = p.int_d(&acc, true);
+        let pre = p.all(
+            &p.all(
+                &p.i_within(&p.sw(a), -value, value),
+                &p.i_within(&p.sw(b), -value, value),
+            ),
+            &p.i_within(&acc_i, -before, before),
+        );
+        let exact = p.i_add(&acc_i, &p.i_mul(&p.sw(a), &p.sw(b)));
+        let got_i = p.int_d(&got, true);
+        let bound = product * FOLD_PERIOD as i128;
+        (
+            pre,
+            p.all(&p.i_eq(&got_i, &exact), &p.i_within(&got_i, -bound, bound)),
+        )
+    }
+    fn mutant_rlimit(&self) -> u32 {
+        PRODUCT_MUTANT_RLIMIT
     }
 }

@@ -56,7 +56,12 @@ impl<S: Scalar> CommandDelay<S> {
             let k = if k >= RING { k.saturating_sub(RING) } else { k };
             self.ring.get(k).copied().unwrap_or([S::ZERO; 6])
         };
-        let (late, early) = (at(self.whole), at(self.whole.saturating_add(1)));
+        let late = at(self.whole);
+        if !S::ZERO.lt(self.fraction) {
+            // A whole number of periods: the early command never acts.
+            return late;
+        }
+        let early = at(self.whole.saturating_add(1));
         core::array::from_fn(|c| {
             let (l, e) = (
                 late.get(c).copied().unwrap_or(S::ZERO),

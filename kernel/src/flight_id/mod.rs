@@ -20,12 +20,14 @@
 //! of each thruster's thrust.
 pub mod consistency;
 pub mod delay;
+pub mod drive;
 pub mod exact;
 pub mod solve;
 pub mod sums;
 pub mod window;
 
 use crate::scalar::Scalar;
+use drive::DriveSum;
 use solve::{Solution, SolveConfig, SolveError, NP};
 use sums::{FlightSums, RecentSums, Sample, SumScalar, WindowSums, NZ, N_MODEL};
 
@@ -85,12 +87,12 @@ pub struct FlightId<S: SumScalar> {
     /// The last samples' products, folded into `sums` a few entries per sample.
     recent: RecentSums<S::Recent>,
     window: WindowSums<S>,
-    /// Drive accumulated since the window's first sample.
-    z: [S; NZ],
-    /// Kahan compensation of `z`: a window's thousands of small increments would otherwise
-    /// round into a drift of the drive (a bias of the inertia) in f32 and in the fixed
-    /// kernel's integer float ([`crate::IntFloat`]); zero where additions are exact.
-    z_carry: [S; NZ],
+    /// Drive accumulated since the window's first sample ([`drive`]).
+    drive: S::Drive,
+    /// The previous sample's rate products (order of [`solve::PRODUCTS`]).
+    products: [S; 6],
+    /// A step longer than this starts a new window (1.5 periods).
+    gap: S,
     /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
     last: [([S; NZ], [S; 3]); 3],
     filled: u32,
@@ -127,14 +129,17 @@ impl<S: SumScalar> FlightId<S> {
         let window_s = S::from_int_pow2(i32::try_from(cfg.max_window).unwrap_or(i32::MAX), 0)
             .times(cfg.period_s)
             .times(S::from_f32(1.5));
-        let recent = S::recent(&cfg.envelope.component_bounds(window_s, &nominal))?;
+        let bounds = cfg.envelope.component_bounds(window_s, &nominal);
+        let recent = S::recent(&bounds)?;
+        let drive = S::drive(&bounds, cfg.max_window)?;
         Some(FlightId {
             cfg,
             sums: FlightSums::default(),
             recent: RecentSums::new(recent),
             window: WindowSums::default(),
-            z: [S::ZERO; NZ],
-            z_carry: [S::ZERO; NZ],
+            drive,
+            products: [S::ZERO; 6],
+            gap: S::from_f32(1.5).times(cfg.period_s),
             last: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
             filled: 0,
             turned: S::ZERO,
@@ -161,7 +166,7 @@ impl<S: SumScalar> FlightId<S> {
             self.previous = None;
             return;
         }
-        let gap = S::from_f32(1.5).times(self.cfg.period_s);
+        let gap = self.gap;
         let joins = match self.previous {
             Some((w_prev, _)) => {
                 !gap.lt(dt_s)
@@ -176,45 +181,41 @@ impl<S: SumScalar> FlightId<S> {
         if !joins {
             self.close_window();
         }
-        if let (true, Some((w_prev, r_prev))) = (joins, self.previous) {
+        let gyro = self.cfg.solve.gyroscopic;
+        // The rate products (the gyroscopic term `omega x I omega` is linear in them).
+        let products = if gyro {
+            solve::PRODUCTS.map(|(b, d)| get(&rate, b).times(get(&rate, d)))
+        } else {
+            [S::ZERO; 6]
+        };
+        if let (true, Some((w_prev, _))) = (joins, self.previous) {
             let h = S::from_int_pow2(1, -1).times(dt_s);
-            let gyro = self.cfg.solve.gyroscopic;
-            for (i, (zi, carry)) in self.z.iter_mut().zip(self.z_carry.iter_mut()).enumerate() {
-                let increment = if i < 6 {
-                    get(&w_prev, i).times(dt_s)
-                } else if i < N_MODEL && gyro {
-                    // Trapezoid of the measured rate product (unbiased: the noise products
-                    // have zero mean in every component of omega x I omega; taking them of a
-                    // Kalman-filtered rate instead changed no Monte Carlo figure).
-                    let (b, d) = solve::PRODUCTS
-                        .get(i.saturating_sub(6))
-                        .copied()
-                        .unwrap_or((0, 0));
-                    let then = get(&r_prev, b).times(get(&r_prev, d));
-                    let now = get(&rate, b).times(get(&rate, d));
-                    h.times(then.plus(now))
-                } else if let Some(b) = i.checked_sub(sums::SPLIT_TORQUE) {
-                    // The positive part of the torque about axis b, accumulated (the
-                    // thrust-symmetry test's direction, [`consistency`]).
-                    let torque = get(&w_prev, b);
-                    if S::ZERO.lt(torque) {
-                        torque.times(dt_s)
-                    } else {
-                        S::ZERO
-                    }
-                } else if i >= N_MODEL {
-                    // The held torque itself (the timing test's direction), not summed.
-                    *zi = get(&w_prev, i.saturating_sub(N_MODEL));
-                    continue;
-                } else {
-                    S::ZERO
-                };
-                let y = increment.minus(*carry);
-                let t = zi.plus(y);
-                *carry = t.minus(*zi).minus(y);
-                *zi = t;
+            // Torque and force held over the interval.
+            let impulse = w_prev.map(|w| w.times(dt_s));
+            for (i, v) in impulse.iter().enumerate() {
+                self.drive.add(i, *v);
+            }
+            if gyro {
+                // Trapezoid of the measured rate product (unbiased: the noise products have
+                // zero mean in every component of omega x I omega; taking them of a
+                // Kalman-filtered rate instead changed no Monte Carlo figure).
+                for (p, (then, now)) in self.products.iter().zip(products).enumerate() {
+                    self.drive
+                        .add(6usize.saturating_add(p), h.times(then.plus(now)));
+                }
+            }
+            for b in 0..3 {
+                // The held torque itself (the timing test's direction), not summed.
+                self.drive.set(N_MODEL.saturating_add(b), get(&w_prev, b));
+                // The positive part of the torque about axis b, accumulated (the
+                // thrust-symmetry test's direction, [`consistency`]).
+                if S::ZERO.lt(get(&w_prev, b)) {
+                    self.drive
+                        .add(sums::SPLIT_TORQUE.saturating_add(b), get(&impulse, b));
+                }
             }
         }
+        self.products = products;
         if joins {
             for (w, k) in rate.iter().zip(self.cfg.turn_weight) {
                 self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
@@ -222,7 +223,7 @@ impl<S: SumScalar> FlightId<S> {
         }
         self.last.rotate_right(1);
         if let Some(r) = self.last.first_mut() {
-            *r = (self.z, rate);
+            *r = (self.drive.values(), rate);
         }
         self.filled = self.filled.saturating_add(1);
         self.emit();
@@ -267,8 +268,7 @@ impl<S: SumScalar> FlightId<S> {
 
     fn close_window(&mut self) {
         self.window.close_into(&mut self.sums);
-        self.z = [S::ZERO; NZ];
-        self.z_carry = [S::ZERO; NZ];
+        self.drive.clear();
         self.filled = 0;
         self.turned = S::ZERO;
         self.anchor = None;

@@ -14,6 +14,7 @@
 //! so each entry is folded about every [`BLOCK`] samples (shorter f32 sums round less) and no
 //! sample carries a whole fold (the M4F tick budget).
 
+use super::drive::{Compensated, DriveSum};
 use crate::scalar::Scalar;
 
 /// Drive components: accumulated torque (N m s), force (N s), and the rate products
@@ -266,9 +267,14 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
 pub trait SumScalar: Scalar {
     /// Its recent sums.
     type Recent: Recent<Self>;
+    /// Its window's drive.
+    type Drive: DriveSum<Self>;
     /// Empty recent sums for samples whose components (`z` then `y`) stay within `bounds`
     /// in magnitude; None if the bounds are not usable.
     fn recent(bounds: &[Self; NZ + 3]) -> Option<Self::Recent>;
+    /// A zero drive whose components stay within `bounds` (the first `NZ` of them) over a
+    /// window of at most `max_window` samples.
+    fn drive(bounds: &[Self; NZ + 3], max_window: u32) -> Option<Self::Drive>;
 }
 
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
@@ -288,15 +294,23 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
 
 impl SumScalar for f32 {
     type Recent = LagMoments<f32>;
+    type Drive = Compensated<f32>;
     fn recent(_: &[f32; NZ + 3]) -> Option<Self::Recent> {
         Some(LagMoments::zero())
+    }
+    fn drive(_: &[f32; NZ + 3], _: u32) -> Option<Self::Drive> {
+        Some(Compensated::default())
     }
 }
 
 impl SumScalar for f64 {
     type Recent = LagMoments<f64>;
+    type Drive = Compensated<f64>;
     fn recent(_: &[f64; NZ + 3]) -> Option<Self::Recent> {
         Some(LagMoments::zero())
+    }
+    fn drive(_: &[f64; NZ + 3], _: u32) -> Option<Self::Drive> {
+        Some(Compensated::default())
     }
 }
 

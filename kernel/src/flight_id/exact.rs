@@ -20,7 +20,7 @@
 
 use super::drive::DriveSum;
 use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
-use crate::int::mul::mul_acc;
+use crate::int::mul::{mul_acc, round_product};
 use crate::int::shift::shift_nearest;
 use crate::int::Native;
 use crate::scalar::Scalar;
@@ -59,9 +59,9 @@ impl<S: Scalar> Envelope<S> {
 
     /// Per component of a sample (`z`, then `y`), a bound on its magnitude in a window of at
     /// most `window_s` seconds, for the nominal model's matrix `nominal` (its prediction is
-    /// taken out of `y`) and twice that for rounding's sake: the drive integrates the wrench and
-    /// the rate products over the window, the held torque is the wrench itself, and the
-    /// anchored rate residual is at most twice the rate plus the nominal prediction.
+    /// taken out of `y`): the drive integrates the wrench and the rate products over the
+    /// window, and the held torque is the wrench itself (each doubled for rounding's sake); the
+    /// residual's bound is below.
     pub fn component_bounds(&self, window_s: S, nominal: &[[S; NZ]; 3]) -> [S; NZ + 3] {
         use super::sums::{N_MODEL, SPLIT_TORQUE};
         let w = |c: usize| self.wrench.get(c).copied().unwrap_or(S::ZERO).abs();
@@ -78,15 +78,25 @@ impl<S: Scalar> Envelope<S> {
                 w(i.saturating_sub(SPLIT_TORQUE)).times(window_s)
             };
         }
+        // Twice the drive's reach; the residual's bound is twice the rates' reach plus a
+        // quarter of the nominal prediction's worst case: a residual is small, and its
+        // resolution matters (a bound of the whole prediction, 4-8x coarser, moved the fixed
+        // kernel's estimates by 0.09-0.25 sigma on rga12). So each axis' bound is at least half
+        // `|n|` times each component's, the integer prediction's range ([`ExactMoments`]),
+        // and a nominal model that misses a window's rates by more than half its worst-case
+        // prediction is refused (`Overflow`), not rounded.
         let (z_bounds, y_bounds) = out.split_at_mut(NZ);
+        for z in z_bounds.iter_mut() {
+            *z = z.mul_pow2(1);
+        }
         for (y, row) in y_bounds.iter_mut().zip(nominal) {
             let pred = row
                 .iter()
                 .zip(z_bounds.iter())
                 .fold(S::ZERO, |acc, (n, z)| acc.mul_add(n.abs(), *z));
-            *y = rate.mul_pow2(1).plus(pred);
+            *y = rate.mul_pow2(1).plus(pred.mul_pow2(-2)).mul_pow2(1);
         }
-        out.map(|b| b.mul_pow2(1))
+        out
     }
 }
 
@@ -97,7 +107,14 @@ pub struct ExactMoments {
     sums: LagMoments<i64>,
     /// Component `c` is `q 2^exp[c]`.
     exp: [i32; NZ + 3],
+    /// The nominal model's matrix, entry `(a, j)` as `q 2^(exp_y[a] - exp_z[j] - FRAC)`: its
+    /// prediction of axis `a` is then the integer sum of `q z_q[j]`, rounded by `FRAC` bits.
+    nominal: [[i32; NZ]; 3],
 }
+
+/// Fractional bits of the nominal prediction's products ([`round_product`]'s, proved for
+/// this count).
+const FRAC: u32 = 24;
 
 /// An exponent for components of magnitude below `bound`: `|v| < 2^(exp + VALUE_BITS)`. A zero
 /// bound (a component that is always zero) gets one far below any value.
@@ -134,16 +151,68 @@ impl Recent<IntFloat> for ExactMoments {
         y: [0; 3],
     };
 
-    fn item(&self, v: &Sample<IntFloat>) -> Option<Sample<i32>> {
+    type ItemSum = Sample<i64>;
+    const ZERO_SUM: Sample<i64> = Sample {
+        z: [0; NZ],
+        y: [0; 3],
+    };
+
+    /// The components rounded; the residual `y_raw - nominal z` in integers: the prediction's
+    /// products are exact (`|q| < 2^26`, `|z_q| < 2^27`: 18 of them within `mul_acc`'s
+    /// envelope), rounded once; a prediction beyond 32 bits saturates, and its residual is then
+    /// beyond the bound and refused.
+    fn item(
+        &self,
+        z: &[IntFloat; NZ],
+        y_raw: &[IntFloat; 3],
+        _: &[[IntFloat; NZ]; 3],
+    ) -> Option<Sample<i32>> {
         let (ez, ey) = self.exp.split_at(NZ);
         let mut out = Self::ZERO_ITEM;
-        for (o, (x, e)) in out.z.iter_mut().zip(v.z.iter().zip(ez)) {
+        for (o, (x, e)) in out.z.iter_mut().zip(z.iter().zip(ez)) {
             *o = Self::round(*x, *e)?;
         }
-        for (o, (x, e)) in out.y.iter_mut().zip(v.y.iter().zip(ey)) {
-            *o = Self::round(*x, *e)?;
+        for ((o, (x, e)), row) in out
+            .y
+            .iter_mut()
+            .zip(y_raw.iter().zip(ey))
+            .zip(&self.nominal)
+        {
+            let raw = Self::round(*x, *e)?;
+            let sum = row.iter().zip(out.z.iter()).fold(0u64, |acc, (n, zq)| {
+                mul_acc(&Native, &acc, &(*n as u32), &(*zq as u32))
+            });
+            let pred = round_product(&Native, &sum, FRAC) as i32;
+            let y = raw.checked_sub(pred)?;
+            if y.unsigned_abs() >= 1u32 << VALUE_BITS {
+                return None;
+            }
+            *o = y;
         }
         Some(out)
+    }
+
+    fn accumulate(sum: &mut Sample<i64>, item: &Sample<i32>) {
+        // |q| < 2^27 and a window has fewer than 2^32 samples: no wrap.
+        for (s, q) in sum
+            .z
+            .iter_mut()
+            .chain(sum.y.iter_mut())
+            .zip(item.z.iter().chain(item.y.iter()))
+        {
+            *s = s.wrapping_add(i64::from(*q));
+        }
+    }
+
+    fn sum_value(&self, sum: &Sample<i64>) -> Sample<IntFloat> {
+        let at =
+            |v: i64, c: usize| IntFloat::from_i64_pow2(v, self.exp.get(c).copied().unwrap_or(0));
+        Sample {
+            z: core::array::from_fn(|i| at(sum.z.get(i).copied().unwrap_or(0), i)),
+            y: core::array::from_fn(|a| {
+                at(sum.y.get(a).copied().unwrap_or(0), NZ.saturating_add(a))
+            }),
+        }
     }
 
     fn add_pair(&mut self, l: usize, now: &Sample<i32>, then: &Sample<i32>) {
@@ -261,21 +330,36 @@ impl SumScalar for IntFloat {
             extra,
         })
     }
-    fn recent(bounds: &[IntFloat; NZ + 3]) -> Option<ExactMoments> {
+    fn recent(bounds: &[IntFloat; NZ + 3], nominal: &[[IntFloat; NZ]; 3]) -> Option<ExactMoments> {
         let mut exp = [0i32; NZ + 3];
         for (e, b) in exp.iter_mut().zip(bounds) {
             *e = exponent_for(*b)?;
         }
+        let (ez, ey) = exp.split_at(NZ);
+        let frac = i32::try_from(FRAC).ok()?;
+        let mut nominal_q = [[0i32; NZ]; 3];
+        for ((row_q, row), e_y) in nominal_q.iter_mut().zip(nominal).zip(ey) {
+            for ((q, n), e_z) in row_q.iter_mut().zip(row).zip(ez) {
+                let e = e_y.checked_sub(*e_z)?.checked_sub(frac)?;
+                *q = Self::Recent::round(*n, e)?;
+                // each axis' bound is at least half |n| times the component's: |n| < 2^(exp_y -
+                // exp_z + 2), so |q| < 2^26
+                if q.unsigned_abs() >= 1 << 26 {
+                    return None;
+                }
+            }
+        }
         Some(ExactMoments {
             sums: LagMoments::filled(0),
             exp,
+            nominal: nominal_q,
         })
     }
 }
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
     use super::*;
 
     #[test]
@@ -297,12 +381,12 @@ mod tests {
     #[test]
     fn exact_sums_equal_the_integer_products_and_fold_to_their_value() {
         let bounds = [IntFloat::from_f32(2.0); NZ + 3];
-        let mut r = IntFloat::recent(&bounds).unwrap();
+        let mut r = IntFloat::recent(&bounds, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
         let v = Sample {
             z: core::array::from_fn(|i| IntFloat::from_f32(0.1 * i as f32 - 0.7)),
             y: [0.25, -0.5, 1.5].map(IntFloat::from_f32),
         };
-        let item = r.item(&v).unwrap();
+        let item = r.item(&v.z, &v.y, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
         for _ in 0..FOLD_PERIOD {
             r.add_pair(0, &item, &item);
         }
@@ -322,7 +406,7 @@ mod tests {
         // A component beyond its bound is refused, not wrapped.
         let mut big = v;
         big.y[2] = IntFloat::from_f32(9.0);
-        assert!(r.item(&big).is_none());
+        assert!(r.item(&big.z, &big.y, &[[IntFloat::ZERO; NZ]; 3]).is_none());
     }
 
     #[test]
@@ -348,13 +432,46 @@ mod tests {
         d.add(2, IntFloat::from_f32(1e6));
         d.add(2, IntFloat::from_f32(-1e6));
         assert_eq!(d.z[2], i64::MAX);
-        let r = IntFloat::recent(&bounds).unwrap();
-        let v = Sample {
-            z: d.values(),
-            y: [IntFloat::ZERO; 3],
-        };
-        assert!(r.item(&v).is_none());
+        let r = IntFloat::recent(&bounds, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        assert!(r.item(&d.values(), &[IntFloat::ZERO; 3], &none).is_none());
         d.clear();
         assert!(d.values().iter().all(|v| *v == IntFloat::ZERO));
+    }
+
+    #[test]
+    fn the_integer_prediction_is_the_nominal_model_s_to_a_few_resolution_steps() {
+        use crate::flight_id::solve::model_matrix;
+        let j = [20.0f32, 25.0, 30.0, 1.0, -0.5, 0.3].map(IntFloat::from_f32);
+        let nominal = model_matrix(&j, &[IntFloat::ZERO; 3], true).unwrap();
+        let env = Envelope::of_craft([0.05f32, 0.05, 0.05, 0.5, 0.5, 0.5].map(IntFloat::from_f32));
+        let bounds = env.component_bounds(IntFloat::from_f32(90.0), &nominal);
+        let r = IntFloat::recent(&bounds, &nominal).unwrap();
+        // Each component at a third of its bound or less.
+        let z: [IntFloat; NZ] =
+            core::array::from_fn(|i| bounds[i] * IntFloat::from_f32(0.15 * (i as f32 + 1.0).sin()));
+        let y_raw = [0.3f32, -0.2, 0.1].map(IntFloat::from_f32);
+        let item = r.item(&z, &y_raw, &nominal).unwrap();
+        for (a, row) in nominal.iter().enumerate() {
+            let pred: f64 = row
+                .iter()
+                .zip(&z)
+                .map(|(n, zc)| f64::from(n.to_f32()) * f64::from(zc.to_f32()))
+                .sum();
+            let want = f64::from(y_raw[a].to_f32()) - pred;
+            let step = 2f64.powi(r.exp[NZ + a]);
+            let got = f64::from(item.y[a]) * step;
+            // each of the 18 terms within half a step, and the rounding of the sum
+            assert!(
+                (got - want).abs() <= 10.0 * step,
+                "axis {a}: {got} vs {want}, step {step}"
+            );
+            assert!(pred.abs() > 1e3 * step, "a prediction that matters: {pred}");
+        }
+        // A planted fault: the prediction left out is seen.
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let r0 = IntFloat::recent(&bounds, &none).unwrap();
+        let raw = r0.item(&z, &y_raw, &none).unwrap();
+        assert!((0..3).any(|a| (raw.y[a] - item.y[a]).abs() > 1000));
     }
 }

@@ -29,7 +29,7 @@ pub mod window;
 use crate::scalar::Scalar;
 use drive::DriveSum;
 use solve::{Solution, SolveConfig, SolveError, NP};
-use sums::{FlightSums, RecentSums, Sample, SumScalar, WindowSums, NZ, N_MODEL};
+use sums::{FlightSums, RecentSums, SumScalar, WindowSums, NZ, N_MODEL};
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,7 +130,7 @@ impl<S: SumScalar> FlightId<S> {
             .times(cfg.period_s)
             .times(S::from_f32(1.5));
         let bounds = cfg.envelope.component_bounds(window_s, &nominal);
-        let recent = S::recent(&bounds)?;
+        let recent = S::recent(&bounds, &nominal)?;
         let drive = S::drive(&bounds, cfg.max_window)?;
         Some(FlightId {
             cfg,
@@ -250,24 +250,18 @@ impl<S: SumScalar> FlightId<S> {
             _ => return,
         };
         let anchor = *self.anchor.get_or_insert(y);
-        let mut y_anchored = [S::ZERO; 3];
-        for (a, (out, row)) in y_anchored.iter_mut().zip(self.nominal.iter()).enumerate() {
-            let pred = row
-                .iter()
-                .zip(z.iter())
-                .fold(S::ZERO, |acc, (r, zc)| acc.mul_add(*r, *zc));
-            *out = get(&y, a).minus(get(&anchor, a)).minus(pred);
-        }
+        let y_raw = core::array::from_fn(|a| get(&y, a).minus(get(&anchor, a)));
         self.window.push(
             &mut self.sums,
             &mut self.recent,
-            &Sample { z, y: y_anchored },
+            (&z, &y_raw),
+            &self.nominal,
             self.cfg.skip,
         );
     }
 
     fn close_window(&mut self) {
-        self.window.close_into(&mut self.sums);
+        self.window.close_into(&mut self.sums, &self.recent);
         self.drive.clear();
         self.filled = 0;
         self.turned = S::ZERO;

@@ -254,9 +254,19 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     type Item: Copy + core::fmt::Debug;
     /// The item of an all-zero sample.
     const ZERO_ITEM: Self::Item;
-    /// `v` as an item; None if it cannot be represented (the flight's sums are then
-    /// [`FlightSums::out_of_range`]).
-    fn item(&self, v: &Sample<S>) -> Option<Self::Item>;
+    /// A sum of items (a window's).
+    type ItemSum: Copy + core::fmt::Debug;
+    /// The empty sum.
+    const ZERO_SUM: Self::ItemSum;
+    /// The sample of drive `z` and anchored rate `y_raw` (the rate minus the window's first),
+    /// its `y` the residual from the nominal model's prediction `nominal z` (so that the sums
+    /// stay small whatever the rates), as an item; None if it cannot be represented (the
+    /// flight's sums are then [`FlightSums::out_of_range`]).
+    fn item(&self, z: &[S; NZ], y_raw: &[S; 3], nominal: &[[S; NZ]; 3]) -> Option<Self::Item>;
+    /// Adds `item` to `sum`.
+    fn accumulate(sum: &mut Self::ItemSum, item: &Self::Item);
+    /// A sum's value.
+    fn sum_value(&self, sum: &Self::ItemSum) -> Sample<S>;
     /// Adds `now then^T` at lag `l` (see [`LagMoments::add_pair_by`]).
     fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item);
     /// Entry `k` of the flat order, in `S`, and empties it.
@@ -270,8 +280,9 @@ pub trait SumScalar: Scalar {
     /// Its window's drive.
     type Drive: DriveSum<Self>;
     /// Empty recent sums for samples whose components (`z` then `y`) stay within `bounds`
-    /// in magnitude; None if the bounds are not usable.
-    fn recent(bounds: &[Self; NZ + 3]) -> Option<Self::Recent>;
+    /// in magnitude, `y` taken from the prediction of `nominal`; None if the bounds are not
+    /// usable.
+    fn recent(bounds: &[Self; NZ + 3], nominal: &[[Self; NZ]; 3]) -> Option<Self::Recent>;
     /// A zero drive whose components stay within `bounds` (the first `NZ` of them) over a
     /// window of at most `max_window` samples.
     fn drive(bounds: &[Self; NZ + 3], max_window: u32) -> Option<Self::Drive>;
@@ -280,8 +291,31 @@ pub trait SumScalar: Scalar {
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     type Item = Sample<S>;
     const ZERO_ITEM: Sample<S> = Sample::ZERO;
-    fn item(&self, v: &Sample<S>) -> Option<Sample<S>> {
-        Some(*v)
+    type ItemSum = Sample<S>;
+    const ZERO_SUM: Sample<S> = Sample::ZERO;
+    fn item(&self, z: &[S; NZ], y_raw: &[S; 3], nominal: &[[S; NZ]; 3]) -> Option<Sample<S>> {
+        let y = core::array::from_fn(|a| {
+            let (Some(row), Some(y)) = (nominal.get(a), y_raw.get(a)) else {
+                return S::ZERO;
+            };
+            let pred = row
+                .iter()
+                .zip(z.iter())
+                .fold(S::ZERO, |acc, (r, zc)| acc.mul_add(*r, *zc));
+            y.minus(pred)
+        });
+        Some(Sample { z: *z, y })
+    }
+    fn accumulate(sum: &mut Sample<S>, item: &Sample<S>) {
+        for (s, z) in sum.z.iter_mut().zip(item.z) {
+            *s = s.plus(z);
+        }
+        for (s, y) in sum.y.iter_mut().zip(item.y) {
+            *s = s.plus(y);
+        }
+    }
+    fn sum_value(&self, sum: &Sample<S>) -> Sample<S> {
+        *sum
     }
     fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>) {
         self.add_pair_by(l, now, then, |m, a, b| *m = m.mul_add(a, b));
@@ -295,7 +329,7 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
 impl SumScalar for f32 {
     type Recent = LagMoments<f32>;
     type Drive = Compensated<f32>;
-    fn recent(_: &[f32; NZ + 3]) -> Option<Self::Recent> {
+    fn recent(_: &[f32; NZ + 3], _: &[[f32; NZ]; 3]) -> Option<Self::Recent> {
         Some(LagMoments::zero())
     }
     fn drive(_: &[f32; NZ + 3], _: u32) -> Option<Self::Drive> {
@@ -306,7 +340,7 @@ impl SumScalar for f32 {
 impl SumScalar for f64 {
     type Recent = LagMoments<f64>;
     type Drive = Compensated<f64>;
-    fn recent(_: &[f64; NZ + 3]) -> Option<Self::Recent> {
+    fn recent(_: &[f64; NZ + 3], _: &[[f64; NZ]; 3]) -> Option<Self::Recent> {
         Some(LagMoments::zero())
     }
     fn drive(_: &[f64; NZ + 3], _: u32) -> Option<Self::Drive> {
@@ -391,8 +425,8 @@ impl<S: Scalar> Default for FlightSums<S> {
 /// The open window's sums.
 #[derive(Clone, Copy, Debug)]
 pub struct WindowSums<S: SumScalar> {
-    sz: [S; NZ],
-    sy: [S; 3],
+    /// The sum of the window's samples.
+    sum: <S::Recent as Recent<S>>::ItemSum,
     n: u32,
     /// Samples seen, including those left out at the start.
     seen: u32,
@@ -403,8 +437,7 @@ pub struct WindowSums<S: SumScalar> {
 impl<S: SumScalar> Default for WindowSums<S> {
     fn default() -> Self {
         WindowSums {
-            sz: [S::ZERO; NZ],
-            sy: [S::ZERO; 3],
+            sum: <S::Recent as Recent<S>>::ZERO_SUM,
             n: 0,
             seen: 0,
             history: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS - 1],
@@ -423,21 +456,22 @@ impl<S: SumScalar> WindowSums<S> {
         self.n == 0
     }
 
-    /// Adds one measurement to `flight`'s sums (its products through `recent`), except the
-    /// window's first `skip` (the noise model's order: their whitened residual would need
-    /// samples before the window).
+    /// Adds one measurement, drive `z` and anchored rate `y_raw` (see [`Recent::item`]), to
+    /// `flight`'s sums (its products through `recent`), except the window's first `skip` (the
+    /// noise model's order: their whitened residual would need samples before the window).
     pub fn push(
         &mut self,
         flight: &mut FlightSums<S>,
         recent: &mut RecentSums<S::Recent>,
-        v: &Sample<S>,
+        (z, y_raw): (&[S; NZ], &[S; 3]),
+        nominal: &[[S; NZ]; 3],
         skip: u32,
     ) {
         self.seen = self.seen.saturating_add(1);
         if self.seen <= skip {
             return;
         }
-        let Some(item) = recent.sums.item(v) else {
+        let Some(item) = recent.sums.item(z, y_raw, nominal) else {
             flight.out_of_range = true;
             return;
         };
@@ -448,12 +482,7 @@ impl<S: SumScalar> WindowSums<S> {
                 recent.sums.add_pair(l.saturating_add(1), &item, then);
             }
         }
-        for (s, z) in self.sz.iter_mut().zip(v.z) {
-            *s = s.plus(z);
-        }
-        for (s, y) in self.sy.iter_mut().zip(v.y) {
-            *s = s.plus(y);
-        }
+        S::Recent::accumulate(&mut self.sum, &item);
         self.history.rotate_right(1);
         if let Some(h) = self.history.first_mut() {
             *h = item;
@@ -463,22 +492,23 @@ impl<S: SumScalar> WindowSums<S> {
         recent.fold(flight, FOLD_PER_SAMPLE);
     }
     /// Closes the window: its initial rate's term into `flight`; empties the window.
-    pub fn close_into(&mut self, flight: &mut FlightSums<S>) {
+    pub fn close_into(&mut self, flight: &mut FlightSums<S>, recent: &RecentSums<S::Recent>) {
         if self.n > 0 {
+            let Sample { z: sz, y: sy } = recent.sums.sum_value(&self.sum);
             let n = S::from_int_pow2(i32::try_from(self.n).unwrap_or(i32::MAX), 0);
-            let mean_z = self.sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
-            let mean_y = self.sy.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
+            let mean_z = sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
+            let mean_y = sy.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
             for (row, mz) in flight.czz.iter_mut().zip(mean_z) {
-                for (c, sz) in row.iter_mut().zip(self.sz) {
+                for (c, sz) in row.iter_mut().zip(sz) {
                     *c = c.mul_add(mz, sz);
                 }
             }
             for (row, my) in flight.czy.iter_mut().zip(mean_y) {
-                for (c, sz) in row.iter_mut().zip(self.sz) {
+                for (c, sz) in row.iter_mut().zip(sz) {
                     *c = c.mul_add(my, sz);
                 }
             }
-            for ((c, my), sy) in flight.cyy.iter_mut().zip(mean_y).zip(self.sy) {
+            for ((c, my), sy) in flight.cyy.iter_mut().zip(mean_y).zip(sy) {
                 *c = c.mul_add(my, sy);
             }
             flight.windows = flight.windows.saturating_add(1);

@@ -107,14 +107,15 @@ pub struct ExactMoments {
     sums: LagMoments<i64>,
     /// Component `c` is `q 2^exp[c]`.
     exp: [i32; NZ + 3],
-    /// The nominal model's matrix, entry `(a, j)` as `q 2^(exp_y[a] - exp_z[j] - FRAC)`: its
-    /// prediction of axis `a` is then the integer sum of `q z_q[j]`, rounded by `FRAC` bits.
+    /// The nominal model's matrix, entry `(a, j)` as `q 2^(exp_y[a] - exp_z[j] - PREDICTION_FRAC)`:
+    /// its prediction of axis `a` is then the integer sum of `q z_q[j]`, rounded by
+    /// `PREDICTION_FRAC` bits.
     nominal: [[i32; NZ]; 3],
 }
 
-/// Fractional bits of the nominal prediction's products ([`round_product`]'s, proved for
-/// this count).
-const FRAC: u32 = 24;
+/// Fractional bits of the nominal prediction's products, dropped by [`round_product`]
+/// (proved for this count: `massid_proofs_solver`, obligation `round_sum_24`).
+pub const PREDICTION_FRAC: u32 = 24;
 
 /// An exponent for components of magnitude below `bound`: `|v| < 2^(exp + VALUE_BITS)`. A zero
 /// bound (a component that is always zero) gets one far below any value.
@@ -182,7 +183,7 @@ impl Recent<IntFloat> for ExactMoments {
             let sum = row.iter().zip(out.z.iter()).fold(0u64, |acc, (n, zq)| {
                 mul_acc(&Native, &acc, &(*n as u32), &(*zq as u32))
             });
-            let pred = round_product(&Native, &sum, FRAC) as i32;
+            let pred = round_product(&Native, &sum, PREDICTION_FRAC) as i32;
             let y = raw.checked_sub(pred)?;
             if y.unsigned_abs() >= 1u32 << VALUE_BITS {
                 return None;
@@ -336,7 +337,7 @@ impl SumScalar for IntFloat {
             *e = exponent_for(*b)?;
         }
         let (ez, ey) = exp.split_at(NZ);
-        let frac = i32::try_from(FRAC).ok()?;
+        let frac = i32::try_from(PREDICTION_FRAC).ok()?;
         let mut nominal_q = [[0i32; NZ]; 3];
         for ((row_q, row), e_y) in nominal_q.iter_mut().zip(nominal).zip(ey) {
             for ((q, n), e_z) in row_q.iter_mut().zip(row).zip(ez) {
@@ -359,7 +360,12 @@ impl SumScalar for IntFloat {
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+    #![allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )]
     use super::*;
 
     #[test]

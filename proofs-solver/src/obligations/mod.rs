@@ -24,8 +24,12 @@ pub fn all() -> Vec<Box<dyn Discharge>> {
             widening: Widening::Direct,
         }),
         Box::new(UnsignedByHalves),
-        // the fixed kernel's exact sums (`massid_kernel::flight_id::exact`)
+        // the fixed kernel's exact sums (`massid_kernel::flight_id::exact`): their
+        // multiply-accumulate and the prediction's rounding
         Box::new(MulAcc),
+        Box::new(RoundedSum {
+            frac: massid_kernel::flight_id::exact::PREDICTION_FRAC,
+        }),
         Box::new(shift::ShiftSaturating),
         Box::new(shift::ShiftNearest),
         Box::new(split::SplitWord { frac: FRAC }),

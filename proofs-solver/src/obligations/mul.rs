@@ -57,6 +57,13 @@ fn engine_for(how: Widening) -> Engine {
 /// nearest (ties up) and saturated to `i32`: the property of `Fx * Fx`.
 pub fn is_rounded_product<P: Prover>(p: &P, a: &P::W, b: &P::W, r: &P::W, frac: u32) -> P::Bool {
     let exact = p.i_mul(&p.sw(a), &p.sw(b));
+    is_rounded_value(p, &exact, r, frac)
+}
+
+/// `r` is the integer `exact` with `frac` fractional bits, rounded to nearest (ties up) and
+/// saturated to `i32`.
+pub fn is_rounded_value<P: Prover>(p: &P, exact: &P::I, r: &P::W, frac: u32) -> P::Bool {
+    let exact = exact.clone();
     let one = 1i128 << frac;
     let half = one >> 1;
     let r = p.sw(r);
@@ -173,5 +180,30 @@ impl Obligation for MulAcc {
     }
     fn mutant_rlimit(&self) -> u32 {
         PRODUCT_MUTANT_RLIMIT
+    }
+}
+
+/// `round_product(v, frac)` of a 64-bit sum `v` with `|v| <= 2^62` (what the fixed kernel's
+/// nominal prediction rounds: a sum of `mul_acc` products, `flight_id::exact`): `v / 2^frac`
+/// to nearest, ties up, saturated to `i32`.
+pub struct RoundedSum {
+    /// Fractional bits dropped.
+    pub frac: u32,
+}
+
+impl Obligation for RoundedSum {
+    fn name(&self) -> String {
+        format!("round_sum_{}", self.frac)
+    }
+    fn inputs(&self) -> &'static [&'static str] {
+        &["v_hi", "v_lo"]
+    }
+    fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
+        let v = p.d_of(&x[0], &x[1]);
+        let f = self.frac;
+        let r = p.under_test(|m| round_product(m, &v, f));
+        let vi = p.int_d(&v, true);
+        let pre = p.i_within(&vi, -(1i128 << 62), 1i128 << 62);
+        (pre, is_rounded_value(p, &vi, &r, f))
     }
 }

@@ -93,8 +93,10 @@ pub struct FlightId<S: SumScalar> {
     products: [S; 6],
     /// A step longer than this starts a new window (1.5 periods).
     gap: S,
-    /// The window's last three (drive, measured rate), newest first; `filled` of them valid.
+    /// The window's last three (drive, measured rate), a ring whose newest is at `newest`
+    /// (the older ones follow, modulo 3); `filled` of them valid.
     last: [([S; NZ], [S; 3]); 3],
+    newest: usize,
     filled: u32,
     /// Weighted rotation in the window so far, rad (sum over the axes of `w_a |omega_a| dt`).
     turned: S,
@@ -141,6 +143,7 @@ impl<S: SumScalar> FlightId<S> {
             products: [S::ZERO; 6],
             gap: S::from_f32(1.5).times(cfg.period_s),
             last: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
+            newest: 0,
             filled: 0,
             turned: S::ZERO,
             anchor: None,
@@ -221,8 +224,13 @@ impl<S: SumScalar> FlightId<S> {
                 self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
             }
         }
-        self.last.rotate_right(1);
-        if let Some(r) = self.last.first_mut() {
+        // A ring, not a rotation: no copying of the older entries per sample.
+        self.newest = if self.newest == 0 {
+            2
+        } else {
+            self.newest.saturating_sub(1)
+        };
+        if let Some(r) = self.last.get_mut(self.newest) {
             *r = (self.drive.values(), rate);
         }
         self.filled = self.filled.saturating_add(1);
@@ -232,29 +240,36 @@ impl<S: SumScalar> FlightId<S> {
 
     /// The measurement the newest sample completes, through the sensor's response.
     fn emit(&mut self) {
-        let [(z2, y2), (z1, y1), (z0, _)] = &self.last;
+        let back = |i: usize| {
+            let k = self.newest.saturating_add(i);
+            self.last.get(if k >= 3 { k.saturating_sub(3) } else { k })
+        };
+        let (Some((z2, y2)), Some((z1, y1)), Some((z0, _))) = (back(0), back(1), back(2)) else {
+            return;
+        };
         let q = S::from_int_pow2(1, -2);
         let h = S::from_int_pow2(1, -1);
+        let mean: [S; NZ];
         let (z, y) = match self.cfg.sensor {
-            SensorResponse::Point => (*z2, *y2),
-            SensorResponse::BackwardMean if self.filled >= 2 => (
-                core::array::from_fn(|i| h.times(get(z1, i).plus(get(z2, i)))),
-                *y2,
-            ),
-            SensorResponse::CentralMean if self.filled >= 3 => (
-                core::array::from_fn(|i| {
+            SensorResponse::Point => (z2, y2),
+            SensorResponse::BackwardMean if self.filled >= 2 => {
+                mean = core::array::from_fn(|i| h.times(get(z1, i).plus(get(z2, i))));
+                (&mean, y2)
+            }
+            SensorResponse::CentralMean if self.filled >= 3 => {
+                mean = core::array::from_fn(|i| {
                     q.times(get(z0, i).plus(get(z1, i).mul_pow2(1)).plus(get(z2, i)))
-                }),
-                *y1,
-            ),
+                });
+                (&mean, y1)
+            }
             _ => return,
         };
-        let anchor = *self.anchor.get_or_insert(y);
-        let y_raw = core::array::from_fn(|a| get(&y, a).minus(get(&anchor, a)));
+        let anchor = *self.anchor.get_or_insert(*y);
+        let y_raw = core::array::from_fn(|a| get(y, a).minus(get(&anchor, a)));
         self.window.push(
             &mut self.sums,
             &mut self.recent,
-            (&z, &y_raw),
+            (z, &y_raw),
             &self.nominal,
             self.cfg.skip,
         );

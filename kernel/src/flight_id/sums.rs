@@ -32,6 +32,8 @@ pub const N_MODEL: usize = 12;
 pub const SPLIT_TORQUE: usize = N_MODEL + 3;
 /// Lags kept: 0..LAGS-1 (an AR noise model of order up to LAGS - 1).
 pub const LAGS: usize = 3;
+// The window's history ring ([`WindowSums::push`]) holds exactly the two lagged samples.
+const _: () = assert!(LAGS == 3);
 
 /// `sum_k v_k v_(k-l)^T` by blocks, `v = (z, y)`; the `z` block is shared by the three axes.
 #[derive(Clone, Copy, Debug)]
@@ -430,8 +432,9 @@ pub struct WindowSums<S: SumScalar> {
     n: u32,
     /// Samples seen, including those left out at the start.
     seen: u32,
-    /// The last two samples used (newest first) for the lagged products.
+    /// The last two samples used for the lagged products: a ring, the newest at `newest`.
     history: [<S::Recent as Recent<S>>::Item; LAGS - 1],
+    newest: usize,
 }
 
 impl<S: SumScalar> Default for WindowSums<S> {
@@ -441,6 +444,7 @@ impl<S: SumScalar> Default for WindowSums<S> {
             n: 0,
             seen: 0,
             history: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS - 1],
+            newest: 0,
         }
     }
 }
@@ -477,14 +481,16 @@ impl<S: SumScalar> WindowSums<S> {
         };
         recent.sums.add_pair(0, &item, &item);
         let back = usize::try_from(self.n).unwrap_or(usize::MAX);
-        for (l, then) in self.history.iter().enumerate() {
-            if l < back {
+        // Lag 1 is the newest of the history, lag 2 the other (LAGS - 1 = 2 entries).
+        let older = 1usize.saturating_sub(self.newest);
+        for (l, k) in [self.newest, older].into_iter().enumerate() {
+            if let (true, Some(then)) = (l < back, self.history.get(k)) {
                 recent.sums.add_pair(l.saturating_add(1), &item, then);
             }
         }
         S::Recent::accumulate(&mut self.sum, &item);
-        self.history.rotate_right(1);
-        if let Some(h) = self.history.first_mut() {
+        self.newest = older;
+        if let Some(h) = self.history.get_mut(older) {
             *h = item;
         }
         self.n = self.n.saturating_add(1);

@@ -373,7 +373,11 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
         markers::end();
         markers::kind(craft.kind);
     }
+    // The window close: its initial-rate terms (an outer product of the window's sums).
+    markers::begin();
     id.finish();
+    markers::end();
+    markers::kind(Kind::FlightIdClose);
     let sums = id.sums();
     write!(
         out,

@@ -49,6 +49,9 @@ marker!(/// One sample of the output-error identification for the air-bearing cr
     massid_mark_kind_flight_id_push_airbearing = 0x4d42_001b);
 marker!(/// One sample of the output-error identification for the 16-thruster free-flyer.
     massid_mark_kind_flight_id_push_freeflyer16 = 0x4d42_001c);
+marker!(/// The output-error identification's window close (`FlightId::finish`: the open window's
+    /// initial-rate terms into the flight's sums), any craft.
+    massid_mark_kind_flight_id_close = 0x4d42_001d);
 marker!(/// A tick where the thruster word changed without a solve (firing edge: KF reset, batch row).
     massid_mark_kind_edge = 0x4d42_0017);
 marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
@@ -122,6 +125,8 @@ pub enum Kind {
     FlightIdPushAirbearing,
     /// One sample of the output-error identification for the 16-thruster free-flyer.
     FlightIdPushFreeflyer16,
+    /// The identification's window close.
+    FlightIdClose,
     /// One mix by `massid_kernel::craft_mixer` for SPHERES.
     CraftMixerSph2,
     /// One mix by `massid_kernel::craft_mixer` for the air-bearing craft.
@@ -176,6 +181,7 @@ pub fn kind(k: Kind) {
         Kind::FlightIdPush => massid_mark_kind_flight_id_push(),
         Kind::FlightIdPushAirbearing => massid_mark_kind_flight_id_push_airbearing(),
         Kind::FlightIdPushFreeflyer16 => massid_mark_kind_flight_id_push_freeflyer16(),
+        Kind::FlightIdClose => massid_mark_kind_flight_id_close(),
         Kind::CraftMixerSph2 => massid_mark_kind_craft_mixer_sph2(),
         Kind::CraftMixerAirbearing => massid_mark_kind_craft_mixer_airbearing(),
         Kind::CraftMixerFreeflyer16 => massid_mark_kind_craft_mixer_freeflyer16(),

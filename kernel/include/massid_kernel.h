@@ -327,6 +327,9 @@ massid_status massid_f32_flight_id_finish(massid_flight_id *id);
 /* Outside the tick (copies the sums: 21,728 bytes of stack on the M4F, 22,160 on the M0).
  * Never while a push on the same block can run (mask it, or push into a second block). */
 massid_status massid_f32_flight_id_solve(massid_flight_id *id, massid_flight_id_result *out);
+/* The integer-float form keeps its per-sample sums as exact integers scaled to the craft: a
+ * wrench beyond its thrusters' (push_wrench) or a rate beyond one turn a second (2 pi rad/s)
+ * makes its solve answer MASSID_OVERFLOW rather than a rounded wrong sum. */
 massid_status massid_fixed_flight_id_init(massid_fixed_flight_id *id, const massid_craft *craft,
                                           const massid_flight_id_settings *settings);
 massid_status massid_fixed_flight_id_push(massid_fixed_flight_id *id, float dt_s,

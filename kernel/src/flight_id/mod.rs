@@ -329,7 +329,7 @@ pub const THETA_TERMS: usize = NP;
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
     use super::*;
 
     /// Windows of a craft turning about x at 1 rad/s for 1 s, cut after `limit` rad of
@@ -373,5 +373,56 @@ mod tests {
         assert!((19..=21).contains(&doubled), "{doubled}");
         // A weight on an axis the craft does not turn about changes nothing.
         assert_eq!(windows_of([1.0, 5.0, 5.0], 0.1), plain);
+    }
+
+    /// The fixed kernel's exact sums are scaled to the envelope: a wrench beyond it makes the
+    /// fit answer Overflow (f32, which has no such scale, answers).
+    #[test]
+    fn the_fixed_kernel_refuses_a_wrench_beyond_its_envelope() {
+        use crate::IntFloat;
+        fn run<S: SumScalar>(torque: f32) -> Result<(), SolveError> {
+            let c = S::from_f32;
+            let cfg = FlightIdConfig {
+                period_s: c(1e-3),
+                sensor: SensorResponse::Point,
+                delay_periods: 0.0,
+                cut_at_changes: false,
+                max_window: 2000,
+                max_window_turn_rad: c(f32::INFINITY),
+                turn_weight: [S::ONE; 3],
+                turn_window: 0,
+                skip: 0,
+                solve: SolveConfig {
+                    j_nominal: [10.0f32, 10.0, 10.0, 0.0, 0.0, 0.0].map(c),
+                    // the principal terms: the pulses excite them and nothing else
+                    free: core::array::from_fn(|m| m < 3),
+                    axes: [true; 3],
+                    gyroscopic: true,
+                    max_noise_order: 0,
+                    scale: [1.0f32; NP].map(c),
+                },
+                envelope: exact::Envelope::of_craft([0.01f32, 0.01, 0.01, 0.1, 0.1, 0.1].map(c)),
+            };
+            let mut id = FlightId::new(cfg).expect("config");
+            let mut w = [0.0f32; 3];
+            let mut x = 12345u32;
+            for k in 0..6000 {
+                let on = (k / 100) % 3;
+                let wrench = core::array::from_fn(|i| if i == on { c(torque) } else { S::ZERO });
+                // the rate that follows the torque (J = 10), measured with noise
+                let noisy = w.map(|v| {
+                    x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    c(v + 1e-3 * ((x >> 8) as f32 / (1u32 << 24) as f32 - 0.5))
+                });
+                id.push(c(1e-3), noisy, true, wrench);
+                w[on] += 10.0 * torque * 1e-3;
+            }
+            id.finish();
+            id.solve().map(|_| ())
+        }
+        assert_eq!(run::<IntFloat>(0.005), Ok(()));
+        assert_eq!(run::<f32>(0.005), Ok(()));
+        assert_eq!(run::<IntFloat>(0.5), Err(SolveError::Overflow));
+        assert_ne!(run::<f32>(0.5), Err(SolveError::Overflow));
     }
 }

@@ -269,7 +269,7 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     fn accumulate(sum: &mut Self::ItemSum, item: &Self::Item);
     /// A sum's value.
     fn sum_value(&self, sum: &Self::ItemSum) -> Sample<S>;
-    /// Adds `now then^T` at lag `l` (see [`LagMoments::add_pair_by`]).
+    /// Adds `now then^T` at lag `l` (at lag 0 the upper triangle of `zz` only).
     fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item);
     /// Entry `k` of the flat order, in `S`, and empties it.
     fn take(&mut self, k: usize) -> S;

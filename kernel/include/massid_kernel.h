@@ -328,8 +328,10 @@ massid_status massid_f32_flight_id_finish(massid_flight_id *id);
  * Never while a push on the same block can run (mask it, or push into a second block). */
 massid_status massid_f32_flight_id_solve(massid_flight_id *id, massid_flight_id_result *out);
 /* The integer-float form keeps its per-sample sums as exact integers scaled to the craft: a
- * wrench beyond its thrusters' (push_wrench) or a rate beyond one turn a second (2 pi rad/s)
- * makes its solve answer MASSID_OVERFLOW rather than a rounded wrong sum. */
+ * wrench 2-4 times beyond its thrusters' (push_wrench) or a rate 2-4 times beyond one turn a
+ * second (2 pi rad/s) makes its solve answer MASSID_OVERFLOW rather than a rounded wrong sum;
+ * init refuses (MASSID_BAD_PARAMETERS) windows of more than 100 s of reach (max_window steps of
+ * 1.5 periods), whose resolution would be too coarse. */
 massid_status massid_fixed_flight_id_init(massid_fixed_flight_id *id, const massid_craft *craft,
                                           const massid_flight_id_settings *settings);
 massid_status massid_fixed_flight_id_push(massid_fixed_flight_id *id, float dt_s,

@@ -12,19 +12,28 @@
 //! most that many products: `FOLD_PERIOD 2^(2 VALUE_BITS) < 2^63`, checked below at compile
 //! time and proved by Z3 (`massid_proofs_solver`, obligation `mul_acc`).
 //!
-//! What it costs in accuracy: a component is resolved to `2^-VALUE_BITS` of its bound, about
-//! 10^-8; a rate residual to 10^-8 of twice the rate limit plus the drive's nominal rate,
-//! far below any gyro's noise. A value beyond its bound (a wrench or rate the envelope does
-//! not allow) is not rounded into a wrong sum: the flight's sums are marked out of range and
-//! the fit answers `Overflow`.
+//! What it costs in accuracy: a component is resolved to `2^-VALUE_BITS` of its bound (twice
+//! its reach over the longest window, rounded up to a power of two), about 10^-8; the rate
+//! residual to 10^-8 of its own bound, which grows with the longest window ([`MAX_REACH_S`]).
+//! Every value the sums take is exact or refused: a value past its bound (a wrench or rate
+//! 2-4 times beyond the envelope, the bounds' margin) is not rounded into a wrong sum, the
+//! flight's sums are marked out of range and the fit answers `Overflow`.
 
 use super::drive::DriveSum;
 use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
 use crate::int::mul::{mul_acc, round_product};
 use crate::int::shift::shift_nearest;
 use crate::int::Native;
-use crate::scalar::Scalar;
+use crate::scalar::{max_abs, Scalar};
 use crate::IntFloat;
+
+/// The longest reach of a window the fixed kernel takes, s (`max_window` steps of up to 1.5
+/// periods). Every component, the rate residual included, is resolved to `2^-VALUE_BITS` of
+/// its worst case over the longest window, so the resolution follows this setting: on a
+/// low-noise test flight (100 Hz, 10 s windows) the fixed kernel's estimates were within 0.05
+/// sigma of f32's with a 15 s reach, 0.03-0.24 sigma at 150 s, 1.9 sigma at 1,500 s. Longer
+/// settings are refused. The ground tool and the C ABI's default take 60 s windows (90 s).
+pub const MAX_REACH_S: f32 = 100.0;
 
 /// Bits of a rounded component: `|q| < 2^VALUE_BITS`.
 pub const VALUE_BITS: u32 = 27;
@@ -43,7 +52,8 @@ pub struct Envelope<S> {
 }
 
 /// The rate limit of [`Envelope::of_craft`]: one turn a second, beyond the maneuvers of the
-/// craft this kernel is for (a rate beyond it makes the fixed kernel's fit answer `Overflow`).
+/// craft this kernel is for (a rate 2-4 times beyond it makes the fixed kernel's fit answer
+/// `Overflow`).
 pub const RATE_LIMIT_RAD_S: f32 = core::f32::consts::TAU;
 
 impl<S: Scalar> Envelope<S> {
@@ -64,7 +74,11 @@ impl<S: Scalar> Envelope<S> {
     /// residual's bound is below.
     pub fn component_bounds(&self, window_s: S, nominal: &[[S; NZ]; 3]) -> [S; NZ + 3] {
         use super::sums::{N_MODEL, SPLIT_TORQUE};
-        let w = |c: usize| self.wrench.get(c).copied().unwrap_or(S::ZERO).abs();
+        // A component the craft cannot push at all (a planar craft's roll torque) still gets
+        // a bound, 2^-20 of the largest: a rounding residue there is not refused.
+        let largest = self.wrench.iter().fold(S::ZERO, |m, v| max_abs(m, *v));
+        let floor = largest.mul_pow2(-20);
+        let w = |c: usize| max_abs(self.wrench.get(c).copied().unwrap_or(S::ZERO), floor);
         let rate = self.rate.abs();
         let mut out = [S::ZERO; NZ + 3];
         for (i, b) in out.iter_mut().enumerate().take(NZ) {
@@ -78,13 +92,12 @@ impl<S: Scalar> Envelope<S> {
                 w(i.saturating_sub(SPLIT_TORQUE)).times(window_s)
             };
         }
-        // Twice the drive's reach; the residual's bound is twice the rates' reach plus a
-        // quarter of the nominal prediction's worst case: a residual is small, and its
-        // resolution matters (a bound of the whole prediction, 4-8x coarser, moved the fixed
-        // kernel's estimates by 0.09-0.25 sigma on rga12). So each axis' bound is at least half
-        // `|n|` times each component's, the integer prediction's range ([`ExactMoments`]),
-        // and a nominal model that misses a window's rates by more than half its worst-case
-        // prediction is refused (`Overflow`), not rounded.
+        // Each component's bound is twice its reach. The residual `y_raw - nominal z` is at
+        // most twice the rate plus the prediction's worst case `P/2` (`P` from the doubled
+        // bounds): its bound `2 (2 rate + P/4)` holds it with no margin to spare, because its
+        // resolution matters (a bound four times larger moved the fixed kernel's rga12
+        // estimates by 0.09-0.25 sigma). Each axis' bound is then at least half `|n|` times
+        // each component's, the integer prediction's range ([`ExactMoments`]).
         let (z_bounds, y_bounds) = out.split_at_mut(NZ);
         for z in z_bounds.iter_mut() {
             *z = z.mul_pow2(1);
@@ -239,11 +252,11 @@ impl Recent<IntFloat> for ExactMoments {
 /// Bits the drive is kept finer than its rounded components, for a window of at most
 /// `max_window` samples: `4 + floor(log2(max_window))`. A component's bound is at least
 /// `2 max_window` times its largest increment ([`Envelope::component_bounds`]), so at this
-/// resolution every increment within the envelope fits 32 bits, and is resolved to `2^-31` of
-/// the largest. Finer matters: the increments vary slowly, so their rounding errors do not
-/// cancel but add up over a window (resolved to `2^-35` of the component's bound instead, the
-/// fixed kernel's inertia moved by 0.36 sigma on an rga12 flight, seed 31000). A window's
-/// drive then errs by at most `2^-33` of the bound.
+/// resolution every increment within the envelope is below 2^30 units: the largest is
+/// resolved to 2^-28 to 2^-30 of itself. Finer matters: the increments vary slowly, so their
+/// rounding errors do not cancel but add up over a window (resolved to `2^-35` of the
+/// component's bound instead, the fixed kernel's inertia moved by 0.36 sigma on an rga12
+/// flight, seed 31000). A window's drive then errs by at most `2^-30` of the bound.
 pub fn drive_extra_bits(max_window: u32) -> i32 {
     4i32.saturating_add(31i32.saturating_sub(max_window.max(1).leading_zeros() as i32))
 }
@@ -284,7 +297,7 @@ impl DriveSum<IntFloat> for ExactDrive {
             *z = if q == i64::MAX || *z == i64::MAX {
                 i64::MAX
             } else {
-                // |z| < 2^37 and |q| < 2^31 (see the type's doc).
+                // |z| <= 2^(VALUE_BITS + extra) <= 2^62 and |q| < 2^31 (see the type's doc).
                 z.saturating_add(q)
             };
         }
@@ -297,7 +310,8 @@ impl DriveSum<IntFloat> for ExactDrive {
             *z = if q == i64::MAX {
                 q
             } else {
-                // |q| < 2^VALUE_BITS and extra <= 35: no overflow.
+                // |q| < 2^31 and extra <= 35: a value beyond its bound saturates to the
+                // sentinel (refused); within it |q| < 2^VALUE_BITS and nothing saturates.
                 q.saturating_mul(1i64 << self.extra.clamp(0, 35))
             };
         }
@@ -308,7 +322,13 @@ impl DriveSum<IntFloat> for ExactDrive {
                 self.z.get(i).copied().unwrap_or(0),
                 self.exp.get(i).copied().unwrap_or(0),
             );
-            IntFloat::from_i64_pow2(z, e)
+            if z == i64::MAX {
+                // Saturated, not a large valid number: it stays invalid through the sensor's
+                // means, and the sample is refused.
+                IntFloat::from_i64_pow2(i64::MAX, crate::int_float::EXP_LIMIT)
+            } else {
+                IntFloat::from_i64_pow2(z, e)
+            }
         })
     }
     fn clear(&mut self) {
@@ -316,22 +336,30 @@ impl DriveSum<IntFloat> for ExactDrive {
     }
 }
 
+/// The integer float's scales: each component's power of two, the quantized nominal matrix,
+/// and the drive's finer powers of two. Small, computed once at init, so that the large sums
+/// are built in place (as zeros) and not moved through the stack.
+#[derive(Clone, Copy, Debug)]
+pub struct ExactScales {
+    exp: [i32; NZ + 3],
+    nominal: [[i32; NZ]; 3],
+    drive_exp: [i32; NZ],
+    extra: i32,
+}
+
 impl SumScalar for IntFloat {
     type Recent = ExactMoments;
     type Drive = ExactDrive;
-    fn drive(bounds: &[IntFloat; NZ + 3], max_window: u32) -> Option<ExactDrive> {
-        let extra = drive_extra_bits(max_window);
-        let mut exp = [0i32; NZ];
-        for (e, b) in exp.iter_mut().zip(bounds) {
-            *e = exponent_for(*b)?.checked_sub(extra)?;
+    type Scales = ExactScales;
+    fn scales(
+        bounds: &[IntFloat; NZ + 3],
+        nominal: &[[IntFloat; NZ]; 3],
+        max_window: u32,
+        window_s: IntFloat,
+    ) -> Option<ExactScales> {
+        if IntFloat::from_f32(MAX_REACH_S).lt(window_s) {
+            return None;
         }
-        Some(ExactDrive {
-            z: [0; NZ],
-            exp,
-            extra,
-        })
-    }
-    fn recent(bounds: &[IntFloat; NZ + 3], nominal: &[[IntFloat; NZ]; 3]) -> Option<ExactMoments> {
         let mut exp = [0i32; NZ + 3];
         for (e, b) in exp.iter_mut().zip(bounds) {
             *e = exponent_for(*b)?;
@@ -342,7 +370,7 @@ impl SumScalar for IntFloat {
         for ((row_q, row), e_y) in nominal_q.iter_mut().zip(nominal).zip(ey) {
             for ((q, n), e_z) in row_q.iter_mut().zip(row).zip(ez) {
                 let e = e_y.checked_sub(*e_z)?.checked_sub(frac)?;
-                *q = Self::Recent::round(*n, e)?;
+                *q = ExactMoments::round(*n, e)?;
                 // each axis' bound is at least half |n| times the component's: |n| < 2^(exp_y -
                 // exp_z + 2), so |q| < 2^26
                 if q.unsigned_abs() >= 1 << 26 {
@@ -350,11 +378,31 @@ impl SumScalar for IntFloat {
                 }
             }
         }
-        Some(ExactMoments {
-            sums: LagMoments::filled(0),
+        let extra = drive_extra_bits(max_window);
+        let mut drive_exp = [0i32; NZ];
+        for (d, e) in drive_exp.iter_mut().zip(ez) {
+            *d = e.checked_sub(extra)?;
+        }
+        Some(ExactScales {
             exp,
             nominal: nominal_q,
+            drive_exp,
+            extra,
         })
+    }
+    fn recent(scales: &ExactScales) -> ExactMoments {
+        ExactMoments {
+            sums: LagMoments::filled(0),
+            exp: scales.exp,
+            nominal: scales.nominal,
+        }
+    }
+    fn drive(scales: &ExactScales) -> ExactDrive {
+        ExactDrive {
+            z: [0; NZ],
+            exp: scales.drive_exp,
+            extra: scales.extra,
+        }
     }
 }
 
@@ -387,7 +435,9 @@ mod tests {
     #[test]
     fn exact_sums_equal_the_integer_products_and_fold_to_their_value() {
         let bounds = [IntFloat::from_f32(2.0); NZ + 3];
-        let mut r = IntFloat::recent(&bounds, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
+        let mut r = IntFloat::recent(
+            &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 1000, IntFloat::ONE).unwrap(),
+        );
         let v = Sample {
             z: core::array::from_fn(|i| IntFloat::from_f32(0.1 * i as f32 - 0.7)),
             y: [0.25, -0.5, 1.5].map(IntFloat::from_f32),
@@ -418,7 +468,9 @@ mod tests {
     #[test]
     fn the_drive_sums_increments_exactly_and_holds_values_as_large_as_their_bound() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
-        let mut d = IntFloat::drive(&bounds, 20_000).unwrap();
+        let mut d = IntFloat::drive(
+            &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 20_000, IntFloat::ONE).unwrap(),
+        );
         assert_eq!(d.extra, 4 + 14);
         // 10,000 increments of 1e-4: exactly their rounded sum, close to 1.
         for _ in 0..10_000 {
@@ -438,7 +490,9 @@ mod tests {
         d.add(2, IntFloat::from_f32(1e6));
         d.add(2, IntFloat::from_f32(-1e6));
         assert_eq!(d.z[2], i64::MAX);
-        let r = IntFloat::recent(&bounds, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
+        let r = IntFloat::recent(
+            &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 20_000, IntFloat::ONE).unwrap(),
+        );
         let none = [[IntFloat::ZERO; NZ]; 3];
         assert!(r.item(&d.values(), &[IntFloat::ZERO; 3], &none).is_none());
         d.clear();
@@ -452,7 +506,8 @@ mod tests {
         let nominal = model_matrix(&j, &[IntFloat::ZERO; 3], true).unwrap();
         let env = Envelope::of_craft([0.05f32, 0.05, 0.05, 0.5, 0.5, 0.5].map(IntFloat::from_f32));
         let bounds = env.component_bounds(IntFloat::from_f32(90.0), &nominal);
-        let r = IntFloat::recent(&bounds, &nominal).unwrap();
+        let r =
+            IntFloat::recent(&IntFloat::scales(&bounds, &nominal, 20_000, IntFloat::ONE).unwrap());
         // Each component at a third of its bound or less.
         let z: [IntFloat; NZ] =
             core::array::from_fn(|i| bounds[i] * IntFloat::from_f32(0.15 * (i as f32 + 1.0).sin()));
@@ -476,8 +531,62 @@ mod tests {
         }
         // A planted fault: the prediction left out is seen.
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let r0 = IntFloat::recent(&bounds, &none).unwrap();
+        let r0 =
+            IntFloat::recent(&IntFloat::scales(&bounds, &none, 20_000, IntFloat::ONE).unwrap());
         let raw = r0.item(&z, &y_raw, &none).unwrap();
         assert!((0..3).any(|a| (raw.y[a] - item.y[a]).abs() > 1000));
+    }
+
+    /// Through the window's rings and the rolling fold, every lagged moment is the direct sum
+    /// of the lagged products (the pairing of lags 1 and 2 and each entry's power of two are
+    /// what this checks: exact values, so only the fold's last rounding is allowed).
+    #[test]
+    fn exact_lagged_moments_equal_the_direct_sums_of_lagged_products() {
+        use crate::flight_id::sums::{FlightSums, RecentSums, WindowSums, LAGS};
+        let bounds: [IntFloat; NZ + 3] =
+            core::array::from_fn(|c| IntFloat::from_f32(2.0 + (c % 5) as f32));
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let scales = IntFloat::scales(&bounds, &none, 1000, IntFloat::ONE).unwrap();
+        let mut recent = RecentSums::new(IntFloat::recent(&scales));
+        let mut flight = FlightSums::<IntFloat>::default();
+        let mut window = WindowSums::<IntFloat>::default();
+        // Multiples of 1/64 in [-1, 1.3]: exact in every format here.
+        let v = |k: usize, c: usize| ((k * 7 + c * 13) % 17) as f64 / 8.0 - 1.0 + c as f64 / 64.0;
+        let n = 40;
+        for k in 0..n {
+            let z: [IntFloat; NZ] = core::array::from_fn(|i| IntFloat::from_f32(v(k, i) as f32));
+            let y: [IntFloat; 3] =
+                core::array::from_fn(|a| IntFloat::from_f32(v(k, NZ + a) as f32));
+            window.push(&mut flight, &mut recent, (&z, &y), &none, 0);
+        }
+        recent.fold_all(&mut flight);
+        let close = |got: IntFloat, want: f64, what: &str| {
+            let got = f64::from(got.to_f32());
+            assert!(
+                (got - want).abs() <= 1e-6 * (1.0 + want.abs()),
+                "{what}: {got} vs {want}"
+            );
+        };
+        for l in 0..LAGS {
+            for i in 0..NZ {
+                for j in 0..NZ {
+                    let want: f64 = (l..n)
+                        .map(|k| 0.5 * (v(k, i) * v(k - l, j) + v(k, j) * v(k - l, i)))
+                        .sum();
+                    close(flight.lag.zz_sym(l, i, j), want, "zz");
+                }
+                for a in 0..3 {
+                    let want: f64 = (l..n)
+                        .map(|k| 0.5 * (v(k, i) * v(k - l, NZ + a) + v(k, NZ + a) * v(k - l, i)))
+                        .sum();
+                    close(flight.lag.zy_sym(l, a, i), want, "zy");
+                }
+            }
+            for a in 0..3 {
+                let want: f64 = (l..n).map(|k| v(k, NZ + a) * v(k - l, NZ + a)).sum();
+                close(flight.lag.yy[l][a], want, "yy");
+            }
+        }
+        assert_eq!(flight.samples, n as u32);
     }
 }

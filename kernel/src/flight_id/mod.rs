@@ -75,7 +75,7 @@ pub struct FlightIdConfig<S> {
     /// What the fit estimates and how ([`solve::SolveConfig`]).
     pub solve: SolveConfig<S>,
     /// The largest wrench and rate the flight brings: the fixed kernel's exact sums are
-    /// scaled to it ([`exact`]; a sample beyond it makes its fit answer `Overflow`).
+    /// scaled to it ([`exact`]; a sample 2-4 times beyond it makes its fit answer `Overflow`).
     pub envelope: exact::Envelope<S>,
 }
 
@@ -132,14 +132,13 @@ impl<S: SumScalar> FlightId<S> {
             .times(cfg.period_s)
             .times(S::from_f32(1.5));
         let bounds = cfg.envelope.component_bounds(window_s, &nominal);
-        let recent = S::recent(&bounds, &nominal)?;
-        let drive = S::drive(&bounds, cfg.max_window)?;
+        let scales = S::scales(&bounds, &nominal, cfg.max_window, window_s)?;
         Some(FlightId {
             cfg,
             sums: FlightSums::default(),
-            recent: RecentSums::new(recent),
+            recent: RecentSums::new(S::recent(&scales)),
             window: WindowSums::default(),
-            drive,
+            drive: S::drive(&scales),
             products: [S::ZERO; 6],
             gap: S::from_f32(1.5).times(cfg.period_s),
             last: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
@@ -329,7 +328,12 @@ pub const THETA_TERMS: usize = NP;
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+    #![allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )]
     use super::*;
 
     /// Windows of a craft turning about x at 1 rad/s for 1 s, cut after `limit` rad of

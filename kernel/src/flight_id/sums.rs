@@ -281,13 +281,23 @@ pub trait SumScalar: Scalar {
     type Recent: Recent<Self>;
     /// Its window's drive.
     type Drive: DriveSum<Self>;
-    /// Empty recent sums for samples whose components (`z` then `y`) stay within `bounds`
-    /// in magnitude, `y` taken from the prediction of `nominal`; None if the bounds are not
-    /// usable.
-    fn recent(bounds: &[Self; NZ + 3], nominal: &[[Self; NZ]; 3]) -> Option<Self::Recent>;
-    /// A zero drive whose components stay within `bounds` (the first `NZ` of them) over a
-    /// window of at most `max_window` samples.
-    fn drive(bounds: &[Self; NZ + 3], max_window: u32) -> Option<Self::Drive>;
+    /// What the sums' representation needs to know of the flight: nothing in floating point;
+    /// the fixed kernel's powers of two and quantized nominal matrix. Small, so that the large
+    /// sums are built in place.
+    type Scales: Copy + core::fmt::Debug;
+    /// The scales for samples whose components (`z` then `y`) stay within `bounds` in
+    /// magnitude, `y` taken from the prediction of `nominal`, in windows of at most
+    /// `max_window` samples and `window_s` seconds; None if they are not usable.
+    fn scales(
+        bounds: &[Self; NZ + 3],
+        nominal: &[[Self; NZ]; 3],
+        max_window: u32,
+        window_s: Self,
+    ) -> Option<Self::Scales>;
+    /// Empty recent sums.
+    fn recent(scales: &Self::Scales) -> Self::Recent;
+    /// A zero drive.
+    fn drive(scales: &Self::Scales) -> Self::Drive;
 }
 
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
@@ -331,22 +341,30 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
 impl SumScalar for f32 {
     type Recent = LagMoments<f32>;
     type Drive = Compensated<f32>;
-    fn recent(_: &[f32; NZ + 3], _: &[[f32; NZ]; 3]) -> Option<Self::Recent> {
-        Some(LagMoments::zero())
+    type Scales = ();
+    fn scales(_: &[f32; NZ + 3], _: &[[f32; NZ]; 3], _: u32, _: f32) -> Option<()> {
+        Some(())
     }
-    fn drive(_: &[f32; NZ + 3], _: u32) -> Option<Self::Drive> {
-        Some(Compensated::default())
+    fn recent(_: &()) -> Self::Recent {
+        LagMoments::zero()
+    }
+    fn drive(_: &()) -> Self::Drive {
+        Compensated::default()
     }
 }
 
 impl SumScalar for f64 {
     type Recent = LagMoments<f64>;
     type Drive = Compensated<f64>;
-    fn recent(_: &[f64; NZ + 3], _: &[[f64; NZ]; 3]) -> Option<Self::Recent> {
-        Some(LagMoments::zero())
+    type Scales = ();
+    fn scales(_: &[f64; NZ + 3], _: &[[f64; NZ]; 3], _: u32, _: f64) -> Option<()> {
+        Some(())
     }
-    fn drive(_: &[f64; NZ + 3], _: u32) -> Option<Self::Drive> {
-        Some(Compensated::default())
+    fn recent(_: &()) -> Self::Recent {
+        LagMoments::zero()
+    }
+    fn drive(_: &()) -> Self::Drive {
+        Compensated::default()
     }
 }
 

@@ -39,6 +39,9 @@ impl Obligation for WideningProduct {
         let exact = p.i_mul(&p.sw(a), &p.sw(b));
         (p.b(true), p.i_eq(&p.int_d(&got, true), &exact))
     }
+    fn engine(&self) -> Engine {
+        engine_for(self.0)
+    }
     fn mutant_rlimit(&self) -> u32 {
         PRODUCT_MUTANT_RLIMIT
     }

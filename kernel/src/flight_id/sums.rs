@@ -338,35 +338,27 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     }
 }
 
-impl SumScalar for f32 {
-    type Recent = LagMoments<f32>;
-    type Drive = Compensated<f32>;
-    type Scales = ();
-    fn scales(_: &[f32; NZ + 3], _: &[[f32; NZ]; 3], _: u32, _: f32) -> Option<()> {
-        Some(())
-    }
-    fn recent(_: &()) -> Self::Recent {
-        LagMoments::zero()
-    }
-    fn drive(_: &()) -> Self::Drive {
-        Compensated::default()
-    }
+/// Floating point keeps its sums in its own format: no scales, float recent sums, a
+/// Kahan-compensated drive.
+macro_rules! float_sums {
+    ($($t:ty),*) => {$(
+        impl SumScalar for $t {
+            type Recent = LagMoments<$t>;
+            type Drive = Compensated<$t>;
+            type Scales = ();
+            fn scales(_: &[$t; NZ + 3], _: &[[$t; NZ]; 3], _: u32, _: $t) -> Option<()> {
+                Some(())
+            }
+            fn recent(_: &()) -> Self::Recent {
+                LagMoments::zero()
+            }
+            fn drive(_: &()) -> Self::Drive {
+                Compensated::default()
+            }
+        }
+    )*};
 }
-
-impl SumScalar for f64 {
-    type Recent = LagMoments<f64>;
-    type Drive = Compensated<f64>;
-    type Scales = ();
-    fn scales(_: &[f64; NZ + 3], _: &[[f64; NZ]; 3], _: u32, _: f64) -> Option<()> {
-        Some(())
-    }
-    fn recent(_: &()) -> Self::Recent {
-        LagMoments::zero()
-    }
-    fn drive(_: &()) -> Self::Drive {
-        Compensated::default()
-    }
-}
+float_sums!(f32, f64);
 
 /// The recent sums and where their rolling fold stands.
 #[derive(Clone, Copy, Debug)]

@@ -7,7 +7,7 @@
 //! consistency test and the thrust-uncertainty term, at no second pass.
 use super::flight::Flight;
 use super::intervals::{Interval, Intervals, Wrench};
-use super::noise::ArNoise;
+use super::noise::{ArNoise, Whitener};
 use super::rigid::{Rigid, Term, TrajectoryTerms};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
@@ -116,8 +116,66 @@ pub struct Normal {
     /// Per axis: sum of squared whitened residuals and their count (at the current initial
     /// rates, which converge with the parameters).
     pub innovations: [(f64, usize); 3],
-    /// The model's body rate at each sample of a window (before the step).
-    pub fitted: Vec<(usize, Vector3<f64>)>,
+}
+
+/// The model rate's sensitivities at one sample: one column per fitted column.
+type Sensitivities = nalgebra::OMatrix<f64, nalgebra::U3, nalgebra::Dyn>;
+
+/// One axis' whitened sums over one window, built a row at a time. Each sum starts where
+/// `Iterator::sum` starts and adds in row order, so it equals the sum over whole series.
+struct WindowSums<'a> {
+    whitener: Whitener<'a>,
+    width: usize,
+    /// Lower triangle of the whitened columns' products, row-major `width x width`.
+    products: Vec<f64>,
+    /// Whitened columns times the whitened residual.
+    score: Vec<f64>,
+    /// Squared whitened residuals.
+    squares: f64,
+    /// Whitened rows so far.
+    rows: usize,
+    /// Columns with a whitened value other than zero.
+    nonzero: Vec<bool>,
+    /// The unwhitened residuals, when kept for the noise fit.
+    residual: Option<Vec<f64>>,
+}
+
+impl<'a> WindowSums<'a> {
+    fn new(noise: &'a ArNoise, width: usize, keep_residual: bool) -> Self {
+        let zero: f64 = std::iter::empty::<f64>().sum();
+        WindowSums {
+            whitener: noise.whitener(width + 1),
+            width,
+            products: vec![zero; width * width],
+            score: vec![zero; width],
+            squares: zero,
+            rows: 0,
+            nonzero: vec![false; width],
+            residual: keep_residual.then(Vec::new),
+        }
+    }
+
+    /// Takes one row: the residual, then each column's response (`row`, `width + 1` long);
+    /// `white` is scratch of the same length.
+    fn push(&mut self, row: &[f64], white: &mut [f64]) {
+        if let Some(r) = &mut self.residual {
+            r.push(row[0]);
+        }
+        if !self.whitener.push(row, white) {
+            return;
+        }
+        let (e, x) = (white[0], &white[1..]);
+        self.squares += e * e;
+        self.rows += 1;
+        for (i, &xi) in x.iter().enumerate() {
+            self.nonzero[i] |= xi != 0.0;
+            self.score[i] += xi * e;
+            let products = &mut self.products[i * self.width..i * self.width + i + 1];
+            for (p, &xj) in products.iter_mut().zip(&x[..=i]) {
+                *p += xi * xj;
+            }
+        }
+    }
 }
 
 impl Problem<'_> {
@@ -152,14 +210,87 @@ impl Problem<'_> {
         }
     }
 
-    /// Accumulates the whitened normal equations at `state`. The model's rate is integrated
-    /// from each window's initial rate (Heun's trapezoid for the gyroscopic and damping terms)
-    /// with its sensitivities (the variational equation), so the initial rates and the
+    /// Integrates window `w` from its initial rate with its sensitivities (columns: terms,
+    /// extras, initial rates of the measured axes), handing each sample's model rate and
+    /// sensitivities to `each` in order. Heun's trapezoid for the gyroscopic and damping terms;
+    /// the sensitivities follow the variational equation, so the initial rates and the
     /// parameters act on every axis through the gyroscopic coupling as they do on the craft.
-    pub fn accumulate(&self, state: &State) -> Normal {
+    fn propagate(
+        &self,
+        state: &State,
+        w: usize,
+        i_gyro: &Matrix3<f64>,
+        iei: &[Matrix3<f64>; 6],
+        mut each: impl FnMut(&Vector3<f64>, &Sensitivities),
+    ) {
         let nc = self.columns();
         let nt = self.terms.len();
-        let used: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
+        let rigid = &state.rigid;
+        let (s, e) = self.windows[w];
+        let mut wk = state.omega0[w];
+        let mut sk = Sensitivities::zeros(nc + self.measured_axes().len());
+        for (j, &a) in self.measured_axes().iter().enumerate() {
+            sk[(a, nc + j)] = 1.0;
+        }
+        let mut direct = vec![Vector3::<f64>::zeros(); nc];
+        for k in s..e {
+            each(&wk, &sk);
+            if k + 1 == e {
+                break;
+            }
+            let iv = &self.intervals.at(k);
+            let euler = TrajectoryTerms::trapezoid(&wk, &wk, i_gyro, iv.dt);
+            let predicted = wk + rigid.increment(iv, &euler);
+            let tr = TrajectoryTerms::trapezoid(&wk, &predicted, i_gyro, iv.dt);
+            let delta = rigid.increment(iv, &tr);
+            direct.iter_mut().for_each(|d| *d = Vector3::zeros());
+            rigid.add_sensitivities(&self.terms, iv, &tr, iei, &mut direct[..nt]);
+            for (x, extra) in self.extras.iter().enumerate() {
+                direct[nt + x] = self.extra_response(rigid, *extra, iv, &tr, iei);
+            }
+            let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), i_gyro, iv.dt);
+            let propagated = a_k * &sk;
+            sk += propagated;
+            for (col, d) in direct.iter().enumerate() {
+                for r in 0..3 {
+                    sk[(r, col)] += d[r];
+                }
+            }
+            wk += delta;
+        }
+    }
+
+    /// The axes whose measured rate enters the fit, in order.
+    fn measured_axes(&self) -> Vec<usize> {
+        (0..3).filter(|&a| self.axes[a]).collect()
+    }
+
+    /// The model's body rate at every sample of every window (unmeasured axes zero), at `state`.
+    pub fn model_rates(&self, state: &State) -> Vec<(usize, Vector3<f64>)> {
+        let i_gyro = state.rigid.inertia_or(&self.inertia_fallback);
+        let iei = Rigid::inertia_derivatives(&i_gyro);
+        let mut out = Vec::new();
+        for (w, &(s, _)) in self.windows.iter().enumerate() {
+            let mut k = s;
+            self.propagate(state, w, &i_gyro, &iei, |omega, _| {
+                out.push((
+                    k,
+                    Vector3::from_fn(|a, _| if self.axes[a] { omega[a] } else { 0.0 }),
+                ));
+                k += 1;
+            });
+        }
+        out
+    }
+
+    /// Accumulates the whitened normal equations at `state`, in one pass over each window:
+    /// every sample's residual and sensitivities go through the sensor response and the
+    /// whitening filter as they are integrated, so the memory is a few samples, not the window
+    /// (the sums are the same, term by term and in the same order, as over whole series).
+    /// With `keep_residuals` the unwhitened residual series are kept for the noise fit.
+    pub fn accumulate(&self, state: &State, keep_residuals: bool) -> Normal {
+        let nc = self.columns();
+        let used = self.measured_axes();
         let q = used.len();
         let nall = nc + q;
         let mut info = DMatrix::<f64>::zeros(nc, nc);
@@ -167,100 +298,76 @@ impl Problem<'_> {
         let mut nuisance = Vec::with_capacity(self.windows.len());
         let mut residuals: [Vec<Vec<f64>>; 3] = Default::default();
         let mut innovations = [(0.0, 0usize); 3];
-        let mut fitted = Vec::new();
-        let rigid = &state.rigid;
-        let i_gyro = rigid.inertia_or(&self.inertia_fallback);
+        let i_gyro = state.rigid.inertia_or(&self.inertia_fallback);
         let iei = Rigid::inertia_derivatives(&i_gyro);
         let (t0, t1) = self.sensor.trim();
+        // The last three samples of the model (the sensor responses look one sample around).
+        let mut recent_omega = [Vector3::<f64>::zeros(); 3];
+        let mut recent_sens: [Sensitivities; 3] =
+            std::array::from_fn(|_| Sensitivities::zeros(nall));
+        let mut row = vec![0.0; nall + 1];
+        let mut white = vec![0.0; nall + 1];
         for (w, &(s, e)) in self.windows.iter().enumerate() {
             let n = e - s;
-            // Model rate and its sensitivities (columns: terms, extras, initial rates).
-            let mut omega = vec![Vector3::<f64>::zeros(); n];
-            let mut sens: Vec<nalgebra::OMatrix<f64, nalgebra::U3, nalgebra::Dyn>> =
-                Vec::with_capacity(n);
-            let mut wk = state.omega0[w];
-            let mut sk = nalgebra::OMatrix::<f64, nalgebra::U3, nalgebra::Dyn>::zeros(nall);
-            for (j, &a) in used.iter().enumerate() {
-                sk[(a, nc + j)] = 1.0;
-            }
-            let mut direct = vec![Vector3::<f64>::zeros(); nc];
-            for k in s..e {
-                omega[k - s] = wk;
-                sens.push(sk.clone());
-                if k + 1 == e {
-                    break;
-                }
-                let iv = &self.intervals.at(k);
-                let euler = TrajectoryTerms::trapezoid(&wk, &wk, &i_gyro, iv.dt);
-                let predicted = wk + rigid.increment(iv, &euler);
-                let tr = TrajectoryTerms::trapezoid(&wk, &predicted, &i_gyro, iv.dt);
-                let delta = rigid.increment(iv, &tr);
-                direct.iter_mut().for_each(|d| *d = Vector3::zeros());
-                rigid.add_sensitivities(&self.terms, iv, &tr, &iei, &mut direct[..nt]);
-                for (x, extra) in self.extras.iter().enumerate() {
-                    direct[nt + x] = self.extra_response(rigid, *extra, iv, &tr, &iei);
-                }
-                let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), &i_gyro, iv.dt);
-                let propagated = a_k * &sk;
-                sk += propagated;
-                for (col, d) in direct.iter().enumerate() {
-                    for r in 0..3 {
-                        sk[(r, col)] += d[r];
-                    }
-                }
-                wk += delta;
-            }
-            for (r, w) in omega.iter().enumerate() {
-                fitted.push((
-                    s + r,
-                    Vector3::from_fn(|a, _| if self.axes[a] { w[a] } else { 0.0 }),
-                ));
-            }
             if n <= t0 + t1 {
                 nuisance.push(None);
                 continue;
             }
-            let rows = t0..n - t1;
+            let mut axis_sums: Vec<WindowSums> = used
+                .iter()
+                .map(|&a| WindowSums::new(&state.noise[a], nall, keep_residuals))
+                .collect();
+            let mut k = 0usize;
+            self.propagate(state, w, &i_gyro, &iei, |omega, sens| {
+                recent_omega[k % 3] = *omega;
+                recent_sens[k % 3].copy_from(sens);
+                // Row r's response is complete once sample r + t1 is in.
+                if k >= t0 + t1 {
+                    let r = k - t1;
+                    let around = |f: &dyn Fn(usize) -> f64| -> [f64; 3] {
+                        [
+                            if r > 0 { f((r - 1) % 3) } else { 0.0 },
+                            f(r % 3),
+                            if t1 > 0 { f((r + 1) % 3) } else { 0.0 },
+                        ]
+                    };
+                    for (sums, &a) in axis_sums.iter_mut().zip(&used) {
+                        let om = around(&|i| recent_omega[i][a]);
+                        row[0] = self.flight.rate.at(s + r)[a] - self.sensor.at(&om, 1);
+                        for (col, v) in row[1..].iter_mut().enumerate() {
+                            let x = around(&|i| recent_sens[i][(a, col)]);
+                            *v = self.sensor.at(&x, 1);
+                        }
+                        sums.push(&row, &mut white);
+                    }
+                }
+                k += 1;
+            });
             let mut wn = DMatrix::<f64>::zeros(nall, nall);
             let mut wg = DVector::<f64>::zeros(nall);
             let mut any = false;
-            for &a in &used {
-                let noise = &state.noise[a];
-                let om: Vec<f64> = omega.iter().map(|w| w[a]).collect();
-                let res: Vec<f64> = rows
-                    .clone()
-                    .map(|r| self.flight.rate.at(s + r)[a] - self.sensor.at(&om, r))
-                    .collect();
-                let we = noise.whiten(&res);
-                if we.is_empty() {
+            for (sums, &a) in axis_sums.into_iter().zip(&used) {
+                if sums.rows == 0 {
                     continue;
                 }
                 any = true;
-                let wx: Vec<Vec<f64>> = (0..nall)
-                    .map(|col| {
-                        let x: Vec<f64> = sens.iter().map(|m| m[(a, col)]).collect();
-                        let y: Vec<f64> = rows.clone().map(|r| self.sensor.at(&x, r)).collect();
-                        noise.whiten(&y)
-                    })
-                    .collect();
-                let m = we.len();
-                let inv_var = 1.0 / noise.sigma2.max(1e-300);
-                let nonzero: Vec<usize> = (0..nall)
-                    .filter(|&c| wx[c].iter().any(|v| *v != 0.0))
-                    .collect();
+                let inv_var = 1.0 / state.noise[a].sigma2.max(1e-300);
+                let nonzero: Vec<usize> = (0..nall).filter(|&c| sums.nonzero[c]).collect();
                 for (ii, &i) in nonzero.iter().enumerate() {
-                    wg[i] += inv_var * (0..m).map(|r| wx[i][r] * we[r]).sum::<f64>();
+                    wg[i] += inv_var * sums.score[i];
                     for &j in &nonzero[..=ii] {
-                        let v = inv_var * (0..m).map(|r| wx[i][r] * wx[j][r]).sum::<f64>();
+                        let v = inv_var * sums.products[i * nall + j];
                         wn[(i, j)] += v;
                         if i != j {
                             wn[(j, i)] += v;
                         }
                     }
                 }
-                innovations[a].0 += we.iter().map(|v| v * v).sum::<f64>();
-                innovations[a].1 += m;
-                residuals[a].push(res);
+                innovations[a].0 += sums.squares;
+                innovations[a].1 += sums.rows;
+                if let Some(res) = sums.residual {
+                    residuals[a].push(res);
+                }
             }
             if !any {
                 nuisance.push(None);
@@ -290,7 +397,6 @@ impl Problem<'_> {
             nuisance,
             residuals,
             innovations,
-            fitted,
         }
     }
 
@@ -383,7 +489,7 @@ mod tests {
             inertia_fallback: i_nom,
             unit_wrenches: unit.clone(),
         };
-        let fitted = p.accumulate(&st).fitted;
+        let fitted = p.model_rates(&st);
         for (k, w) in fitted {
             flight.rate.rad_s_mut().unwrap()[k] = [w.x, w.y, w.z];
         }
@@ -410,7 +516,7 @@ mod tests {
             noise: std::array::from_fn(|_| ArNoise::white(1.0)),
         };
         for _ in 0..8 {
-            let normal = p.accumulate(&st);
+            let normal = p.accumulate(&st, false);
             let delta = normal.info.clone().lu().solve(&normal.score).unwrap();
             p.apply_step(&mut st, &normal, &delta);
         }

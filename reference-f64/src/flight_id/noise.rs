@@ -62,7 +62,16 @@ impl ArNoise {
     /// The innovations `e_k = A(q) z_k` for `k >= order` (earlier samples have no full
     /// history), with `z = x / (1 + ma q^-1)` started at zero.
     pub fn whiten(&self, x: &[f64]) -> Vec<f64> {
-        ar_filter(&self.phi, &inverse_ma(self.ma, x))
+        let mut w = self.whitener(1);
+        let mut e = [0.0];
+        x.iter()
+            .filter_map(|v| w.push(std::slice::from_ref(v), &mut e).then_some(e[0]))
+            .collect()
+    }
+
+    /// [`ArNoise::whiten`] one sample at a time for `width` series at once.
+    pub fn whitener(&self, width: usize) -> Whitener<'_> {
+        Whitener::new(&self.phi, self.ma, width)
     }
 
     /// Fits the moving-average coefficient (on [`MA_GRID`]) and the AR order (0..=`max_order`)
@@ -105,6 +114,74 @@ impl ArNoise {
     }
 }
 
+/// [`ArNoise::whiten`] one sample at a time, for several series at once (a residual and its
+/// sensitivities): a fit can whiten a window as it integrates it, holding `order + 1` samples
+/// instead of the window. Bit for bit the same arithmetic as the whole-series filter.
+#[derive(Clone, Debug)]
+pub struct Whitener<'a> {
+    phi: &'a [f64],
+    ma: f64,
+    width: usize,
+    /// `z_k-1` of each series (the inverse moving average's state).
+    z_prev: Vec<f64>,
+    /// The last `order + 1` values of `z`, a ring of samples of `width` series each.
+    ring: Vec<f64>,
+    /// The ring slot of `z_k-i`, i = 1..=order, for the sample being pushed.
+    lag_slots: Vec<usize>,
+    seen: usize,
+}
+
+impl<'a> Whitener<'a> {
+    fn new(phi: &'a [f64], ma: f64, width: usize) -> Self {
+        Whitener {
+            phi,
+            ma,
+            width,
+            z_prev: vec![0.0; width],
+            ring: vec![0.0; (phi.len() + 1) * width],
+            lag_slots: vec![0; phi.len()],
+            seen: 0,
+        }
+    }
+
+    /// Takes the next sample of every series (`x`, `width` long). Returns true and writes each
+    /// series' innovation into `out` once `order` samples came before it.
+    pub fn push(&mut self, x: &[f64], out: &mut [f64]) -> bool {
+        let p = self.phi.len();
+        let slots = p + 1;
+        let now = self.seen % slots;
+        let width = self.width;
+        let current = &mut self.ring[now * width..(now + 1) * width];
+        if self.ma == 0.0 {
+            current.copy_from_slice(&x[..width]);
+        } else {
+            for ((z, prev), v) in current.iter_mut().zip(&mut self.z_prev).zip(x) {
+                *z = v - self.ma * *prev;
+                *prev = *z;
+            }
+        }
+        let ready = self.seen >= p;
+        self.seen += 1;
+        if !ready {
+            return false;
+        }
+        for (i, slot) in self.lag_slots.iter_mut().enumerate() {
+            *slot = (now + slots - 1 - i) % slots;
+        }
+        for (c, o) in out[..width].iter_mut().enumerate() {
+            let ring = &self.ring;
+            *o = ring[now * width + c]
+                - self
+                    .phi
+                    .iter()
+                    .zip(&self.lag_slots)
+                    .map(|(phi, slot)| phi * ring[slot * width + c])
+                    .sum::<f64>();
+        }
+        true
+    }
+}
+
 /// `z_k = x_k - ma z_k-1`, `z_-1 = 0`.
 fn inverse_ma(ma: f64, x: &[f64]) -> Vec<f64> {
     if ma == 0.0 {
@@ -124,6 +201,55 @@ fn ar_filter(phi: &[f64], x: &[f64]) -> Vec<f64> {
     (p..x.len())
         .map(|k| x[k] - (1..=p).map(|i| phi[i - 1] * x[k - i]).sum::<f64>())
         .collect()
+}
+
+#[cfg(test)]
+mod whitener_tests {
+    use super::*;
+
+    /// The streaming whitener is the whole-series filter bit for bit, for several series at
+    /// once, with and without a moving-average term, at every order the fit may choose.
+    #[test]
+    fn streaming_equals_the_whole_series_filter_bit_for_bit() {
+        let series: Vec<Vec<f64>> = (0..3)
+            .map(|c| {
+                (0..300)
+                    .map(|k| {
+                        ((k * (c + 3)) as f64 * 0.37).sin()
+                            + if k % 7 == 0 { -0.0 } else { 1e-3 * k as f64 }
+                    })
+                    .collect()
+            })
+            .collect();
+        for ma in [0.0, -0.9, 0.3] {
+            for p in 0..=10usize {
+                let phi: Vec<f64> = (0..p).map(|i| 0.5 / (i + 1) as f64 - 0.1).collect();
+                let model = ArNoise {
+                    phi: phi.clone(),
+                    sigma2: 1.0,
+                    ma,
+                };
+                let mut w = model.whitener(series.len());
+                let mut out = vec![0.0; series.len()];
+                let mut streamed: Vec<Vec<f64>> = vec![Vec::new(); series.len()];
+                for k in 0..series[0].len() {
+                    let x: Vec<f64> = series.iter().map(|s| s[k]).collect();
+                    if w.push(&x, &mut out) {
+                        for (s, o) in streamed.iter_mut().zip(&out) {
+                            s.push(*o);
+                        }
+                    }
+                }
+                for (s, got) in series.iter().zip(&streamed) {
+                    let want = ar_filter(&phi, &inverse_ma(ma, s));
+                    assert_eq!(want.len(), got.len());
+                    for (a, b) in want.iter().zip(got) {
+                        assert_eq!(a.to_bits(), b.to_bits(), "ma {ma} p {p}");
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Least-squares AR(`p`) over every stretch, with the number of innovations it used. None

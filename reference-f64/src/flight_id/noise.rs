@@ -91,10 +91,9 @@ impl ArNoise {
         let grid: &[f64] = if long { &MA_GRID } else { &[0.0] };
         let mut best: Option<(f64, ArNoise)> = None;
         for &ma in grid {
-            let input: Vec<Vec<f64>> = series.iter().map(|s| inverse_ma(ma, s)).collect();
             let mut worse_in_a_row = 0;
             for p in 0..=max_order {
-                let Some((m, n)) = fit_order(&input, p) else {
+                let Some((m, n)) = fit_order(series, ma, p) else {
                     break;
                 };
                 let k = p + usize::from(ma != 0.0);
@@ -182,30 +181,30 @@ impl<'a> Whitener<'a> {
     }
 }
 
-/// `z_k = x_k - ma z_k-1`, `z_-1 = 0`.
-fn inverse_ma(ma: f64, x: &[f64]) -> Vec<f64> {
-    if ma == 0.0 {
-        return x.to_vec();
-    }
-    x.iter()
-        .scan(0.0, |z, v| {
-            *z = v - ma * *z;
-            Some(*z)
-        })
-        .collect()
-}
-
-/// `x_k - sum phi_i x_k-i` for `k >= phi.len()`.
-fn ar_filter(phi: &[f64], x: &[f64]) -> Vec<f64> {
-    let p = phi.len();
-    (p..x.len())
-        .map(|k| x[k] - (1..=p).map(|i| phi[i - 1] * x[k - i]).sum::<f64>())
-        .collect()
-}
-
 #[cfg(test)]
 mod whitener_tests {
     use super::*;
+
+    /// `z_k = x_k - ma z_k-1`, `z_-1 = 0`: the whole-series inverse moving average (the oracle).
+    fn inverse_ma(ma: f64, x: &[f64]) -> Vec<f64> {
+        if ma == 0.0 {
+            return x.to_vec();
+        }
+        x.iter()
+            .scan(0.0, |z, v| {
+                *z = v - ma * *z;
+                Some(*z)
+            })
+            .collect()
+    }
+
+    /// `x_k - sum phi_i x_k-i` for `k >= phi.len()`: the whole-series AR filter (the oracle).
+    fn ar_filter(phi: &[f64], x: &[f64]) -> Vec<f64> {
+        let p = phi.len();
+        (p..x.len())
+            .map(|k| x[k] - (1..=p).map(|i| phi[i - 1] * x[k - i]).sum::<f64>())
+            .collect()
+    }
 
     /// The streaming whitener is the whole-series filter bit for bit, for several series at
     /// once, with and without a moving-average term, at every order the fit may choose.
@@ -252,23 +251,78 @@ mod whitener_tests {
     }
 }
 
-/// Least-squares AR(`p`) over every stretch, with the number of innovations it used. None
-/// when there are too few samples.
-fn fit_order(series: &[Vec<f64>], p: usize) -> Option<(ArNoise, usize)> {
+/// The recent values of a series read one at a time, `z_k-i` for `i <= order`, in a buffer
+/// that is shifted once every few thousand samples instead of at every sample.
+struct Lags {
+    buf: Vec<f64>,
+    /// Index of `z_k` (the latest) in `buf`.
+    now: usize,
+    order: usize,
+}
+
+impl Lags {
+    const CHUNK: usize = 4096;
+
+    fn new(order: usize) -> Self {
+        Lags {
+            buf: vec![0.0; order + Self::CHUNK],
+            now: order.saturating_sub(1),
+            order,
+        }
+    }
+
+    fn push(&mut self, z: f64) {
+        self.now += 1;
+        if self.now == self.buf.len() {
+            let keep = self.buf.len() - self.order;
+            self.buf.copy_within(keep.., 0);
+            self.now = self.order;
+        }
+        self.buf[self.now] = z;
+    }
+
+    /// `z_k-order ..= z_k`, latest last.
+    fn recent(&self) -> &[f64] {
+        &self.buf[self.now - self.order..=self.now]
+    }
+}
+
+/// Calls `f` with `z_k-p ..= z_k` (latest last) of `z = x / (1 + ma q^-1)` for every `k >= p`.
+fn for_each_z(x: &[f64], ma: f64, p: usize, mut f: impl FnMut(&[f64])) {
+    let mut lags = Lags::new(p);
+    let mut z_prev = 0.0;
+    for (k, v) in x.iter().enumerate() {
+        let z = if ma == 0.0 { *v } else { v - ma * z_prev };
+        z_prev = z;
+        lags.push(z);
+        if k >= p {
+            f(lags.recent());
+        }
+    }
+}
+
+/// Least-squares AR(`p`) of `z = x / (1 + ma q^-1)` over every stretch `x`, with the number
+/// of innovations it used. None when there are too few samples. `z` is made as it is read
+/// (a stretch can be the whole flight, so no copy of it is kept).
+fn fit_order(series: &[Vec<f64>], ma: f64, p: usize) -> Option<(ArNoise, usize)> {
     let mut ata = DMatrix::<f64>::zeros(p, p);
     let mut atb = DVector::<f64>::zeros(p);
     let mut n = 0usize;
     for s in series {
-        for k in p..s.len() {
+        for_each_z(s, ma, p, |r: &[f64]| {
+            // r[p] is z_k, r[p - 1 - i] is z_k-1-i.
+            let z = r[p];
             for i in 0..p {
-                atb[i] += s[k - 1 - i] * s[k];
-                for j in 0..p {
-                    ata[(i, j)] += s[k - 1 - i] * s[k - 1 - j];
+                atb[i] += r[p - 1 - i] * z;
+                // The upper triangle is the same products (a product commutes exactly).
+                for j in 0..=i {
+                    ata[(i, j)] += r[p - 1 - i] * r[p - 1 - j];
                 }
             }
             n += 1;
-        }
+        });
     }
+    ata.fill_upper_triangle_with_lower_triangle();
     if n < 10 * (p + 1) {
         return None;
     }
@@ -277,19 +331,23 @@ fn fit_order(series: &[Vec<f64>], p: usize) -> Option<(ArNoise, usize)> {
     } else {
         ata.lu().solve(&atb)?
     };
-    let model = ArNoise {
-        phi: phi.iter().copied().collect(),
-        sigma2: 0.0,
-        ma: 0.0,
-    };
+    let phi: Vec<f64> = phi.iter().copied().collect();
+    let zero: f64 = std::iter::empty::<f64>().sum();
     let mut ss = 0.0;
     for s in series {
-        ss += ar_filter(&model.phi, s).iter().map(|e| e * e).sum::<f64>();
+        let mut squares = zero;
+        for_each_z(s, ma, p, |r: &[f64]| {
+            // The AR filter's arithmetic, as in `Whitener::push`.
+            let e = r[p] - (1..=p).map(|i| phi[i - 1] * r[p - i]).sum::<f64>();
+            squares += e * e;
+        });
+        ss += squares;
     }
     Some((
         ArNoise {
+            phi,
             sigma2: ss / n as f64,
-            ..model
+            ma: 0.0,
         },
         n,
     ))

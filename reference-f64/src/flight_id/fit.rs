@@ -46,12 +46,13 @@ impl SensorResponse {
         }
     }
 
-    /// The measured value at sample `k` of a quantity that is linear between samples.
-    fn at(self, x: &[f64], k: usize) -> f64 {
+    /// The measured value at sample `k` of a quantity that is linear between samples and is
+    /// `x(i)` at sample `i` (asked at most one sample either side, within the trim).
+    fn at(self, k: usize, x: impl Fn(usize) -> f64) -> f64 {
         match self {
-            SensorResponse::Point => x[k],
-            SensorResponse::BackwardMean => 0.5 * (x[k - 1] + x[k]),
-            SensorResponse::CentralMean => 0.25 * (x[k - 1] + 2.0 * x[k] + x[k + 1]),
+            SensorResponse::Point => x(k),
+            SensorResponse::BackwardMean => 0.5 * (x(k - 1) + x(k)),
+            SensorResponse::CentralMean => 0.25 * (x(k - 1) + 2.0 * x(k) + x(k + 1)),
         }
     }
 }
@@ -111,8 +112,6 @@ pub struct Normal {
     pub info: DMatrix<f64>,
     pub score: DVector<f64>,
     nuisance: Vec<Option<NuisanceSums>>,
-    /// Per axis: unwhitened residual series per window (for the noise fit).
-    pub residuals: [Vec<Vec<f64>>; 3],
     /// Per axis: sum of squared whitened residuals and their count (at the current initial
     /// rates, which converge with the parameters).
     pub innovations: [(f64, usize); 3],
@@ -136,12 +135,10 @@ struct WindowSums<'a> {
     rows: usize,
     /// Columns with a whitened value other than zero.
     nonzero: Vec<bool>,
-    /// The unwhitened residuals, when kept for the noise fit.
-    residual: Option<Vec<f64>>,
 }
 
 impl<'a> WindowSums<'a> {
-    fn new(noise: &'a ArNoise, width: usize, keep_residual: bool) -> Self {
+    fn new(noise: &'a ArNoise, width: usize) -> Self {
         let zero: f64 = std::iter::empty::<f64>().sum();
         WindowSums {
             whitener: noise.whitener(width + 1),
@@ -151,16 +148,12 @@ impl<'a> WindowSums<'a> {
             squares: zero,
             rows: 0,
             nonzero: vec![false; width],
-            residual: keep_residual.then(Vec::new),
         }
     }
 
     /// Takes one row: the residual, then each column's response (`row`, `width + 1` long);
     /// `white` is scratch of the same length.
     fn push(&mut self, row: &[f64], white: &mut [f64]) {
-        if let Some(r) = &mut self.residual {
-            r.push(row[0]);
-        }
         if !self.whitener.push(row, white) {
             return;
         }
@@ -215,14 +208,16 @@ impl Problem<'_> {
     /// sensitivities to `each` in order. Heun's trapezoid for the gyroscopic and damping terms;
     /// the sensitivities follow the variational equation, so the initial rates and the
     /// parameters act on every axis through the gyroscopic coupling as they do on the craft.
+    /// Without `with_sensitivities` they stay at their start (the rates are the same).
     fn propagate(
         &self,
         state: &State,
         w: usize,
-        i_gyro: &Matrix3<f64>,
-        iei: &[Matrix3<f64>; 6],
+        with_sensitivities: bool,
         mut each: impl FnMut(&Vector3<f64>, &Sensitivities),
     ) {
+        let i_gyro = &state.rigid.inertia_or(&self.inertia_fallback);
+        let iei = &Rigid::inertia_derivatives(i_gyro);
         let nc = self.columns();
         let nt = self.terms.len();
         let rigid = &state.rigid;
@@ -243,6 +238,10 @@ impl Problem<'_> {
             let predicted = wk + rigid.increment(iv, &euler);
             let tr = TrajectoryTerms::trapezoid(&wk, &predicted, i_gyro, iv.dt);
             let delta = rigid.increment(iv, &tr);
+            if !with_sensitivities {
+                wk += delta;
+                continue;
+            }
             direct.iter_mut().for_each(|d| *d = Vector3::zeros());
             rigid.add_sensitivities(&self.terms, iv, &tr, iei, &mut direct[..nt]);
             for (x, extra) in self.extras.iter().enumerate() {
@@ -267,12 +266,10 @@ impl Problem<'_> {
 
     /// The model's body rate at every sample of every window (unmeasured axes zero), at `state`.
     pub fn model_rates(&self, state: &State) -> Vec<(usize, Vector3<f64>)> {
-        let i_gyro = state.rigid.inertia_or(&self.inertia_fallback);
-        let iei = Rigid::inertia_derivatives(&i_gyro);
         let mut out = Vec::new();
         for (w, &(s, _)) in self.windows.iter().enumerate() {
             let mut k = s;
-            self.propagate(state, w, &i_gyro, &iei, |omega, _| {
+            self.propagate(state, w, false, |omega, _| {
                 out.push((
                     k,
                     Vector3::from_fn(|a, _| if self.axes[a] { omega[a] } else { 0.0 }),
@@ -287,8 +284,7 @@ impl Problem<'_> {
     /// every sample's residual and sensitivities go through the sensor response and the
     /// whitening filter as they are integrated, so the memory is a few samples, not the window
     /// (the sums are the same, term by term and in the same order, as over whole series).
-    /// With `keep_residuals` the unwhitened residual series are kept for the noise fit.
-    pub fn accumulate(&self, state: &State, keep_residuals: bool) -> Normal {
+    pub fn accumulate(&self, state: &State) -> Normal {
         let nc = self.columns();
         let used = self.measured_axes();
         let q = used.len();
@@ -296,10 +292,7 @@ impl Problem<'_> {
         let mut info = DMatrix::<f64>::zeros(nc, nc);
         let mut score = DVector::<f64>::zeros(nc);
         let mut nuisance = Vec::with_capacity(self.windows.len());
-        let mut residuals: [Vec<Vec<f64>>; 3] = Default::default();
         let mut innovations = [(0.0, 0usize); 3];
-        let i_gyro = state.rigid.inertia_or(&self.inertia_fallback);
-        let iei = Rigid::inertia_derivatives(&i_gyro);
         let (t0, t1) = self.sensor.trim();
         // The last three samples of the model (the sensor responses look one sample around).
         let mut recent_omega = [Vector3::<f64>::zeros(); 3];
@@ -315,28 +308,20 @@ impl Problem<'_> {
             }
             let mut axis_sums: Vec<WindowSums> = used
                 .iter()
-                .map(|&a| WindowSums::new(&state.noise[a], nall, keep_residuals))
+                .map(|&a| WindowSums::new(&state.noise[a], nall))
                 .collect();
             let mut k = 0usize;
-            self.propagate(state, w, &i_gyro, &iei, |omega, sens| {
+            self.propagate(state, w, true, |omega, sens| {
                 recent_omega[k % 3] = *omega;
                 recent_sens[k % 3].copy_from(sens);
                 // Row r's response is complete once sample r + t1 is in.
                 if k >= t0 + t1 {
                     let r = k - t1;
-                    let around = |f: &dyn Fn(usize) -> f64| -> [f64; 3] {
-                        [
-                            if r > 0 { f((r - 1) % 3) } else { 0.0 },
-                            f(r % 3),
-                            if t1 > 0 { f((r + 1) % 3) } else { 0.0 },
-                        ]
-                    };
                     for (sums, &a) in axis_sums.iter_mut().zip(&used) {
-                        let om = around(&|i| recent_omega[i][a]);
-                        row[0] = self.flight.rate.at(s + r)[a] - self.sensor.at(&om, 1);
+                        row[0] = self.flight.rate.at(s + r)[a]
+                            - self.sensor.at(r, |i| recent_omega[i % 3][a]);
                         for (col, v) in row[1..].iter_mut().enumerate() {
-                            let x = around(&|i| recent_sens[i][(a, col)]);
-                            *v = self.sensor.at(&x, 1);
+                            *v = self.sensor.at(r, |i| recent_sens[i % 3][(a, col)]);
                         }
                         sums.push(&row, &mut white);
                     }
@@ -365,9 +350,6 @@ impl Problem<'_> {
                 }
                 innovations[a].0 += sums.squares;
                 innovations[a].1 += sums.rows;
-                if let Some(res) = sums.residual {
-                    residuals[a].push(res);
-                }
             }
             if !any {
                 nuisance.push(None);
@@ -395,9 +377,39 @@ impl Problem<'_> {
             info,
             score,
             nuisance,
-            residuals,
             innovations,
         }
+    }
+
+    /// The unwhitened residuals of `axis` at `state`, window by window, for the noise fit: the
+    /// same rows [`Problem::accumulate`] whitens, from windows that have rows past the noise
+    /// model's order. One axis at a time, without sensitivities: a whole-flight window holds
+    /// one series, not three.
+    pub fn residuals(&self, state: &State, axis: usize) -> Vec<Vec<f64>> {
+        let (t0, t1) = self.sensor.trim();
+        let order = state.noise[axis].order();
+        let mut out = Vec::new();
+        for (w, &(s, e)) in self.windows.iter().enumerate() {
+            let n = e - s;
+            if n <= t0 + t1 + order {
+                continue;
+            }
+            let mut series = Vec::with_capacity(n - t0 - t1);
+            let mut recent = [0.0; 3];
+            let mut k = 0usize;
+            self.propagate(state, w, false, |omega, _| {
+                recent[k % 3] = omega[axis];
+                if k >= t0 + t1 {
+                    let r = k - t1;
+                    series.push(
+                        self.flight.rate.at(s + r)[axis] - self.sensor.at(r, |i| recent[i % 3]),
+                    );
+                }
+                k += 1;
+            });
+            out.push(series);
+        }
+        out
     }
 
     /// Applies the Gauss-Newton step `delta` (one entry per term) and the matching initial
@@ -516,7 +528,7 @@ mod tests {
             noise: std::array::from_fn(|_| ArNoise::white(1.0)),
         };
         for _ in 0..8 {
-            let normal = p.accumulate(&st, false);
+            let normal = p.accumulate(&st);
             let delta = normal.info.clone().lu().solve(&normal.score).unwrap();
             p.apply_step(&mut st, &normal, &delta);
         }

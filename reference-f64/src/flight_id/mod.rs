@@ -174,7 +174,7 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
     let nt = problem.terms.len();
     for round in 0..3 {
         for _ in 0..15 {
-            let normal = problem.accumulate(state, false);
+            let normal = problem.accumulate(state);
             let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
             let delta = solve_spd(&ntt, &normal.score.rows(0, nt).into_owned())?;
             problem.apply_step(state, &normal, &delta);
@@ -189,15 +189,14 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
                 break;
             }
         }
-        // The residuals are kept for the noise fit, which the last round does not do.
-        let normal = problem.accumulate(state, round < 2);
         if round == 2 {
-            return Some(normal);
+            return Some(problem.accumulate(state));
         }
         for a in 0..3 {
             if problem.axes[a] {
-                let longest = normal.residuals[a].iter().map(Vec::len).max().unwrap_or(0);
-                state.noise[a] = ArNoise::fit(&normal.residuals[a], max_order.min(longest / 8));
+                let residuals = problem.residuals(state, a);
+                let longest = residuals.iter().map(Vec::len).max().unwrap_or(0);
+                state.noise[a] = ArNoise::fit(&residuals, max_order.min(longest / 8));
             }
         }
     }
@@ -455,7 +454,7 @@ fn identify_in(
         .collect();
     extras.extend(held.iter().map(|&t| Extra::Held(t)));
     let problem = make_problem(sensor, free.clone(), extras.clone());
-    let full = problem.accumulate(&state, false);
+    let full = problem.accumulate(&state);
     let nt = free.len();
     let t_idx: Vec<usize> = (0..nt).collect();
     let thrust_idx: Vec<usize> = (0..firing.len()).map(|k| nt + k).collect();
@@ -714,7 +713,7 @@ pub fn cramer_rao_bound(
             .collect(),
         noise: noise.clone(),
     };
-    let normal = problem.accumulate(&state, false);
+    let normal = problem.accumulate(&state);
     let cov = normal.info.try_inverse().ok_or(IdError::Singular)?;
     let mut g = DMatrix::<f64>::zeros(9, 9);
     for m in 0..6 {

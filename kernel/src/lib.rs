@@ -65,6 +65,7 @@ pub mod deferred_stage;
 pub mod flight_id;
 pub mod fold;
 pub mod gyro_filter;
+mod in_place;
 pub mod int;
 pub mod int_float;
 pub mod lu;

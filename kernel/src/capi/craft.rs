@@ -5,7 +5,7 @@
 //! see `kernel/README.md`). Same conventions as the SPHERES functions of the parent module:
 //! caller-owned blocks with a magic word, every call a [`MassidStatus`], no panics.
 
-use core::mem::{align_of, size_of};
+use core::mem::{align_of, size_of, MaybeUninit};
 
 use super::{load, mix_block, store, write_out, CScalar, MassidSatelliteParams, MassidStatus};
 use crate::allocation::CraftFiring;
@@ -16,6 +16,7 @@ use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDE
 use crate::flight_id::sums::SumScalar;
 use crate::flight_id::window;
 use crate::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+use crate::in_place::field;
 use crate::mixer::MixerConfig;
 use crate::scalar::{Scalar, Q8_24};
 use crate::IntFloat;
@@ -649,11 +650,19 @@ unsafe fn flight_id_init<S: SumScalar>(
     let Some(cfg) = flight_id_config::<S>(s, Envelope::of_craft(craft.wrench_bound())) else {
         return MassidStatus::BadParameters;
     };
-    let Some(id) = FlightId::new(cfg) else {
+    // The state is built in the block, not returned and moved there: the sums are tens of kB.
+    // SAFETY: the caller's contract: `block` is writable and 8-aligned with room for the slot
+    // (size and alignment asserted at compile time); as `MaybeUninit` nothing is assumed of
+    // its bytes, and no other reference to it is live during this call.
+    let slot = unsafe { &mut *block.cast::<MaybeUninit<super::Slot<FlightIdState<S>>>>() };
+    let state = field!(slot, value);
+    // A refused configuration writes nothing: a block initialised before keeps its state.
+    if FlightId::init_in_place(field!(state, id), cfg).is_none() {
         return MassidStatus::BadParameters;
-    };
-    // SAFETY: the caller's contract (size and alignment asserted at compile time).
-    unsafe { store(block, magic, FlightIdState { craft, id }) };
+    }
+    field!(state, craft).write(craft);
+    // The magic word last: the block is a valid state from here on (as `store` left it).
+    field!(slot, magic).write(magic);
     MassidStatus::Ok
 }
 

@@ -19,8 +19,11 @@
 //! 2-4 times beyond the envelope, the bounds' margin) is not rounded into a wrong sum, the
 //! flight's sums are marked out of range and the fit answers `Overflow`.
 
+use core::mem::MaybeUninit;
+
 use super::drive::DriveSum;
 use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
+use crate::in_place::field;
 use crate::int::mul::{mul_acc, round_product};
 use crate::int::shift::shift_nearest;
 use crate::int::Native;
@@ -390,12 +393,24 @@ impl SumScalar for IntFloat {
             extra,
         })
     }
-    fn recent(scales: &ExactScales) -> ExactMoments {
-        ExactMoments {
-            sums: LagMoments::filled(0),
-            exp: scales.exp,
-            nominal: scales.nominal,
-        }
+    fn init_recent<'a>(
+        slot: &'a mut MaybeUninit<ExactMoments>,
+        scales: &ExactScales,
+    ) -> &'a mut ExactMoments {
+        LagMoments::fill_in_place(field!(slot, sums), 0);
+        field!(slot, exp).write(scales.exp);
+        field!(slot, nominal).write(scales.nominal);
+        // The fields written above, all of them: a field added to the struct fails to
+        // compile here until it is written too.
+        let _every_field = |m: &ExactMoments| {
+            let ExactMoments {
+                sums: _,
+                exp: _,
+                nominal: _,
+            } = m;
+        };
+        // SAFETY: every field of `slot` was written just above.
+        unsafe { slot.assume_init_mut() }
     }
     fn drive(scales: &ExactScales) -> ExactDrive {
         ExactDrive {

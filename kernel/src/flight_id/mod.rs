@@ -26,6 +26,9 @@ pub mod solve;
 pub mod sums;
 pub mod window;
 
+use core::mem::MaybeUninit;
+
+use crate::in_place::field;
 use crate::scalar::Scalar;
 use drive::DriveSum;
 use solve::{Solution, SolveConfig, SolveError, NP};
@@ -122,8 +125,19 @@ fn differs<S: Scalar>(a: &[S; 6], b: &[S; 6]) -> bool {
 
 impl<S: SumScalar> FlightId<S> {
     /// Nothing measured yet; None if the nominal inverse inertia is singular or the delay is
-    /// out of range.
+    /// out of range. ([`FlightId::init_in_place`]'s state, copied.)
     pub fn new(cfg: FlightIdConfig<S>) -> Option<Self> {
+        Self::init_in_place(&mut MaybeUninit::uninit(), cfg).map(|id| *id)
+    }
+
+    /// [`FlightId::new`] written in place in `slot` (a state block: the sums are tens of kB,
+    /// which a returned value would carry through the stack); None, with nothing written, if
+    /// the nominal inverse inertia is singular or the delay is out of range.
+    pub fn init_in_place(
+        slot: &mut MaybeUninit<Self>,
+        cfg: FlightIdConfig<S>,
+    ) -> Option<&mut Self> {
+        // What can fail comes first, so that a refused configuration writes nothing.
         let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
@@ -133,23 +147,44 @@ impl<S: SumScalar> FlightId<S> {
             .times(S::from_f32(1.5));
         let bounds = cfg.envelope.component_bounds(window_s, &nominal);
         let scales = S::scales(&bounds, &nominal, cfg.max_window, window_s)?;
-        Some(FlightId {
-            cfg,
-            sums: FlightSums::default(),
-            recent: RecentSums::new(S::recent(&scales)),
-            window: WindowSums::default(),
-            drive: S::drive(&scales),
-            products: [S::ZERO; 6],
-            gap: S::from_f32(1.5).times(cfg.period_s),
-            last: [([S::ZERO; NZ], [S::ZERO; 3]); 3],
-            newest: 0,
-            filled: 0,
-            turned: S::ZERO,
-            anchor: None,
-            previous: None,
-            delay,
-            nominal,
-        })
+        field!(slot, cfg).write(cfg);
+        FlightSums::init_in_place(field!(slot, sums));
+        RecentSums::init_in_place(field!(slot, recent), |r| S::init_recent(r, &scales));
+        field!(slot, window).write(WindowSums::default());
+        field!(slot, drive).write(S::drive(&scales));
+        field!(slot, products).write([S::ZERO; 6]);
+        field!(slot, gap).write(S::from_f32(1.5).times(cfg.period_s));
+        field!(slot, last).write([([S::ZERO; NZ], [S::ZERO; 3]); 3]);
+        field!(slot, newest).write(0);
+        field!(slot, filled).write(0);
+        field!(slot, turned).write(S::ZERO);
+        field!(slot, anchor).write(None);
+        field!(slot, previous).write(None);
+        field!(slot, delay).write(delay);
+        field!(slot, nominal).write(nominal);
+        // The fields written above, all of them: a field added to the struct fails to
+        // compile here until it is written too.
+        let _every_field = |id: &Self| {
+            let Self {
+                cfg: _,
+                sums: _,
+                recent: _,
+                window: _,
+                drive: _,
+                products: _,
+                gap: _,
+                last: _,
+                newest: _,
+                filled: _,
+                turned: _,
+                anchor: _,
+                delay: _,
+                previous: _,
+                nominal: _,
+            } = id;
+        };
+        // SAFETY: every field of `slot` was written just above.
+        Some(unsafe { slot.assume_init_mut() })
     }
 
     /// The sums so far (closed windows).

@@ -14,7 +14,10 @@
 //! so each entry is folded about every [`BLOCK`] samples (shorter f32 sums round less) and no
 //! sample carries a whole fold (the M4F tick budget).
 
+use core::mem::MaybeUninit;
+
 use super::drive::{Compensated, DriveSum};
+use crate::in_place::{field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
 /// Drive components: accumulated torque (N m s), force (N s), and the rate products
@@ -57,6 +60,27 @@ impl<T: Copy> LagMoments<T> {
             yz: [[[v; NZ]; 3]; LAGS],
             yy: [[v; 3]; LAGS],
         }
+    }
+
+    /// [`LagMoments::filled`] written in place: every entry of `slot` set to `v` (no copy
+    /// of the moments on the stack).
+    pub fn fill_in_place(slot: &mut MaybeUninit<Self>, v: T) -> &mut Self {
+        fill3(field!(slot, zz), v);
+        fill3(field!(slot, zy), v);
+        fill3(field!(slot, yz), v);
+        fill2(field!(slot, yy), v);
+        // The fields written above, all of them: a field added to the struct fails to
+        // compile here until it is written too.
+        let _every_field = |m: &Self| {
+            let Self {
+                zz: _,
+                zy: _,
+                yz: _,
+                yy: _,
+            } = m;
+        };
+        // SAFETY: every field of `slot` was written just above.
+        unsafe { slot.assume_init_mut() }
     }
 
     /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)) by `mac(entry, a, b)`,
@@ -294,8 +318,16 @@ pub trait SumScalar: Scalar {
         max_window: u32,
         window_s: Self,
     ) -> Option<Self::Scales>;
-    /// Empty recent sums.
-    fn recent(scales: &Self::Scales) -> Self::Recent;
+    /// Writes empty recent sums to `slot` (in place: they are the state's largest part) and
+    /// returns it.
+    fn init_recent<'a>(
+        slot: &'a mut MaybeUninit<Self::Recent>,
+        scales: &Self::Scales,
+    ) -> &'a mut Self::Recent;
+    /// Empty recent sums, by value (a copy of [`SumScalar::init_recent`]'s).
+    fn recent(scales: &Self::Scales) -> Self::Recent {
+        *Self::init_recent(&mut MaybeUninit::uninit(), scales)
+    }
     /// A zero drive.
     fn drive(scales: &Self::Scales) -> Self::Drive;
 }
@@ -349,8 +381,11 @@ macro_rules! float_sums {
             fn scales(_: &[$t; NZ + 3], _: &[[$t; NZ]; 3], _: u32, _: $t) -> Option<()> {
                 Some(())
             }
-            fn recent(_: &()) -> Self::Recent {
-                LagMoments::zero()
+            fn init_recent<'a>(
+                slot: &'a mut MaybeUninit<Self::Recent>,
+                _: &(),
+            ) -> &'a mut Self::Recent {
+                LagMoments::fill_in_place(slot, <$t as Scalar>::ZERO)
             }
             fn drive(_: &()) -> Self::Drive {
                 Compensated::default()
@@ -371,6 +406,32 @@ impl<R> RecentSums<R> {
     /// Empty `sums`, the fold at the first entry.
     pub fn new(sums: R) -> Self {
         RecentSums { sums, cursor: 0 }
+    }
+
+    /// [`RecentSums::new`] in place: `sums` writes the empty sums to the slot it is given
+    /// and returns it.
+    pub fn init_in_place(
+        slot: &mut MaybeUninit<Self>,
+        sums: impl FnOnce(&mut MaybeUninit<R>) -> &mut R,
+    ) -> &mut Self
+    where
+        R: Copy,
+    {
+        let written: *const R = sums(field!(slot, sums));
+        let at = field!(slot, sums).as_mut_ptr();
+        if !core::ptr::eq(written, at) {
+            // `sums` returned other sums than its slot's (no implementation does): they are
+            // copied in, so the slot is initialised whatever `sums` did.
+            // SAFETY: `written` comes from a `&mut R` (a valid `R`, readable), `at` is the
+            // slot's field (writable, aligned); `copy` allows overlap.
+            unsafe { core::ptr::copy(written, at, 1) };
+        }
+        field!(slot, cursor).write(0);
+        let _every_field = |r: &Self| {
+            let Self { sums: _, cursor: _ } = r;
+        };
+        // SAFETY: both fields of `slot` were written just above.
+        unsafe { slot.assume_init_mut() }
     }
 
     /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
@@ -420,17 +481,38 @@ pub struct FlightSums<S> {
     pub out_of_range: bool,
 }
 
+impl<S: Scalar> FlightSums<S> {
+    /// Empty sums written to `slot` in place (no copy of them on the stack).
+    pub fn init_in_place(slot: &mut MaybeUninit<Self>) -> &mut Self {
+        LagMoments::fill_in_place(field!(slot, lag), S::ZERO);
+        fill2(field!(slot, czz), S::ZERO);
+        fill2(field!(slot, czy), S::ZERO);
+        fill(field!(slot, cyy), S::ZERO);
+        field!(slot, samples).write(0);
+        field!(slot, windows).write(0);
+        field!(slot, out_of_range).write(false);
+        // The fields written above, all of them: a field added to the struct fails to
+        // compile here until it is written too.
+        let _every_field = |f: &Self| {
+            let Self {
+                lag: _,
+                czz: _,
+                czy: _,
+                cyy: _,
+                samples: _,
+                windows: _,
+                out_of_range: _,
+            } = f;
+        };
+        // SAFETY: every field of `slot` was written just above.
+        unsafe { slot.assume_init_mut() }
+    }
+}
+
 impl<S: Scalar> Default for FlightSums<S> {
+    /// Empty sums ([`FlightSums::init_in_place`]'s, copied).
     fn default() -> Self {
-        FlightSums {
-            lag: LagMoments::zero(),
-            czz: [[S::ZERO; NZ]; NZ],
-            czy: [[S::ZERO; NZ]; 3],
-            cyy: [S::ZERO; 3],
-            samples: 0,
-            windows: 0,
-            out_of_range: false,
-        }
+        *Self::init_in_place(&mut MaybeUninit::uninit())
     }
 }
 

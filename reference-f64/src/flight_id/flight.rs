@@ -364,6 +364,37 @@ pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(us
     out
 }
 
+/// `wins` with every window longer than `max_span_s` split into equal runs no longer than it,
+/// each with its own initial rate (the one interval between two runs is left out). An
+/// output-error fit integrates a window from its initial rate: over a long enough window a
+/// 3-D craft's gyroscopic coupling carries a small error of the model far enough that
+/// Gauss-Newton's linearisation fails (measured in [`super::MAX_SPAN_3D_S`]'s note).
+pub fn split_spans(
+    flight: &Flight,
+    wins: &[(usize, usize)],
+    max_span_s: f64,
+) -> Vec<(usize, usize)> {
+    let mut out = Vec::with_capacity(wins.len());
+    for &(s, e) in wins {
+        let span = flight.time_s[e - 1] - flight.time_s[s];
+        // Pieces of equal sample counts; a NaN or an infinite span is not split.
+        let pieces = if span > max_span_s && max_span_s > 0.0 {
+            ((span / max_span_s).ceil() as usize).clamp(1, e - s)
+        } else {
+            1
+        };
+        let n = e - s;
+        for i in 0..pieces {
+            let a = s + n * i / pieces;
+            let b = s + n * (i + 1) / pieces;
+            if b > a {
+                out.push((a, b));
+            }
+        }
+    }
+    out
+}
+
 /// Flights for the tests of this module and of [`super::intervals`].
 #[cfg(test)]
 pub(crate) mod samples {

@@ -24,7 +24,7 @@ use crate::mass_id::{physical_validity, COM_TERMS, INERTIA_TERMS};
 use crate::satellite::Satellite;
 use consistency::{score_test, ScoreTest};
 use fit::{Extra, Normal, Problem, SensorResponse, State};
-use flight::{windows, Flight};
+use flight::{split_spans, windows, Flight};
 use intervals::{unit_wrench, Intervals};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use noise::ArNoise;
@@ -125,6 +125,16 @@ pub struct FlightEstimate {
 /// at word changes (see [`identify`]).
 const CUT_LEVEL: f64 = 0.05;
 
+/// Longest window, s, of a 3-D craft's fit: longer ones are split ([`flight::split_spans`]).
+/// Measured on cubesat8 random-PWM flights at 1 kHz (`massid simulate --model
+/// examples/models/cubesat8.toml --maneuver random-pwm --seed 1`), one window each before the
+/// split: 100 s took 4 Gauss-Newton steps a round, 1,000 s up to 13, and 10,000 s did not
+/// converge (status `inconsistent`, inertia left at the model's with zero sigma). A split is
+/// not free: the rate's continuity across it carries information (the 1,000 s flight cut
+/// into 100 s windows had a 1.7x larger Izz sigma), so the limit is as long as converged.
+/// A planar craft's yaw model has no such coupling (10,000 s converged): not split.
+pub const MAX_SPAN_3D_S: f64 = 1000.0;
+
 /// Terms a planar craft never identifies.
 pub const NOT_PLANAR: [&str; 6] = ["Ixx", "Iyy", "Ixy", "Ixz", "Iyz", "cm_z"];
 
@@ -169,9 +179,15 @@ fn solve_spd(m: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
         .or_else(|| m.clone().lu().solve(b))
 }
 
-/// Iterates Gauss-Newton steps and noise-model fits to convergence.
-fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<Normal> {
+/// Largest last Gauss-Newton step, in its term's sigma, of a fit reported as converged; past
+/// it the estimate is still moving and the status is `not_converged`.
+pub const NOT_CONVERGED_STEP: f64 = 0.1;
+
+/// Iterates Gauss-Newton steps and noise-model fits to convergence. Also gives the last
+/// step's largest size in sigma (below 1e-3 when the last round converged).
+fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<(Normal, f64)> {
     let nt = problem.terms.len();
+    let mut last_step = f64::INFINITY;
     for round in 0..3 {
         for _ in 0..15 {
             let normal = problem.accumulate(state);
@@ -185,12 +201,13 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<No
             if !rel.is_finite() {
                 return None;
             }
+            last_step = rel;
             if rel < 1e-3 {
                 break;
             }
         }
         if round == 2 {
-            return Some(problem.accumulate(state));
+            return Some((problem.accumulate(state), last_step));
         }
         for a in 0..3 {
             if problem.axes[a] {
@@ -235,7 +252,11 @@ pub fn identify(
         }));
     }
     let min_len = 20;
-    let wins = windows(flight, min_len, false);
+    let spans = |w: Vec<(usize, usize)>| match dynamics {
+        Dynamics::Full => split_spans(flight, &w, MAX_SPAN_3D_S),
+        Dynamics::Yaw => w,
+    };
+    let wins = spans(windows(flight, min_len, false));
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(min_len));
     }
@@ -260,7 +281,7 @@ pub fn identify(
         t.p_value < CUT_LEVEL && (opts.cut_rule == CutRule::AnyTest || t.name == "valve_timing")
     });
     if coarse && misfit {
-        let cut = windows(flight, 4, true);
+        let cut = spans(windows(flight, 4, true));
         if !cut.is_empty() {
             if let Ok(mut e) = identify_in(flight, sat, opts, dynamics, axes, &cut) {
                 e.command_timing_unknown = true;
@@ -353,7 +374,7 @@ fn identify_in(
     // Observability: pin (hold at the model) the least determined term until every free term
     // is determined within its physical scale.
     let mut pinned: Vec<Term> = Vec::new();
-    let (sensor, state, free) = loop {
+    let (sensor, state, free, last_step) = loop {
         let free: Vec<Term> = terms
             .iter()
             .copied()
@@ -362,11 +383,12 @@ fn identify_in(
         if free.is_empty() {
             return Err(IdError::Singular);
         }
-        let mut best: Option<(f64, SensorResponse, State, Normal)> = None;
+        let mut best: Option<(f64, SensorResponse, State, Normal, f64)> = None;
         for &sensor in &sensors {
             let problem = make_problem(sensor, free.clone(), Vec::new());
             let mut state = initial_state(sensor);
-            let Some(normal) = converge(&problem, &mut state, opts.max_noise_order) else {
+            let Some((normal, last_step)) = converge(&problem, &mut state, opts.max_noise_order)
+            else {
                 continue;
             };
             // Gaussian log-likelihood per sample, and BIC's price for choosing a response other
@@ -388,10 +410,10 @@ fn identify_in(
                     0.5 * (n.max(1) as f64).ln()
                 };
             if best.as_ref().is_none_or(|b| loglik > b.0) {
-                best = Some((loglik, sensor, state, normal));
+                best = Some((loglik, sensor, state, normal, last_step));
             }
         }
-        let Some((_, sensor, state, normal)) = best else {
+        let Some((_, sensor, state, normal, last_step)) = best else {
             // Singular: pin the term with the least information and retry.
             let worst = free[free.len() - 1];
             pinned.push(worst);
@@ -416,7 +438,7 @@ fn identify_in(
         };
         match worst {
             Some(t) => pinned.push(t),
-            None => break (sensor, state, free),
+            None => break (sensor, state, free, last_step),
         }
     };
 
@@ -615,6 +637,8 @@ fn identify_in(
         "no_gyro_response"
     } else if let Err(why) = physical_validity(sat, &com_offset_mm, &inertia) {
         why
+    } else if !(last_step <= NOT_CONVERGED_STEP) {
+        "not_converged"
     } else if inconsistent {
         "inconsistent"
     } else if !only_planar_unobservable {
@@ -661,7 +685,7 @@ pub fn cramer_rao_bound(
     if sat.planar {
         return Err(IdError::Invalid("the bound is for 3-D craft".into()));
     }
-    let wins = windows(flight, 20, false);
+    let wins = split_spans(flight, &windows(flight, 20, false), MAX_SPAN_3D_S);
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(20));
     }

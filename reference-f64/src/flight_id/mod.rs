@@ -637,7 +637,7 @@ fn identify_in(
         "no_gyro_response"
     } else if let Err(why) = physical_validity(sat, &com_offset_mm, &inertia) {
         why
-    } else if !(last_step <= NOT_CONVERGED_STEP) {
+    } else if last_step > NOT_CONVERGED_STEP {
         "not_converged"
     } else if inconsistent {
         "inconsistent"

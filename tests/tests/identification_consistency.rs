@@ -239,3 +239,29 @@ fn stated_thrust_uncertainty_covers_drawn_thrust_errors() {
         share(1, 2)
     );
 }
+
+/// A fit stopped before it converged says so: from a model whose inertia is 20 % off the
+/// craft's, one Gauss-Newton step a round leaves the estimate moving (status `not_converged`);
+/// the default steps on the same flight converge and the status is not `not_converged`.
+#[test]
+fn a_fit_stopped_early_is_not_converged() {
+    let truth = sph2();
+    let flight = fly(Maneuver::Combo, 1000.0, 3100, Vec::new());
+    let mut model = truth.clone();
+    for i in &mut model.inertia_kgm2 {
+        *i *= 1.2;
+    }
+    let stopped = Options {
+        max_steps_per_round: 1,
+        ..Options::default()
+    };
+    let e = identify(&flight, &model, &stopped).expect("identify");
+    assert_eq!(e.status, "not_converged", "{}", pvalues(&e));
+    let e = identify(&flight, &model, &Options::default()).expect("identify");
+    assert_ne!(e.status, "not_converged", "{}", pvalues(&e));
+    let r = principal_ratio(&e, &truth);
+    assert!(
+        r.iter().all(|x| (x - 1.0).abs() < 0.05),
+        "converged estimate / truth {r:?}"
+    );
+}

@@ -445,6 +445,37 @@ pub(crate) mod samples {
 mod tests {
     use super::*;
 
+    /// Windows past the span are cut into runs no longer than it, every sample but one per cut
+    /// kept and in order; shorter windows pass untouched.
+    #[test]
+    fn long_windows_are_split_into_spans_no_longer_than_the_limit() {
+        let f = samples::flight(2000, false);
+        let wins = vec![(0, 50), (60, 1990)];
+        let max_s = 0.3;
+        let split = split_spans(&f, &wins, max_s);
+        assert_eq!(split[0], (0, 50), "a short window is kept whole");
+        assert!(split.len() > 2, "{split:?}");
+        for w in split.windows(2) {
+            assert!(w[0].1 <= w[1].0, "ordered, disjoint: {split:?}");
+        }
+        let mut covered = 0;
+        for &(s, e) in &split[1..] {
+            assert!(e > s);
+            let span = f.time_s[e - 1] - f.time_s[s];
+            assert!(span <= max_s * 1.01, "{span} s in ({s}, {e})");
+            covered += e - s;
+        }
+        assert_eq!(split[1].0, 60);
+        assert_eq!(split.last().map(|w| w.1), Some(1990));
+        // Contiguous: each cut drops no sample (only the interval between two runs).
+        assert_eq!(covered, 1990 - 60);
+        assert_eq!(
+            split_spans(&f, &wins, 1e9),
+            wins,
+            "no split under the limit"
+        );
+    }
+
     #[test]
     fn the_command_log_reads_back_every_sample() {
         for wrench in [false, true] {

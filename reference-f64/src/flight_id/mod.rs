@@ -51,6 +51,9 @@ pub struct Options {
     /// Which consistency tests decide to cut a coarse v1 recording's windows at word changes
     /// (see [`identify`]).
     pub cut_rule: CutRule,
+    /// Gauss-Newton steps per round of the noise-model fit, at most (3 rounds). A fit whose
+    /// last step is still over [`NOT_CONVERGED_STEP`] sigma has status `not_converged`.
+    pub max_steps_per_round: usize,
 }
 
 /// When [`identify`] cuts a coarse v1 recording's windows at every word change.
@@ -75,6 +78,7 @@ impl Default for Options {
             thrust_sigma_rel: Vec::new(),
             consistency_alpha: 1e-3,
             cut_rule: CutRule::AnyTest,
+            max_steps_per_round: 15,
         }
     }
 }
@@ -185,11 +189,11 @@ pub const NOT_CONVERGED_STEP: f64 = 0.1;
 
 /// Iterates Gauss-Newton steps and noise-model fits to convergence. Also gives the last
 /// step's largest size in sigma (below 1e-3 when the last round converged).
-fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<(Normal, f64)> {
+fn converge(problem: &Problem, state: &mut State, opts: &Options) -> Option<(Normal, f64)> {
     let nt = problem.terms.len();
     let mut last_step = f64::INFINITY;
     for round in 0..3 {
-        for _ in 0..15 {
+        for _ in 0..opts.max_steps_per_round.max(1) {
             let normal = problem.accumulate(state);
             let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
             let delta = solve_spd(&ntt, &normal.score.rows(0, nt).into_owned())?;
@@ -213,7 +217,7 @@ fn converge(problem: &Problem, state: &mut State, max_order: usize) -> Option<(N
             if problem.axes[a] {
                 let residuals = problem.residuals(state, a);
                 let longest = residuals.iter().map(Vec::len).max().unwrap_or(0);
-                state.noise[a] = ArNoise::fit(&residuals, max_order.min(longest / 8));
+                state.noise[a] = ArNoise::fit(&residuals, opts.max_noise_order.min(longest / 8));
             }
         }
     }
@@ -387,8 +391,7 @@ fn identify_in(
         for &sensor in &sensors {
             let problem = make_problem(sensor, free.clone(), Vec::new());
             let mut state = initial_state(sensor);
-            let Some((normal, last_step)) = converge(&problem, &mut state, opts.max_noise_order)
-            else {
+            let Some((normal, last_step)) = converge(&problem, &mut state, opts) else {
                 continue;
             };
             // Gaussian log-likelihood per sample, and BIC's price for choosing a response other

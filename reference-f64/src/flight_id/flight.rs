@@ -364,32 +364,50 @@ pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(us
     out
 }
 
-/// `wins` with every window longer than `max_span_s` split into equal runs no longer than it,
-/// each with its own initial rate (the one interval between two runs is left out). An
-/// output-error fit integrates a window from its initial rate: over a long enough window a
-/// 3-D craft's gyroscopic coupling carries a small error of the model far enough that
-/// Gauss-Newton's linearisation fails (measured in [`super::MAX_SPAN_3D_S`]'s note).
-pub fn split_spans(
+/// `wins` with every window that turns the craft through more than `max_turn_rad` (the
+/// integral of the measured rate's magnitude) split into runs of equal turn, each with its own
+/// initial rate (the one interval between two runs is left out). An output-error fit
+/// integrates a window from its initial rate; a 3-D craft's gyroscopic coupling turns a small
+/// error of the model into a phase error that grows with the angle turned, until
+/// Gauss-Newton's linearisation fails (measured in [`super::MAX_TURN_3D_RAD`]'s note).
+pub fn split_turns(
     flight: &Flight,
     wins: &[(usize, usize)],
-    max_span_s: f64,
+    max_turn_rad: f64,
 ) -> Vec<(usize, usize)> {
+    let turn_of = |k: usize| {
+        let r = flight.rate.at(k);
+        let dt = flight.time_s[k + 1] - flight.time_s[k];
+        let w2: f64 = (0..3)
+            .filter(|&a| flight.axes[a] && r[a].is_finite())
+            .map(|a| r[a] * r[a])
+            .sum();
+        w2.sqrt() * dt
+    };
     let mut out = Vec::with_capacity(wins.len());
     for &(s, e) in wins {
-        let span = flight.time_s[e - 1] - flight.time_s[s];
-        // Pieces of equal sample counts; a NaN or an infinite span is not split.
-        let pieces = if span > max_span_s && max_span_s > 0.0 {
-            ((span / max_span_s).ceil() as usize).clamp(1, e - s)
+        let total: f64 = (s..e - 1).map(turn_of).sum();
+        let pieces = if total > max_turn_rad && max_turn_rad > 0.0 {
+            ((total / max_turn_rad).ceil() as usize).clamp(1, e - s)
         } else {
             1
         };
-        let n = e - s;
-        for i in 0..pieces {
-            let a = s + n * i / pieces;
-            let b = s + n * (i + 1) / pieces;
-            if b > a {
-                out.push((a, b));
+        let mut start = s;
+        let mut turned = 0.0;
+        let mut next_cut = 1;
+        for k in s..e - 1 {
+            turned += turn_of(k);
+            if next_cut < pieces && turned >= total * next_cut as f64 / pieces as f64 {
+                // Sample k + 1 starts the next run; interval k -> k + 1 is left out.
+                if k + 1 > start {
+                    out.push((start, k + 1));
+                }
+                start = k + 1;
+                next_cut += 1;
             }
+        }
+        if e > start {
+            out.push((start, e));
         }
     }
     out
@@ -445,14 +463,19 @@ pub(crate) mod samples {
 mod tests {
     use super::*;
 
-    /// Windows past the span are cut into runs no longer than it, every sample but one per cut
-    /// kept and in order; shorter windows pass untouched.
+    /// Windows that turn the craft further than the limit are cut into runs of about equal
+    /// turn, no sample lost and in order; windows under it pass untouched.
     #[test]
-    fn long_windows_are_split_into_spans_no_longer_than_the_limit() {
-        let f = samples::flight(2000, false);
+    fn long_turns_are_split_into_runs_within_the_limit() {
+        let mut f = samples::flight(2000, false);
+        // Turning at 2 rad/s about z, steps of about 1 ms.
+        for r in f.rate.rad_s_mut().unwrap().iter_mut() {
+            *r = [0.0, 0.0, 2.0];
+        }
+        let turn = |s: usize, e: usize| 2.0 * (f.time_s[e - 1] - f.time_s[s]);
         let wins = vec![(0, 50), (60, 1990)];
-        let max_s = 0.3;
-        let split = split_spans(&f, &wins, max_s);
+        let max = 0.6;
+        let split = split_turns(&f, &wins, max);
         assert_eq!(split[0], (0, 50), "a short window is kept whole");
         assert!(split.len() > 2, "{split:?}");
         for w in split.windows(2) {
@@ -461,16 +484,14 @@ mod tests {
         let mut covered = 0;
         for &(s, e) in &split[1..] {
             assert!(e > s);
-            let span = f.time_s[e - 1] - f.time_s[s];
-            assert!(span <= max_s * 1.01, "{span} s in ({s}, {e})");
+            assert!(turn(s, e) <= max * 1.01, "{} rad in ({s}, {e})", turn(s, e));
             covered += e - s;
         }
         assert_eq!(split[1].0, 60);
         assert_eq!(split.last().map(|w| w.1), Some(1990));
-        // Contiguous: each cut drops no sample (only the interval between two runs).
-        assert_eq!(covered, 1990 - 60);
+        assert_eq!(covered, 1990 - 60, "each cut drops an interval, no sample");
         assert_eq!(
-            split_spans(&f, &wins, 1e9),
+            split_turns(&f, &wins, 1e9),
             wins,
             "no split under the limit"
         );

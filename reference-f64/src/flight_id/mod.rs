@@ -24,7 +24,7 @@ use crate::mass_id::{physical_validity, COM_TERMS, INERTIA_TERMS};
 use crate::satellite::Satellite;
 use consistency::{score_test, ScoreTest};
 use fit::{Extra, Normal, Problem, SensorResponse, State};
-use flight::{split_spans, windows, Flight};
+use flight::{split_turns, windows, Flight};
 use intervals::{unit_wrench, Intervals};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use noise::ArNoise;
@@ -129,15 +129,18 @@ pub struct FlightEstimate {
 /// at word changes (see [`identify`]).
 const CUT_LEVEL: f64 = 0.05;
 
-/// Longest window, s, of a 3-D craft's fit: longer ones are split ([`flight::split_spans`]).
-/// Measured on cubesat8 random-PWM flights at 1 kHz (`massid simulate --model
-/// examples/models/cubesat8.toml --maneuver random-pwm --seed 1`), one window each before the
-/// split: 100 s took 4 Gauss-Newton steps a round, 1,000 s up to 13, and 10,000 s did not
-/// converge (status `inconsistent`, inertia left at the model's with zero sigma). A split is
-/// not free: the rate's continuity across it carries information (the 1,000 s flight cut
-/// into 100 s windows had a 1.7x larger Izz sigma), so the limit is as long as converged.
-/// A planar craft's yaw model has no such coupling (10,000 s converged): not split.
-pub const MAX_SPAN_3D_S: f64 = 1000.0;
+/// Largest angle, rad, a 3-D craft may turn through in one window of its fit: longer windows
+/// are split ([`flight::split_turns`]). Measured on cubesat8 random-PWM flights at 1 kHz
+/// (`massid simulate --model examples/models/cubesat8.toml --maneuver random-pwm --seed 1`),
+/// one window each: the first 100 s (39 rad) took 4 Gauss-Newton steps a round, 1,000 s
+/// (795 rad) up to 13, and 10,000 s (up to 4,254 rad per 1,000 s) did not converge (status
+/// `inconsistent`, inertia left at the model's with zero sigma); 1,000 s windows of it did
+/// not converge in 15 minutes either. Time alone is not the measure: the phase error a wrong
+/// inertia makes grows with the angle turned. A split is not free: the rate's continuity
+/// across it carries information (the 1,000 s flight cut into ten 100 s windows had a 1.7x
+/// larger Izz sigma), so the limit is what converged. A planar craft's yaw model has no such
+/// coupling (10,000 s converged): not split.
+pub const MAX_TURN_3D_RAD: f64 = 800.0;
 
 /// Terms a planar craft never identifies.
 pub const NOT_PLANAR: [&str; 6] = ["Ixx", "Iyy", "Ixy", "Ixz", "Iyz", "cm_z"];
@@ -257,7 +260,7 @@ pub fn identify(
     }
     let min_len = 20;
     let spans = |w: Vec<(usize, usize)>| match dynamics {
-        Dynamics::Full => split_spans(flight, &w, MAX_SPAN_3D_S),
+        Dynamics::Full => split_turns(flight, &w, MAX_TURN_3D_RAD),
         Dynamics::Yaw => w,
     };
     let wins = spans(windows(flight, min_len, false));
@@ -688,7 +691,7 @@ pub fn cramer_rao_bound(
     if sat.planar {
         return Err(IdError::Invalid("the bound is for 3-D craft".into()));
     }
-    let wins = split_spans(flight, &windows(flight, 20, false), MAX_SPAN_3D_S);
+    let wins = split_turns(flight, &windows(flight, 20, false), MAX_TURN_3D_RAD);
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(20));
     }

@@ -3,9 +3,11 @@
 //! identification's sums, so their initial values are written field by field through
 //! [`core::mem::MaybeUninit`] instead (`flight_id::FlightId::init_in_place`).
 //!
-//! The one `unsafe` operation here views an uninitialised array as an array of
-//! uninitialised elements (the two have the same layout); everything else writes through
-//! [`MaybeUninit::write`], which is safe.
+//! Three `unsafe` operations live here and nowhere else: viewing an uninitialised array as
+//! its uninitialised elements ([`elements`]), projecting a field of an uninitialised struct
+//! ([`field!`]), and taking a struct whose fields were all written as initialised
+//! ([`assume_all_written!`], which checks at compile time that its list names every field).
+//! Everything else writes through [`MaybeUninit::write`], which is safe.
 
 use core::mem::MaybeUninit;
 
@@ -81,6 +83,23 @@ macro_rules! field {
 }
 pub(crate) use field;
 
+/// `assume_all_written!(slot, Type { a, b, c })`: `slot` (a `&mut MaybeUninit<Type>`) as its
+/// value, once the caller has written each field named, through [`field!`]. The list must
+/// name every field of `Type`: it is matched as an exhaustive pattern, so a field added to the
+/// struct fails to compile until its constructor writes it and names it here.
+macro_rules! assume_all_written {
+    ($slot:expr, $ty:ident { $($f:ident),* $(,)? }) => {{
+        let _every_field = |v: &$ty| {
+            let $ty { $($f: _),* } = v;
+        };
+        let slot: &mut ::core::mem::MaybeUninit<$ty> = $slot;
+        // SAFETY: the caller wrote every field listed (this macro's contract), and the list is
+        // every field of the struct (the exhaustive pattern above).
+        unsafe { slot.assume_init_mut() }
+    }};
+}
+pub(crate) use assume_all_written;
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::indexing_slicing)]
@@ -105,8 +124,7 @@ mod tests {
         let mut s = MaybeUninit::<Two>::uninit();
         fill(field!(&mut s, a), 5);
         field!(&mut s, b).write(1);
-        // SAFETY: both fields written.
-        let s = unsafe { s.assume_init() };
+        let s = assume_all_written!(&mut s, Two { a, b });
         assert_eq!((s.a, s.b), ([5; 4], 1));
     }
 }

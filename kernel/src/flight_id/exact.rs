@@ -23,7 +23,7 @@ use core::mem::MaybeUninit;
 
 use super::drive::DriveSum;
 use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
-use crate::in_place::field;
+use crate::in_place::{assume_all_written, field};
 use crate::int::mul::{mul_acc, round_product};
 use crate::int::shift::shift_nearest;
 use crate::int::Native;
@@ -400,17 +400,7 @@ impl SumScalar for IntFloat {
         LagMoments::fill_in_place(field!(slot, sums), 0);
         field!(slot, exp).write(scales.exp);
         field!(slot, nominal).write(scales.nominal);
-        // The fields written above, all of them: a field added to the struct fails to
-        // compile here until it is written too.
-        let _every_field = |m: &ExactMoments| {
-            let ExactMoments {
-                sums: _,
-                exp: _,
-                nominal: _,
-            } = m;
-        };
-        // SAFETY: every field of `slot` was written just above.
-        unsafe { slot.assume_init_mut() }
+        assume_all_written!(slot, ExactMoments { sums, exp, nominal })
     }
     fn drive(scales: &ExactScales) -> ExactDrive {
         ExactDrive {

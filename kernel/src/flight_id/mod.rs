@@ -28,7 +28,7 @@ pub mod window;
 
 use core::mem::MaybeUninit;
 
-use crate::in_place::field;
+use crate::in_place::{assume_all_written, field};
 use crate::scalar::Scalar;
 use drive::DriveSum;
 use solve::{Solution, SolveConfig, SolveError, NP};
@@ -162,29 +162,26 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, previous).write(None);
         field!(slot, delay).write(delay);
         field!(slot, nominal).write(nominal);
-        // The fields written above, all of them: a field added to the struct fails to
-        // compile here until it is written too.
-        let _every_field = |id: &Self| {
-            let Self {
-                cfg: _,
-                sums: _,
-                recent: _,
-                window: _,
-                drive: _,
-                products: _,
-                gap: _,
-                last: _,
-                newest: _,
-                filled: _,
-                turned: _,
-                anchor: _,
-                delay: _,
-                previous: _,
-                nominal: _,
-            } = id;
-        };
-        // SAFETY: every field of `slot` was written just above.
-        Some(unsafe { slot.assume_init_mut() })
+        Some(assume_all_written!(
+            slot,
+            Self {
+                cfg,
+                sums,
+                recent,
+                window,
+                drive,
+                products,
+                gap,
+                last,
+                newest,
+                filled,
+                turned,
+                anchor,
+                delay,
+                previous,
+                nominal
+            }
+        ))
     }
 
     /// The sums so far (closed windows).

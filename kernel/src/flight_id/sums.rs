@@ -17,7 +17,7 @@
 use core::mem::MaybeUninit;
 
 use super::drive::{Compensated, DriveSum};
-use crate::in_place::{field, fill, fill2, fill3};
+use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
 /// Drive components: accumulated torque (N m s), force (N s), and the rate products
@@ -69,18 +69,7 @@ impl<T: Copy> LagMoments<T> {
         fill3(field!(slot, zy), v);
         fill3(field!(slot, yz), v);
         fill2(field!(slot, yy), v);
-        // The fields written above, all of them: a field added to the struct fails to
-        // compile here until it is written too.
-        let _every_field = |m: &Self| {
-            let Self {
-                zz: _,
-                zy: _,
-                yz: _,
-                yy: _,
-            } = m;
-        };
-        // SAFETY: every field of `slot` was written just above.
-        unsafe { slot.assume_init_mut() }
+        assume_all_written!(slot, Self { zz, zy, yz, yy })
     }
 
     /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)) by `mac(entry, a, b)`,
@@ -427,11 +416,7 @@ impl<R> RecentSums<R> {
             unsafe { core::ptr::copy(written, at, 1) };
         }
         field!(slot, cursor).write(0);
-        let _every_field = |r: &Self| {
-            let Self { sums: _, cursor: _ } = r;
-        };
-        // SAFETY: both fields of `slot` were written just above.
-        unsafe { slot.assume_init_mut() }
+        assume_all_written!(slot, Self { sums, cursor })
     }
 
     /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
@@ -491,21 +476,18 @@ impl<S: Scalar> FlightSums<S> {
         field!(slot, samples).write(0);
         field!(slot, windows).write(0);
         field!(slot, out_of_range).write(false);
-        // The fields written above, all of them: a field added to the struct fails to
-        // compile here until it is written too.
-        let _every_field = |f: &Self| {
-            let Self {
-                lag: _,
-                czz: _,
-                czy: _,
-                cyy: _,
-                samples: _,
-                windows: _,
-                out_of_range: _,
-            } = f;
-        };
-        // SAFETY: every field of `slot` was written just above.
-        unsafe { slot.assume_init_mut() }
+        assume_all_written!(
+            slot,
+            Self {
+                lag,
+                czz,
+                czy,
+                cyy,
+                samples,
+                windows,
+                out_of_range
+            }
+        )
     }
 }
 

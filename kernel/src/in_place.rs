@@ -5,8 +5,9 @@
 //!
 //! Three `unsafe` operations live here and nowhere else: viewing an uninitialised array as
 //! its uninitialised elements ([`elements`]), projecting a field of an uninitialised struct
-//! ([`field!`]), and taking a struct whose fields were all written as initialised
-//! ([`assume_all_written!`], which checks at compile time that its list names every field).
+//! ([`field!`], which checks at compile time that the field is the struct's own), and taking a
+//! struct whose fields were all written as initialised ([`assume_all_written!`], which checks
+//! at compile time that its list names every field; its uses are `unsafe`).
 //! Everything else writes through [`MaybeUninit::write`], which is safe.
 
 use core::mem::MaybeUninit;
@@ -70,32 +71,40 @@ pub(crate) unsafe fn project<S, F>(
     unsafe { &mut *f.cast::<MaybeUninit<F>>() }
 }
 
-/// `field!(slot, name)`: field `name` of the struct in `slot` (a `&mut MaybeUninit` of a
-/// plain struct, no `Deref`) as `&mut MaybeUninit` of the field's type, to write in place.
+/// Calls nothing: ties the pattern check in [`assume_all_written!`] to the type in `slot`, so
+/// that the struct named there is the one in the slot.
+pub(crate) fn check_fields<T>(_slot: &MaybeUninit<T>, _pattern: impl FnOnce(&T)) {}
+
+/// `field!(slot, Type, name)`: field `name` of the `Type` struct in `slot` (a
+/// `&mut MaybeUninit<Type>`) as `&mut MaybeUninit` of the field's type, to write in place.
+/// The field must be `Type`'s own: `offset_of!` accepts nothing else, so a field reached
+/// through `Deref` (a reference or a box in the slot) does not compile.
 macro_rules! field {
-    ($slot:expr, $name:ident) => {{
-        let slot: &mut ::core::mem::MaybeUninit<_> = $slot;
-        // SAFETY: the closure returns the place of field `name` of the struct behind its
-        // argument, through `addr_of_mut!` (no reference to the uninitialised struct); the
-        // pointer is `slot`'s, valid and aligned.
-        unsafe { $crate::in_place::project(slot, |p| ::core::ptr::addr_of_mut!((*p).$name)) }
+    ($slot:expr, $ty:ty, $name:ident) => {{
+        let slot: &mut ::core::mem::MaybeUninit<$ty> = $slot;
+        let _own_field = ::core::mem::offset_of!($ty, $name);
+        // SAFETY: the closure returns the place of field `name` of the `Type` behind its
+        // argument, a field of its own (`offset_of!` above), through `addr_of_mut!` (no
+        // reference to the uninitialised struct); the pointer is `slot`'s, valid and aligned.
+        unsafe {
+            $crate::in_place::project(slot, |p: *mut $ty| ::core::ptr::addr_of_mut!((*p).$name))
+        }
     }};
 }
 pub(crate) use field;
 
-/// `assume_all_written!(slot, Type { a, b, c })`: `slot` (a `&mut MaybeUninit<Type>`) as its
-/// value, once the caller has written each field named, through [`field!`]. The list must
-/// name every field of `Type`: it is matched as an exhaustive pattern, so a field added to the
-/// struct fails to compile until its constructor writes it and names it here.
+/// `unsafe { assume_all_written!(slot, Type { a, b, c }) }`: `slot` (a
+/// `&mut MaybeUninit<Type>`) as its value. The list must name every field of `Type`: it is
+/// matched as an exhaustive pattern, so a field added to the struct fails to compile until its
+/// constructor names it here. That every field named was written is the caller's to show:
+/// the expansion is unsafe, so each use needs its own `unsafe` block and SAFETY comment.
 macro_rules! assume_all_written {
-    ($slot:expr, $ty:ident { $($f:ident),* $(,)? }) => {{
-        let _every_field = |v: &$ty| {
+    ($slot:expr, $ty:path { $($f:ident),* $(,)? }) => {{
+        let slot: &mut ::core::mem::MaybeUninit<_> = $slot;
+        $crate::in_place::check_fields(slot, |v| {
             let $ty { $($f: _),* } = v;
-        };
-        let slot: &mut ::core::mem::MaybeUninit<$ty> = $slot;
-        // SAFETY: the caller wrote every field listed (this macro's contract), and the list is
-        // every field of the struct (the exhaustive pattern above).
-        unsafe { slot.assume_init_mut() }
+        });
+        slot.assume_init_mut()
     }};
 }
 pub(crate) use assume_all_written;
@@ -122,9 +131,10 @@ mod tests {
             b: u8,
         }
         let mut s = MaybeUninit::<Two>::uninit();
-        fill(field!(&mut s, a), 5);
-        field!(&mut s, b).write(1);
-        let s = assume_all_written!(&mut s, Two { a, b });
+        fill(field!(&mut s, Two, a), 5);
+        field!(&mut s, Two, b).write(1);
+        // SAFETY: both fields written just above.
+        let s = unsafe { assume_all_written!(&mut s, Two { a, b }) };
         assert_eq!((s.a, s.b), ([5; 4], 1));
     }
 }

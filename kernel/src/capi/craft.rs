@@ -655,14 +655,14 @@ unsafe fn flight_id_init<S: SumScalar>(
     // (size and alignment asserted at compile time); as `MaybeUninit` nothing is assumed of
     // its bytes, and no other reference to it is live during this call.
     let slot = unsafe { &mut *block.cast::<MaybeUninit<super::Slot<FlightIdState<S>>>>() };
-    let state = field!(slot, value);
+    let state = field!(slot, super::Slot<FlightIdState<S>>, value);
     // A refused configuration writes nothing: a block initialised before keeps its state.
-    if FlightId::init_in_place(field!(state, id), cfg).is_none() {
+    if FlightId::init_in_place(field!(state, FlightIdState<S>, id), cfg).is_none() {
         return MassidStatus::BadParameters;
     }
-    field!(state, craft).write(craft);
+    field!(state, FlightIdState<S>, craft).write(craft);
     // The magic word last: the block is a valid state from here on (as `store` left it).
-    field!(slot, magic).write(magic);
+    field!(slot, super::Slot<FlightIdState<S>>, magic).write(magic);
     MassidStatus::Ok
 }
 

@@ -397,10 +397,11 @@ impl SumScalar for IntFloat {
         slot: &'a mut MaybeUninit<ExactMoments>,
         scales: &ExactScales,
     ) -> &'a mut ExactMoments {
-        LagMoments::fill_in_place(field!(slot, sums), 0);
-        field!(slot, exp).write(scales.exp);
-        field!(slot, nominal).write(scales.nominal);
-        assume_all_written!(slot, ExactMoments { sums, exp, nominal })
+        LagMoments::fill_in_place(field!(slot, ExactMoments, sums), 0);
+        field!(slot, ExactMoments, exp).write(scales.exp);
+        field!(slot, ExactMoments, nominal).write(scales.nominal);
+        // SAFETY: every field was written just above.
+        unsafe { assume_all_written!(slot, ExactMoments { sums, exp, nominal }) }
     }
     fn drive(scales: &ExactScales) -> ExactDrive {
         ExactDrive {

@@ -147,41 +147,44 @@ impl<S: SumScalar> FlightId<S> {
             .times(S::from_f32(1.5));
         let bounds = cfg.envelope.component_bounds(window_s, &nominal);
         let scales = S::scales(&bounds, &nominal, cfg.max_window, window_s)?;
-        field!(slot, cfg).write(cfg);
-        FlightSums::init_in_place(field!(slot, sums));
-        RecentSums::init_in_place(field!(slot, recent), |r| S::init_recent(r, &scales));
-        field!(slot, window).write(WindowSums::default());
-        field!(slot, drive).write(S::drive(&scales));
-        field!(slot, products).write([S::ZERO; 6]);
-        field!(slot, gap).write(S::from_f32(1.5).times(cfg.period_s));
-        field!(slot, last).write([([S::ZERO; NZ], [S::ZERO; 3]); 3]);
-        field!(slot, newest).write(0);
-        field!(slot, filled).write(0);
-        field!(slot, turned).write(S::ZERO);
-        field!(slot, anchor).write(None);
-        field!(slot, previous).write(None);
-        field!(slot, delay).write(delay);
-        field!(slot, nominal).write(nominal);
-        Some(assume_all_written!(
-            slot,
-            Self {
-                cfg,
-                sums,
-                recent,
-                window,
-                drive,
-                products,
-                gap,
-                last,
-                newest,
-                filled,
-                turned,
-                anchor,
-                delay,
-                previous,
-                nominal
-            }
-        ))
+        field!(slot, Self, cfg).write(cfg);
+        FlightSums::init_in_place(field!(slot, Self, sums));
+        RecentSums::init_in_place(field!(slot, Self, recent), |r| S::init_recent(r, &scales));
+        field!(slot, Self, window).write(WindowSums::default());
+        field!(slot, Self, drive).write(S::drive(&scales));
+        field!(slot, Self, products).write([S::ZERO; 6]);
+        field!(slot, Self, gap).write(S::from_f32(1.5).times(cfg.period_s));
+        field!(slot, Self, last).write([([S::ZERO; NZ], [S::ZERO; 3]); 3]);
+        field!(slot, Self, newest).write(0);
+        field!(slot, Self, filled).write(0);
+        field!(slot, Self, turned).write(S::ZERO);
+        field!(slot, Self, anchor).write(None);
+        field!(slot, Self, previous).write(None);
+        field!(slot, Self, delay).write(delay);
+        field!(slot, Self, nominal).write(nominal);
+        // SAFETY: every field was written just above.
+        Some(unsafe {
+            assume_all_written!(
+                slot,
+                Self {
+                    cfg,
+                    sums,
+                    recent,
+                    window,
+                    drive,
+                    products,
+                    gap,
+                    last,
+                    newest,
+                    filled,
+                    turned,
+                    anchor,
+                    delay,
+                    previous,
+                    nominal
+                }
+            )
+        })
     }
 
     /// The sums so far (closed windows).

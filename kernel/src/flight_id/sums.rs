@@ -65,11 +65,12 @@ impl<T: Copy> LagMoments<T> {
     /// [`LagMoments::filled`] written in place: every entry of `slot` set to `v` (no copy
     /// of the moments on the stack).
     pub fn fill_in_place(slot: &mut MaybeUninit<Self>, v: T) -> &mut Self {
-        fill3(field!(slot, zz), v);
-        fill3(field!(slot, zy), v);
-        fill3(field!(slot, yz), v);
-        fill2(field!(slot, yy), v);
-        assume_all_written!(slot, Self { zz, zy, yz, yy })
+        fill3(field!(slot, Self, zz), v);
+        fill3(field!(slot, Self, zy), v);
+        fill3(field!(slot, Self, yz), v);
+        fill2(field!(slot, Self, yy), v);
+        // SAFETY: every field was written just above.
+        unsafe { assume_all_written!(slot, Self { zz, zy, yz, yy }) }
     }
 
     /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)) by `mac(entry, a, b)`,
@@ -406,8 +407,8 @@ impl<R> RecentSums<R> {
     where
         R: Copy,
     {
-        let written: *const R = sums(field!(slot, sums));
-        let at = field!(slot, sums).as_mut_ptr();
+        let written: *const R = sums(field!(slot, Self, sums));
+        let at = field!(slot, Self, sums).as_mut_ptr();
         if !core::ptr::eq(written, at) {
             // `sums` returned other sums than its slot's (no implementation does): they are
             // copied in, so the slot is initialised whatever `sums` did.
@@ -415,8 +416,9 @@ impl<R> RecentSums<R> {
             // slot's field (writable, aligned); `copy` allows overlap.
             unsafe { core::ptr::copy(written, at, 1) };
         }
-        field!(slot, cursor).write(0);
-        assume_all_written!(slot, Self { sums, cursor })
+        field!(slot, Self, cursor).write(0);
+        // SAFETY: both fields were written just above (the sums by `sums` or the copy).
+        unsafe { assume_all_written!(slot, Self { sums, cursor }) }
     }
 
     /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
@@ -469,25 +471,28 @@ pub struct FlightSums<S> {
 impl<S: Scalar> FlightSums<S> {
     /// Empty sums written to `slot` in place (no copy of them on the stack).
     pub fn init_in_place(slot: &mut MaybeUninit<Self>) -> &mut Self {
-        LagMoments::fill_in_place(field!(slot, lag), S::ZERO);
-        fill2(field!(slot, czz), S::ZERO);
-        fill2(field!(slot, czy), S::ZERO);
-        fill(field!(slot, cyy), S::ZERO);
-        field!(slot, samples).write(0);
-        field!(slot, windows).write(0);
-        field!(slot, out_of_range).write(false);
-        assume_all_written!(
-            slot,
-            Self {
-                lag,
-                czz,
-                czy,
-                cyy,
-                samples,
-                windows,
-                out_of_range
-            }
-        )
+        LagMoments::fill_in_place(field!(slot, Self, lag), S::ZERO);
+        fill2(field!(slot, Self, czz), S::ZERO);
+        fill2(field!(slot, Self, czy), S::ZERO);
+        fill(field!(slot, Self, cyy), S::ZERO);
+        field!(slot, Self, samples).write(0);
+        field!(slot, Self, windows).write(0);
+        field!(slot, Self, out_of_range).write(false);
+        // SAFETY: every field was written just above.
+        unsafe {
+            assume_all_written!(
+                slot,
+                Self {
+                    lag,
+                    czz,
+                    czy,
+                    cyy,
+                    samples,
+                    windows,
+                    out_of_range
+                }
+            )
+        }
     }
 }
 

@@ -370,10 +370,13 @@ pub fn windows(flight: &Flight, min_len: usize, cut_at_changes: bool) -> Vec<(us
 /// integrates a window from its initial rate; a 3-D craft's gyroscopic coupling turns a small
 /// error of the model into a phase error that grows with the angle turned, until
 /// Gauss-Newton's linearisation fails (measured in [`super::MAX_TURN_3D_RAD`]'s note).
+/// No run is made shorter than `min_len` samples, and an interval that turns through several
+/// runs' worth (a rate spike) makes one cut, not one per run.
 pub fn split_turns(
     flight: &Flight,
     wins: &[(usize, usize)],
     max_turn_rad: f64,
+    min_len: usize,
 ) -> Vec<(usize, usize)> {
     let turn_of = |k: usize| {
         let r = flight.rate.at(k);
@@ -386,24 +389,29 @@ pub fn split_turns(
     };
     let mut out = Vec::with_capacity(wins.len());
     for &(s, e) in wins {
-        let total: f64 = (s..e - 1).map(turn_of).sum();
-        let pieces = if total > max_turn_rad && max_turn_rad > 0.0 {
-            ((total / max_turn_rad).ceil() as usize).clamp(1, e - s)
-        } else {
-            1
+        let last = e.saturating_sub(1).max(s);
+        let total: f64 = (s..last).map(turn_of).sum();
+        // Each run's share of the turn, planned again after every cut (so a spike taken by
+        // one run does not leave short runs behind it); infinite once the rest fits in one.
+        let share_of = |rest: f64| {
+            if rest > max_turn_rad && max_turn_rad > 0.0 {
+                rest / (rest / max_turn_rad).ceil()
+            } else {
+                f64::INFINITY
+            }
         };
+        let mut share = share_of(total);
         let mut start = s;
         let mut turned = 0.0;
-        let mut next_cut = 1;
-        for k in s..e - 1 {
+        let mut at_start = 0.0;
+        for k in s..last {
             turned += turn_of(k);
-            if next_cut < pieces && turned >= total * next_cut as f64 / pieces as f64 {
+            if turned - at_start >= share && k + 1 - start >= min_len && e - (k + 1) >= min_len {
                 // Sample k + 1 starts the next run; interval k -> k + 1 is left out.
-                if k + 1 > start {
-                    out.push((start, k + 1));
-                }
+                out.push((start, k + 1));
                 start = k + 1;
-                next_cut += 1;
+                at_start = turned;
+                share = share_of(total - turned);
             }
         }
         if e > start {
@@ -475,7 +483,7 @@ mod tests {
         let turn = |s: usize, e: usize| 2.0 * (f.time_s[e - 1] - f.time_s[s]);
         let wins = vec![(0, 50), (60, 1990)];
         let max = 0.6;
-        let split = split_turns(&f, &wins, max);
+        let split = split_turns(&f, &wins, max, 20);
         assert_eq!(split[0], (0, 50), "a short window is kept whole");
         assert!(split.len() > 2, "{split:?}");
         for w in split.windows(2) {
@@ -490,10 +498,41 @@ mod tests {
         assert_eq!(split[1].0, 60);
         assert_eq!(split.last().map(|w| w.1), Some(1990));
         assert_eq!(covered, 1990 - 60, "each cut drops an interval, no sample");
+        // As few runs as the limit allows: ceil(total turn / limit), no more.
+        let total = turn(60, 1990);
         assert_eq!(
-            split_turns(&f, &wins, 1e9),
+            split.len() - 1,
+            (total / max).ceil() as usize,
+            "{total} rad: {split:?}"
+        );
+        assert_eq!(
+            split_turns(&f, &wins, 1e9, 20),
             wins,
             "no split under the limit"
+        );
+    }
+
+    /// A rate spike worth several runs makes one cut; no run is shorter than the minimum, and
+    /// a NaN rate counts as no turn.
+    #[test]
+    fn a_rate_spike_makes_one_cut_and_no_short_runs() {
+        let mut f = samples::flight(2000, false);
+        for r in f.rate.rad_s_mut().unwrap().iter_mut() {
+            *r = [0.0, 0.0, 2.0];
+        }
+        f.rate.rad_s_mut().unwrap()[500] = [0.0, 0.0, 5000.0];
+        f.rate.rad_s_mut().unwrap()[900] = [0.0, 0.0, f64::NAN];
+        let split = split_turns(&f, &[(60, 1990)], 0.6, 20);
+        assert!(split.iter().all(|&(s, e)| e - s >= 20), "{split:?}");
+        let cuts_near_spike = split.iter().filter(|w| (495..=525).contains(&w.0)).count();
+        assert!(cuts_near_spike <= 1, "{split:?}");
+        assert_eq!(split.first().map(|w| w.0), Some(60));
+        assert_eq!(split.last().map(|w| w.1), Some(1990));
+        // Windows too short to split pass untouched; an empty one is dropped.
+        let short = [(0, 1), (1, 3), (3, 3), (4, 10)];
+        assert_eq!(
+            split_turns(&f, &short, 1e-9, 4),
+            vec![(0, 1), (1, 3), (4, 10)]
         );
     }
 

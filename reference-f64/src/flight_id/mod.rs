@@ -52,7 +52,7 @@ pub struct Options {
     /// (see [`identify`]).
     pub cut_rule: CutRule,
     /// Gauss-Newton steps per round of the noise-model fit, at most (3 rounds). A fit whose
-    /// last step is still over [`NOT_CONVERGED_STEP`] sigma has status `not_converged`.
+    /// next step would still be over [`NOT_CONVERGED_STEP`] sigma has status `not_converged`.
     pub max_steps_per_round: usize,
 }
 
@@ -186,35 +186,39 @@ fn solve_spd(m: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
         .or_else(|| m.clone().lu().solve(b))
 }
 
-/// Largest last Gauss-Newton step, in its term's sigma, of a fit reported as converged; past
-/// it the estimate is still moving and the status is `not_converged`.
+/// Largest Gauss-Newton step, in its term's sigma, still to take at a fit reported as
+/// converged; past it the estimate would still move and the status is `not_converged`.
 pub const NOT_CONVERGED_STEP: f64 = 0.1;
 
-/// Iterates Gauss-Newton steps and noise-model fits to convergence. Also gives the last
-/// step's largest size in sigma (below 1e-3 when the last round converged).
+/// The Gauss-Newton step at `normal`'s state and its largest size in the terms' sigmas. None
+/// when the information is singular or the step not finite.
+fn gauss_newton_step(normal: &Normal, nt: usize) -> Option<(DVector<f64>, f64)> {
+    let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
+    let delta = solve_spd(&ntt, &normal.score.rows(0, nt).into_owned())?;
+    let inv = ntt.try_inverse()?;
+    let size = (0..nt)
+        .map(|i| delta[i].abs() / inv[(i, i)].max(1e-300).sqrt())
+        .fold(0.0, f64::max);
+    size.is_finite().then_some((delta, size))
+}
+
+/// Iterates Gauss-Newton steps and noise-model fits to convergence. Also gives the size (in
+/// sigma) of the step still to take at the state returned: small when it converged.
 fn converge(problem: &Problem, state: &mut State, opts: &Options) -> Option<(Normal, f64)> {
     let nt = problem.terms.len();
-    let mut last_step = f64::INFINITY;
     for round in 0..3 {
-        for _ in 0..opts.max_steps_per_round.max(1) {
+        for _ in 0..opts.max_steps_per_round {
             let normal = problem.accumulate(state);
-            let ntt = normal.info.view((0, 0), (nt, nt)).into_owned();
-            let delta = solve_spd(&ntt, &normal.score.rows(0, nt).into_owned())?;
+            let (delta, size) = gauss_newton_step(&normal, nt)?;
             problem.apply_step(state, &normal, &delta);
-            let inv = ntt.try_inverse()?;
-            let rel = (0..nt)
-                .map(|i| delta[i].abs() / inv[(i, i)].max(1e-300).sqrt())
-                .fold(0.0, f64::max);
-            if !rel.is_finite() {
-                return None;
-            }
-            last_step = rel;
-            if rel < 1e-3 {
+            if size < 1e-3 {
                 break;
             }
         }
         if round == 2 {
-            return Some((problem.accumulate(state), last_step));
+            let normal = problem.accumulate(state);
+            let pending = gauss_newton_step(&normal, nt).map_or(f64::INFINITY, |(_, size)| size);
+            return Some((normal, pending));
         }
         for a in 0..3 {
             if problem.axes[a] {
@@ -260,7 +264,7 @@ pub fn identify(
     }
     let min_len = 20;
     let spans = |w: Vec<(usize, usize)>| match dynamics {
-        Dynamics::Full => split_turns(flight, &w, MAX_TURN_3D_RAD),
+        Dynamics::Full => split_turns(flight, &w, MAX_TURN_3D_RAD, min_len),
         Dynamics::Yaw => w,
     };
     let wins = spans(windows(flight, min_len, false));
@@ -288,7 +292,10 @@ pub fn identify(
         t.p_value < CUT_LEVEL && (opts.cut_rule == CutRule::AnyTest || t.name == "valve_timing")
     });
     if coarse && misfit {
-        let cut = spans(windows(flight, 4, true));
+        let cut = match dynamics {
+            Dynamics::Full => split_turns(flight, &windows(flight, 4, true), MAX_TURN_3D_RAD, 4),
+            Dynamics::Yaw => windows(flight, 4, true),
+        };
         if !cut.is_empty() {
             if let Ok(mut e) = identify_in(flight, sat, opts, dynamics, axes, &cut) {
                 e.command_timing_unknown = true;
@@ -381,7 +388,7 @@ fn identify_in(
     // Observability: pin (hold at the model) the least determined term until every free term
     // is determined within its physical scale.
     let mut pinned: Vec<Term> = Vec::new();
-    let (sensor, state, free, last_step) = loop {
+    let (sensor, state, free, pending_step) = loop {
         let free: Vec<Term> = terms
             .iter()
             .copied()
@@ -394,7 +401,7 @@ fn identify_in(
         for &sensor in &sensors {
             let problem = make_problem(sensor, free.clone(), Vec::new());
             let mut state = initial_state(sensor);
-            let Some((normal, last_step)) = converge(&problem, &mut state, opts) else {
+            let Some((normal, pending_step)) = converge(&problem, &mut state, opts) else {
                 continue;
             };
             // Gaussian log-likelihood per sample, and BIC's price for choosing a response other
@@ -416,10 +423,10 @@ fn identify_in(
                     0.5 * (n.max(1) as f64).ln()
                 };
             if best.as_ref().is_none_or(|b| loglik > b.0) {
-                best = Some((loglik, sensor, state, normal, last_step));
+                best = Some((loglik, sensor, state, normal, pending_step));
             }
         }
-        let Some((_, sensor, state, normal, last_step)) = best else {
+        let Some((_, sensor, state, normal, pending_step)) = best else {
             // Singular: pin the term with the least information and retry.
             let worst = free[free.len() - 1];
             pinned.push(worst);
@@ -444,7 +451,7 @@ fn identify_in(
         };
         match worst {
             Some(t) => pinned.push(t),
-            None => break (sensor, state, free, last_step),
+            None => break (sensor, state, free, pending_step),
         }
     };
 
@@ -639,12 +646,14 @@ fn identify_in(
     };
     let inconsistent = tests.iter().any(|t| t.p_value < opts.consistency_alpha);
     let only_planar_unobservable = unobservable.len() == not_planar.len();
+    // An estimate that would still move says so before what it implies: its validity and its
+    // score tests are evaluated away from the optimum.
     let status = if principal_j.iter().all(|r| r.abs() < 0.125) {
         "no_gyro_response"
+    } else if pending_step > NOT_CONVERGED_STEP {
+        "not_converged"
     } else if let Err(why) = physical_validity(sat, &com_offset_mm, &inertia) {
         why
-    } else if last_step > NOT_CONVERGED_STEP {
-        "not_converged"
     } else if inconsistent {
         "inconsistent"
     } else if !only_planar_unobservable {
@@ -691,7 +700,7 @@ pub fn cramer_rao_bound(
     if sat.planar {
         return Err(IdError::Invalid("the bound is for 3-D craft".into()));
     }
-    let wins = split_turns(flight, &windows(flight, 20, false), MAX_TURN_3D_RAD);
+    let wins = split_turns(flight, &windows(flight, 20, false), MAX_TURN_3D_RAD, 20);
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(20));
     }

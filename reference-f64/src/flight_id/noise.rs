@@ -206,6 +206,83 @@ mod whitener_tests {
             .collect()
     }
 
+    /// [`fit_order`] (its filtered series made as it reads, in chunks of [`Lags::CHUNK`]) is
+    /// the least squares over whole filtered series bit for bit: every order up to 12, three
+    /// moving-average values, stretches around the chunk length.
+    #[test]
+    fn fit_order_equals_the_whole_series_least_squares_bit_for_bit() {
+        let whole = |series: &[Vec<f64>], p: usize| -> Option<(ArNoise, usize)> {
+            let mut ata = DMatrix::<f64>::zeros(p, p);
+            let mut atb = DVector::<f64>::zeros(p);
+            let mut n = 0usize;
+            for s in series {
+                for k in p..s.len() {
+                    for i in 0..p {
+                        atb[i] += s[k - 1 - i] * s[k];
+                        for j in 0..p {
+                            ata[(i, j)] += s[k - 1 - i] * s[k - 1 - j];
+                        }
+                    }
+                    n += 1;
+                }
+            }
+            if n < 10 * (p + 1) {
+                return None;
+            }
+            let phi = if p == 0 {
+                DVector::zeros(0)
+            } else {
+                ata.lu().solve(&atb)?
+            };
+            let phi: Vec<f64> = phi.iter().copied().collect();
+            let ss: f64 = series
+                .iter()
+                .map(|s| ar_filter(&phi, s).iter().map(|e| e * e).sum::<f64>())
+                .sum();
+            Some((
+                ArNoise {
+                    phi,
+                    sigma2: ss / n as f64,
+                    ma: 0.0,
+                },
+                n,
+            ))
+        };
+        let mut x = 12345u64;
+        let mut rnd = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let series: Vec<Vec<f64>> = [5usize, 40, 4095, 4096, 4097, 4100, 8200, 13000, 3]
+            .iter()
+            .map(|&n| {
+                let mut prev = 0.0;
+                (0..n)
+                    .map(|_| {
+                        prev = 0.7 * prev + rnd();
+                        prev
+                    })
+                    .collect()
+            })
+            .collect();
+        for ma in [0.0, -0.6, 0.45] {
+            let filtered: Vec<Vec<f64>> = series.iter().map(|s| inverse_ma(ma, s)).collect();
+            for p in 0..=12 {
+                let want = whole(&filtered, p);
+                let got = fit_order(&series, ma, p);
+                let bits = |r: &Option<(ArNoise, usize)>| {
+                    r.as_ref().map(|(m, n)| {
+                        let phi: Vec<u64> = m.phi.iter().map(|v| v.to_bits()).collect();
+                        (phi, m.sigma2.to_bits(), *n)
+                    })
+                };
+                assert_eq!(bits(&want), bits(&got), "ma {ma} p {p}");
+            }
+        }
+    }
+
     /// The streaming whitener is the whole-series filter bit for bit, for several series at
     /// once, with and without a moving-average term, at every order the fit may choose.
     #[test]

@@ -686,7 +686,9 @@ fn identify_in(
 /// flight's commands and sampling, at the true inertia and CoM offset, with the rate noise
 /// `noise` per axis and each window's initial rate unknown: the inverse of the same profile
 /// information the fit uses, evaluated at the truth instead of at the estimate (the analytic
-/// half of the two-way check against finite differences through the simulator).
+/// half of the two-way check against finite differences through the simulator). Its windows
+/// are the fit's, split past [`MAX_TURN_3D_RAD`] as the fit's are: the bound of this
+/// estimator, which is the bound of the whole flight only below that turn.
 pub fn cramer_rao_bound(
     flight: &Flight,
     sat: &Satellite,

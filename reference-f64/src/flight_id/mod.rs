@@ -263,11 +263,15 @@ pub fn identify(
         }));
     }
     let min_len = 20;
-    let spans = |w: Vec<(usize, usize)>| match dynamics {
-        Dynamics::Full => split_turns(flight, &w, MAX_TURN_3D_RAD, min_len),
-        Dynamics::Yaw => w,
+    // The fit's windows: runs of samples, a 3-D craft's split by the angle turned.
+    let fit_windows = |min_len: usize, cut_at_changes: bool| {
+        let w = windows(flight, min_len, cut_at_changes);
+        match dynamics {
+            Dynamics::Full => split_turns(flight, &w, MAX_TURN_3D_RAD, min_len),
+            Dynamics::Yaw => w,
+        }
     };
-    let wins = spans(windows(flight, min_len, false));
+    let wins = fit_windows(min_len, false);
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(min_len));
     }
@@ -292,10 +296,7 @@ pub fn identify(
         t.p_value < CUT_LEVEL && (opts.cut_rule == CutRule::AnyTest || t.name == "valve_timing")
     });
     if coarse && misfit {
-        let cut = match dynamics {
-            Dynamics::Full => split_turns(flight, &windows(flight, 4, true), MAX_TURN_3D_RAD, 4),
-            Dynamics::Yaw => windows(flight, 4, true),
-        };
+        let cut = fit_windows(4, true);
         if !cut.is_empty() {
             if let Ok(mut e) = identify_in(flight, sat, opts, dynamics, axes, &cut) {
                 e.command_timing_unknown = true;

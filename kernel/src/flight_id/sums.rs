@@ -15,6 +15,7 @@
 //! sample carries a whole fold (the M4F tick budget).
 
 use core::mem::MaybeUninit;
+use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
@@ -83,7 +84,7 @@ impl<T: Copy> LagMoments<T> {
         l: usize,
         now: &Sample<A>,
         then: &Sample<A>,
-        mac: impl Fn(&mut T, A, A),
+        mac: impl Fn(&mut T, A, A) + Copy,
     ) {
         let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
             self.zz.get_mut(l),
@@ -93,32 +94,147 @@ impl<T: Copy> LagMoments<T> {
         ) else {
             return;
         };
-        for (i, (row, zi)) in zz.iter_mut().zip(now.z.iter()).enumerate() {
-            // Lag 0: the upper triangle only (from column i on).
-            let from = if l == 0 { i } else { 0 };
-            let (Some(dst), Some(src)) = (row.get_mut(from..), then.z.get(from..)) else {
-                continue;
-            };
-            for (m, zj) in dst.iter_mut().zip(src) {
-                mac(m, *zi, *zj);
-            }
-        }
-        for (((zya, yza), yya), (yn, yt)) in zy
-            .iter_mut()
-            .zip(yz.iter_mut())
-            .zip(yy.iter_mut())
-            .zip(now.y.iter().zip(then.y.iter()))
-        {
-            for (m, zi) in zya.iter_mut().zip(now.z.iter()) {
-                mac(m, *zi, *yt);
-            }
-            if l > 0 {
-                for (m, zj) in yza.iter_mut().zip(then.z.iter()) {
-                    mac(m, *yn, *zj);
+        if l == 0 {
+            // Lag 0: the upper triangle only (row i from column i on).
+            add_upper(zz, &now.z, &then.z, mac);
+        } else {
+            // Two rows at a time ([`add_rows`]).
+            for (rows, a) in zz.chunks_exact_mut(2).zip(now.z.chunks_exact(2)) {
+                if let (Ok(rows), Ok(a)) =
+                    (<&mut [[T; NZ]; 2]>::try_from(rows), <[A; 2]>::try_from(a))
+                {
+                    add_rows(rows, a, &then.z, mac);
                 }
             }
-            mac(yya, *yn, *yt);
         }
+        // `zy[a][i]` takes `z_k[i] y_(k-l)[a]`: the three axes' rows, the axis' `y` the row's
+        // operand (the product's operands in the same order).
+        add_axes(zy, then.y, &now.z, move |m, y, z| mac(m, z, y));
+        if l > 0 {
+            add_axes(yz, now.y, &then.z, mac);
+        }
+        for ((m, yn), yt) in yy.iter_mut().zip(now.y).zip(then.y) {
+            mac(m, yn, yt);
+        }
+    }
+}
+
+/// `rows[r][j]` takes the product `a[r] b[j]` (by `mac(entry, a[r], b[j])`) for every row `r`
+/// and column `j`: column by column, each column's `b[j]` loaded once for the rows and the
+/// rows' `a` held in registers. Not inlined, so that the rows' offsets from their first entry
+/// are small (on the M4F one `ldrd`, `smlal`, `strd` per product, not two loads and two stores
+/// at offsets computed from the whole moments' start); the compiler fence (no instruction)
+/// keeps one column's loads, products and stores together, which spared the compiler's
+/// scheduling from spilling the operands (measured: a tenth fewer instructions).
+#[inline(never)]
+fn add_rows<T, A: Copy, const K: usize>(
+    rows: &mut [[T; NZ]; K],
+    a: [A; K],
+    b: &[A; NZ],
+    mac: impl Fn(&mut T, A, A),
+) {
+    match (rows.as_mut_slice(), a.as_slice()) {
+        ([r0, r1], &[a0, a1]) => {
+            for ((m0, m1), bj) in r0.iter_mut().zip(r1.iter_mut()).zip(b) {
+                mac(m0, a0, *bj);
+                mac(m1, a1, *bj);
+                compiler_fence(Ordering::SeqCst);
+            }
+        }
+        ([r0, r1, r2], &[a0, a1, a2]) => {
+            for (((m0, m1), m2), bj) in r0.iter_mut().zip(r1.iter_mut()).zip(r2.iter_mut()).zip(b) {
+                mac(m0, a0, *bj);
+                mac(m1, a1, *bj);
+                mac(m2, a2, *bj);
+                compiler_fence(Ordering::SeqCst);
+            }
+        }
+        ([r0], &[a0]) => {
+            for (m0, bj) in r0.iter_mut().zip(b) {
+                mac(m0, a0, *bj);
+                compiler_fence(Ordering::SeqCst);
+            }
+        }
+        (rows, a) => {
+            for (row, ar) in rows.iter_mut().zip(a) {
+                for (m, bj) in row.iter_mut().zip(b) {
+                    mac(m, *ar, *bj);
+                }
+            }
+        }
+    }
+}
+
+/// [`add_rows`] for the three axes' rows: at once in `f32`; two, then one, for wider sums (the
+/// fixed kernel's `i64`: three at a time spilled the operands on the M4F).
+#[inline(always)]
+fn add_axes<T, A: Copy>(
+    rows: &mut [[T; NZ]; 3],
+    [a0, a1, a2]: [A; 3],
+    b: &[A; NZ],
+    mac: impl Fn(&mut T, A, A) + Copy,
+) {
+    if core::mem::size_of::<T>() <= 4 {
+        add_rows(rows, [a0, a1, a2], b, mac);
+    } else if let Some((pair, [last])) = rows.split_first_chunk_mut::<2>() {
+        add_rows(pair, [a0, a1], b, mac);
+        add_rows(core::array::from_mut(last), [a2], b, mac);
+    }
+}
+
+/// Lag 0's upper triangle, `zz[i][j]` for `i <= j` taking `a[i] b[j]`: by row pairs
+/// ([`add_rows_from`]), each pair's first column a constant (with the first column a run-time
+/// argument, the loop's prologue and remainder made the triangle 1,140 instructions a sample on
+/// the M4F instead of about 630).
+#[inline(always)]
+fn add_upper<T, A: Copy>(
+    zz: &mut [[T; NZ]; NZ],
+    a: &[A; NZ],
+    b: &[A; NZ],
+    mac: impl Fn(&mut T, A, A) + Copy,
+) {
+    let mut pairs = zz.chunks_exact_mut(2).zip(a.chunks_exact(2));
+    macro_rules! pairs {
+        ($($from:literal)*) => {$(
+            if let Some((rows, a)) = pairs.next() {
+                if let (Ok(rows), Ok(a)) =
+                    (<&mut [[T; NZ]; 2]>::try_from(rows), <[A; 2]>::try_from(a))
+                {
+                    add_rows_from::<T, A, $from>(rows, a, b, mac);
+                }
+            }
+        )*};
+    }
+    pairs!(0 2 4 6 8 10 12 14 16);
+}
+// The pairs listed in `add_upper` (and `add_pair_by`'s row pairs cover every row).
+const _: () = assert!(NZ == 18);
+
+/// [`add_rows`] for two rows of lag 0's upper triangle: row 0 from column `FROM` on, row 1
+/// from column `FROM + 1` on.
+#[inline(never)]
+fn add_rows_from<T, A: Copy, const FROM: usize>(
+    [r0, r1]: &mut [[T; NZ]; 2],
+    [a0, a1]: [A; 2],
+    b: &[A; NZ],
+    mac: impl Fn(&mut T, A, A),
+) {
+    let (Some(d0), Some(d1), Some(src)) = (r0.get_mut(FROM..), r1.get_mut(FROM..), b.get(FROM..))
+    else {
+        return;
+    };
+    let (Some((h0, d0)), Some((_, d1)), Some((hb, src))) = (
+        d0.split_first_mut(),
+        d1.split_first_mut(),
+        src.split_first(),
+    ) else {
+        return;
+    };
+    mac(h0, a0, *hb);
+    for ((m0, m1), bj) in d0.iter_mut().zip(d1.iter_mut()).zip(src) {
+        mac(m0, a0, *bj);
+        mac(m1, a1, *bj);
+        compiler_fence(Ordering::SeqCst);
     }
 }
 

@@ -210,13 +210,12 @@ impl Recent<IntFloat> for ExactMoments {
     }
 
     fn accumulate(sum: &mut Sample<i64>, item: &Sample<i32>) {
-        // |q| < 2^27 and a window has fewer than 2^32 samples: no wrap.
-        for (s, q) in sum
-            .z
-            .iter_mut()
-            .chain(sum.y.iter_mut())
-            .zip(item.z.iter().chain(item.y.iter()))
-        {
+        // |q| < 2^27 and a window has fewer than 2^32 samples: no wrap. Two plain loops (a
+        // chained iterator compiled to about 19 instructions a component on the M4F).
+        for (s, q) in sum.z.iter_mut().zip(&item.z) {
+            *s = s.wrapping_add(i64::from(*q));
+        }
+        for (s, q) in sum.y.iter_mut().zip(&item.y) {
             *s = s.wrapping_add(i64::from(*q));
         }
     }

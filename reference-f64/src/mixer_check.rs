@@ -136,14 +136,14 @@ pub fn check(
     }
 }
 
-/// The CoM estimate must lie inside the craft: the box of its thruster positions (`Satellite::thruster_box_m`,
-/// the envelope `mass_id::physical_validity` checks too). `Err` says where it is and where the box is.
+/// The CoM estimate must lie inside the craft: [`Satellite::hull_box_m`], the envelope
+/// `mass_id::physical_validity` checks too. `Err` says where it is and where the box is.
 pub fn com_inside(sat: &Satellite, com_m: &Vector3<f64>) -> Result<(), String> {
-    let (lo, hi) = sat.thruster_box_m();
+    let (lo, hi) = sat.hull_box_m();
     for a in 0..3 {
         if !(com_m[a].is_finite() && lo[a] <= com_m[a] && com_m[a] <= hi[a]) {
             return Err(format!(
-                "CoM {:.1} mm on {} is outside the craft (thrusters span {:.1} .. {:.1} mm)",
+                "CoM {:.1} mm on {} is outside the craft (its hull spans {:.1} .. {:.1} mm)",
                 com_m[a] * 1e3,
                 ["x", "y", "z"][a],
                 lo[a] * 1e3,

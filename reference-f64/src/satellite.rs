@@ -508,18 +508,27 @@ impl Satellite {
         Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
     }
 
-    /// The craft's envelope for CoM checks: the box of the thruster positions (they sit on the
-    /// hull), low and high corner, m from the geometric centre.
-    pub fn thruster_box_m(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
+    /// The craft's envelope for CoM checks, low and high corner, m from the geometric centre.
+    /// The thrusters sit on the hull and their positions are from its centre, so the hull
+    /// reaches as far on each side of the centre as the farthest thruster along that axis
+    /// (not only the box of the thrusters themselves: a craft whose thrusters all sit on its
+    /// aft face has a flat thruster box that no CoM lies in). Along an axis no thruster is off
+    /// the centre on (a ring of thrusters in one plane) the hull's extent is unknown, and the
+    /// farthest thruster's distance bounds it, as `check_plausible` bounds `com_offset_mm`.
+    pub fn hull_box_m(&self) -> ([f64; 3], [f64; 3]) {
+        let radius = self
+            .thruster_pos_m
+            .iter()
+            .map(|p| Vector3::from(*p).norm())
+            .fold(0.0, f64::max);
+        let mut half = [0.0f64; 3];
         for p in &self.thruster_pos_m {
             for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
+                half[a] = half[a].max(p[a].abs());
             }
         }
-        (lo, hi)
+        let half = half.map(|h| if h > 0.0 { h } else { radius });
+        (half.map(|h| -h), half)
     }
 
     /// Each thruster's relative thrust uncertainty (`thrust_sigma_n / thrust_n`); empty when
@@ -625,6 +634,37 @@ impl Satellite {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_hull_box_holds_the_centre_of_a_craft_with_thrusters_on_one_face() {
+        let mut s = Satellite::builtin("sph2").unwrap();
+        let (lo, hi) = s.hull_box_m();
+        for a in 0..3 {
+            assert!(
+                lo[a] < -0.05 && hi[a] > 0.05,
+                "sph2 axis {a}: {lo:?} {hi:?}"
+            );
+        }
+        // Every thruster on the +z face: the thrusters' own box is flat at z = 0.1 m, the hull
+        // reaches -0.1 m as well.
+        for p in &mut s.thruster_pos_m {
+            p[2] = 0.1;
+        }
+        let (lo, hi) = s.hull_box_m();
+        assert_eq!((lo[2], hi[2]), (-0.1, 0.1));
+        // A ring in the z = 0 plane: z bounded by the farthest thruster's distance.
+        for p in &mut s.thruster_pos_m {
+            p[2] = 0.0;
+        }
+        let r = s
+            .thruster_pos_m
+            .iter()
+            .map(|p| Vector3::from(*p).norm())
+            .fold(0.0, f64::max);
+        let (lo, hi) = s.hull_box_m();
+        assert_eq!((lo[2], hi[2]), (-r, r));
+        assert!(r > 0.05);
+    }
 
     #[test]
     fn every_builtin_is_valid_and_named() {

@@ -154,11 +154,12 @@ fn stated_thrust_uncertainty_covers_drawn_thrust_errors() {
     sat.thrust_sigma_n = sat.thrust_n.iter().map(|f| THRUST_SPREAD * f).collect();
     sat.validate().expect("model with thrust_sigma_n");
     let n = sat.n_thrusters();
-    let with = Options {
-        thrust_sigma_rel: sat.thrust_sigma_rel(),
-        ..Default::default()
+    // The model states the spread; the same model without it is the control.
+    let without_sat = Satellite {
+        thrust_sigma_n: Vec::new(),
+        ..sat.clone()
     };
-    let without = Options::default();
+    let opts = Options::default();
     // [stated, not stated] x [Ixx Iyy Izz]: flights within 2 sigma; flights scored.
     let mut in2 = [[0u32; 3]; 2];
     let mut scored = [[0u32; 3]; 2];
@@ -175,8 +176,8 @@ fn stated_thrust_uncertainty_covers_drawn_thrust_errors() {
             vec![Effect::ThrustScale(ThrustScale { scale })],
         );
         let mut line = format!("[coverage] seed {seed}");
-        for (k, opts) in [&with, &without].into_iter().enumerate() {
-            let e = identify(&flight, &sat, opts).expect("identify");
+        for (k, model) in [&sat, &without_sat].into_iter().enumerate() {
+            let e = identify(&flight, model, &opts).expect("identify");
             statuses[k].push(e.status);
             let mut zs = [0.0; 3];
             for a in 0..3 {

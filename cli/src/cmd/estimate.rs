@@ -97,7 +97,7 @@ impl Args {
         Text::beside_json(self.json.as_deref())
     }
 
-    fn flight_options(&self, sat: &Satellite) -> anyhow::Result<FlightOptions> {
+    fn flight_options(&self) -> anyhow::Result<FlightOptions> {
         if !(self.latency_ms.is_finite() && (0.0..=10_000.0).contains(&self.latency_ms)) {
             bail!("--latency-ms {}: must be in 0..=10000", self.latency_ms);
         }
@@ -106,7 +106,6 @@ impl Args {
             sensor: parse_sensor(&self.sensor)?,
             disturbance: self.disturbance,
             damping: self.damping,
-            thrust_sigma_rel: sat.thrust_sigma_rel(),
             ..FlightOptions::default()
         })
     }
@@ -495,7 +494,7 @@ fn output_error(
     kernels: &[Kernel],
     source: &str,
 ) -> anyhow::Result<Vec<(Kernel, Value)>> {
-    let opts = args.flight_options(sat)?;
+    let opts = args.flight_options()?;
     let out = args.text();
     let mut reference: Option<FlightEstimate> = None;
     let reference_of = |reference: &mut Option<FlightEstimate>| -> anyhow::Result<FlightEstimate> {

@@ -23,16 +23,18 @@ pub struct ScoreTest {
 const MIN_RESIDUAL_SHARE: f64 = 1e-3;
 
 /// The score test of the columns `z` given the fitted columns `t` of one normal-equation set.
-/// `prior_var[i]` is the variance the model states for the coefficient of column `z[i]` (a
-/// thruster's relative thrust uncertainty): the score's covariance is then `V + V P V` rather
-/// than `V`, so deviations within the stated uncertainty are not called inconsistent.
+/// `consider` lists columns held at the model whose coefficients have a stated variance (a
+/// thruster's relative thrust uncertainty, a pinned term's scale): their errors move the
+/// score too, so its covariance is `V + W S W^T` rather than `V`, with `W` the columns'
+/// cross-information with `z` after the fitted terms (`V` itself for a column of `z`).
+/// Deviations within the stated uncertainties are then not called inconsistent.
 pub fn score_test(
     name: &'static str,
     info: &DMatrix<f64>,
     score: &DVector<f64>,
     t: &[usize],
     z: &[usize],
-    prior_var: &[f64],
+    consider: &[(usize, f64)],
 ) -> Option<ScoreTest> {
     let ntt = DMatrix::from_fn(t.len(), t.len(), |i, j| info[(t[i], t[j])]);
     let ntz = DMatrix::from_fn(t.len(), z.len(), |i, j| info[(t[i], z[j])]);
@@ -41,14 +43,42 @@ pub fn score_test(
     let st = DVector::from_fn(t.len(), |i, _| score[t[i]]);
     let ntt_inv = ntt.clone().try_inverse()?;
     let v0 = &nzz - ntz.transpose() * &ntt_inv * &ntz;
-    let p = DMatrix::from_fn(z.len(), z.len(), |i, j| {
-        if i == j {
-            prior_var.get(i).copied().unwrap_or(0.0)
-        } else {
-            0.0
-        }
-    });
-    let v = &v0 + &v0 * p * &v0;
+    // The considered columns in `z` (a prior on a tested coefficient), then those outside it.
+    let in_z: Vec<(usize, f64)> = consider
+        .iter()
+        .filter_map(|&(c, var)| z.iter().position(|&zc| zc == c).map(|i| (i, var)))
+        .collect();
+    let outside: Vec<(usize, f64)> = consider
+        .iter()
+        .copied()
+        .filter(|(c, var)| !z.contains(c) && !t.contains(c) && *var > 0.0)
+        .collect();
+    let mut v = v0.clone();
+    if !in_z.is_empty() {
+        let p = DMatrix::from_fn(z.len(), z.len(), |i, j| {
+            if i == j {
+                in_z.iter()
+                    .find(|(k, _)| *k == i)
+                    .map_or(0.0, |(_, var)| *var)
+            } else {
+                0.0
+            }
+        });
+        v += &v0 * p * &v0;
+    }
+    if !outside.is_empty() {
+        let ntc = DMatrix::from_fn(t.len(), outside.len(), |i, k| info[(t[i], outside[k].0)]);
+        let nzc = DMatrix::from_fn(z.len(), outside.len(), |i, k| info[(z[i], outside[k].0)]);
+        let w = nzc - ntz.transpose() * &ntt_inv * ntc;
+        let s2 = DMatrix::from_fn(outside.len(), outside.len(), |a, b| {
+            if a == b {
+                outside[a].1
+            } else {
+                0.0
+            }
+        });
+        v += &w * s2 * w.transpose();
+    }
     let s = &sz - ntz.transpose() * &ntt_inv * st;
     // Normalise by each direction's own information; keep directions with enough left.
     let d: Vec<f64> = (0..z.len()).map(|i| nzz[(i, i)]).collect();
@@ -181,7 +211,28 @@ mod tests {
         assert_eq!(t.dof, 1);
         assert!((t.statistic - 9.0).abs() < 1e-9);
         // A stated prior variance of 1 on that direction: score variance 1 + 1 = 2.
-        let t = score_test("x", &info, &score, &[0], &[1, 2], &[0.0, 1.0]).unwrap();
+        let t = score_test("x", &info, &score, &[0], &[1, 2], &[(2, 1.0)]).unwrap();
         assert!((t.statistic - 4.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_considered_column_outside_the_test_widens_its_covariance() {
+        // Column 2 (tested) and column 3 (held, variance 1) share information 1: the score of
+        // column 2 varies by 1 (noise) + 1 * 1 * 1 (column 3's error), so 3^2 / 2.
+        let info = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                4.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0,
+            ],
+        );
+        let score = DVector::from_row_slice(&[0.0, 0.0, 3.0, 0.0]);
+        let plain = score_test("x", &info, &score, &[0, 1], &[2], &[]).unwrap();
+        assert!((plain.statistic - 9.0).abs() < 1e-9);
+        let t = score_test("x", &info, &score, &[0, 1], &[2], &[(3, 1.0)]).unwrap();
+        assert!((t.statistic - 4.5).abs() < 1e-9, "{}", t.statistic);
+        // A fitted column is not a held one: listing it changes nothing.
+        let t = score_test("x", &info, &score, &[0, 1], &[2], &[(1, 5.0)]).unwrap();
+        assert!((t.statistic - 9.0).abs() < 1e-9);
     }
 }

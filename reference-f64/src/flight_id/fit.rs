@@ -8,8 +8,38 @@
 use super::flight::Flight;
 use super::intervals::{Interval, Intervals, Wrench};
 use super::noise::{ArNoise, Whitener};
-use super::rigid::{Rigid, Term, TrajectoryTerms};
+use super::rigid::{Dynamics, Rigid, Term, TrajectoryTerms};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+/// Largest angle (rad) a 3-D craft turns in one step of the fit's integration. Heun's
+/// trapezoid for the gyroscopic term errs by about `(omega dt)^3` per step, which a long,
+/// fast-turning flight sees: a random 3-D craft spinning at 10.7 rad/s sampled at 250 Hz
+/// (0.043 rad a sample; `random_craft_flights 3d-many 1 60021`) came out `inconsistent`
+/// with its inertia 3-4 sigma off. At 1 kHz this leaves craft turning below 2.5 rad/s, and
+/// so every SPHERES maneuver, at one step a sample.
+pub const MAX_STEP_TURN_RAD: f64 = 2.5e-3;
+
+/// Most substeps of one interval (the cost of a sample grows with them).
+pub const MAX_SUBSTEPS: usize = 64;
+
+/// Substeps for an interval of `dt` s starting at the measured rate `measured` (axes not
+/// measured are NaN; the model's rate `model` stands in when none is): enough that each
+/// turns through at most [`MAX_STEP_TURN_RAD`]. From the data, so that the model does not
+/// change its steps while the fit moves.
+fn substeps(measured: &[f64; 3], model: &Vector3<f64>, dt: f64) -> usize {
+    let finite: Vec<f64> = measured.iter().copied().filter(|v| v.is_finite()).collect();
+    let rate = if finite.is_empty() {
+        model.norm()
+    } else {
+        finite.iter().map(|v| v * v).sum::<f64>().sqrt()
+    };
+    let m = (rate * dt / MAX_STEP_TURN_RAD).ceil();
+    if m.is_finite() && m > 1.0 {
+        (m as usize).min(MAX_SUBSTEPS)
+    } else {
+        1
+    }
+}
 
 /// How the measured rate relates to the body rate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -205,8 +235,9 @@ impl Problem<'_> {
 
     /// Integrates window `w` from its initial rate with its sensitivities (columns: terms,
     /// extras, initial rates of the measured axes), handing each sample's model rate and
-    /// sensitivities to `each` in order. Heun's trapezoid for the gyroscopic and damping terms;
-    /// the sensitivities follow the variational equation, so the initial rates and the
+    /// sensitivities to `each` in order. Heun's trapezoid for the gyroscopic and damping terms,
+    /// in [`substeps`] equal parts of an interval where the craft turns fast; the
+    /// sensitivities follow the variational equation, so the initial rates and the
     /// parameters act on every axis through the gyroscopic coupling as they do on the craft.
     /// Without `with_sensitivities` they stay at their start (the rates are the same).
     fn propagate(
@@ -233,29 +264,37 @@ impl Problem<'_> {
             if k + 1 == e {
                 break;
             }
-            let iv = &self.intervals.at(k);
-            let euler = TrajectoryTerms::trapezoid(&wk, &wk, i_gyro, iv.dt);
-            let predicted = wk + rigid.increment(iv, &euler);
-            let tr = TrajectoryTerms::trapezoid(&wk, &predicted, i_gyro, iv.dt);
-            let delta = rigid.increment(iv, &tr);
-            if !with_sensitivities {
-                wk += delta;
-                continue;
-            }
-            direct.iter_mut().for_each(|d| *d = Vector3::zeros());
-            rigid.add_sensitivities(&self.terms, iv, &tr, iei, &mut direct[..nt]);
-            for (x, extra) in self.extras.iter().enumerate() {
-                direct[nt + x] = self.extra_response(rigid, *extra, iv, &tr, iei);
-            }
-            let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), i_gyro, iv.dt);
-            let propagated = a_k * &sk;
-            sk += propagated;
-            for (col, d) in direct.iter().enumerate() {
-                for r in 0..3 {
-                    sk[(r, col)] += d[r];
+            let whole = self.intervals.at(k);
+            let m = match rigid.dynamics {
+                Dynamics::Full => substeps(&self.flight.rate.at(k), &wk, whole.dt),
+                Dynamics::Yaw => 1,
+            };
+            let part = if m == 1 { whole } else { whole.part(m) };
+            let iv = &part;
+            for _ in 0..m {
+                let euler = TrajectoryTerms::trapezoid(&wk, &wk, i_gyro, iv.dt);
+                let predicted = wk + rigid.increment(iv, &euler);
+                let tr = TrajectoryTerms::trapezoid(&wk, &predicted, i_gyro, iv.dt);
+                let delta = rigid.increment(iv, &tr);
+                if !with_sensitivities {
+                    wk += delta;
+                    continue;
                 }
+                direct.iter_mut().for_each(|d| *d = Vector3::zeros());
+                rigid.add_sensitivities(&self.terms, iv, &tr, iei, &mut direct[..nt]);
+                for (x, extra) in self.extras.iter().enumerate() {
+                    direct[nt + x] = self.extra_response(rigid, *extra, iv, &tr, iei);
+                }
+                let a_k = rigid.rate_jacobian(&(0.5 * (wk + predicted)), i_gyro, iv.dt);
+                let propagated = a_k * &sk;
+                sk += propagated;
+                for (col, d) in direct.iter().enumerate() {
+                    for r in 0..3 {
+                        sk[(r, col)] += d[r];
+                    }
+                }
+                wk += delta;
             }
-            wk += delta;
         }
     }
 
@@ -414,7 +453,9 @@ impl Problem<'_> {
 
     /// Applies the Gauss-Newton step `delta` (one entry per term) and the matching initial
     /// rates.
-    pub fn apply_step(&self, state: &mut State, normal: &Normal, delta: &DVector<f64>) {
+    /// Moves the state by `alpha` times the Gauss-Newton step `delta` (the initial rates by
+    /// `alpha` times the step that goes with it).
+    pub fn apply_step(&self, state: &mut State, normal: &Normal, delta: &DVector<f64>, alpha: f64) {
         let nt = self.terms.len();
         let used: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
         for (w, sums) in normal.nuisance.iter().enumerate() {
@@ -422,12 +463,12 @@ impl Problem<'_> {
                 let dx = s.nx.columns(0, nt) * delta;
                 let d0 = &s.nn_inv * (&s.gn - dx);
                 for (j, &a) in used.iter().enumerate() {
-                    state.omega0[w][a] += d0[j];
+                    state.omega0[w][a] += alpha * d0[j];
                 }
             }
         }
         for (i, t) in self.terms.iter().enumerate() {
-            state.rigid.step(*t, delta[i]);
+            state.rigid.step(*t, alpha * delta[i]);
         }
     }
 }
@@ -530,7 +571,7 @@ mod tests {
         for _ in 0..8 {
             let normal = p.accumulate(&st);
             let delta = normal.info.clone().lu().solve(&normal.score).unwrap();
-            p.apply_step(&mut st, &normal, &delta);
+            p.apply_step(&mut st, &normal, &delta, 1.0);
         }
         assert!(
             (st.omega0[0] - Vector3::new(0.5, -0.4, 0.3)).norm() < 1e-9,

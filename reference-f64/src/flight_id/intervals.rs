@@ -19,6 +19,13 @@ impl Wrench {
         self.torque += other.torque * s;
         self.force += other.force * s;
     }
+
+    fn scaled(&self, s: f64) -> Wrench {
+        Wrench {
+            torque: self.torque * s,
+            force: self.force * s,
+        }
+    }
 }
 
 /// What one interval between consecutive samples delivered, with the latency applied.
@@ -35,6 +42,21 @@ pub struct Interval {
     pub open_edges: Wrench,
     /// The same for closing edges (plus the closing thrusters' wrench).
     pub close_edges: Wrench,
+}
+
+impl Interval {
+    /// One of `m` equal parts of the interval, the wrench spread evenly over it (for substeps
+    /// of the integration; the parts add up to the interval's integrals).
+    pub fn part(&self, m: usize) -> Interval {
+        let s = 1.0 / m as f64;
+        Interval {
+            dt: self.dt * s,
+            impulse: self.impulse.scaled(s),
+            thruster_impulse: self.thruster_impulse.map(|v| v * s),
+            open_edges: self.open_edges.scaled(s),
+            close_edges: self.close_edges.scaled(s),
+        }
+    }
 }
 
 /// A thruster's wrench per newton of its thrust: `(lever x dir, dir)`.

@@ -183,6 +183,24 @@ impl Rigid {
         std::array::from_fn(|m| i * sym_basis(m) * i)
     }
 
+    /// These values with `terms` taken from `other`.
+    pub fn with_terms_of(&self, other: &Rigid, terms: &[Term]) -> Rigid {
+        let mut out = *self;
+        for &t in terms {
+            match t {
+                Term::InvInertia(m) => {
+                    let (r, c) = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)][m];
+                    out.j[(r, c)] = other.j[(r, c)];
+                    out.j[(c, r)] = other.j[(c, r)];
+                }
+                Term::Com(a) => out.dc[a] = other.dc[a],
+                Term::Disturbance(a) => out.d[a] = other.d[a],
+                Term::Damping => out.b = other.b,
+            }
+        }
+        out
+    }
+
     /// Adds `delta` to a term.
     pub fn step(&mut self, term: Term, delta: f64) {
         match term {

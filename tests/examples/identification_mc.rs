@@ -16,6 +16,7 @@ fn main() {
     let cells: Vec<Condition> = grid()
         .into_iter()
         .chain(craft_grid())
+        .chain(random_craft_grid())
         .filter(|c| c.label().contains(&filter))
         .collect();
     println!("{MARKDOWN_HEADER}");

@@ -4,6 +4,7 @@
 //! with white noise differenced over one sample), open and closed loop. Each flight's error is
 //! divided by its reported standard error: bias in sigma, RMS error/sigma, 1- and 2-sigma
 //! coverage, share of status `ok`.
+use crate::random_craft::{self, CraftClass};
 use massid_sim::{simulate, Maneuver, SimSpec};
 use reference_f64::flight_id::flight::{Command, Flight};
 use reference_f64::flight_id::{identify, FlightEstimate, Options};
@@ -38,6 +39,9 @@ pub enum Condition {
         maneuver: Maneuver,
         rate_hz: f64,
     },
+    /// A craft drawn at random for each flight (`random_craft`): its geometry, thrusters,
+    /// mass properties, the truth's departure from its model, the maneuver, rate and noise.
+    RandomCraft(CraftClass),
 }
 
 impl Condition {
@@ -69,6 +73,7 @@ impl Condition {
                 maneuver,
                 rate_hz,
             } => format!("craft {model} {} {rate_hz} Hz", maneuver.name()),
+            Condition::RandomCraft(class) => class.label(),
         }
     }
 }
@@ -130,6 +135,19 @@ pub fn fly(cond: &Condition, seed: u64) -> Simulated {
                 flight,
                 model: sat,
                 truth,
+            }
+        }
+        Condition::RandomCraft(class) => {
+            let drawn = random_craft::draw(class, seed);
+            let out = simulate(&drawn.spec).expect("simulation");
+            let flight = match &out.rate_recording {
+                Some(r) => Flight::from_v2(r),
+                None => Flight::from_v1(&out.recording, &drawn.model),
+            };
+            Simulated {
+                flight,
+                model: drawn.model,
+                truth: drawn.truth,
             }
         }
     }
@@ -575,6 +593,25 @@ pub fn craft_grid() -> Vec<Condition> {
         }
     }
     out
+}
+
+/// Craft nobody developed on (`random_craft`): 3-D with few (1-4), some (5-8) and many (9-16)
+/// thrusters, planar with a gyro and with motion-capture rates.
+pub fn random_craft_grid() -> Vec<Condition> {
+    let class = |planar, thrusters, mocap| {
+        Condition::RandomCraft(CraftClass {
+            planar,
+            thrusters,
+            mocap,
+        })
+    };
+    vec![
+        class(false, (1, 4), false),
+        class(false, (5, 8), false),
+        class(false, (9, 16), false),
+        class(true, (1, 16), false),
+        class(true, (1, 16), true),
+    ]
 }
 
 /// Whether a cell meets the bars: |bias| <= 0.3 sigma, RMS error/sigma in

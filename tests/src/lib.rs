@@ -17,3 +17,4 @@ pub mod coverage;
 pub mod crlb;
 pub mod identification_mc;
 pub mod planted_faults;
+pub mod random_craft;

@@ -1,8 +1,9 @@
 //! One line per flight of a random-craft cell (`massid_tests::random_craft`): the craft, the
 //! flight, the status and each scored term's error in sigma, to see which flights a cell's
 //! figures come from:
-//! `cargo run --release -p massid-tests --example random_craft_flights -- CLASS FLIGHTS SEED0`
-//! (CLASS: 3d-few, 3d-some, 3d-many, planar, planar-mocap).
+//! `cargo run --release -p massid-tests --example random_craft_flights -- CLASS FLIGHTS SEED0
+//! [detail]` (CLASS: 3d-few, 3d-some, 3d-many, planar, planar-mocap; `detail`: the estimate,
+//! truth and model of every flight, not only of those not `ok`).
 use massid_tests::identification_mc::{estimate_with, fly, Condition, Implementation, TERMS};
 use massid_tests::random_craft::{draw, CraftClass};
 use reference_f64::flight_id::Options;
@@ -39,6 +40,7 @@ fn main() {
     };
     let flights: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let seed0: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(60000);
+    let detail = args.get(4).is_some_and(|a| a == "detail");
     let cond = Condition::RandomCraft(class.clone());
     for seed in seed0..seed0 + flights {
         let d = draw(&class, seed);
@@ -91,12 +93,16 @@ fn main() {
                     e.unobservable,
                     tests.join(" ")
                 );
-                if e.status != "ok" {
+                if detail || e.status != "ok" {
                     println!(
-                        "    inertia: estimate {:.4?}\n             truth    {:.4?}\n             model    {:.4?}\n    samples used {}, noise {:?}",
+                        "    inertia: estimate {:.4?} +- {:.2?}\n             truth    {:.4?}\n             model    {:.4?}\n    CoM - model's (mm): estimate {:.2?} +- {:.2?}, truth {:.2?}\n    samples used {}, noise {:?}",
                         e.inertia_kgm2,
+                        e.inertia_stderr_kgm2,
                         &sim.truth[3..],
                         sim.model.inertia_kgm2,
+                        e.com_offset_mm,
+                        e.com_offset_stderr_mm,
+                        &sim.truth[..3],
                         e.samples_used,
                         e.noise.iter().map(|n| n.as_ref().map(|n| (n.phi.len(), n.ma))).collect::<Vec<_>>()
                     );

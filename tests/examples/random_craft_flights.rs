@@ -4,7 +4,9 @@
 //! `cargo run --release -p massid-tests --example random_craft_flights -- CLASS FLIGHTS SEED0
 //! [detail]` (CLASS: 3d-few, 3d-some, 3d-many, planar, planar-mocap; `detail`: the estimate,
 //! truth and model of every flight, not only of those not `ok`).
-use massid_tests::identification_mc::{estimate_with, fly, Condition, Implementation, TERMS};
+use massid_tests::identification_mc::{
+    estimate_with, fly, scored_errors, Condition, Implementation, TERMS,
+};
 use massid_tests::random_craft::{draw, CraftClass};
 use reference_f64::flight_id::Options;
 
@@ -70,16 +72,8 @@ fn main() {
             Err(e) => println!("{head}: error {e}"),
             Ok(e) => {
                 let mut z = String::new();
-                for t in 0..9 {
-                    if sim.truth[t].is_nan() || e.unobservable.contains(&TERMS[t]) {
-                        continue;
-                    }
-                    let (v, s) = if t < 3 {
-                        (e.com_offset_mm[t], e.com_offset_stderr_mm[t])
-                    } else {
-                        (e.inertia_kgm2[t - 3], e.inertia_stderr_kgm2[t - 3])
-                    };
-                    z.push_str(&format!(" {}={:+.1}", TERMS[t], (v - sim.truth[t]) / s));
+                for (t, err, sigma) in scored_errors(&sim, &e) {
+                    z.push_str(&format!(" {}={:+.1}", TERMS[t], err / sigma));
                 }
                 let tests: Vec<String> = e
                     .consistency

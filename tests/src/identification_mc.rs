@@ -316,6 +316,22 @@ impl Score {
     }
 }
 
+/// Each scored term of an estimate (one the flight shows and the estimator determined):
+/// index into [`TERMS`], error against the truth, reported sigma.
+pub fn scored_errors(sim: &Simulated, e: &FlightEstimate) -> Vec<(usize, f64, f64)> {
+    (0..9)
+        .filter(|&t| !(sim.truth[t].is_nan() || e.unobservable.contains(&TERMS[t])))
+        .map(|t| {
+            let (v, s) = if t < 3 {
+                (e.com_offset_mm[t], e.com_offset_stderr_mm[t])
+            } else {
+                (e.inertia_kgm2[t - 3], e.inertia_stderr_kgm2[t - 3])
+            };
+            (t, v - sim.truth[t], s)
+        })
+        .collect()
+}
+
 /// A cell's outcome.
 #[derive(Clone, Debug, Default)]
 pub struct Cell {
@@ -353,16 +369,8 @@ impl Cell {
             self.flagged += 1;
             return;
         }
-        for t in 0..9 {
-            if sim.truth[t].is_nan() || e.unobservable.contains(&TERMS[t]) {
-                continue;
-            }
-            let (v, s) = if t < 3 {
-                (e.com_offset_mm[t], e.com_offset_stderr_mm[t])
-            } else {
-                (e.inertia_kgm2[t - 3], e.inertia_stderr_kgm2[t - 3])
-            };
-            self.terms[t].add(v - sim.truth[t], s);
+        for (t, err, sigma) in scored_errors(sim, e) {
+            self.terms[t].add(err, sigma);
         }
     }
 

@@ -29,6 +29,7 @@ use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use reference_f64::mass_id::sym_to_vec6;
 use reference_f64::satellite::Satellite;
 
 /// A family of random craft: 3-D or planar, a thruster-count range, a rate sensor.
@@ -141,14 +142,7 @@ fn thruster_planar(rng: &mut ChaCha8Rng, h: [f64; 2]) -> ([f64; 3], [f64; 3]) {
 }
 
 fn to_contract(m: &Matrix3<f64>) -> [f64; 6] {
-    [
-        m[(0, 0)],
-        m[(1, 1)],
-        m[(2, 2)],
-        m[(0, 1)],
-        m[(0, 2)],
-        m[(1, 2)],
-    ]
+    sym_to_vec6(m).into()
 }
 
 /// Principal moments that a rigid body can have (each at most the sum of the others).

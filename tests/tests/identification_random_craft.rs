@@ -4,7 +4,8 @@
 //! (a planted fault, sigmas halved, fails the same check), and the development flights that
 //! went wrong before this fixes are right (each names what was wrong).
 use massid_tests::identification_mc::{
-    estimate_with, fly, run_cell_with, small_sample_check, Condition, Implementation, TERMS,
+    estimate_with, fly, run_cell_with, scored_errors, small_sample_check, Condition,
+    Implementation, TERMS,
 };
 use massid_tests::random_craft::CraftClass;
 use reference_f64::flight_id::Options;
@@ -104,16 +105,8 @@ fn development_flights_that_went_wrong_are_right() {
             cond.label(),
             e.status
         );
-        for t in 0..9 {
-            if sim.truth[t].is_nan() || e.unobservable.contains(&TERMS[t]) {
-                continue;
-            }
-            let (v, s) = if t < 3 {
-                (e.com_offset_mm[t], e.com_offset_stderr_mm[t])
-            } else {
-                (e.inertia_kgm2[t - 3], e.inertia_stderr_kgm2[t - 3])
-            };
-            let z = (v - sim.truth[t]) / s;
+        for (t, err, sigma) in scored_errors(&sim, &e) {
+            let z = err / sigma;
             assert!(
                 z.abs() < 4.0,
                 "{} seed {seed} (before: {before}): {} {z:+.1} sigma",

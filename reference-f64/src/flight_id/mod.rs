@@ -363,8 +363,15 @@ pub fn identify(
     if wins.is_empty() {
         return Err(IdError::TooFewSamples(min_len));
     }
-    let start = warm_start(flight, sat, opts, dynamics, axes, &wins, min_len);
-    let (first, _) = identify_in(flight, sat, opts, dynamics, axes, &wins, start.as_ref())?;
+    let fit = Fit {
+        flight,
+        sat,
+        opts,
+        dynamics,
+        axes,
+    };
+    let start = warm_start(&fit, &wins, min_len);
+    let (first, _) = identify_in(&fit, &wins, start.as_ref())?;
     // Format v1 logs the thruster word at each sample while SPHERES valves switch on a 1 ms
     // grid: below 1 kHz the recording does not say when in an interval a word changed. When
     // the fit over whole windows then fails any of its consistency tests at a liberal level,
@@ -387,7 +394,7 @@ pub fn identify(
     if coarse && misfit {
         let cut = fit_windows(4, true);
         if !cut.is_empty() {
-            if let Ok((mut e, _)) = identify_in(flight, sat, opts, dynamics, axes, &cut, None) {
+            if let Ok((mut e, _)) = identify_in(&fit, &cut, None) {
                 e.command_timing_unknown = true;
                 return Ok(e);
             }
@@ -397,7 +404,7 @@ pub fn identify(
 }
 
 /// Turn limit of the windows whose fit gives a 3-D craft's long windows their starting point
-/// ([`warm_start`]).
+/// (the fit starts there when a window turns more than this).
 pub const WARM_TURN_3D_RAD: f64 = 8.0;
 
 /// Where the fit over long windows of a fast-turning 3-D craft starts: the estimate over the
@@ -410,37 +417,43 @@ pub const WARM_TURN_3D_RAD: f64 = 8.0;
 /// the same flights converge from the model, and that estimate is close enough for the long
 /// windows. None when no window turns more than that (nothing changes) or the short-window
 /// fit gives no physical inertia.
-fn warm_start(
-    flight: &Flight,
-    sat: &Satellite,
-    opts: &Options,
-    dynamics: Dynamics,
-    axes: [bool; 3],
-    wins: &[(usize, usize)],
-    min_len: usize,
-) -> Option<Rigid> {
-    if dynamics != Dynamics::Full {
+fn warm_start(fit: &Fit, wins: &[(usize, usize)], min_len: usize) -> Option<Rigid> {
+    if fit.dynamics != Dynamics::Full {
         return None;
     }
-    let short = split_turns(flight, wins, WARM_TURN_3D_RAD, min_len);
+    let short = split_turns(fit.flight, wins, WARM_TURN_3D_RAD, min_len);
     if short == wins {
         return None;
     }
-    let (e, rigid) = identify_in(flight, sat, opts, dynamics, axes, &short, None).ok()?;
+    let (e, rigid) = identify_in(fit, &short, None).ok()?;
     (e.inertia_kgm2.iter().all(|v| v.is_finite()) && rigid.j.cholesky().is_some()).then_some(rigid)
+}
+
+/// What every fit of one [`identify`] call shares: the flight, the model, the options, the
+/// dynamics and the measured axes it uses.
+#[derive(Clone, Copy)]
+struct Fit<'a> {
+    flight: &'a Flight,
+    sat: &'a Satellite,
+    opts: &'a Options,
+    dynamics: Dynamics,
+    axes: [bool; 3],
 }
 
 /// [`identify`] over the given windows, from the model's values or from `start`'s (the terms
 /// the flight does not determine always held at the model's); also gives the fitted values.
 fn identify_in(
-    flight: &Flight,
-    sat: &Satellite,
-    opts: &Options,
-    dynamics: Dynamics,
-    axes: [bool; 3],
+    fit: &Fit,
     wins: &[(usize, usize)],
     start: Option<&Rigid>,
 ) -> Result<(FlightEstimate, Rigid), IdError> {
+    let Fit {
+        flight,
+        sat,
+        opts,
+        dynamics,
+        axes,
+    } = *fit;
     let ivs = Intervals::new(flight, sat, opts.latency_ms * 1e-3);
     let i_nom = sat.inertia_matrix();
     let j_nom = i_nom

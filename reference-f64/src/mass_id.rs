@@ -146,7 +146,10 @@ pub fn inertia_from_inverse(
 /// Physical validity of an estimate, the criterion the kernel implements too
 /// (`massid_kernel::validity`): the inertia (xx yy zz xy xz yz, kg m^2) is positive
 /// definite and its diagonal obeys the triangle inequalities (`Ixx + Iyy >= Izz`, cyclic),
-/// and the CoM (model CoM + `com_offset_mm`) lies inside the hull ([`Satellite::hull_box_m`]).
+/// and the CoM (model CoM + `com_offset_mm`) lies within the craft's reach
+/// ([`Satellite::reach_m`]). The kernel's SPHERES pipeline (`massid_kernel::validity`) checks
+/// the box of the thruster positions instead (for SPHERES, whose thrusters sit symmetrically,
+/// the box within the reach).
 /// `Err` names the first check that fails, as the estimate JSON's status does.
 pub fn physical_validity(
     sat: &Satellite,
@@ -162,12 +165,11 @@ pub fn physical_validity(
     if xx + yy < zz || xx + zz < yy || yy + zz < xx {
         return Err("implausible_inertia_triangle_inequality");
     }
-    let (lo, hi) = sat.hull_box_m();
-    for a in 0..3 {
-        let c = (sat.com_offset_mm[a] + com_offset_mm[a]) * 1e-3;
-        if !(c.is_finite() && lo[a] <= c && c <= hi[a]) {
-            return Err("implausible_com_outside_envelope");
-        }
+    let com = Vector3::from_fn(|a, _| (sat.com_offset_mm[a] + com_offset_mm[a]) * 1e-3);
+    // A NaN CoM is outside too.
+    let inside = com.norm() <= sat.reach_m();
+    if !inside {
+        return Err("implausible_com_outside_envelope");
     }
     Ok(())
 }

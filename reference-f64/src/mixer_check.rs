@@ -136,22 +136,23 @@ pub fn check(
     }
 }
 
-/// The CoM estimate must lie inside the craft: [`Satellite::hull_box_m`], the envelope
-/// `mass_id::physical_validity` checks too. `Err` says where it is and where the box is.
+/// The CoM estimate must lie inside the craft: within [`Satellite::reach_m`], the envelope
+/// `mass_id::physical_validity` checks too. `Err` says where it is and how far the craft
+/// reaches.
 pub fn com_inside(sat: &Satellite, com_m: &Vector3<f64>) -> Result<(), String> {
-    let (lo, hi) = sat.hull_box_m();
-    for a in 0..3 {
-        if !(com_m[a].is_finite() && lo[a] <= com_m[a] && com_m[a] <= hi[a]) {
-            return Err(format!(
-                "CoM {:.1} mm on {} is outside the craft (its hull spans {:.1} .. {:.1} mm)",
-                com_m[a] * 1e3,
-                ["x", "y", "z"][a],
-                lo[a] * 1e3,
-                hi[a] * 1e3
-            ));
-        }
+    let reach = sat.reach_m();
+    if com_m.norm() <= reach {
+        return Ok(());
     }
-    Ok(())
+    Err(format!(
+        "CoM ({:.1}, {:.1}, {:.1}) mm is {:.1} mm from the centre, outside the craft (its \
+         farthest thruster is {:.1} mm out)",
+        com_m[0] * 1e3,
+        com_m[1] * 1e3,
+        com_m[2] * 1e3,
+        com_m.norm() * 1e3,
+        reach * 1e3
+    ))
 }
 
 #[cfg(test)]
@@ -238,6 +239,9 @@ mod tests {
         let sat = Satellite::builtin("sph2").expect("sph2");
         assert!(com_inside(&sat, &Vector3::new(0.002, -0.001, 0.0)).is_ok());
         let e = com_inside(&sat, &Vector3::new(1e3, 0.0, 0.0)).expect_err("1 km off");
-        assert!(e.contains("outside the craft") && e.contains("on x"), "{e}");
+        assert!(
+            e.contains("outside the craft") && e.contains("from the centre"),
+            "{e}"
+        );
     }
 }

@@ -422,9 +422,7 @@ impl Satellite {
                 ));
             }
         }
-        let r_max = (0..n)
-            .map(|i| Vector3::from(self.thruster_pos_m[i]).norm())
-            .fold(0.0, f64::max);
+        let r_max = self.reach_m();
         if r_max <= 0.0 {
             return Err(
                 "thruster_pos_m: every thruster is at the centre; they could not turn the craft"
@@ -508,27 +506,16 @@ impl Satellite {
         Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
     }
 
-    /// The craft's envelope for CoM checks, low and high corner, m from the geometric centre.
-    /// The thrusters sit on the hull and their positions are from its centre, so the hull
-    /// reaches as far on each side of the centre as the farthest thruster along that axis
-    /// (not only the box of the thrusters themselves: a craft whose thrusters all sit on its
-    /// aft face has a flat thruster box that no CoM lies in). Along an axis no thruster is off
-    /// the centre on (a ring of thrusters in one plane) the hull's extent is unknown, and the
-    /// farthest thruster's distance bounds it, as `check_plausible` bounds `com_offset_mm`.
-    pub fn hull_box_m(&self) -> ([f64; 3], [f64; 3]) {
-        let radius = self
-            .thruster_pos_m
+    /// The craft's reach, m: the farthest thruster's distance from the geometric centre. The
+    /// thrusters sit on the hull, so a CoM farther out than this is outside the craft: the
+    /// one envelope of the model file's `com_offset_mm` and of every CoM estimate. (The box of
+    /// the thruster positions, used before, is flat for a craft whose thrusters all sit on one
+    /// face, and a few millimetres wide on an axis the thrusters happen to sit near.)
+    pub fn reach_m(&self) -> f64 {
+        self.thruster_pos_m
             .iter()
             .map(|p| Vector3::from(*p).norm())
-            .fold(0.0, f64::max);
-        let mut half = [0.0f64; 3];
-        for p in &self.thruster_pos_m {
-            for a in 0..3 {
-                half[a] = half[a].max(p[a].abs());
-            }
-        }
-        let half = half.map(|h| if h > 0.0 { h } else { radius });
-        (half.map(|h| -h), half)
+            .fold(0.0, f64::max)
     }
 
     /// Each thruster's relative thrust uncertainty (`thrust_sigma_n / thrust_n`); empty when
@@ -636,34 +623,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_hull_box_holds_the_centre_of_a_craft_with_thrusters_on_one_face() {
+    fn the_reach_holds_the_centre_of_a_craft_with_thrusters_on_one_face() {
         let mut s = Satellite::builtin("sph2").unwrap();
-        let (lo, hi) = s.hull_box_m();
-        for a in 0..3 {
-            assert!(
-                lo[a] < -0.05 && hi[a] > 0.05,
-                "sph2 axis {a}: {lo:?} {hi:?}"
-            );
-        }
-        // Every thruster on the +z face: the thrusters' own box is flat at z = 0.1 m, the hull
-        // reaches -0.1 m as well.
+        assert!(s.reach_m() > 0.1);
+        // Every thruster on the +z face: the thrusters' own box is flat at z = 0.1 m and held
+        // no CoM at the centre; the reach does.
         for p in &mut s.thruster_pos_m {
             p[2] = 0.1;
         }
-        let (lo, hi) = s.hull_box_m();
-        assert_eq!((lo[2], hi[2]), (-0.1, 0.1));
-        // A ring in the z = 0 plane: z bounded by the farthest thruster's distance.
-        for p in &mut s.thruster_pos_m {
-            p[2] = 0.0;
-        }
-        let r = s
-            .thruster_pos_m
-            .iter()
-            .map(|p| Vector3::from(*p).norm())
-            .fold(0.0, f64::max);
-        let (lo, hi) = s.hull_box_m();
-        assert_eq!((lo[2], hi[2]), (-r, r));
-        assert!(r > 0.05);
+        let reach = s.reach_m();
+        assert!(reach > 0.1);
+        assert!(crate::mass_id::physical_validity(&s, &[0.0; 3], &s.inertia_kgm2).is_ok());
+        // A CoM past the reach is refused.
+        let far = [0.0, 0.0, 1e3 * (reach + 0.01)];
+        assert_eq!(
+            crate::mass_id::physical_validity(&s, &far, &s.inertia_kgm2),
+            Err("implausible_com_outside_envelope")
+        );
     }
 
     #[test]

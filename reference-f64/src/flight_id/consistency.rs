@@ -10,7 +10,7 @@ use nalgebra::{DMatrix, DVector};
 /// One test's outcome.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScoreTest {
-    /// "thrust" or "valve_timing".
+    /// "thrust", "valve_timing", "disturbance" or "rate_damping".
     pub name: &'static str,
     pub statistic: f64,
     /// Rank of the tested directions (after removing those the fitted terms explain).
@@ -53,6 +53,7 @@ pub fn score_test(
         .copied()
         .filter(|(c, var)| !z.contains(c) && !t.contains(c) && *var > 0.0)
         .collect();
+    let considered = !(in_z.is_empty() && outside.is_empty());
     let mut v = v0.clone();
     if !in_z.is_empty() {
         let p = DMatrix::from_fn(z.len(), z.len(), |i, j| {
@@ -90,14 +91,37 @@ pub fn score_test(
         v[(keep[i], keep[j])] / (d[keep[i]] * d[keep[j]]).sqrt()
     });
     let sn = DVector::from_fn(keep.len(), |i, _| s[keep[i]] / d[keep[i]].sqrt());
-    let eig = vn.symmetric_eigen();
-    let mut stat = 0.0;
-    let mut dof = 0;
-    for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
-        if lambda > MIN_RESIDUAL_SHARE {
-            let proj = eig.eigenvectors.column(k).dot(&sn);
-            stat += proj * proj / lambda;
-            dof += 1;
+    let (mut stat, mut dof) = (0.0, 0);
+    if considered {
+        // The directions are those the fitted terms leave (chosen from V0, as without the
+        // considered errors: a direction the terms explain almost wholly stays untested even
+        // when a stated error inflates its variance); the statistic uses the widened V.
+        let v0n = DMatrix::from_fn(keep.len(), keep.len(), |i, j| {
+            v0[(keep[i], keep[j])] / (d[keep[i]] * d[keep[j]]).sqrt()
+        });
+        let eig0 = v0n.symmetric_eigen();
+        let cols: Vec<usize> = (0..keep.len())
+            .filter(|&k| eig0.eigenvalues[k] > MIN_RESIDUAL_SHARE)
+            .collect();
+        if cols.is_empty() {
+            return None;
+        }
+        let q = DMatrix::from_fn(keep.len(), cols.len(), |i, k| {
+            eig0.eigenvectors[(i, cols[k])]
+        });
+        let vq = q.transpose() * &vn * &q;
+        let sq = q.transpose() * &sn;
+        let x = vq.cholesky()?.solve(&sq);
+        stat = sq.dot(&x);
+        dof = cols.len();
+    } else {
+        let eig = vn.symmetric_eigen();
+        for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
+            if lambda > MIN_RESIDUAL_SHARE {
+                let proj = eig.eigenvectors.column(k).dot(&sn);
+                stat += proj * proj / lambda;
+                dof += 1;
+            }
         }
     }
     (dof > 0).then(|| ScoreTest {
@@ -234,5 +258,16 @@ mod tests {
         // A fitted column is not a held one: listing it changes nothing.
         let t = score_test("x", &info, &score, &[0, 1], &[2], &[(1, 5.0)]).unwrap();
         assert!((t.statistic - 9.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_direction_the_terms_explain_stays_untested_whatever_is_considered() {
+        // Column 1 is column 0 but for 1e-4 of its information: untested. A held column 2
+        // with a large stated variance moves column 1's score, but must not make it testable.
+        let info =
+            DMatrix::from_row_slice(3, 3, &[1.0, 0.99995, 0.0, 0.99995, 1.0, 1.0, 0.0, 1.0, 1.0]);
+        let score = DVector::from_row_slice(&[0.0, 1.0, 0.0]);
+        assert!(score_test("x", &info, &score, &[0], &[1], &[]).is_none());
+        assert!(score_test("x", &info, &score, &[0], &[1], &[(2, 1e6)]).is_none());
     }
 }

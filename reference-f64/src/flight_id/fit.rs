@@ -23,16 +23,22 @@ pub const MAX_STEP_TURN_RAD: f64 = 2.5e-3;
 pub const MAX_SUBSTEPS: usize = 64;
 
 /// Substeps for an interval of `dt` s starting at the measured rate `measured` (axes not
-/// measured are NaN; the model's rate `model` stands in when none is): enough that each
-/// turns through at most [`MAX_STEP_TURN_RAD`]. From the data, so that the model does not
-/// change its steps while the fit moves.
+/// measured are NaN, and the model's rate `model` stands in on them): enough that each turns
+/// through at most [`MAX_STEP_TURN_RAD`], but never more than [`MAX_SUBSTEPS`] (past
+/// 64 x 2.5 mrad a sample, e.g. 7.8 rad/s at 50 Hz, the steps turn farther). From the data
+/// where there are data, so that the model does not change its steps while the fit moves.
 fn substeps(measured: &[f64; 3], model: &Vector3<f64>, dt: f64) -> usize {
-    let finite: Vec<f64> = measured.iter().copied().filter(|v| v.is_finite()).collect();
-    let rate = if finite.is_empty() {
-        model.norm()
-    } else {
-        finite.iter().map(|v| v * v).sum::<f64>().sqrt()
-    };
+    let rate = (0..3)
+        .map(|a| {
+            let v = if measured[a].is_finite() {
+                measured[a]
+            } else {
+                model[a]
+            };
+            v * v
+        })
+        .sum::<f64>()
+        .sqrt();
     let m = (rate * dt / MAX_STEP_TURN_RAD).ceil();
     if m.is_finite() && m > 1.0 {
         (m as usize).min(MAX_SUBSTEPS)
@@ -97,7 +103,9 @@ pub enum Extra {
     OpenDelay,
     /// Every valve closing later.
     CloseDelay,
-    /// A term the fit holds at zero (a disturbance torque, a yaw damping) moved off it.
+    /// A term the fit holds where it is (a disturbance torque or a yaw damping at zero, a term
+    /// the flight does not determine at the model's value) moved off it: for the score tests
+    /// and the consider covariance.
     Held(Term),
 }
 
@@ -451,8 +459,6 @@ impl Problem<'_> {
         out
     }
 
-    /// Applies the Gauss-Newton step `delta` (one entry per term) and the matching initial
-    /// rates.
     /// Moves the state by `alpha` times the Gauss-Newton step `delta` (the initial rates by
     /// `alpha` times the step that goes with it).
     pub fn apply_step(&self, state: &mut State, normal: &Normal, delta: &DVector<f64>, alpha: f64) {

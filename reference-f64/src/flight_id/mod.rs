@@ -104,7 +104,8 @@ pub struct FlightEstimate {
     pub disturbance_nm: Option<([f64; 3], [f64; 3])>,
     /// Yaw damping (N m s/rad) and its standard error, when fitted.
     pub damping_nms: Option<(f64, f64)>,
-    /// Covariance of (inertia 6, CoM mm 3), thrust uncertainty included.
+    /// Covariance of (inertia 6, CoM mm 3), the stated thrust uncertainty and the held terms'
+    /// scales included (consider covariance).
     pub covariance: DMatrix<f64>,
     /// Terms the data do not determine (held at the model), and those a planar craft never
     /// determines.
@@ -265,11 +266,14 @@ fn descend(
     delta: &DVector<f64>,
 ) -> Option<Normal> {
     let (start, cost0) = (state.clone(), cost(normal, state));
+    if !cost0.is_finite() {
+        return None;
+    }
     let mut alpha = 1.0;
     for _ in 0..MAX_HALVINGS {
         problem.apply_step(state, normal, delta, alpha);
         let next = problem.accumulate(state);
-        if cost(&next, state) <= cost0 {
+        if cost(&next, state) < cost0 {
             return Some(next);
         }
         state.clone_from(&start);
@@ -415,7 +419,8 @@ pub const WARM_TURN_3D_RAD: f64 = 8.0;
 /// 60011, 60016, 60021 and 60028) it stopped `not_converged` 2-15 sigma away, and with 64 rad
 /// windows it settled on a wrong minimum (one of them `ok` at 9 sigma). Over windows of 8 rad
 /// the same flights converge from the model, and that estimate is close enough for the long
-/// windows. None when no window turns more than that (nothing changes) or the short-window
+/// windows. None when the split leaves the windows as they are (no window turns more than
+/// that, or the runs would be too short) or the short-window
 /// fit gives no physical inertia.
 fn warm_start(fit: &Fit, wins: &[(usize, usize)], min_len: usize) -> Option<Rigid> {
     if fit.dynamics != Dynamics::Full {
@@ -579,8 +584,8 @@ fn identify_in(
             .map(|&t| term_scale(sat, &j_nom, t, duration))
             .collect();
         let worst = match (&cov, degenerate_term(&ntt, &scales)) {
-            (None, _) => Some(free[nt - 1]),
             (_, Some(i)) => Some(free[i]),
+            (None, None) => Some(free[nt - 1]),
             (Some(cov), None) => (0..nt)
                 .map(|i| {
                     let se = cov[(i, i)].max(0.0).sqrt();

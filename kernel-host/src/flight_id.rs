@@ -4,6 +4,7 @@
 //! inverse inertia by `I = J^-1`, `dI = -I dJ I`; statuses and scales are the reference's).
 use crate::craft::{craft, model_error};
 use crate::HostError;
+use massid_kernel::flight_id::consider::ThrustUncertainty;
 use massid_kernel::flight_id::consistency::rejects;
 use massid_kernel::flight_id::exact::{Envelope, RATE_LIMIT_RAD_S};
 use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
@@ -125,6 +126,15 @@ pub fn identify<S: SumScalar>(
             scale: terms.map(|t| S::from_f32(term_scale(sat, &j_nom, t, duration) as f32)),
         },
         envelope,
+        // The model is the one home of each thruster's thrust uncertainty.
+        thrust: ThrustUncertainty::of_craft(
+            &table,
+            &sat.thrust_sigma_rel()
+                .iter()
+                .map(|v| *v as f32)
+                .collect::<Vec<f32>>(),
+        )
+        .ok_or_else(|| model_error(sat, "thrust_sigma_n is not finite".into()))?,
     };
     let mut id = FlightId::new(cfg).ok_or_else(|| {
         model_error(

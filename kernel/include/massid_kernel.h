@@ -257,6 +257,7 @@ typedef struct massid_flight_id_settings {
     float max_window_turn_rad;    /* past turn_window samples, cut a window after this weighted turn (INFINITY: never) */
     float turn_weight[3];         /* per axis, how much its turn counts: finite, > 0 (1 for SPHERES-like coupling) */
     float scale[MASSID_ID_TERMS]; /* per term, the standard error beyond which it is held */
+    float thrust_sigma_rel[MASSID_MAX_THRUSTERS]; /* per thruster, relative thrust uncertainty (0: known) */
     uint32_t max_window;          /* samples */
     uint32_t turn_window;         /* samples */
     uint32_t skip;                /* samples left out at each window start (= max_noise_order) */

@@ -137,6 +137,11 @@ impl<S: Scalar> Craft<S> {
         self.count
     }
 
+    /// Thruster `i`'s wrench when open alone (torque N m, force N); None past the count.
+    pub fn thruster_wrench(&self, i: usize) -> Option<[S; 6]> {
+        self.wrench.get(i).copied().filter(|_| i < self.count)
+    }
+
     /// Bits of the word that name a thruster.
     pub fn word_mask(&self) -> u16 {
         u16::try_from((1u32 << self.count.min(MAX_THRUSTERS)).saturating_sub(1)).unwrap_or(u16::MAX)

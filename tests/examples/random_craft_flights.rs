@@ -2,8 +2,9 @@
 //! flight, the status and each scored term's error in sigma, to see which flights a cell's
 //! figures come from:
 //! `cargo run --release -p massid-tests --example random_craft_flights -- CLASS FLIGHTS SEED0
-//! [detail]` (CLASS: 3d-few, 3d-some, 3d-many, planar, planar-mocap; `detail`: the estimate,
-//! truth and model of every flight, not only of those not `ok`).
+//! [detail|brief] [f64|f32|fixed|kernel-f64]` (CLASS: 3d-few, 3d-some, 3d-many, planar,
+//! planar-mocap; `detail`: the estimate, truth and model of every flight, not only of those
+//! not `ok`; the implementation, f64 when left out).
 use massid_tests::identification_mc::{
     estimate_with, fly, scored_errors, Condition, Implementation, TERMS,
 };
@@ -43,11 +44,18 @@ fn main() {
     let flights: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let seed0: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(60000);
     let detail = args.get(4).is_some_and(|a| a == "detail");
+    let implementation = match args.get(5).map(String::as_str).unwrap_or("f64") {
+        "f64" => Implementation::F64,
+        "f32" => Implementation::F32,
+        "fixed" => Implementation::Fixed,
+        "kernel-f64" => Implementation::KernelF64,
+        other => panic!("unknown implementation {other} (f64, f32, fixed, kernel-f64)"),
+    };
     let cond = Condition::RandomCraft(class.clone());
     for seed in seed0..seed0 + flights {
         let d = draw(&class, seed);
         let sim = fly(&cond, seed);
-        let est = estimate_with(Implementation::F64, &sim, &Options::default());
+        let est = estimate_with(implementation, &sim, &Options::default());
         let max_rate = (0..sim.flight.time_s.len())
             .map(|k| {
                 let r = sim.flight.rate.at(k);

@@ -335,6 +335,7 @@ fn c_program_matches_the_rust_api_on_open_recordings() {
 
 use massid_kernel::craft::{Craft, Thruster};
 use massid_kernel::craft_mixer::CraftMixer;
+use massid_kernel::flight_id::consider::ThrustUncertainty;
 use massid_kernel::flight_id::exact::Envelope;
 use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig};
 use massid_kernel::flight_id::sums::SumScalar;
@@ -786,6 +787,8 @@ fn c_flight_id_matches_the_rust_flight_id() {
             },
             // Replaced by the craft's own in `rust_flight_id_line`, as the C ABI's init does.
             envelope: Envelope::of_craft([0.0; 6]),
+            // The settings' default: no stated thrust uncertainty.
+            thrust: ThrustUncertainty::none(),
         };
         let drop = sat.pressure_drop_n_per_extra as f32;
         let expected =
@@ -849,6 +852,7 @@ fn rust_flight_id_line<S: SumScalar>(
             scale: cfg.solve.scale.map(c),
         },
         envelope: Envelope::of_craft([S::ZERO; 6]),
+        thrust: ThrustUncertainty::none(),
     };
     let table = Craft::<S>::new(thrusters, com, drop).expect("craft");
     let cfg = FlightIdConfig {

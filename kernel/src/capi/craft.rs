@@ -11,6 +11,7 @@ use super::{load, mix_block, store, write_out, CScalar, MassidSatelliteParams, M
 use crate::allocation::CraftFiring;
 use crate::craft::{Craft, Thruster, MAX_THRUSTERS};
 use crate::craft_mixer::CraftMixer;
+use crate::flight_id::consider::ThrustUncertainty;
 use crate::flight_id::exact::Envelope;
 use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDER, NP};
 use crate::flight_id::sums::SumScalar;
@@ -411,6 +412,10 @@ pub struct MassidFlightIdSettings {
     /// Per term (inverse inertia xx yy zz xy xz yz, CoM x y z), the standard error beyond
     /// which the term is held at the nominal (1/(kg m^2) and m).
     pub scale: [f32; NP],
+    /// Per thruster, its thrust's relative standard uncertainty (the model's `thrust_sigma_n`
+    /// over `thrust_n`; 0: known). The covariance and the tests allow for it
+    /// (`flight_id::consider`); `massid_flight_id_settings_default` leaves it 0.
+    pub thrust_sigma_rel: [f32; MAX_THRUSTERS],
     /// Windows are cut at this many samples.
     pub max_window: u32,
     /// See `max_window_turn_rad`, samples.
@@ -477,8 +482,9 @@ fn sensor_of(code: u8) -> Option<SensorResponse> {
 /// inertia is computed in `S`, so the integer float's path has no floating-point instruction.)
 fn flight_id_config<S: Scalar>(
     s: &MassidFlightIdSettings,
-    envelope: Envelope<S>,
+    craft: &Craft<S>,
 ) -> Option<FlightIdConfig<S>> {
+    let envelope = Envelope::of_craft(craft.wrench_bound());
     let finite = s
         .inertia_kgm2
         .iter()
@@ -489,7 +495,8 @@ fn flight_id_config<S: Scalar>(
         && s.period_s > 0.0
         && !s.max_window_turn_rad.is_nan()
         && s.turn_weight.iter().all(|w| w.is_finite() && *w > 0.0)
-        && usize::from(s.max_noise_order) <= MAX_ORDER;
+        && usize::from(s.max_noise_order) <= MAX_ORDER
+        && s.thrust_sigma_rel.iter().all(|v| v.is_finite() && *v >= 0.0);
     if !finite {
         return None;
     }
@@ -513,6 +520,7 @@ fn flight_id_config<S: Scalar>(
             scale: s.scale.map(S::from_f32),
         },
         envelope,
+        thrust: ThrustUncertainty::of_craft(craft, &s.thrust_sigma_rel)?,
     })
 }
 
@@ -593,6 +601,7 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
         },
         turn_weight,
         scale,
+        thrust_sigma_rel: [0.0; MAX_THRUSTERS],
         max_window: samples(window::MAX_WINDOW_S).max(window::MIN_WINDOW),
         turn_window: samples(window::turn_window_s(&turn_weight)),
         skip: u32::try_from(MAX_ORDER).unwrap_or(0),
@@ -647,7 +656,7 @@ unsafe fn flight_id_init<S: SumScalar>(
     let Ok(craft) = Craft::<S>::new(table, s.com_m, c.pressure_drop_n_per_extra) else {
         return MassidStatus::BadParameters;
     };
-    let Some(cfg) = flight_id_config::<S>(s, Envelope::of_craft(craft.wrench_bound())) else {
+    let Some(cfg) = flight_id_config::<S>(s, &craft) else {
         return MassidStatus::BadParameters;
     };
     // The state is built in the block, not returned and moved there: the sums are tens of kB.

@@ -21,6 +21,7 @@
 use super::solve::{
     ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
 };
+use super::consider::{Consider, ThrustUncertainty, MAX_CONSIDERED};
 use super::sums::{FlightSums, NZ, N_MODEL, SPLIT_TORQUE};
 use crate::scalar::Scalar;
 
@@ -79,8 +80,11 @@ impl Direction {
     }
 }
 
-/// The score statistic of `direction`'s parameter at `theta` (None if the direction is not
-/// distinguishable from the fitted terms, or a value left the format).
+/// The score statistic of `direction`'s parameter at `theta`, fitted with covariance
+/// `covariance` (before the consider widening), its variance allowing for the `considered`
+/// quantities' errors (None if the direction is not distinguishable from the fitted terms,
+/// or a value left the format).
+#[allow(clippy::too_many_arguments)]
 pub fn score_statistic<S: Scalar>(
     s: &FlightSums<S>,
     cfg: &SolveConfig<S>,
@@ -88,8 +92,13 @@ pub fn score_statistic<S: Scalar>(
     noise: &[ArNoise<S>; 3],
     free: &[bool; NP],
     covariance: &[[S; NP]; NP],
+    considered: (&Consider<S>, &ThrustUncertainty<S>),
     direction: Direction,
 ) -> Option<S> {
+    let (consider, thrust) = considered;
+    let len = consider.len();
+    // Per considered quantity, the direction's cross term with its signature.
+    let mut cross = [S::ZERO; MAX_CONSIDERED];
     let mut score = S::ZERO;
     let mut info_ll = S::ZERO;
     let mut info_lt = [S::ZERO; NP];
@@ -105,6 +114,10 @@ pub fn score_statistic<S: Scalar>(
         let row = model.get(a).copied().unwrap_or([S::ZERO; NZ]);
         let e = direction.signature(&row);
         let inv = S::ONE.checked_div(nz.sigma2)?;
+        for (k, c) in cross.iter_mut().enumerate().take(len) {
+            let ek = consider.signature(k, &d, &row, thrust);
+            *c = c.plus(inv.times(quad(&wm, &e, &ek)));
+        }
         score = score.minus(inv.times(quad(&wm, &e, &u)));
         info_ll = info_ll.plus(inv.times(quad(&wm, &e, &e)));
         for (m, it) in info_lt.iter_mut().enumerate() {
@@ -129,7 +142,19 @@ pub fn score_statistic<S: Scalar>(
     if !S::from_f32(MIN_RESIDUAL_SHARE).times(info_ll).lt(efficient) {
         return None;
     }
-    let stat = score.times(score).checked_div(efficient)?;
+    // The considered errors move the score by `(c_k - l^T g_k)` each (what of the direction
+    // the fitted terms do not absorb).
+    let mut allowance = S::ZERO;
+    for (k, ck) in cross.iter().enumerate().take(len) {
+        let (variance, gain) = consider.term(k);
+        let absorbed = info_lt
+            .iter()
+            .zip(&gain)
+            .fold(S::ZERO, |acc, (l, g)| acc.mul_add(*l, *g));
+        let moved = ck.minus(absorbed);
+        allowance = allowance.plus(variance.times(moved).times(moved));
+    }
+    let stat = score.times(score).checked_div(efficient.plus(allowance))?;
     stat.is_valid().then_some(stat)
 }
 

@@ -18,6 +18,7 @@
 //! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and the score
 //! tests are of a command delay and of thrust symmetry per torque axis ([`consistency`]), not
 //! of each thruster's thrust.
+pub mod consider;
 pub mod consistency;
 pub mod delay;
 pub mod drive;
@@ -80,6 +81,9 @@ pub struct FlightIdConfig<S> {
     /// The largest wrench and rate the flight brings: the fixed kernel's exact sums are
     /// scaled to it ([`exact`]; a sample 2-4 times beyond it makes its fit answer `Overflow`).
     pub envelope: exact::Envelope<S>,
+    /// The model's stated thrust uncertainty, in the covariance and the tests ([`consider`];
+    /// [`consider::ThrustUncertainty::none`] when the model states none).
+    pub thrust: consider::ThrustUncertainty<S>,
 }
 
 /// The streaming identification.
@@ -334,6 +338,18 @@ impl<S: SumScalar> FlightId<S> {
         }
         let mut solution = solve::solve(&sums, &self.cfg.solve)?;
         let free = solution.held.map(|h| !h);
+        // What the fit holds at the model (unobservable terms, stated thrust errors) widens
+        // the covariance and the tests' variance ([`consider`]).
+        let considered = consider::of_fit(
+            &sums,
+            &self.cfg.solve,
+            &solution.theta,
+            &solution.noise,
+            &solution.held,
+            &solution.covariance,
+            &self.cfg.thrust,
+        )
+        .ok_or(SolveError::Overflow)?;
         let test = |direction| {
             consistency::score_statistic(
                 &sums,
@@ -342,6 +358,7 @@ impl<S: SumScalar> FlightId<S> {
                 &solution.noise,
                 &free,
                 &solution.covariance,
+                (&considered, &self.cfg.thrust),
                 direction,
             )
         };
@@ -349,6 +366,7 @@ impl<S: SumScalar> FlightId<S> {
         let symmetry = core::array::from_fn(|b| test(consistency::Direction::Symmetry(b)));
         solution.timing_statistic = timing;
         solution.symmetry_statistic = symmetry;
+        solution.covariance = considered.widen(&solution.covariance);
         Ok(solution)
     }
 
@@ -393,6 +411,7 @@ mod tests {
                 scale: [1.0; NP],
             },
             envelope: exact::Envelope::of_craft([1.0; 6]),
+            thrust: consider::ThrustUncertainty::none(),
         };
         let mut id = FlightId::new(cfg).expect("config");
         for _ in 0..1000 {
@@ -441,6 +460,7 @@ mod tests {
                     scale: [1.0f32; NP].map(c),
                 },
                 envelope: exact::Envelope::of_craft([0.01f32, 0.01, 0.01, 0.1, 0.1, 0.1].map(c)),
+                thrust: consider::ThrustUncertainty::none(),
             };
             let mut id = FlightId::new(cfg).expect("config");
             let mut w = [0.0f32; 3];

@@ -305,7 +305,8 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
 ) -> fmt::Result {
     use massid_kernel::craft::Craft;
     use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
-    use massid_kernel::flight_id::exact::Envelope;
+    use massid_kernel::flight_id::consider::ThrustUncertainty;
+use massid_kernel::flight_id::exact::Envelope;
     use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
     use massid_kernel::model::SPH2_GYRO_BIAS_COUNTS;
     let name = craft.name;
@@ -343,6 +344,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
             scale,
         },
         envelope: Envelope::of_craft(table.wrench_bound()),
+        thrust: ThrustUncertainty::none(),
     };
     let Some(mut id) = FlightId::new(cfg) else {
         return writeln!(out, "{prefix}{} {name} flight_id init-error", S::NAME);

@@ -1,0 +1,343 @@
+//! What the fit holds at the model and cannot know, in its covariance and its tests:
+//! Schmidt's consider covariance, the reference's (`reference_f64::flight_id`) onboard.
+//!
+//! Two kinds of quantity are held at the model while their true values differ:
+//! - **Terms the flight does not determine** ([`super::solve`] holds them at the nominal):
+//!   each is known to no better than its scale. Held at the model, a CoM 25 mm off on an axis
+//!   the flight cannot see put a random 3-D craft's inertia 9 sigma off (the reference).
+//! - **Each thruster's thrust**, when the model states its uncertainty: a uniform thrust
+//!   error is exactly an inertia error on rates, and one thruster's error looks like a CoM
+//!   shift. Without it the kernels were `ok` 20-60 sigma off on random planar craft.
+//!
+//! Each such quantity `k` (variance `s_k`) has a rate signature `E_k` in the sums' drive
+//! components; the fitted terms then have covariance `V0 + sum_k s_k g_k g_k^T` with
+//! `g_k = V0 D^T W E_k`, and a score test's statistic allows for them in its variance.
+//!
+//! The kernel sees the commanded wrench, not each thruster's on-time: a thruster's on-time
+//! is recovered from the accumulated wrench by the table's pseudo-inverse,
+//! `t_i = b_i . z`. That is exact when the thrusters' wrenches are linearly independent
+//! (at most six thrusters, none a combination of others: [`ThrustUncertainty::exact`]).
+//! Where they are not (opposing pairs, 8 thrusters in a plane), the on-time a wrench does
+//! not determine is missing from the signature, and the consider covariance covers only part
+//! of the thrust error: the ground tool then does not vouch for the estimate.
+use super::solve::{
+    ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
+};
+use super::sums::{FlightSums, NZ};
+use crate::craft::{Craft, MAX_THRUSTERS};
+use crate::lu::Lu;
+use crate::scalar::Scalar;
+
+/// Each thruster's thrust uncertainty as the fit sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct ThrustUncertainty<S> {
+    /// Per thruster, its wrench (torque N m, force N) times its relative thrust uncertainty:
+    /// the wrench error of one sigma.
+    sigma_wrench: [[S; 6]; MAX_THRUSTERS],
+    /// Per thruster, the row of the table's pseudo-inverse that recovers its on-time from
+    /// the accumulated wrench (s per N m s and per N s).
+    recover: [[S; 6]; MAX_THRUSTERS],
+    count: usize,
+    exact: bool,
+}
+
+impl<S: Scalar> ThrustUncertainty<S> {
+    /// No stated uncertainty: nothing to consider.
+    pub const fn none() -> Self {
+        ThrustUncertainty {
+            sigma_wrench: [[S::ZERO; 6]; MAX_THRUSTERS],
+            recover: [[S::ZERO; 6]; MAX_THRUSTERS],
+            count: 0,
+            exact: true,
+        }
+    }
+
+    /// The uncertainty of `craft`'s thrusters, each `sigma_rel[i]` of its thrust (missing or
+    /// non-positive entries: known thrust). None if an entry is not finite or the table's
+    /// pseudo-inverse cannot be formed (an all-zero table).
+    pub fn of_craft(craft: &Craft<S>, sigma_rel: &[f32]) -> Option<Self> {
+        if sigma_rel.iter().any(|s| !s.is_finite()) {
+            return None;
+        }
+        let n = craft.count().min(MAX_THRUSTERS);
+        let mut out = Self::none();
+        if !sigma_rel.iter().take(n).any(|s| *s > 0.0) {
+            return Some(out);
+        }
+        // The pseudo-inverse in f64 (configuration time, not a tick), on wrench components
+        // scaled to the table's size (torques and forces differ by the lever arm), with a
+        // Tikhonov term 1e-9 of the trace that keeps unused components (a planar craft's)
+        // invertible: `b_i = S (B~ B~^T + eps I)^-1 S w_i`, `B~ = S B`.
+        let wrench: [[f64; 6]; MAX_THRUSTERS] = core::array::from_fn(|i| {
+            craft
+                .thruster_wrench(i)
+                .map_or([0.0; 6], |w| w.map(|v| f64::from(v.to_f32())))
+        });
+        let scale: [f64; 6] = core::array::from_fn(|c| {
+            let m = wrench
+                .iter()
+                .take(n)
+                .fold(0.0f64, |m, w| m.max(w.get(c).copied().unwrap_or(0.0).abs()));
+            if m > 0.0 {
+                1.0 / m
+            } else {
+                1.0
+            }
+        });
+        let scaled: [[f64; 6]; MAX_THRUSTERS] = core::array::from_fn(|i| {
+            let w = wrench.get(i).copied().unwrap_or([0.0; 6]);
+            core::array::from_fn(|c| {
+                w.get(c).copied().unwrap_or(0.0) * scale.get(c).copied().unwrap_or(1.0)
+            })
+        });
+        let mut gram = [[0.0f64; 6]; 6];
+        for w in scaled.iter().take(n) {
+            for (row, wr) in gram.iter_mut().zip(w) {
+                for (g, wc) in row.iter_mut().zip(w) {
+                    *g += wr * wc;
+                }
+            }
+        }
+        let trace: f64 = gram
+            .iter()
+            .enumerate()
+            .map(|(c, row)| row.get(c).copied().unwrap_or(0.0))
+            .sum();
+        if !(trace > 0.0) {
+            return None;
+        }
+        for (c, row) in gram.iter_mut().enumerate() {
+            if let Some(g) = row.get_mut(c) {
+                *g += 1e-9 * trace;
+            }
+        }
+        let lu = Lu::factor(&gram, 1e-14).ok()?;
+        out.count = n;
+        for i in 0..n {
+            let w = scaled.get(i).copied().unwrap_or([0.0; 6]);
+            let x = lu.solve(&w).ok()?;
+            // Share of the thruster's own on-time the recovery returns: 1 when the table's
+            // columns are independent.
+            let own: f64 = x.iter().zip(&w).map(|(a, b)| a * b).sum();
+            if (own - 1.0).abs() > 1e-3 {
+                out.exact = false;
+            }
+            let s = f64::from(sigma_rel.get(i).copied().unwrap_or(0.0).max(0.0));
+            if let (Some(sw), Some(rc), Some(wi)) = (
+                out.sigma_wrench.get_mut(i),
+                out.recover.get_mut(i),
+                wrench.get(i),
+            ) {
+                for (((d, r), wc), (xc, sc)) in sw
+                    .iter_mut()
+                    .zip(rc.iter_mut())
+                    .zip(wi)
+                    .zip(x.iter().zip(&scale))
+                {
+                    *d = S::from_f32((s * wc) as f32);
+                    *r = S::from_f32((xc * sc) as f32);
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// Thrusters with a stated uncertainty (0: none).
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Every thruster's on-time follows from the accumulated wrench, so the consider
+    /// covariance covers the whole stated thrust error (see the module docs).
+    pub fn exact(&self) -> bool {
+        self.exact
+    }
+
+    /// Thruster `i`'s rate signature on axis `a` (coefficients of `(z, y)`) for the model
+    /// row `row`: its one-sigma wrench error through the model, times its recovered on-time.
+    fn signature(&self, i: usize, row: &[S]) -> [S; NV] {
+        let mut e = [S::ZERO; NV];
+        let (Some(sw), Some(rc)) = (self.sigma_wrench.get(i), self.recover.get(i)) else {
+            return e;
+        };
+        let gain = sw.iter().zip(row).fold(S::ZERO, |acc, (w, r)| acc.mul_add(*w, *r));
+        for (v, r) in e.iter_mut().zip(rc) {
+            *v = gain.times(*r);
+        }
+        e
+    }
+}
+
+/// Considered quantities at most: every term held, every thruster.
+pub const MAX_CONSIDERED: usize = NP + MAX_THRUSTERS;
+
+/// One considered quantity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Considered {
+    /// A term held at the nominal although the fit was free to move it.
+    HeldTerm(usize),
+    /// A thruster's thrust.
+    Thrust(usize),
+}
+
+/// The considered quantities of one fit and what each does to the fitted terms.
+#[derive(Clone, Copy, Debug)]
+pub struct Consider<S> {
+    what: [Option<Considered>; MAX_CONSIDERED],
+    /// Per quantity, its variance (1 for a thruster, whose signature is of one sigma).
+    variance: [S; MAX_CONSIDERED],
+    /// Per quantity, `g_k = V0 D^T W E_k`: the fitted terms' change per unit of it.
+    gain: [[S; NP]; MAX_CONSIDERED],
+}
+
+impl<S: Scalar> Consider<S> {
+    /// Nothing considered.
+    pub fn none() -> Self {
+        Consider {
+            what: [None; MAX_CONSIDERED],
+            variance: [S::ZERO; MAX_CONSIDERED],
+            gain: [[S::ZERO; NP]; MAX_CONSIDERED],
+        }
+    }
+
+    /// The quantities: every term in `free_by_config` the fit `held`, with variance its
+    /// scale squared, then every thruster of `thrust`.
+    pub fn new(
+        free_by_config: &[bool; NP],
+        held: &[bool; NP],
+        scale: &[S; NP],
+        thrust: &ThrustUncertainty<S>,
+    ) -> Self {
+        let mut out = Self::none();
+        let mut k = 0usize;
+        let mut push = |what: Considered, variance: S| {
+            if let (Some(w), Some(v)) = (out.what.get_mut(k), out.variance.get_mut(k)) {
+                *w = Some(what);
+                *v = variance;
+                k = k.saturating_add(1);
+            }
+        };
+        for m in 0..NP {
+            if free_by_config.get(m).copied().unwrap_or(false)
+                && held.get(m).copied().unwrap_or(false)
+            {
+                let s = scale.get(m).copied().unwrap_or(S::ZERO);
+                push(Considered::HeldTerm(m), s.times(s));
+            }
+        }
+        for i in 0..thrust.count() {
+            push(Considered::Thrust(i), S::ONE);
+        }
+        out
+    }
+
+    /// Quantity `k`'s signature on axis `a`: from the parameter derivatives `d` at the fit and
+    /// the fitted model matrix's row `row`.
+    pub(crate) fn signature(
+        &self,
+        k: usize,
+        d: &[[S; NV]; NP],
+        row: &[S],
+        thrust: &ThrustUncertainty<S>,
+    ) -> [S; NV] {
+        match self.what.get(k).copied().flatten() {
+            Some(Considered::HeldTerm(m)) => d.get(m).copied().unwrap_or([S::ZERO; NV]),
+            Some(Considered::Thrust(i)) => thrust.signature(i, row),
+            None => [S::ZERO; NV],
+        }
+    }
+
+    /// Sets the gains from `cross[k][m] = sum_a D_m^T W_a E_k / sigma_a^2` and the fitted
+    /// terms' covariance `v0`.
+    pub(crate) fn set_gains(&mut self, cross: &[[S; NP]; MAX_CONSIDERED], v0: &[[S; NP]; NP]) {
+        for (g, c) in self.gain.iter_mut().zip(cross) {
+            *g = core::array::from_fn(|m| {
+                v0.get(m).map_or(S::ZERO, |row| {
+                    row.iter()
+                        .zip(c)
+                        .fold(S::ZERO, |acc, (v, x)| acc.mul_add(*v, *x))
+                })
+            });
+        }
+    }
+
+    /// Considered quantities (the first `len` slots are used).
+    pub fn len(&self) -> usize {
+        self.what.iter().take_while(|w| w.is_some()).count()
+    }
+
+    /// True if nothing is considered.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Quantity `k`'s variance and gain.
+    pub(crate) fn term(&self, k: usize) -> (S, [S; NP]) {
+        (
+            self.variance.get(k).copied().unwrap_or(S::ZERO),
+            self.gain.get(k).copied().unwrap_or([S::ZERO; NP]),
+        )
+    }
+
+    /// `v0 + sum_k s_k g_k g_k^T`.
+    pub(crate) fn widen(&self, v0: &[[S; NP]; NP]) -> [[S; NP]; NP] {
+        let mut v = *v0;
+        for k in 0..self.len() {
+            let (s, g) = self.term(k);
+            for (r, row) in v.iter_mut().enumerate() {
+                let gr = g.get(r).copied().unwrap_or(S::ZERO).times(s);
+                for (c, e) in row.iter_mut().enumerate() {
+                    *e = e.mul_add(gr, g.get(c).copied().unwrap_or(S::ZERO));
+                }
+            }
+        }
+        v
+    }
+}
+
+/// The considered quantities of a fit ([`Consider::new`]) with their gains, from the sums
+/// `s` at the fitted `theta`, noise models and covariance `v0` of the `free` terms.
+pub(crate) fn of_fit<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+    theta: &[S; NP],
+    noise: &[ArNoise<S>; 3],
+    held: &[bool; NP],
+    v0: &[[S; NP]; NP],
+    thrust: &ThrustUncertainty<S>,
+) -> Option<Consider<S>> {
+    let mut consider = Consider::new(&cfg.free, held, &cfg.scale, thrust);
+    let len = consider.len();
+    if len == 0 {
+        return Some(consider);
+    }
+    let mut cross = [[S::ZERO; NP]; MAX_CONSIDERED];
+    for (a, (used, nz)) in cfg.axes.iter().zip(noise).enumerate() {
+        if !used {
+            continue;
+        }
+        let (w, c2) = ar_weights(&nz.phi);
+        let wm = weighted(s, a, &w, c2);
+        let (_, d) = residual_and_jacobian(theta, cfg, a)?;
+        let row = model_row(theta, cfg.gyroscopic, a);
+        let inv = S::ONE.checked_div(nz.sigma2)?;
+        for (k, ck) in cross.iter_mut().enumerate().take(len) {
+            let e = consider.signature(k, &d, &row, thrust);
+            for ((c, dm), h) in ck.iter_mut().zip(&d).zip(held) {
+                if !h {
+                    *c = c.plus(inv.times(quad(&wm, dm, &e)));
+                }
+            }
+        }
+    }
+    consider.set_gains(&cross, v0);
+    Some(consider)
+}
+
+/// The model matrix's row `a` at `theta` (zeros if `J` is singular).
+pub(crate) fn model_row<S: Scalar>(theta: &[S; NP], gyroscopic: bool, a: usize) -> [S; NZ] {
+    let (j6, dc) = theta.split_at(6);
+    model_matrix(j6, dc, gyroscopic)
+        .and_then(|m| m.get(a).copied())
+        .unwrap_or([S::ZERO; NZ])
+}

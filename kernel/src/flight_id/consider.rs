@@ -341,3 +341,110 @@ pub(crate) fn model_row<S: Scalar>(theta: &[S; NP], gyroscopic: bool, a: usize) 
         .and_then(|m| m.get(a).copied())
         .unwrap_or([S::ZERO; NZ])
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )]
+    use super::*;
+    use crate::craft::Thruster;
+
+    fn thruster(pos_m: [f32; 3], dir: [f32; 3]) -> Thruster {
+        Thruster {
+            pos_m,
+            dir,
+            thrust_n: 0.2,
+        }
+    }
+
+    /// Recovered on-time of thruster `i` from the wrench of `on` seconds of each thruster.
+    fn recovered(t: &ThrustUncertainty<f32>, craft: &Craft<f32>, on: &[f32], i: usize) -> f32 {
+        let z: [f32; 6] = core::array::from_fn(|c| {
+            on.iter()
+                .enumerate()
+                .map(|(j, s)| s * craft.thruster_wrench(j).unwrap()[c])
+                .sum()
+        });
+        t.recover[i].iter().zip(&z).map(|(b, v)| b * v).sum()
+    }
+
+    /// Independent thruster wrenches: each on-time comes back from the accumulated wrench,
+    /// whatever the others did; the signature is one sigma of the thruster's wrench.
+    #[test]
+    fn independent_thrusters_are_recovered_exactly() {
+        // A planar craft's three thrusters: yaw both ways and a push along x.
+        let craft = Craft::<f32>::new(
+            &[
+                thruster([0.1, 0.1, 0.0], [1.0, 0.0, 0.0]),
+                thruster([0.1, -0.1, 0.0], [0.0, 1.0, 0.0]),
+                thruster([-0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
+            ],
+            [0.0; 3],
+            0.0,
+        )
+        .unwrap();
+        let t = ThrustUncertainty::of_craft(&craft, &[0.05, 0.0, 0.02]).unwrap();
+        assert!(t.exact());
+        assert_eq!(t.count(), 3);
+        let on = [0.7, 1.9, 0.3];
+        for (i, want) in on.iter().enumerate() {
+            let got = recovered(&t, &craft, &on, i);
+            assert!((got - want).abs() < 1e-4, "thruster {i}: {got} vs {want}");
+        }
+        let w0 = craft.thruster_wrench(0).unwrap();
+        for c in 0..6 {
+            assert!((t.sigma_wrench[0][c] - 0.05 * w0[c]).abs() < 1e-7);
+            assert_eq!(t.sigma_wrench[1][c], 0.0);
+        }
+    }
+
+    /// An opposing pair fired together gives no wrench: the on-time is not recoverable and
+    /// the uncertainty is not exact (the ground tool does not vouch); none stated: nothing.
+    #[test]
+    fn redundant_thrusters_are_not_exact() {
+        let craft = Craft::<f32>::new(
+            &[
+                thruster([0.1, 0.0, 0.0], [0.0, 1.0, 0.0]),
+                thruster([0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
+                thruster([-0.1, 0.0, 0.0], [0.0, 1.0, 0.0]),
+                thruster([-0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
+            ],
+            [0.0; 3],
+            0.0,
+        )
+        .unwrap();
+        let t = ThrustUncertainty::of_craft(&craft, &[0.05; 4]).unwrap();
+        assert!(!t.exact());
+        assert!(recovered(&t, &craft, &[1.0, 1.0, 0.0, 0.0], 0).abs() < 1e-4);
+        let none = ThrustUncertainty::of_craft(&craft, &[0.0; 4]).unwrap();
+        assert_eq!(none.count(), 0);
+        assert!(ThrustUncertainty::of_craft(&craft, &[f32::NAN; 4]).is_none());
+    }
+
+    /// The widening adds `s g g^T` for each quantity and nothing when none is considered.
+    #[test]
+    fn the_covariance_grows_by_each_quantity() {
+        let v0: [[f32; NP]; NP] = core::array::from_fn(|r| {
+            core::array::from_fn(|c| if r == c { 1.0 } else { 0.0 })
+        });
+        let mut c = Consider::new(
+            &[true; NP],
+            &core::array::from_fn(|m| m == 4),
+            &[3.0; NP],
+            &ThrustUncertainty::none(),
+        );
+        assert_eq!(c.len(), 1);
+        assert_eq!(c.term(0).0, 9.0);
+        let mut cross = [[0.0f32; NP]; MAX_CONSIDERED];
+        cross[0][1] = 2.0;
+        c.set_gains(&cross, &v0);
+        let v = c.widen(&v0);
+        assert_eq!(v[1][1], 1.0 + 9.0 * 4.0);
+        assert_eq!(v[0][0], 1.0);
+        assert!(Consider::<f32>::none().widen(&v0) == v0);
+    }
+}

@@ -496,7 +496,9 @@ fn flight_id_config<S: Scalar>(
         && !s.max_window_turn_rad.is_nan()
         && s.turn_weight.iter().all(|w| w.is_finite() && *w > 0.0)
         && usize::from(s.max_noise_order) <= MAX_ORDER
-        && s.thrust_sigma_rel.iter().all(|v| v.is_finite() && *v >= 0.0);
+        && s.thrust_sigma_rel
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0);
     if !finite {
         return None;
     }

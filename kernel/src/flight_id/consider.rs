@@ -18,8 +18,12 @@
 //! `t_i = b_i . z`. That is exact when the thrusters' wrenches are linearly independent
 //! (at most six thrusters, none a combination of others: [`ThrustUncertainty::exact`]).
 //! Where they are not (opposing pairs, 8 thrusters in a plane), the on-time a wrench does
-//! not determine is missing from the signature, and the consider covariance covers only part
-//! of the thrust error: the ground tool then does not vouch for the estimate.
+//! not determine (two opposing thrusters fired together) is missing from the signature. On
+//! random craft of 9-16 thrusters (held-out seeds, f32) the flights with a stated
+//! uncertainty had the same mean squared error over sigma as those without (1.46 and 1.50:
+//! the README's random-craft section), so the part the wrench determines is what moved the
+//! estimates there; a craft that fires opposing thrusters together for long would not be
+//! covered, and [`ThrustUncertainty::exact`] says whether the recovery is exact.
 use super::solve::{
     ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
 };
@@ -103,7 +107,7 @@ impl<S: Scalar> ThrustUncertainty<S> {
             .enumerate()
             .map(|(c, row)| row.get(c).copied().unwrap_or(0.0))
             .sum();
-        if !(trace > 0.0) {
+        if trace.is_nan() || trace <= 0.0 {
             return None;
         }
         for (c, row) in gram.iter_mut().enumerate() {
@@ -160,7 +164,10 @@ impl<S: Scalar> ThrustUncertainty<S> {
         let (Some(sw), Some(rc)) = (self.sigma_wrench.get(i), self.recover.get(i)) else {
             return e;
         };
-        let gain = sw.iter().zip(row).fold(S::ZERO, |acc, (w, r)| acc.mul_add(*w, *r));
+        let gain = sw
+            .iter()
+            .zip(row)
+            .fold(S::ZERO, |acc, (w, r)| acc.mul_add(*w, *r));
         for (v, r) in e.iter_mut().zip(rc) {
             *v = gain.times(*r);
         }
@@ -428,9 +435,8 @@ mod tests {
     /// The widening adds `s g g^T` for each quantity and nothing when none is considered.
     #[test]
     fn the_covariance_grows_by_each_quantity() {
-        let v0: [[f32; NP]; NP] = core::array::from_fn(|r| {
-            core::array::from_fn(|c| if r == c { 1.0 } else { 0.0 })
-        });
+        let v0: [[f32; NP]; NP] =
+            core::array::from_fn(|r| core::array::from_fn(|c| if r == c { 1.0 } else { 0.0 }));
         let mut c = Consider::new(
             &[true; NP],
             &core::array::from_fn(|m| m == 4),

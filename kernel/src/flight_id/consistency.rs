@@ -18,10 +18,10 @@
 //!   afford a drive component per thruster in the tick, and tests the symmetry it breaks.
 //!
 //! Either test over its threshold makes the estimate `inconsistent`, never `ok`.
+use super::consider::{Consider, ThrustUncertainty, MAX_CONSIDERED};
 use super::solve::{
     ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
 };
-use super::consider::{Consider, ThrustUncertainty, MAX_CONSIDERED};
 use super::sums::{FlightSums, NZ, N_MODEL, SPLIT_TORQUE};
 use crate::scalar::Scalar;
 

@@ -926,3 +926,116 @@ fn rust_flight_id_line<S: SumScalar>(
     }
     expected
 }
+
+/// The C ABI's settings carry each thruster's thrust uncertainty to the fit: the estimate is
+/// unchanged, Izz's variance grows by about what a common thrust error of that size does to it
+/// (a uniform thrust error is an inertia error), and a non-finite entry is refused.
+#[test]
+fn the_c_abi_carries_the_thrust_uncertainty() {
+    use massid_kernel::capi::craft::{
+        massid_f32_flight_id_finish, massid_f32_flight_id_init, massid_f32_flight_id_push,
+        massid_f32_flight_id_solve, massid_flight_id_settings_default, MassidCraft, MassidFlightId,
+        MassidFlightIdResult, MassidFlightIdSettings,
+    };
+    use massid_kernel::capi::MassidStatus;
+    use std::mem::MaybeUninit;
+    // A planar craft: one thruster turns it each way, a third pushes it along y.
+    let mut craft = MassidCraft {
+        count: 3,
+        planar: 1,
+        thruster_pos_m: [[0.0; 3]; 16],
+        thrust_dir: [[0.0; 3]; 16],
+        thrust_n: [0.0; 16],
+        pressure_drop_n_per_extra: 0.0,
+    };
+    craft.thruster_pos_m[..3].copy_from_slice(&[
+        [0.2, 0.2, 0.0],
+        [0.2, -0.2, 0.0],
+        [-0.2, 0.0, 0.0],
+    ]);
+    craft.thrust_dir[..3].copy_from_slice(&[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    craft.thrust_n[..3].copy_from_slice(&[0.5, 0.5, 0.5]);
+    let izz = 0.25f32;
+    let inertia = [0.2f32, 0.2, izz, 0.0, 0.0, 0.0];
+    let com = [0.0f32; 3];
+    let period = 0.01f32;
+    let mut settings = MaybeUninit::<MassidFlightIdSettings>::uninit();
+    // SAFETY: valid pointers to a craft, six and three floats and a settings slot.
+    let status = unsafe {
+        massid_flight_id_settings_default(
+            &craft,
+            inertia.as_ptr(),
+            com.as_ptr(),
+            period,
+            settings.as_mut_ptr(),
+        )
+    };
+    assert_eq!(status, MassidStatus::Ok);
+    // SAFETY: written by the call above.
+    let defaults = unsafe { settings.assume_init() };
+    assert_eq!(defaults.thrust_sigma_rel, [0.0; 16]);
+    let run = |sigma: [f32; 16]| -> Result<MassidFlightIdResult, MassidStatus> {
+        // (Field assignment: struct-update syntax here made rustc 1.95 panic, "broken MIR".)
+        let mut s = defaults;
+        s.thrust_sigma_rel = sigma;
+        let mut block: Box<MaybeUninit<MassidFlightId>> = Box::new(MaybeUninit::uninit());
+        let b = block.as_mut_ptr();
+        // SAFETY: an 8-aligned block of the type, a craft and settings.
+        let st = unsafe { massid_f32_flight_id_init(b, &craft, &s) };
+        if st != MassidStatus::Ok {
+            return Err(st);
+        }
+        // Pulses each way and along y, the yaw rate following Izz (torque 0.1 N m), with a
+        // small deterministic noise.
+        let mut rate = 0.0f32;
+        let mut x = 7u32;
+        for k in 0..6000u32 {
+            let word: u16 = match (k / 50) % 6 {
+                0 => 1,
+                2 => 2,
+                4 => 4,
+                _ => 0,
+            };
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let noise = 1e-3 * ((x >> 8) as f32 / (1u32 << 24) as f32 - 0.5);
+            let r = [0.0, 0.0, rate + noise];
+            // SAFETY: an initialised block and three floats.
+            let st = unsafe { massid_f32_flight_id_push(b, period, r.as_ptr(), 1, word) };
+            assert_eq!(st, MassidStatus::Ok);
+            // (lever x force about z: -0.1, +0.1 and -0.1 N m)
+            let torque = match word {
+                1 | 4 => -0.1,
+                2 => 0.1,
+                _ => 0.0,
+            };
+            rate += torque / izz * period;
+        }
+        let mut out = MaybeUninit::<MassidFlightIdResult>::uninit();
+        // SAFETY: an initialised block and a result slot.
+        unsafe {
+            assert_eq!(massid_f32_flight_id_finish(b), MassidStatus::Ok);
+            assert_eq!(
+                massid_f32_flight_id_solve(b, out.as_mut_ptr()),
+                MassidStatus::Ok
+            );
+            Ok(out.assume_init())
+        }
+    };
+    let plain = run([0.0; 16]).expect("no uncertainty");
+    let mut sigma = [0.0f32; 16];
+    sigma[..3].copy_from_slice(&[0.05; 3]);
+    let stated = run(sigma).expect("stated uncertainty");
+    assert_eq!(plain.theta, stated.theta, "considering changes no estimate");
+    // The y thruster's torque error looks like a CoM x shift (its lever is along x), so Jzz
+    // rests on the two x thrusters, whose independent 5 % errors average over turns half
+    // each way: Var(Jzz) grows by (0.05 Jzz)^2 / 2.
+    let jzz = plain.theta[2];
+    let grown = stated.covariance[2][2] - plain.covariance[2][2];
+    let common = (0.05 * jzz).powi(2);
+    assert!(
+        grown > 0.4 * common && grown < 0.6 * common,
+        "Var(Jzz) grew by {grown:e}; a common 5 % error gives {common:e}"
+    );
+    sigma[1] = f32::NAN;
+    assert_eq!(run(sigma).err(), Some(MassidStatus::BadParameters));
+}

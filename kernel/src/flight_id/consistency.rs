@@ -92,7 +92,7 @@ pub fn score_statistic<S: Scalar>(
     noise: &[ArNoise<S>; 3],
     free: &[bool; NP],
     covariance: &[[S; NP]; NP],
-    considered: (&Consider<S>, &ThrustUncertainty<S>),
+    considered: (&Consider<S>, &ThrustUncertainty),
     direction: Direction,
 ) -> Option<S> {
     let (consider, thrust) = considered;

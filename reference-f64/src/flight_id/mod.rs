@@ -420,8 +420,8 @@ pub const WARM_TURN_3D_RAD: f64 = 8.0;
 /// windows it settled on a wrong minimum (one of them `ok` at 9 sigma). Over windows of 8 rad
 /// the same flights converge from the model, and that estimate is close enough for the long
 /// windows. None when the split leaves the windows as they are (no window turns more than
-/// that, or the runs would be too short) or the short-window
-/// fit gives no physical inertia.
+/// that, or the runs would be too short), or the short-window fit did not settle or gives no
+/// physical inertia.
 fn warm_start(fit: &Fit, wins: &[(usize, usize)], min_len: usize) -> Option<Rigid> {
     if fit.dynamics != Dynamics::Full {
         return None;
@@ -431,7 +431,12 @@ fn warm_start(fit: &Fit, wins: &[(usize, usize)], min_len: usize) -> Option<Rigi
         return None;
     }
     let (e, rigid) = identify_in(fit, &short, None).ok()?;
-    (e.inertia_kgm2.iter().all(|v| v.is_finite()) && rigid.j.cholesky().is_some()).then_some(rigid)
+    // Only a settled short fit is a starting point (one that stopped on its step limit is
+    // where Gauss-Newton gave up, not an estimate: the model's inertia is then no worse).
+    (e.status != "not_converged"
+        && e.inertia_kgm2.iter().all(|v| v.is_finite())
+        && rigid.j.cholesky().is_some())
+    .then_some(rigid)
 }
 
 /// What every fit of one [`identify`] call shares: the flight, the model, the options, the

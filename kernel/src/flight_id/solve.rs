@@ -535,11 +535,25 @@ fn scaling<S: Scalar>(info: &[[S; NP]; NP]) -> [i32; NP] {
     })
 }
 
+/// Why a step could not be taken: the information is singular at a term (the LU's column:
+/// the term the others already explain), or another [`SolveError`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum StepError {
+    Singular(usize),
+    Other(SolveError),
+}
+
+impl From<SolveError> for StepError {
+    fn from(e: SolveError) -> Self {
+        StepError::Other(e)
+    }
+}
+
 /// `info^-1 score` and `info^-1`, through the scaled system.
 fn scaled_solve<S: Scalar>(
     info: &[[S; NP]; NP],
     score: &[S; NP],
-) -> Result<([S; NP], [[S; NP]; NP]), SolveError> {
+) -> Result<([S; NP], [[S; NP]; NP]), StepError> {
     let k = scaling(info);
     let kk = |m: usize| k.get(m).copied().unwrap_or(0);
     let mut a = *info;
@@ -550,8 +564,9 @@ fn scaled_solve<S: Scalar>(
     }
     let b: [S; NP] = core::array::from_fn(|m| get(score, m).mul_pow2(kk(m).saturating_neg()));
     let lu = Lu::factor(&a, S::from_int_pow2(1, -20)).map_err(|e| match e {
-        LuError::Overflow => SolveError::Overflow,
-        _ => SolveError::Singular,
+        LuError::Overflow => StepError::Other(SolveError::Overflow),
+        LuError::Singular { column } => StepError::Singular(column),
+        LuError::ZeroMatrix => StepError::Other(SolveError::Singular),
     })?;
     let x = lu.solve(&b).map_err(|_| SolveError::Overflow)?;
     let delta = core::array::from_fn(|m| get(&x, m).mul_pow2(kk(m).saturating_neg()));
@@ -595,31 +610,111 @@ fn gauss_newton<S: Scalar>(
     noise: &[ArNoise<S>; 3],
     free: &[bool; NP],
     max_steps: u32,
-) -> Result<u32, SolveError> {
+) -> Result<u32, StepError> {
     let tol = S::from_int_pow2(1, -6);
     for step in 1..=max_steps {
-        let (info, score, _) = normal(s, cfg, theta, noise, free);
+        let (info, score, cost) = normal(s, cfg, theta, noise, free);
         let (delta, cov) = scaled_solve(&info, &score)?;
         let mut settled = true;
-        for (m, (t, dv)) in theta.iter_mut().zip(delta).enumerate() {
+        let mut long = false;
+        for (m, dv) in delta.iter().copied().enumerate() {
             if !free.get(m).copied().unwrap_or(false) {
                 continue;
             }
             if !dv.is_valid() {
-                return Err(SolveError::Overflow);
+                return Err(StepError::Other(SolveError::Overflow));
             }
-            *t = t.plus(dv);
             let var = get2(&cov, m, m);
+            // A variance that is not positive: the information is not numerically positive
+            // definite (f32 on a nearly degenerate direction passes the LU's pivot threshold
+            // and inverts to noise): the term is singular as surely as a failed pivot.
+            if !S::ZERO.lt(var) {
+                return Err(StepError::Singular(m));
+            }
             // |delta| > tol * sigma  <=>  delta^2 > tol^2 var
             if tol.times(tol).times(var).lt(dv.times(dv)) {
                 settled = false;
             }
+            long |= var.lt(dv.times(dv));
         }
+        // A step over one sigma must lower the whitened cost, else it is halved (at most
+        // ten times): whole steps along a nearly degenerate direction (a one- or two-thruster
+        // planar craft) went back and forth until the step limit, as the reference's did.
+        let before = weighted_cost(&cost, noise, cfg);
+        let mut fraction = S::ONE;
+        for _ in 0..10 {
+            if !long {
+                break;
+            }
+            let trial = step_to(theta, &delta, free, fraction);
+            let (_, _, c) = normal(s, cfg, &trial, noise, free);
+            if weighted_cost(&c, noise, cfg).lt(before) {
+                break;
+            }
+            fraction = fraction.mul_pow2(-1);
+        }
+        // Past half the step limit, a short step that no longer lowers the cost is at the
+        // format's rounding floor (f32 on a nearly degenerate flight, which the kernel's
+        // algorithm in f64 settles): settled where it stands.
+        if !settled && !long && step > max_steps / 2 {
+            let (_, _, c) = normal(s, cfg, &step_to(theta, &delta, free, S::ONE), noise, free);
+            if !weighted_cost(&c, noise, cfg).lt(before) {
+                return Ok(step);
+            }
+        }
+        *theta = step_to(theta, &delta, free, fraction);
         if settled {
             return Ok(step);
         }
     }
-    Err(SolveError::NotConverged)
+    Err(StepError::Other(SolveError::NotConverged))
+}
+
+/// `theta + fraction delta` on the free terms.
+fn step_to<S: Scalar>(theta: &[S; NP], delta: &[S; NP], free: &[bool; NP], fraction: S) -> [S; NP] {
+    core::array::from_fn(|m| {
+        let t = get(theta, m);
+        if free.get(m).copied().unwrap_or(false) {
+            t.plus(fraction.times(get(delta, m)))
+        } else {
+            t
+        }
+    })
+}
+
+/// The whitened cost summed over the fitted axes, each over its innovation variance.
+fn weighted_cost<S: Scalar>(cost: &[S; 3], noise: &[ArNoise<S>; 3], cfg: &SolveConfig<S>) -> S {
+    cost.iter()
+        .zip(noise)
+        .zip(cfg.axes)
+        .filter(|(_, used)| *used)
+        .fold(S::ZERO, |acc, ((c, nz), _)| {
+            acc.plus(c.checked_div(nz.sigma2).unwrap_or(S::ZERO))
+        })
+}
+
+/// The free term whose variance in `cov` exceeds its scale squared by the largest factor, if
+/// any: the data do not determine it.
+fn least_determined<S: Scalar>(
+    cov: &[[S; NP]; NP],
+    free: &[bool; NP],
+    scale: &[S; NP],
+) -> Option<usize> {
+    let mut worst: Option<(usize, S)> = None;
+    for m in 0..NP {
+        if !free.get(m).copied().unwrap_or(false) {
+            continue;
+        }
+        let var = get2(cov, m, m);
+        let sc = get(scale, m);
+        if sc.times(sc).lt(var) {
+            let ratio = var.checked_div(sc.times(sc)).unwrap_or(S::headroom());
+            if worst.is_none_or(|(_, r)| r.lt(ratio)) {
+                worst = Some((m, ratio));
+            }
+        }
+    }
+    worst.map(|(m, _)| m)
 }
 
 /// Fits the mass properties and the noise models to `s`, holding the terms the data do not
@@ -661,8 +756,43 @@ pub fn solve<S: Scalar>(
                 }
             }
         }
+        // A singular information holds the term the LU found the others already explain
+        // (a one-thruster planar craft: Izz and the CoM across the thrust give the same
+        // rates) and starts again, as the reference holds its degenerate term.
+        macro_rules! step {
+            ($e:expr) => {
+                match $e {
+                    Ok(v) => v,
+                    Err(StepError::Singular(m)) if free.get(m).copied().unwrap_or(false) => {
+                        if let Some(f) = free.get_mut(m) {
+                            *f = false;
+                        }
+                        continue 'holding;
+                    }
+                    Err(StepError::Singular(_)) => return Err(SolveError::Singular),
+                    // Not settled: a term beyond its scale where Gauss-Newton stopped is held
+                    // as it would be at the optimum (a 3-D craft with one or two thrusters
+                    // wandered along the directions they do not excite).
+                    Err(StepError::Other(SolveError::NotConverged)) => {
+                        let (info, score, _) = normal(s, cfg, &theta, &noise, &free);
+                        let beyond = scaled_solve(&info, &score)
+                            .ok()
+                            .and_then(|(_, cov)| least_determined(&cov, &free, &cfg.scale));
+                        match beyond.and_then(|m| free.get_mut(m)) {
+                            Some(f) => {
+                                *f = false;
+                                continue 'holding;
+                            }
+                            None => return Err(SolveError::NotConverged),
+                        }
+                    }
+                    Err(StepError::Other(e)) => return Err(e),
+                }
+            };
+        }
         for _round in 0..3 {
-            steps = steps.saturating_add(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)?);
+            steps =
+                steps.saturating_add(step!(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)));
             for (a, nz) in noise.iter_mut().enumerate() {
                 if !cfg.axes.get(a).copied().unwrap_or(false) {
                     continue;
@@ -684,25 +814,11 @@ pub fn solve<S: Scalar>(
                 }
             }
         }
-        steps = steps.saturating_add(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)?);
+        steps = steps.saturating_add(step!(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)));
         let (info, score, _) = normal(s, cfg, &theta, &noise, &free);
-        let (_, cov) = scaled_solve(&info, &score)?;
+        let (_, cov) = step!(scaled_solve(&info, &score));
         // Hold the least determined term beyond its scale and start again.
-        let mut worst: Option<(usize, S)> = None;
-        for m in 0..NP {
-            if !free.get(m).copied().unwrap_or(false) {
-                continue;
-            }
-            let var = get2(&cov, m, m);
-            let sc = get(&cfg.scale, m);
-            if sc.times(sc).lt(var) {
-                let ratio = var.checked_div(sc.times(sc)).unwrap_or(S::headroom());
-                if worst.is_none_or(|(_, r)| r.lt(ratio)) {
-                    worst = Some((m, ratio));
-                }
-            }
-        }
-        if let Some((m, _)) = worst {
+        if let Some(m) = least_determined(&cov, &free, &cfg.scale) {
             if let Some(f) = free.get_mut(m) {
                 *f = false;
             }

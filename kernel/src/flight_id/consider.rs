@@ -97,7 +97,13 @@ impl ThrustUncertainty {
                 .filter(|_| i < n)
                 .map_or([0.0; 6], |w| w.map(|v| f64::from(v.to_f32())));
             let g = |c: usize| w.get(c).copied().unwrap_or(0.0);
-            core::array::from_fn(|c| if c < 6 { g(c) } else { g(c - 6).max(0.0) })
+            core::array::from_fn(|c| {
+                if c < 6 {
+                    g(c)
+                } else {
+                    g(c.saturating_sub(6)).max(0.0)
+                }
+            })
         });
         let scale: [f64; NR] = core::array::from_fn(|c| {
             let m = column
@@ -396,7 +402,11 @@ mod tests {
                 .enumerate()
                 .map(|(j, s)| {
                     let w = craft.thruster_wrench(j).unwrap();
-                    s * if c < 6 { w[c] } else { w[c - 6].max(0.0) }
+                    s * if c < 6 {
+                        w[c]
+                    } else {
+                        w[c.saturating_sub(6)].max(0.0)
+                    }
                 })
                 .sum()
         });

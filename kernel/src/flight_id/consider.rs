@@ -23,10 +23,8 @@
 //! random planar craft whose thrusts were drawn from the stated uncertainty (p down to
 //! 1e-110; f32, seeds 63000-63099). What the components cannot tell apart (thrusters fired
 //! together against each other) is missing from the signature.
-use super::solve::{
-    ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
-};
-use super::sums::{FlightSums, NZ, SPLIT_TORQUE};
+use super::solve::{axis_forms, quad, ArNoise, SolveConfig, NP, NV};
+use super::sums::{FlightSums, SPLIT_TORQUE};
 use crate::craft::{Craft, MAX_THRUSTERS};
 use crate::lu::Lu;
 use crate::scalar::Scalar;
@@ -349,30 +347,18 @@ pub(crate) fn of_fit<S: Scalar>(
         if !used {
             continue;
         }
-        let (w, c2) = ar_weights(&nz.phi);
-        let wm = weighted(s, a, &w, c2);
-        let (_, d) = residual_and_jacobian(theta, cfg, a)?;
-        let row = model_row(theta, cfg.gyroscopic, a);
-        let inv = S::ONE.checked_div(nz.sigma2)?;
+        let f = axis_forms(s, cfg, theta, nz, a)?;
         for (k, ck) in cross.iter_mut().enumerate().take(len) {
-            let e = consider.signature(k, &d, &row, thrust);
-            for ((c, dm), h) in ck.iter_mut().zip(&d).zip(held) {
+            let e = consider.signature(k, &f.d, &f.row, thrust);
+            for ((c, dm), h) in ck.iter_mut().zip(&f.d).zip(held) {
                 if !h {
-                    *c = c.plus(inv.times(quad(&wm, dm, &e)));
+                    *c = c.plus(f.inv_sigma2.times(quad(&f.wm, dm, &e)));
                 }
             }
         }
     }
     consider.set_gains(&cross, v0);
     Some(consider)
-}
-
-/// The model matrix's row `a` at `theta` (zeros if `J` is singular).
-pub(crate) fn model_row<S: Scalar>(theta: &[S; NP], gyroscopic: bool, a: usize) -> [S; NZ] {
-    let (j6, dc) = theta.split_at(6);
-    model_matrix(j6, dc, gyroscopic)
-        .and_then(|m| m.get(a).copied())
-        .unwrap_or([S::ZERO; NZ])
 }
 
 #[cfg(test)]

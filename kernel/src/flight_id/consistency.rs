@@ -19,9 +19,7 @@
 //!
 //! Either test over its threshold makes the estimate `inconsistent`, never `ok`.
 use super::consider::{Consider, ThrustUncertainty, MAX_CONSIDERED};
-use super::solve::{
-    ar_weights, model_matrix, quad, residual_and_jacobian, weighted, ArNoise, SolveConfig, NP, NV,
-};
+use super::solve::{axis_forms, quad, ArNoise, AxisForms, SolveConfig, NP, NV};
 use super::sums::{FlightSums, NZ, N_MODEL, SPLIT_TORQUE};
 use crate::scalar::Scalar;
 
@@ -106,14 +104,14 @@ pub fn score_statistic<S: Scalar>(
         if !used {
             continue;
         }
-        let (w, c2) = ar_weights(&nz.phi);
-        let wm = weighted(s, a, &w, c2);
-        let (u, d) = residual_and_jacobian(theta, cfg, a)?;
-        let (j6, dc) = theta.split_at(6);
-        let model = model_matrix(j6, dc, cfg.gyroscopic)?;
-        let row = model.get(a).copied().unwrap_or([S::ZERO; NZ]);
+        let AxisForms {
+            wm,
+            u,
+            d,
+            row,
+            inv_sigma2: inv,
+        } = axis_forms(s, cfg, theta, nz, a)?;
         let e = direction.signature(&row);
-        let inv = S::ONE.checked_div(nz.sigma2)?;
         for (k, c) in cross.iter_mut().enumerate().take(len) {
             let ek = consider.signature(k, &d, &row, thrust);
             *c = c.plus(inv.times(quad(&wm, &e, &ek)));

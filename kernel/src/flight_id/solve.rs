@@ -440,6 +440,44 @@ pub(crate) fn residual_and_jacobian<S: Scalar>(
     Some((u, d))
 }
 
+/// One axis' whitened moments and the fit's directions at `theta`: what the consider
+/// covariance and the score tests build their quadratic forms from.
+pub(crate) struct AxisForms<S> {
+    /// Whitened, initial-rate-eliminated moments ([`weighted`]).
+    pub wm: M7<S>,
+    /// The residual direction and the parameter derivatives ([`residual_and_jacobian`]).
+    pub u: [S; NV],
+    pub d: [[S; NV]; NP],
+    /// The model matrix's row of the axis at `theta`.
+    pub row: [S; NZ],
+    /// One over the axis' innovation variance.
+    pub inv_sigma2: S,
+}
+
+/// [`AxisForms`] of axis `a` with noise model `nz`; None if `J` is singular or the variance
+/// is not invertible.
+pub(crate) fn axis_forms<S: Scalar>(
+    s: &FlightSums<S>,
+    cfg: &SolveConfig<S>,
+    theta: &[S; NP],
+    nz: &ArNoise<S>,
+    a: usize,
+) -> Option<AxisForms<S>> {
+    let (w, c2) = ar_weights(&nz.phi);
+    let wm = weighted(s, a, &w, c2);
+    let (u, d) = residual_and_jacobian(theta, cfg, a)?;
+    let (j6, dc) = theta.split_at(6);
+    let row = model_matrix(j6, dc, cfg.gyroscopic)?.get(a).copied()?;
+    let inv_sigma2 = S::ONE.checked_div(nz.sigma2)?;
+    Some(AxisForms {
+        wm,
+        u,
+        d,
+        row,
+        inv_sigma2,
+    })
+}
+
 /// Normal equations of the free terms at `theta` with noise `noise`: information, score and
 /// the whitened cost per axis.
 fn normal<S: Scalar>(

@@ -100,8 +100,6 @@ pub struct FlightId<S: SumScalar> {
     products: [S; 6],
     /// The rate products of the sample before that (valid from a window's third sample).
     products_before: [S; 6],
-    /// 1/12 in the format (Adams-Moulton's weights), converted once.
-    twelfth: S,
     /// A step longer than this starts a new window (1.5 periods).
     gap: S,
     /// The window's last three (drive, measured rate), a ring whose newest is at `newest`
@@ -162,7 +160,6 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, drive).write(S::drive(&scales));
         field!(slot, Self, products).write([S::ZERO; 6]);
         field!(slot, Self, products_before).write([S::ZERO; 6]);
-        field!(slot, Self, twelfth).write(S::from_f32(1.0 / 12.0));
         field!(slot, Self, gap).write(S::from_f32(1.5).times(cfg.period_s));
         field!(slot, Self, last).write([([S::ZERO; NZ], [S::ZERO; 3]); 3]);
         field!(slot, Self, newest).write(0);
@@ -184,7 +181,6 @@ impl<S: SumScalar> FlightId<S> {
                     drive,
                     products,
                     products_before,
-                    twelfth,
                     gap,
                     last,
                     newest,
@@ -253,7 +249,7 @@ impl<S: SumScalar> FlightId<S> {
                 // the products' change of slope, was a systematic residual on craft spinning
                 // fast at low sample rates (6.9 rad/s at 50 Hz: inertia 5 sigma off, `ok`).
                 let third_order = self.filled >= 2;
-                let twelfth = dt_s.times(self.twelfth);
+                let twelfth = dt_s.times(S::from_f32(1.0 / 12.0));
                 for (p, ((then, now), before)) in self
                     .products
                     .iter()
@@ -263,8 +259,7 @@ impl<S: SumScalar> FlightId<S> {
                 {
                     let step = if third_order {
                         twelfth.times(
-                            now.mul_pow2(2)
-                                .plus(now)
+                            now.times(S::from_int_pow2(5, 0))
                                 .plus(then.mul_pow2(3))
                                 .minus(before),
                         )

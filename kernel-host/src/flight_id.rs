@@ -134,7 +134,12 @@ pub fn identify<S: SumScalar>(
                 .map(|v| *v as f32)
                 .collect::<Vec<f32>>(),
         )
-        .ok_or_else(|| model_error(sat, "thrust_sigma_n is not finite".into()))?,
+        .ok_or_else(|| {
+            model_error(
+                sat,
+                "thrust_sigma_n is not finite, or the thruster table has no pseudo-inverse".into(),
+            )
+        })?,
     };
     let mut id = FlightId::new(cfg).ok_or_else(|| {
         model_error(

@@ -11,8 +11,9 @@ use massid_tests::random_craft::CraftClass;
 use reference_f64::flight_id::Options;
 
 const FLIGHTS: u64 = 16;
-/// Held out: the development runs used seeds 60000-60029 and 61081, the README's table
-/// 61000-61099.
+/// Held out: the development runs used seeds 60000-60029, 61000-61029 (the kernels), 61081
+/// and 63000-63099 (the kernels); the README's tables 61000-61099 (f64) and 64000-64099
+/// (the kernels).
 const SEED0: u64 = 62000;
 
 fn class(planar: bool, thrusters: (usize, usize), mocap: bool) -> Condition {
@@ -145,7 +146,7 @@ fn the_kernels_allow_for_stated_thrust_uncertainty() {
         for imp in [Implementation::F32, Implementation::Fixed] {
             let (status, z) = worst(&sim, imp);
             assert!(
-                z < 4.0 || !matches!(status, "ok" | "unobservable_terms"),
+                z < 4.0 && matches!(status, "ok" | "unobservable_terms"),
                 "seed {seed} {imp:?} (before: {before}): {status} at {z:.1} sigma"
             );
         }

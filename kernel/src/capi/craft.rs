@@ -479,7 +479,8 @@ fn sensor_of(code: u8) -> Option<SensorResponse> {
 
 /// The kernel's configuration for `s`, or `None` if a setting is out of range.
 /// (The settings are f32; each reaches `S` by its exact `from_f32`, and the nominal inverse
-/// inertia is computed in `S`, so the integer float's path has no floating-point instruction.)
+/// inertia is computed in `S`. The one floating-point computation is the thrust uncertainty's
+/// pseudo-inverse, in f64 once here: software double on the M0 and M4F, not in a tick.)
 fn flight_id_config<S: Scalar>(
     s: &MassidFlightIdSettings,
     craft: &Craft<S>,

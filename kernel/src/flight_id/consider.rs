@@ -173,8 +173,11 @@ impl ThrustUncertainty {
         self.count
     }
 
-    /// Every thruster's on-time follows from the accumulated wrench, so the consider
-    /// covariance covers the whole stated thrust error (see the module docs).
+    /// The thrusters' columns (wrench and positive torque parts) are independent, so each
+    /// on-time follows from the drive while thrusters whose torques about an axis have
+    /// opposite signs do not fire together (the drive accumulates the positive part of the
+    /// summed torque): the consider covariance then covers the whole stated thrust error.
+    /// Not read by the kernel's rules; for a caller deciding how far to trust the sigma.
     pub fn exact(&self) -> bool {
         self.exact
     }

@@ -100,6 +100,8 @@ pub struct FlightId<S: SumScalar> {
     products: [S; 6],
     /// The rate products of the sample before that (valid from a window's third sample).
     products_before: [S; 6],
+    /// The previous step's length, s (Adams-Moulton's equal-step weights need it).
+    dt_before: S,
     /// A step longer than this starts a new window (1.5 periods).
     gap: S,
     /// The window's last three (drive, measured rate), a ring whose newest is at `newest`
@@ -160,6 +162,7 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, drive).write(S::drive(&scales));
         field!(slot, Self, products).write([S::ZERO; 6]);
         field!(slot, Self, products_before).write([S::ZERO; 6]);
+        field!(slot, Self, dt_before).write(S::ZERO);
         field!(slot, Self, gap).write(S::from_f32(1.5).times(cfg.period_s));
         field!(slot, Self, last).write([([S::ZERO; NZ], [S::ZERO; 3]); 3]);
         field!(slot, Self, newest).write(0);
@@ -181,6 +184,7 @@ impl<S: SumScalar> FlightId<S> {
                     drive,
                     products,
                     products_before,
+                    dt_before,
                     gap,
                     last,
                     newest,
@@ -248,7 +252,12 @@ impl<S: SumScalar> FlightId<S> {
                 // `h (5 f_k + 8 f_(k-1) - f_(k-2)) / 12`: the trapezoid's error, `h^2/12` times
                 // the products' change of slope, was a systematic residual on craft spinning
                 // fast at low sample rates (6.9 rad/s at 50 Hz: inertia 5 sigma off, `ok`).
-                let third_order = self.filled >= 2;
+                // (Equal steps: with a step 1/64 longer or shorter than the one before, the
+                // rule's error on a linear product, `f' dt (dt_before - dt) / 12`, stays below
+                // the trapezoid's on the curvature; with more jitter the trapezoid, exact on a
+                // linear product.)
+                let jitter = dt_s.minus(self.dt_before).abs();
+                let third_order = self.filled >= 2 && !dt_s.mul_pow2(-6).lt(jitter);
                 let twelfth = dt_s.times(S::from_f32(1.0 / 12.0));
                 for (p, ((then, now), before)) in self
                     .products
@@ -281,6 +290,7 @@ impl<S: SumScalar> FlightId<S> {
             }
         }
         self.products_before = if joins { self.products } else { products };
+        self.dt_before = dt_s;
         self.products = products;
         if joins {
             for (w, k) in rate.iter().zip(self.cfg.turn_weight) {
@@ -374,7 +384,10 @@ impl<S: SumScalar> FlightId<S> {
             &solution.covariance,
             &self.cfg.thrust,
         )
-        .ok_or(SolveError::Overflow)?;
+        // None only where the fitted model matrix does not exist (a singular inverse
+        // inertia, which the validity rules refuse): the estimate then keeps its plain
+        // covariance rather than being lost.
+        .unwrap_or_else(consider::Consider::none);
         let test = |direction| {
             consistency::score_statistic(
                 &sums,

@@ -679,26 +679,37 @@ fn gauss_newton<S: Scalar>(
         // ten times): whole steps along a nearly degenerate direction (a one- or two-thruster
         // planar craft) went back and forth until the step limit, as the reference's did.
         let before = weighted_cost(&cost, noise, cfg);
+        // The cost at a trial point; a point where the model matrix does not exist (a
+        // singular inverse inertia) lowers nothing.
+        let lowers = |trial: &[S; NP]| {
+            let (j6, dc) = trial.split_at(6);
+            model_matrix(j6, dc, cfg.gyroscopic).is_some() && {
+                let (_, _, c) = normal(s, cfg, trial, noise, free);
+                weighted_cost(&c, noise, cfg).lt(before)
+            }
+        };
         let mut fraction = S::ONE;
-        for _ in 0..10 {
-            if !long {
-                break;
+        if long {
+            // No halving that lowers the cost: theta stays (the step limit then decides).
+            fraction = S::ZERO;
+            let mut f = S::ONE;
+            for _ in 0..10 {
+                if lowers(&step_to(theta, &delta, free, f)) {
+                    fraction = f;
+                    break;
+                }
+                f = f.mul_pow2(-1);
             }
-            let trial = step_to(theta, &delta, free, fraction);
-            let (_, _, c) = normal(s, cfg, &trial, noise, free);
-            if weighted_cost(&c, noise, cfg).lt(before) {
-                break;
-            }
-            fraction = fraction.mul_pow2(-1);
         }
-        // Past half the step limit, a short step that no longer lowers the cost is at the
-        // format's rounding floor (f32 on a nearly degenerate flight, which the kernel's
-        // algorithm in f64 settles): settled where it stands.
-        if !settled && !long && step > max_steps / 2 {
-            let (_, _, c) = normal(s, cfg, &step_to(theta, &delta, free, S::ONE), noise, free);
-            if !weighted_cost(&c, noise, cfg).lt(before) {
-                return Ok(step);
-            }
+        // Past half the step limit, a step within 1/16 of a sigma that no longer lowers the
+        // cost is at the format's rounding floor (f32 on a nearly degenerate flight, which
+        // the kernel's algorithm in f64 settles): settled where it stands.
+        if !settled
+            && step > max_steps / 2
+            && within(&delta, &cov, free, S::from_int_pow2(1, -4))
+            && !lowers(&step_to(theta, &delta, free, S::ONE))
+        {
+            return Ok(step);
         }
         *theta = step_to(theta, &delta, free, fraction);
         if settled {
@@ -706,6 +717,14 @@ fn gauss_newton<S: Scalar>(
         }
     }
     Err(StepError::Other(SolveError::NotConverged))
+}
+
+/// Every free term's step is within `k` of its standard error.
+fn within<S: Scalar>(delta: &[S; NP], cov: &[[S; NP]; NP], free: &[bool; NP], k: S) -> bool {
+    (0..NP).all(|m| {
+        let d = get(delta, m);
+        !free.get(m).copied().unwrap_or(false) || !k.times(k).times(get2(cov, m, m)).lt(d.times(d))
+    })
 }
 
 /// `theta + fraction delta` on the free terms.

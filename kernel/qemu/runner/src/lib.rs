@@ -304,9 +304,9 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
     samples: usize,
 ) -> fmt::Result {
     use massid_kernel::craft::Craft;
-    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
     use massid_kernel::flight_id::consider::ThrustUncertainty;
-use massid_kernel::flight_id::exact::Envelope;
+    use massid_kernel::flight_id::exact::Envelope;
+    use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
     use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
     use massid_kernel::model::SPH2_GYRO_BIAS_COUNTS;
     let name = craft.name;

@@ -3,7 +3,7 @@
 //! Generic over [`scalar::Scalar`] (an `f32` impl and the fixed-point [`scalar::Q8_24`]):
 //! one call of [`pipeline::Pipeline::tick`] per gyro sample runs the angular-acceleration
 //! Kalman filter ([`omega_dot`]), the batch and recursive mass-property identification
-//! ([`rls`], folded by [`fold`], solved with [`lu`]), and [`mixer`] turns force/torque
+//! ([`rls`]: its update in one file, [`rls::update`]; solved with [`lu`]), and [`mixer`] turns force/torque
 //! commands into integer millisecond thruster on/off times. See `kernel/README.md` for
 //! formats, range analysis and status codes.
 //!
@@ -31,7 +31,7 @@
 //!    sums) is exact integer arithmetic, so it is identical on every target and cannot drift;
 //!    floating point or fixed-point products appear only per firing.
 //! 6. **Staged end-of-firing work.** What a firing's end needs (its estimate, the fold into
-//!    the information, the change test, the solves) is one [`fold::FiringFold`] stepped one
+//!    the information, the change test, the solves) is one [`rls::FiringFold`] stepped one
 //!    stage per tick, so no tick exceeds the M4F budget (8,400 instructions, measured on QEMU
 //!    by `scripts/kernel-report.sh`); the stage order is carried by the fold's types.
 //! 7. **One algorithm, one oracle.** The kernel shares no numerical code with the f64
@@ -63,7 +63,6 @@ pub mod craft;
 pub mod craft_mixer;
 pub mod deferred_stage;
 pub mod flight_id;
-pub mod fold;
 pub mod gyro_filter;
 mod in_place;
 pub mod int;

@@ -19,12 +19,12 @@ const _: () = assert!(
     "Gyroscopic::omega assumes Q12 counts"
 );
 pub use crate::deferred_stage::DeferredStage;
-use crate::fold::{FiringFold, FoldStep};
 use crate::model::{inertia_rows, mat_vec, FiringTerms, ModelError, ModelTerms, SatelliteParams};
 use crate::observability::{min_updates_for, Excitation, N_TERMS};
 use crate::omega_dot::{
     KfConfig, KfSnapshot, KfStatus, OmegaDotEstimate, OmegaDotKf, GYRO_FILTER_HZ,
 };
+use crate::rls::{FiringFold, FoldStep};
 use crate::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use crate::scalar::{Scalar, Scaled};
 use crate::validity::{Invalid, Validity};
@@ -733,7 +733,7 @@ fn measurement_for<S: Scalar>(
 }
 
 /// How many end-of-firing stages there are (the most [`Pipeline::run_deferred`] can have pending).
-const DEFERRED_STAGES: usize = 2 + crate::fold::STAGES;
+const DEFERRED_STAGES: usize = 2 + crate::rls::STAGES;
 
 /// The end-of-firing work still to run: the firing's final estimate, its aggregate, then its
 /// [`FiringFold`].

@@ -10,8 +10,8 @@
 //! a single-axis maneuver, a status (Railed / Overflow / KfOverflow / PartlyUnobservable with
 //! the mask), never silently drifting numbers.
 
-use massid_kernel::fold::FiringFold;
 use massid_kernel::model::{inertia_rows, SatelliteParams, SPH2};
+use massid_kernel::rls::FiringFold;
 use massid_kernel::rls::{MassId, Measurement, RlsConfig, RlsStatus};
 use massid_kernel::{Pipeline, PipelineConfig, PipelineStatus, Scaled, TickEvent, Q8_24};
 use massid_proofs::budget::{fmt_of, Exact, Worst};
@@ -92,7 +92,7 @@ struct RunFigures {
 
 /// The RLS (information form, LU solves) driven with 10^6 per-tick measurements in firings,
 /// folded exactly as the pipeline folds them (each firing's aggregate through
-/// `massid_kernel::fold::FiringFold`: batch for the first two firings, then RLS), against
+/// `massid_kernel::rls::FiringFold`: batch for the first two firings, then RLS), against
 /// `reference_f64`'s batch least squares of the identical weighted measurements. Measurements: the kernel's own regressors for each word
 /// (`ModelTerms::firing_terms`), right-hand sides from a truth (CoM moved 5.4 mm, inverse
 /// inertia 8 % lower) plus noise of the Kalman filter's variance after `k` updates, weights

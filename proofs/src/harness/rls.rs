@@ -188,7 +188,7 @@ pub const HARNESSES: [Harness; 2] = [
 /// status is Ok / PartlyUnobservable, the information never silently saturates, and a
 /// detector alarm (covariance reset) only deflates the information.
 fn mass_id_options<S: Exact>() {
-    use massid_kernel::fold::FiringFold;
+    use massid_kernel::rls::FiringFold;
     use massid_kernel::rls::{DetectorConfig, MassId, Measurement, RlsConfig, RlsStatus};
     let p = super::draw::params_or_sph2();
     let Ok(terms) = p.terms::<S>() else {

@@ -59,6 +59,7 @@ static int selftest(void) {
     massid_firing f;
     const uint16_t g[3] = {2077, 2070, 2058};
 
+    check(massid_abi_version() == MASSID_ABI_VERSION, "massid_abi_version() == MASSID_ABI_VERSION");
     check(massid_type_size(0) == sizeof(massid_satellite_params), "sizeof(massid_satellite_params)");
     check(massid_type_size(1) == sizeof(massid_tick_report), "sizeof(massid_tick_report)");
     check(massid_type_size(2) == sizeof(massid_estimates_fixed), "sizeof(massid_estimates_fixed)");

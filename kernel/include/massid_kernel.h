@@ -31,6 +31,13 @@
 extern "C" {
 #endif
 
+/* Version of this ABI, raised with every change of a struct's layout or a function's meaning.
+ * Check massid_abi_version() == MASSID_ABI_VERSION before any other call: a library built
+ * from another header then refuses instead of misreading a struct. History: 1 the first ABI,
+ * 2 massid_flight_id_settings.turn_weight, 3 massid_flight_id_settings.thrust_sigma_rel. */
+#define MASSID_ABI_VERSION 3u
+uint32_t massid_abi_version(void);
+
 #define MASSID_N_THRUSTERS 12
 /* Bytes reserved for the opaque state blocks (kernel/src/capi.rs: PIPELINE_BYTES, MIXER_BYTES). */
 #define MASSID_PIPELINE_BYTES 4096

@@ -358,6 +358,35 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
+/// The C ABI's version (`MASSID_ABI_VERSION` in `massid_kernel.h`), raised with every change
+/// of a struct's layout or of a function's meaning, so that a caller built against another
+/// header refuses to run instead of misreading a struct: 1 the first ABI, 2
+/// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`. [`ABI_LAYOUT`] holds
+/// this version's struct sizes and a test fails when a size changes without a new version.
+pub const ABI_VERSION: u32 = 3;
+
+/// The sizes of the ABI's types at [`ABI_VERSION`] on a 64-bit host (`massid_type_size(0..8)`
+/// then `massid_craft_type_size(0..7)`).
+pub const ABI_LAYOUT: [u32; 15] = [
+    388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 188, 436, 32768,
+];
+
+/// [`ABI_VERSION`], for a C caller to compare with the `MASSID_ABI_VERSION` it was built
+/// against before any other call.
+#[no_mangle]
+pub extern "C" fn massid_abi_version() -> u32 {
+    ABI_VERSION
+}
+
+/// Every ABI type's size as laid out here, in [`ABI_LAYOUT`]'s order.
+pub fn abi_sizes() -> [u32; 15] {
+    core::array::from_fn(|i| match u32::try_from(i) {
+        Ok(k) if k < 8 => massid_type_size(k),
+        Ok(k) => craft::massid_craft_type_size(k.saturating_sub(8)),
+        Err(_) => 0,
+    })
+}
+
 /// Size in bytes of an ABI type as Rust lays it out, so that C code can check the header:
 /// 0 params, 1 tick report, 2 fixed estimates, 3 f32 estimates, 4 firing, 5 pipeline block,
 /// 6 mixer block, 7 options; 0 for any other code.

@@ -1039,3 +1039,28 @@ fn the_c_abi_carries_the_thrust_uncertainty() {
     sigma[1] = f32::NAN;
     assert_eq!(run(sigma).err(), Some(MassidStatus::BadParameters));
 }
+
+/// The ABI's version follows its layout: every struct's size is the one recorded for
+/// `ABI_VERSION`, so a struct that changes without a new version (as `turn_weight` and
+/// `thrust_sigma_rel` once did) fails here, and the C program checks the version against
+/// its header's `MASSID_ABI_VERSION` (`c_program_matches_the_rust_api_on_open_recordings`).
+#[test]
+fn the_abi_version_changes_with_every_struct_layout() {
+    use massid_kernel::capi::{abi_sizes, massid_abi_version, ABI_LAYOUT, ABI_VERSION};
+    let sizes = abi_sizes();
+    assert_eq!(massid_abi_version(), ABI_VERSION);
+    assert_eq!(
+        sizes, ABI_LAYOUT,
+        "an ABI struct changed size: raise ABI_VERSION (kernel/src/capi.rs and \
+         MASSID_ABI_VERSION in massid_kernel.h) and record the new sizes in ABI_LAYOUT"
+    );
+    assert!(
+        sizes.iter().all(|s| *s > 0),
+        "every ABI type has a size: {sizes:?}"
+    );
+    // Planted: the settings struct one field longer (its size, code 4 of the craft types, is
+    // entry 12) is a layout this version does not have.
+    let mut grown = sizes;
+    grown[12] += 4;
+    assert_ne!(grown, ABI_LAYOUT);
+}

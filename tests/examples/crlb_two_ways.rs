@@ -4,7 +4,9 @@
 //! simulator with the initial rate a nuisance (`crlb_fd_with_initial_rate`); then a Monte
 //! Carlo of `identify` against the analytic bound, on every sample and on the samples the
 //! recording delivered (combo flights that spin past the gyro's range lose samples).
-//! `cargo run --release -p massid-tests --example crlb_two_ways -- [N] [SEED0]`;
+//! `cargo run --release -p massid-tests --example crlb_two_ways -- [N] [SEED0] [IMPL]`
+//! (IMPL `f64`, the default, or a kernel, `f32` / `fixed`: the Monte Carlo then runs that
+//! implementation against the same bound, and the bound's two-way check is skipped);
 //! `... -- diagnose [N] [SEED0] [rga12|combo]` separates model mismatch, quantisation and
 //! noise in the errors (see `diagnose`).
 use massid_sim::{Maneuver, SimSpec};
@@ -12,7 +14,7 @@ use massid_tests::crlb::{
     crlb_analytic, crlb_analytic_delivered, crlb_fd_with_initial_rate,
     crlb_fd_with_initial_rate_steps, FdSteps, N,
 };
-use massid_tests::identification_mc::{fly, Condition, TERMS};
+use massid_tests::identification_mc::{estimate_with, fly, Condition, Implementation, TERMS};
 use reference_f64::flight_id::{identify, Options};
 use reference_f64::satellite::Satellite;
 use std::time::Instant;
@@ -46,7 +48,12 @@ struct Outcome {
     status: String,
 }
 
-fn run_flight(maneuver: Maneuver, seed: u64, fixed_bound: Option<&[f64; N]>) -> Outcome {
+fn run_flight(
+    maneuver: Maneuver,
+    seed: u64,
+    fixed_bound: Option<&[f64; N]>,
+    imp: Implementation,
+) -> Outcome {
     let cond = Condition::Spheres {
         maneuver,
         rate_hz: 1000.0,
@@ -69,7 +76,7 @@ fn run_flight(maneuver: Maneuver, seed: u64, fixed_bound: Option<&[f64; N]>) -> 
     } else {
         bound
     };
-    let (err, status) = match identify(&sim.flight, &sim.model, &Options::default()) {
+    let (err, status) = match estimate_with(imp, &sim, &Options::default()) {
         Ok(e) => (
             core::array::from_fn(|j| {
                 if e.unobservable.contains(&TERMS[j]) {
@@ -307,67 +314,76 @@ fn main() {
         .nth(2)
         .and_then(|v| v.parse().ok())
         .unwrap_or(2000);
+    let imp_name = std::env::args().nth(3).unwrap_or_else(|| "f64".into());
+    let imp = Implementation::parse(&imp_name)
+        .unwrap_or_else(|| panic!("unknown implementation {imp_name} (f64, f32, fixed)"));
     let maneuvers = [(Maneuver::Rga12, 0u64), (Maneuver::Combo, 1000u64)];
 
-    // 1. The bound two ways.
+    // 1. The bound two ways (for the reference; a kernel's run takes the analytic bound).
     let mut analytic_rga12 = [f64::NAN; N];
-    println!("## CRLB two ways (SPH2, 1 kHz, gyro noise x1, initial rate unknown)\n");
-    for &(m, seed) in &maneuvers {
-        let spec = spheres_spec(m, seed);
-        let t = Instant::now();
-        let an = crlb_analytic(&spec);
-        let t_an = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let fd = crlb_fd_with_initial_rate(&spec);
-        let t_fd = t.elapsed().as_secs_f64();
-        if m == Maneuver::Rga12 {
-            analytic_rga12 = an;
-        }
-        println!(
-            "### {} (seed {seed}; analytic {t_an:.1} s, finite differences {t_fd:.1} s)\n",
-            m.name()
-        );
-        println!("| term | CRLB sd analytic | CRLB sd finite-difference | var analytic / var FD |");
-        println!("|---|---|---|---|");
-        for j in 0..N {
+    if imp != Implementation::F64 {
+        analytic_rga12 = crlb_analytic(&spheres_spec(Maneuver::Rga12, 0));
+    } else {
+        println!("## CRLB two ways (SPH2, 1 kHz, gyro noise x1, initial rate unknown)\n");
+        for &(m, seed) in &maneuvers {
+            let spec = spheres_spec(m, seed);
+            let t = Instant::now();
+            let an = crlb_analytic(&spec);
+            let t_an = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let fd = crlb_fd_with_initial_rate(&spec);
+            let t_fd = t.elapsed().as_secs_f64();
+            if m == Maneuver::Rga12 {
+                analytic_rga12 = an;
+            }
             println!(
-                "| {} | {} | {} | {:.4} |",
-                TERMS[j],
-                fmt_sd(j, an[j]),
-                fmt_sd(j, fd[j]),
-                an[j] / fd[j]
+                "### {} (seed {seed}; analytic {t_an:.1} s, finite differences {t_fd:.1} s)\n",
+                m.name()
             );
-        }
-        let known = massid_tests::crlb::crlb(&spec);
-        let (lo, hi) = (0..N)
-            .map(|j| known[j] / fd[j])
-            .fold((f64::INFINITY, 0.0f64), |(l, h), r| (l.min(r), h.max(r)));
-        println!(
+            println!(
+                "| term | CRLB sd analytic | CRLB sd finite-difference | var analytic / var FD |"
+            );
+            println!("|---|---|---|---|");
+            for j in 0..N {
+                println!(
+                    "| {} | {} | {} | {:.4} |",
+                    TERMS[j],
+                    fmt_sd(j, an[j]),
+                    fmt_sd(j, fd[j]),
+                    an[j] / fd[j]
+                );
+            }
+            let known = massid_tests::crlb::crlb(&spec);
+            let (lo, hi) = (0..N)
+                .map(|j| known[j] / fd[j])
+                .fold((f64::INFINITY, 0.0f64), |(l, h), r| (l.min(r), h.max(r)));
+            println!(
             "\nInitial rate known (`crlb::crlb`) / unknown (FD): variance ratio {lo:.3}..{hi:.3}\n"
         );
-    }
+        }
 
-    // Step-size check of the finite differences (rga12): every step halved and doubled.
-    let spec = spheres_spec(Maneuver::Rga12, 0);
-    let d = FdSteps::default();
-    let fd = crlb_fd_with_initial_rate(&spec);
-    for (label, f) in [("halved", 0.5), ("doubled", 2.0)] {
-        let steps = FdSteps {
-            com_mm: d.com_mm * f,
-            inertia_rel: d.inertia_rel * f,
-            rate_rad_s: d.rate_rad_s * f,
-        };
-        let other = crlb_fd_with_initial_rate_steps(&spec, &steps);
-        let worst = (0..N)
-            .map(|j| (other[j] / fd[j] - 1.0).abs())
-            .fold(0.0, f64::max);
-        println!("FD steps {label}: largest relative change of a variance {worst:.2e}");
+        // Step-size check of the finite differences (rga12): every step halved and doubled.
+        let spec = spheres_spec(Maneuver::Rga12, 0);
+        let d = FdSteps::default();
+        let fd = crlb_fd_with_initial_rate(&spec);
+        for (label, f) in [("halved", 0.5), ("doubled", 2.0)] {
+            let steps = FdSteps {
+                com_mm: d.com_mm * f,
+                inertia_rel: d.inertia_rel * f,
+                rate_rad_s: d.rate_rad_s * f,
+            };
+            let other = crlb_fd_with_initial_rate_steps(&spec, &steps);
+            let worst = (0..N)
+                .map(|j| (other[j] / fd[j] - 1.0).abs())
+                .fold(0.0, f64::max);
+            println!("FD steps {label}: largest relative change of a variance {worst:.2e}");
+        }
+        println!();
     }
-    println!();
 
     // 2. Monte Carlo against the analytic bound.
     println!(
-        "## Monte Carlo: {flights} flights per maneuver (seeds {seed0}..{}), `identify` with default options\n",
+        "## Monte Carlo: {flights} flights per maneuver (seeds {seed0}..{}), {imp_name} with default options\n",
         seed0 + flights - 1
     );
     println!("Ratio: mean over flights of error^2 / (that flight's analytic CRLB variance); for rga12 (identical commands every seed) this is the MC variance (mean square error about the truth) / CRLB. Its sampling sd is about sqrt(2/N) = {:.2}. `all samples`: `crlb_analytic` (the true rate at every sample); `delivered`: `crlb_analytic_delivered` (the samples whose gyro counts did not saturate, as the estimator sees them).\n", (2.0 / flights as f64).sqrt());
@@ -383,7 +399,7 @@ fn main() {
                     let mine: Vec<u64> = seeds.iter().copied().skip(th).step_by(2).collect();
                     s.spawn(move || {
                         mine.into_iter()
-                            .map(|seed| run_flight(m, seed, fixed))
+                            .map(|seed| run_flight(m, seed, fixed, imp))
                             .collect::<Vec<_>>()
                     })
                 })

@@ -21,6 +21,7 @@
 
 use core::mem::MaybeUninit;
 
+use super::active::Active;
 use super::drive::DriveSum;
 use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
 use crate::in_place::{assume_all_written, field};
@@ -231,10 +232,14 @@ impl Recent<IntFloat> for ExactMoments {
         }
     }
 
-    fn add_pair(&mut self, l: usize, now: &Sample<i32>, then: &Sample<i32>) {
+    fn nonzero(item: &Sample<i32>, i: usize) -> bool {
+        item.z.get(i).is_some_and(|q| *q != 0)
+    }
+
+    fn add_pair(&mut self, l: usize, now: &Sample<i32>, then: &Sample<i32>, active: &Active) {
         // |a b| < 2^(2 VALUE_BITS) and an entry holds at most FOLD_PERIOD products between
         // folds (the assertion above): no wrap.
-        self.sums.add_pair_by(l, now, then, |m, a, b| {
+        self.sums.add_pair_by(l, now, then, active, |m, a, b| {
             *m = mul_acc(&Native, &(*m as u64), &(a as u32), &(b as u32)) as i64;
         });
     }
@@ -449,7 +454,7 @@ mod tests {
         };
         let item = r.item(&v.z, &v.y, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
         for _ in 0..FOLD_PERIOD {
-            r.add_pair(0, &item, &item);
+            r.add_pair(0, &item, &item, &Active::ALL);
         }
         // Entry (0, 1) of zz at lag 0: z0 z1 FOLD_PERIOD times, exactly.
         let want = f64::from(item.z[0]) * f64::from(item.z[1]) * FOLD_PERIOD as f64;

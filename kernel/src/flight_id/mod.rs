@@ -18,6 +18,7 @@
 //! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and the score
 //! tests are of a command delay and of thrust symmetry per torque axis ([`consistency`]), not
 //! of each thruster's thrust.
+pub mod active;
 pub mod consider;
 pub mod consistency;
 pub mod delay;

@@ -17,6 +17,7 @@
 use core::mem::MaybeUninit;
 use core::sync::atomic::{compiler_fence, Ordering};
 
+use super::active::Active;
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
@@ -78,12 +79,15 @@ impl<T: Copy> LagMoments<T> {
     /// which adds `a b` to the entry. At lag 0 the products are symmetric: only `zz[0][i][j]`
     /// with `i <= j` and `zy[0]` are kept (read them through [`LagMoments::zz_sym`] and
     /// [`LagMoments::zy_sym`]).
+    /// Components that are not `active` are zero in both samples (their products are zero):
+    /// they are skipped, which leaves every sum bit for bit the same ([`Active`]).
     #[inline(always)]
     pub(crate) fn add_pair_by<A: Copy>(
         &mut self,
         l: usize,
         now: &Sample<A>,
         then: &Sample<A>,
+        active: &Active,
         mac: impl Fn(&mut T, A, A) + Copy,
     ) {
         let (Some(zz), Some(zy), Some(yz), Some(yy)) = (
@@ -94,6 +98,13 @@ impl<T: Copy> LagMoments<T> {
         ) else {
             return;
         };
+        if active.sparse() {
+            add_sparse(zz, zy, yz, l, now, then, active.components(), mac);
+            for ((m, yn), yt) in yy.iter_mut().zip(now.y).zip(then.y) {
+                mac(m, yn, yt);
+            }
+            return;
+        }
         if l == 0 {
             // Lag 0: the upper triangle only (row i from column i on).
             add_upper(zz, &now.z, &then.z, mac);
@@ -115,6 +126,55 @@ impl<T: Copy> LagMoments<T> {
         }
         for ((m, yn), yt) in yy.iter_mut().zip(now.y).zip(then.y) {
             mac(m, yn, yt);
+        }
+    }
+}
+
+/// [`LagMoments::add_pair_by`]'s products over the active components `comps` (increasing):
+/// the `z` block (lag 0: its upper triangle), then `zy` and, past lag 0, `yz`. Each entry
+/// takes at most one product a sample, so the order of the entries does not matter.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn add_sparse<T, A: Copy>(
+    zz: &mut [[T; NZ]; NZ],
+    zy: &mut [[T; NZ]; 3],
+    yz: &mut [[T; NZ]; 3],
+    l: usize,
+    now: &Sample<A>,
+    then: &Sample<A>,
+    comps: &[u8],
+    mac: impl Fn(&mut T, A, A) + Copy,
+) {
+    for (p, i) in comps.iter().map(|c| usize::from(*c)).enumerate() {
+        let (Some(row), Some(a)) = (zz.get_mut(i), now.z.get(i).copied()) else {
+            continue;
+        };
+        // Lag 0 is symmetric: row i from column i on (the list is increasing).
+        let cols = if l == 0 {
+            comps.get(p..).unwrap_or(&[])
+        } else {
+            comps
+        };
+        for j in cols.iter().map(|c| usize::from(*c)) {
+            if let (Some(m), Some(b)) = (row.get_mut(j), then.z.get(j).copied()) {
+                mac(m, a, b);
+            }
+        }
+    }
+    for ((zy_a, yz_a), (yn, yt)) in zy
+        .iter_mut()
+        .zip(yz.iter_mut())
+        .zip(now.y.iter().zip(&then.y))
+    {
+        for i in comps.iter().map(|c| usize::from(*c)) {
+            if let (Some(m), Some(z)) = (zy_a.get_mut(i), now.z.get(i).copied()) {
+                mac(m, z, *yt);
+            }
+            if l > 0 {
+                if let (Some(m), Some(z)) = (yz_a.get_mut(i), then.z.get(i).copied()) {
+                    mac(m, *yn, z);
+                }
+            }
         }
     }
 }
@@ -399,8 +459,11 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     fn accumulate(sum: &mut Self::ItemSum, item: &Self::Item);
     /// A sum's value.
     fn sum_value(&self, sum: &Self::ItemSum) -> Sample<S>;
-    /// Adds `now then^T` at lag `l` (at lag 0 the upper triangle of `zz` only).
-    fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item);
+    /// Adds `now then^T` at lag `l` (at lag 0 the upper triangle of `zz` only), skipping the
+    /// components that are not `active` (zero in both).
+    fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item, active: &Active);
+    /// True if `item`'s drive component `i` is other than zero or not a valid number.
+    fn nonzero(item: &Self::Item, i: usize) -> bool;
     /// Entry `k` of the flat order, in `S`, and empties it.
     fn take(&mut self, k: usize) -> S;
 }
@@ -467,8 +530,13 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     fn sum_value(&self, sum: &Sample<S>) -> Sample<S> {
         *sum
     }
-    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>) {
-        self.add_pair_by(l, now, then, |m, a, b| *m = m.mul_add(a, b));
+    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>, active: &Active) {
+        self.add_pair_by(l, now, then, active, |m, a, b| *m = m.mul_add(a, b));
+    }
+    fn nonzero(item: &Sample<S>, i: usize) -> bool {
+        item.z
+            .get(i)
+            .is_some_and(|v| S::ZERO.lt(*v) || v.lt(S::ZERO) || !v.is_valid())
     }
     fn take(&mut self, k: usize) -> S {
         self.entry_mut(k)
@@ -506,12 +574,18 @@ float_sums!(f32, f64);
 pub struct RecentSums<R> {
     sums: R,
     cursor: usize,
+    /// The drive components the flight has moved so far (the others are skipped).
+    active: Active,
 }
 
 impl<R> RecentSums<R> {
     /// Empty `sums`, the fold at the first entry.
     pub fn new(sums: R) -> Self {
-        RecentSums { sums, cursor: 0 }
+        RecentSums {
+            sums,
+            cursor: 0,
+            active: Active::NONE,
+        }
     }
 
     /// [`RecentSums::new`] in place: `sums` writes the empty sums to the slot it is given
@@ -533,8 +607,18 @@ impl<R> RecentSums<R> {
             unsafe { core::ptr::copy(written, at, 1) };
         }
         field!(slot, Self, cursor).write(0);
-        // SAFETY: both fields were written just above (the sums by `sums` or the copy).
-        unsafe { assume_all_written!(slot, Self { sums, cursor }) }
+        field!(slot, Self, active).write(Active::NONE);
+        // SAFETY: every field was written just above (the sums by `sums` or the copy).
+        unsafe {
+            assume_all_written!(
+                slot,
+                Self {
+                    sums,
+                    cursor,
+                    active
+                }
+            )
+        }
     }
 
     /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
@@ -674,13 +758,18 @@ impl<S: SumScalar> WindowSums<S> {
             flight.out_of_range = true;
             return;
         };
-        recent.sums.add_pair(0, &item, &item);
+        recent
+            .active
+            .note(|i| <S::Recent as Recent<S>>::nonzero(&item, i));
+        recent.sums.add_pair(0, &item, &item, &recent.active);
         let back = usize::try_from(self.n).unwrap_or(usize::MAX);
         // Lag 1 is the newest of the history, lag 2 the other (LAGS - 1 = 2 entries).
         let older = 1usize.saturating_sub(self.newest);
         for (l, k) in [self.newest, older].into_iter().enumerate() {
             if let (true, Some(then)) = (l < back, self.history.get(k)) {
-                recent.sums.add_pair(l.saturating_add(1), &item, then);
+                recent
+                    .sums
+                    .add_pair(l.saturating_add(1), &item, then, &recent.active);
             }
         }
         S::Recent::accumulate(&mut self.sum, &item);
@@ -692,21 +781,50 @@ impl<S: SumScalar> WindowSums<S> {
         flight.samples = flight.samples.saturating_add(1);
         recent.fold(flight, FOLD_PER_SAMPLE);
     }
-    /// Closes the window: its initial rate's term into `flight`; empties the window.
+    /// Closes the window: its initial rate's term into `flight`; empties the window. Only the
+    /// active components (the others' sums are zero: adding their products changes nothing).
     pub fn close_into(&mut self, flight: &mut FlightSums<S>, recent: &RecentSums<S::Recent>) {
         if self.n > 0 {
             let Sample { z: sz, y: sy } = recent.sums.sum_value(&self.sum);
             let n = S::from_int_pow2(i32::try_from(self.n).unwrap_or(i32::MAX), 0);
-            let mean_z = sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
             let mean_y = sy.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
-            for (row, mz) in flight.czz.iter_mut().zip(mean_z) {
-                for (c, sz) in row.iter_mut().zip(sz) {
-                    *c = c.mul_add(mz, sz);
+            if recent.active.sparse() {
+                let comps = recent.active.components();
+                let mut mean_z = [S::ZERO; NZ];
+                for i in comps.iter().map(|c| usize::from(*c)) {
+                    if let (Some(m), Some(s)) = (mean_z.get_mut(i), sz.get(i)) {
+                        *m = s.checked_div(n).unwrap_or(S::ZERO);
+                    }
                 }
-            }
-            for (row, my) in flight.czy.iter_mut().zip(mean_y) {
-                for (c, sz) in row.iter_mut().zip(sz) {
-                    *c = c.mul_add(my, sz);
+                for i in comps.iter().map(|c| usize::from(*c)) {
+                    let (Some(row), Some(mz)) = (flight.czz.get_mut(i), mean_z.get(i).copied())
+                    else {
+                        continue;
+                    };
+                    for j in comps.iter().map(|c| usize::from(*c)) {
+                        if let (Some(c), Some(s)) = (row.get_mut(j), sz.get(j).copied()) {
+                            *c = c.mul_add(mz, s);
+                        }
+                    }
+                }
+                for (row, my) in flight.czy.iter_mut().zip(mean_y) {
+                    for j in comps.iter().map(|c| usize::from(*c)) {
+                        if let (Some(c), Some(s)) = (row.get_mut(j), sz.get(j).copied()) {
+                            *c = c.mul_add(my, s);
+                        }
+                    }
+                }
+            } else {
+                let mean_z = sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
+                for (row, mz) in flight.czz.iter_mut().zip(mean_z) {
+                    for (c, sz) in row.iter_mut().zip(sz) {
+                        *c = c.mul_add(mz, sz);
+                    }
+                }
+                for (row, my) in flight.czy.iter_mut().zip(mean_y) {
+                    for (c, sz) in row.iter_mut().zip(sz) {
+                        *c = c.mul_add(my, sz);
+                    }
                 }
             }
             for ((c, my), sy) in flight.cyy.iter_mut().zip(mean_y).zip(sy) {
@@ -715,5 +833,116 @@ impl<S: SumScalar> WindowSums<S> {
             flight.windows = flight.windows.saturating_add(1);
         }
         *self = WindowSums::default();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(
+        clippy::unwrap_used,
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects
+    )]
+    use super::*;
+    use crate::IntFloat;
+    use core::fmt::Write;
+
+    /// A hash of text (FNV-1a): two values' `Debug` text compared without an allocator.
+    struct Fnv(u64);
+    impl Write for Fnv {
+        fn write_str(&mut self, s: &str) -> core::fmt::Result {
+            for b in s.bytes() {
+                self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+            }
+            Ok(())
+        }
+    }
+    fn text_hash(v: &impl core::fmt::Debug) -> u64 {
+        let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+        write!(h, "{v:?}").unwrap();
+        h.0
+    }
+
+    /// Pushes `n` samples (two windows) whose drive is zero outside `moved` until sample
+    /// `late`, where component `late_c` starts to move, with the active set starting at
+    /// `start`; the flight's sums after the fold, as text (every bit of every sum).
+    fn sums_of<S: SumScalar + core::fmt::Debug>(
+        start: Active,
+        moved: &[usize],
+        late: usize,
+        late_c: usize,
+    ) -> u64 {
+        let bounds: [S; NZ + 3] = core::array::from_fn(|_| S::from_f32(4.0));
+        let none = [[S::ZERO; NZ]; 3];
+        let scales = S::scales(&bounds, &none, 1000, S::ONE).unwrap();
+        let mut recent = RecentSums::new(S::recent(&scales));
+        recent.active = start;
+        let mut flight = FlightSums::<S>::default();
+        let mut window = WindowSums::<S>::default();
+        let v = |k: usize, c: usize| ((k * 7 + c * 13) % 17) as f32 / 8.0 - 1.0 + c as f32 / 64.0;
+        for k in 0..90 {
+            let z: [S; NZ] = core::array::from_fn(|i| {
+                if moved.contains(&i) || (i == late_c && k >= late) {
+                    S::from_f32(v(k, i))
+                } else {
+                    S::ZERO
+                }
+            });
+            let y: [S; 3] = core::array::from_fn(|a| S::from_f32(v(k, NZ + a)));
+            window.push(&mut flight, &mut recent, (&z, &y), &none, 0);
+            if k == 50 {
+                window.close_into(&mut flight, &recent);
+            }
+        }
+        window.close_into(&mut flight, &recent);
+        recent.fold_all(&mut flight);
+        text_hash(&flight)
+    }
+
+    fn skipping_equals_the_dense_sums<S: SumScalar + core::fmt::Debug>() {
+        // A planar craft's components (yaw torque, the two forces, held and positive yaw
+        // torque) and one that starts to move in the second window.
+        let planar = [2, 3, 4, 14, 17];
+        let dense = sums_of::<S>(Active::ALL, &planar, 60, 7);
+        assert_eq!(sums_of::<S>(Active::NONE, &planar, 60, 7), dense);
+        // The comparison sees a one-sample change of one component.
+        assert_ne!(sums_of::<S>(Active::ALL, &planar, 61, 7), dense);
+        // Half the components, then one more in the second window: the skipping gives way to
+        // the dense loops mid-flight.
+        let half: [usize; 9] = core::array::from_fn(|i| 2 * i);
+        let dense = sums_of::<S>(Active::ALL, &half, 60, 7);
+        assert_eq!(sums_of::<S>(Active::NONE, &half, 60, 7), dense);
+    }
+
+    /// Planted: a set that did not grow with the data (decided in advance) would lose the
+    /// products of a component that moves.
+    #[test]
+    fn a_component_left_out_of_the_set_loses_its_products() {
+        let mut guessed = Active::NONE;
+        guessed.note(|i| [2, 3, 4].contains(&i));
+        let now = Sample {
+            z: core::array::from_fn(|i| if i <= 7 { 0.5 + i as f32 } else { 0.0 }),
+            y: [0.25, -0.5, 1.0],
+        };
+        let add = |active: &Active| {
+            let mut m = LagMoments::<f32>::zero();
+            // The trait's `e + a b` (f32's own `mul_add` is `e a + b`).
+            m.add_pair_by(1, &now, &now, active, |e, a, b| {
+                *e = Scalar::mul_add(*e, a, b)
+            });
+            text_hash(&m)
+        };
+        assert_ne!(add(&guessed), add(&Active::ALL));
+        let mut grown = guessed;
+        grown.note(|i| now.z[i] != 0.0);
+        assert_eq!(add(&grown), add(&Active::ALL));
+    }
+
+    /// Components that have only been zero are skipped in the products and the windows' terms,
+    /// and the sums are bit for bit the dense ones (f32 and the fixed kernel's exact sums).
+    #[test]
+    fn skipping_the_components_never_moved_leaves_every_sum_bit_for_bit() {
+        skipping_equals_the_dense_sums::<f32>();
+        skipping_equals_the_dense_sums::<IntFloat>();
     }
 }

@@ -204,12 +204,12 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters) and the 16-thruster free-flyer, 500 samples (f32) / 150 (fixed)"
   echo "of the window driving the craft's own thrusters (the free-flyer's 16 from the 12-bit word spread by 4 bits; sums only)."
   echo "The fit (SPHERES) runs outside the tick and is not counted; a push's min is a window's first samples, left out of the sums."
-  echo "flight_id_close = the window close (\`FlightId::finish\`, as a push that ends a window: its initial-rate terms), once per craft."
+  echo "flight_id_close[_<craft>] = the window close (\`FlightId::finish\`, as a push that ends a window: its initial-rate terms), once per craft."
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"
   for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_detect deferred_detect_finish \
-           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push flight_id_push_airbearing flight_id_push_freeflyer16 flight_id_close mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
+           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push flight_id_push_airbearing flight_id_push_freeflyer16 flight_id_close flight_id_close_airbearing flight_id_close_freeflyer16 mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
     [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
     echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
   done
@@ -232,9 +232,12 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
       [ -z "$push" ] || echo "| output-error identification, ${craft:-sph2}, worst sample < 8,400 instructions on the M4F, $f | $push | $(verdict "$push" 8400) |"
     done
   done
-  for f in f32 fixed; do
-    close=$(cnt m4f "$f/flight_id_close" 5)
-    [ -z "$close" ] || echo "| output-error identification, window close (the three craft), < 8,400 instructions on the M4F, $f | $close | $(verdict "$close" 8400) |"
+  for k in flight_id_close flight_id_close_airbearing flight_id_close_freeflyer16; do
+    craft=${k#flight_id_close}; craft=${craft#_}
+    for f in f32 fixed; do
+      close=$(cnt m4f "$f/$k" 5)
+      [ -z "$close" ] || echo "| output-error identification, ${craft:-sph2}, window close < 8,400 instructions on the M4F, $f | $close | $(verdict "$close" 8400) |"
+    done
   done
   mean_fix=$(mean_tick m0 fixed); mean_f32=$(mean_tick m0 f32)
   if [ "$mean_fix" -gt 0 ]; then

@@ -239,6 +239,8 @@ pub struct FlightCraft<'a> {
     pub spread_word: bool,
     /// The pushes' kind.
     pub kind: Kind,
+    /// The window close's kind.
+    pub close_kind: Kind,
 }
 
 /// The SPHERES table of the model (the kernel's `SPH2`), as thrusters.
@@ -262,6 +264,7 @@ impl<'a> FlightCraft<'a> {
             solve: true,
             spread_word: false,
             kind: Kind::FlightIdPush,
+            close_kind: Kind::FlightIdClose,
         }
     }
     /// The air-bearing craft (planar, 8 thrusters), sums only.
@@ -275,6 +278,7 @@ impl<'a> FlightCraft<'a> {
             solve: false,
             spread_word: false,
             kind: Kind::FlightIdPushAirbearing,
+            close_kind: Kind::FlightIdCloseAirbearing,
         }
     }
     /// The 16-thruster free-flyer, sums only.
@@ -288,6 +292,7 @@ impl<'a> FlightCraft<'a> {
             solve: false,
             spread_word: true,
             kind: Kind::FlightIdPushFreeflyer16,
+            close_kind: Kind::FlightIdCloseFreeflyer16,
         }
     }
 }
@@ -379,7 +384,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
     markers::begin();
     id.finish();
     markers::end();
-    markers::kind(Kind::FlightIdClose);
+    markers::kind(craft.close_kind);
     let sums = id.sums();
     write!(
         out,

@@ -50,8 +50,12 @@ marker!(/// One sample of the output-error identification for the air-bearing cr
 marker!(/// One sample of the output-error identification for the 16-thruster free-flyer.
     massid_mark_kind_flight_id_push_freeflyer16 = 0x4d42_001c);
 marker!(/// The output-error identification's window close (`FlightId::finish`: the open window's
-    /// initial-rate terms into the flight's sums), any craft.
+    /// initial-rate terms into the flight's sums), SPHERES.
     massid_mark_kind_flight_id_close = 0x4d42_001d);
+marker!(/// The window close for the air-bearing craft (planar, 8).
+    massid_mark_kind_flight_id_close_airbearing = 0x4d42_0043);
+marker!(/// The window close for the 16-thruster free-flyer.
+    massid_mark_kind_flight_id_close_freeflyer16 = 0x4d42_0044);
 marker!(/// A tick where the thruster word changed without a solve (firing edge: KF reset, batch row).
     massid_mark_kind_edge = 0x4d42_0017);
 marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
@@ -125,8 +129,12 @@ pub enum Kind {
     FlightIdPushAirbearing,
     /// One sample of the output-error identification for the 16-thruster free-flyer.
     FlightIdPushFreeflyer16,
-    /// The identification's window close.
+    /// The identification's window close (SPHERES).
     FlightIdClose,
+    /// The window close for the air-bearing craft.
+    FlightIdCloseAirbearing,
+    /// The window close for the 16-thruster free-flyer.
+    FlightIdCloseFreeflyer16,
     /// One mix by `massid_kernel::craft_mixer` for SPHERES.
     CraftMixerSph2,
     /// One mix by `massid_kernel::craft_mixer` for the air-bearing craft.
@@ -182,6 +190,8 @@ pub fn kind(k: Kind) {
         Kind::FlightIdPushAirbearing => massid_mark_kind_flight_id_push_airbearing(),
         Kind::FlightIdPushFreeflyer16 => massid_mark_kind_flight_id_push_freeflyer16(),
         Kind::FlightIdClose => massid_mark_kind_flight_id_close(),
+        Kind::FlightIdCloseAirbearing => massid_mark_kind_flight_id_close_airbearing(),
+        Kind::FlightIdCloseFreeflyer16 => massid_mark_kind_flight_id_close_freeflyer16(),
         Kind::CraftMixerSph2 => massid_mark_kind_craft_mixer_sph2(),
         Kind::CraftMixerAirbearing => massid_mark_kind_craft_mixer_airbearing(),
         Kind::CraftMixerFreeflyer16 => massid_mark_kind_craft_mixer_freeflyer16(),

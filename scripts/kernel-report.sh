@@ -225,18 +225,14 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "|---|---|---|"
   echo "| worst tick (incl. RLS update and solve) < 8,400 instructions on the M4F, f32 | $m4_f32 ($m4_f32_kind) | $(verdict "$m4_f32" 8400) |"
   echo "| worst tick < 8,400 instructions on the M4F, fixed | $m4_fix ($m4_fix_kind) | $(verdict "$m4_fix" 8400) |"
-  for k in flight_id_push flight_id_push_airbearing flight_id_push_freeflyer16; do
-    craft=${k#flight_id_push}; craft=${craft#_}
-    for f in f32 fixed; do
-      push=$(cnt m4f "$f/$k" 5)
-      [ -z "$push" ] || echo "| output-error identification, ${craft:-sph2}, worst sample < 8,400 instructions on the M4F, $f | $push | $(verdict "$push" 8400) |"
-    done
-  done
-  for k in flight_id_close flight_id_close_airbearing flight_id_close_freeflyer16; do
-    craft=${k#flight_id_close}; craft=${craft#_}
-    for f in f32 fixed; do
-      close=$(cnt m4f "$f/$k" 5)
-      [ -z "$close" ] || echo "| output-error identification, ${craft:-sph2}, window close < 8,400 instructions on the M4F, $f | $close | $(verdict "$close" 8400) |"
+  # Per craft, the identification's push (worst sample) and window close.
+  for call in "push:worst sample" "close:window close"; do
+    for craft in sph2 airbearing freeflyer16; do
+      k=flight_id_${call%%:*}; [ "$craft" = sph2 ] || k=${k}_$craft
+      for f in f32 fixed; do
+        n=$(cnt m4f "$f/$k" 5)
+        [ -z "$n" ] || echo "| output-error identification, $craft, ${call#*:} < 8,400 instructions on the M4F, $f | $n | $(verdict "$n" 8400) |"
+      done
     done
   done
   mean_fix=$(mean_tick m0 fixed); mean_f32=$(mean_tick m0 f32)

@@ -10,52 +10,48 @@
 //! more than half are active the sums take their dense path (3-D craft after a few samples);
 //! a planar craft keeps about 5 of the 18 and its tick the fraction of the products.
 
-use super::sums::NZ;
-
-/// The active components, in increasing order (the lag-0 triangle needs `i <= j`).
+/// The active ones of `N` components, in increasing order (the lag-0 triangle needs
+/// `i <= j`); `N` at most 255.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Active {
+pub struct Active<const N: usize> {
     /// Component numbers; the first `len` are the active ones.
-    list: [u8; NZ],
+    list: [u8; N],
     len: u8,
-    mask: [bool; NZ],
+    mask: [bool; N],
 }
 
-impl Default for Active {
+impl<const N: usize> Default for Active<N> {
     fn default() -> Self {
         Self::NONE
     }
 }
 
-// Component numbers fit the list's bytes.
-const _: () = assert!(NZ <= u8::MAX as usize);
-
-impl Active {
+impl<const N: usize> Active<N> {
     /// No component active (a flight before its first sample).
     pub const NONE: Self = Active {
-        list: [0; NZ],
+        list: [0; N],
         len: 0,
-        mask: [false; NZ],
+        mask: [false; N],
     };
 
     /// Every component active (the dense path from the first sample).
-    pub const ALL: Self = Active {
-        list: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17],
-        len: NZ as u8,
-        mask: [true; NZ],
-    };
+    pub fn full() -> Self {
+        let mut a = Self::NONE;
+        a.grow(|_| true);
+        a
+    }
 
     /// True while few enough components are active that the sums skip the rest: at most
     /// half of them. Past that the dense loops, tuned for the M4F, cost less than the
     /// skipping (measured with 17 of 18 active on SPHERES: the f32 push 12,953 instructions
     /// instead of 5,951), and adding the zeros leaves the sums the same.
     pub fn sparse(&self) -> bool {
-        usize::from(self.len) <= NZ / 2
+        usize::from(self.len) <= N / 2
     }
 
     /// True once every component is active.
     pub fn all(&self) -> bool {
-        usize::from(self.len) >= NZ
+        usize::from(self.len) >= N
     }
 
     /// The active components, increasing.
@@ -71,11 +67,15 @@ impl Active {
     /// Makes active every component for which `nonzero(i)` says the sample's value is other
     /// than zero (or not a valid number). Once the set is past [`Active::sparse`] it stops
     /// growing: the sums then take every component, whatever the set says, and the tick is
-    /// spared the scan (about 270 instructions a sample on the M4F with 17 of 18 active).
+    /// spared the scan.
     pub fn note(&mut self, nonzero: impl Fn(usize) -> bool) {
-        if !self.sparse() {
-            return;
+        if self.sparse() {
+            self.grow(nonzero);
         }
+    }
+
+    /// Makes active every component `nonzero` names; the list rebuilt in order if it grew.
+    fn grow(&mut self, nonzero: impl Fn(usize) -> bool) {
         let mut grew = false;
         for (i, m) in self.mask.iter_mut().enumerate() {
             if !*m && nonzero(i) {
@@ -86,13 +86,11 @@ impl Active {
         if grew {
             let mut len = 0u8;
             for (i, m) in self.mask.iter().enumerate() {
-                if *m {
-                    if let (Some(slot), Ok(c)) =
-                        (self.list.get_mut(usize::from(len)), u8::try_from(i))
-                    {
-                        *slot = c;
-                        len = len.saturating_add(1);
-                    }
+                if let (true, Some(slot), Ok(c)) =
+                    (*m, self.list.get_mut(usize::from(len)), u8::try_from(i))
+                {
+                    *slot = c;
+                    len = len.saturating_add(1);
                 }
             }
             self.len = len;
@@ -103,10 +101,11 @@ impl Active {
 #[cfg(test)]
 mod tests {
     use super::*;
+    const NZ: usize = 18;
 
     #[test]
     fn components_stay_sorted_and_grow_only_from_nonzero_values() {
-        let mut a = Active::NONE;
+        let mut a = Active::<NZ>::NONE;
         assert!(a.components().is_empty() && !a.all());
         a.note(|i| i == 14 || i == 2);
         assert_eq!(a.components(), &[2, 14]);
@@ -117,9 +116,9 @@ mod tests {
         assert_eq!(a.components(), &[2, 3, 14]);
         a.note(|_| true);
         assert!(a.all() && !a.sparse());
-        assert_eq!(a, Active::ALL);
+        assert_eq!(a, Active::full());
         // Past half the components the set is not kept (the sums take every component).
-        let mut b = Active::NONE;
+        let mut b = Active::<NZ>::NONE;
         b.note(|i| i < NZ / 2 + 1);
         assert!(!b.sparse());
         b.note(|_| true);

@@ -21,9 +21,10 @@
 
 use core::mem::MaybeUninit;
 
-use super::active::Active;
 use super::drive::DriveSum;
-use super::sums::{entry_components, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ};
+use super::sums::{
+    entry_components, Active, LagMoments, Recent, Sample, SumScalar, FOLD_PERIOD, NZ,
+};
 use crate::in_place::{assume_all_written, field};
 use crate::int::mul::{mul_acc, round_product};
 use crate::int::shift::shift_nearest;
@@ -454,7 +455,7 @@ mod tests {
         };
         let item = r.item(&v.z, &v.y, &[[IntFloat::ZERO; NZ]; 3]).unwrap();
         for _ in 0..FOLD_PERIOD {
-            r.add_pair(0, &item, &item, &Active::ALL);
+            r.add_pair(0, &item, &item, &Active::full());
         }
         // Entry (0, 1) of zz at lag 0: z0 z1 FOLD_PERIOD times, exactly.
         let want = f64::from(item.z[0]) * f64::from(item.z[1]) * FOLD_PERIOD as f64;

@@ -17,7 +17,7 @@
 use core::mem::MaybeUninit;
 use core::sync::atomic::{compiler_fence, Ordering};
 
-use super::active::Active;
+use super::active::Active as ActiveOf;
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
@@ -35,6 +35,10 @@ pub const NZ: usize = 18;
 pub const N_MODEL: usize = 12;
 /// First of the accumulated positive torques (after the held torque, `N_MODEL..SPLIT_TORQUE`).
 pub const SPLIT_TORQUE: usize = N_MODEL + 3;
+/// Which drive components the flight has moved so far ([`super::active`]).
+pub type Active = ActiveOf<NZ>;
+// Component numbers fit the active list's bytes.
+const _: () = assert!(NZ <= u8::MAX as usize);
 /// Lags kept: 0..LAGS-1 (an AR noise model of order up to LAGS - 1).
 pub const LAGS: usize = 3;
 // The window's history ring ([`WindowSums::push`]) holds exactly the two lagged samples.
@@ -903,14 +907,14 @@ mod tests {
         // A planar craft's components (yaw torque, the two forces, held and positive yaw
         // torque) and one that starts to move in the second window.
         let planar = [2, 3, 4, 14, 17];
-        let dense = sums_of::<S>(Active::ALL, &planar, 60, 7);
+        let dense = sums_of::<S>(Active::full(), &planar, 60, 7);
         assert_eq!(sums_of::<S>(Active::NONE, &planar, 60, 7), dense);
         // The comparison sees a one-sample change of one component.
-        assert_ne!(sums_of::<S>(Active::ALL, &planar, 61, 7), dense);
+        assert_ne!(sums_of::<S>(Active::full(), &planar, 61, 7), dense);
         // Half the components, then one more in the second window: the skipping gives way to
         // the dense loops mid-flight.
         let half: [usize; 9] = core::array::from_fn(|i| 2 * i);
-        let dense = sums_of::<S>(Active::ALL, &half, 60, 7);
+        let dense = sums_of::<S>(Active::full(), &half, 60, 7);
         assert_eq!(sums_of::<S>(Active::NONE, &half, 60, 7), dense);
     }
 
@@ -932,10 +936,10 @@ mod tests {
             });
             text_hash(&m)
         };
-        assert_ne!(add(&guessed), add(&Active::ALL));
+        assert_ne!(add(&guessed), add(&Active::full()));
         let mut grown = guessed;
         grown.note(|i| now.z[i] != 0.0);
-        assert_eq!(add(&grown), add(&Active::ALL));
+        assert_eq!(add(&grown), add(&Active::full()));
     }
 
     /// Components that have only been zero are skipped in the products and the windows' terms,

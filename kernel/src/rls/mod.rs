@@ -20,5 +20,5 @@ pub mod mass_id;
 pub mod update;
 
 pub use info_ls::{AddPlan, Factored, InfoLs, MaybeVariances, Solution};
-pub use mass_id::{EstimateState, MassId, RlsConfig, RlsStatus};
-pub use update::{pow_u32, DetectorConfig, FiringFold, FoldStep, Measurement, Solved, STAGES};
+pub use mass_id::{DetectorConfig, EstimateState, MassId, RlsConfig, RlsStatus};
+pub use update::{pow_u32, FiringFold, FoldStep, Measurement, Solved, STAGES};

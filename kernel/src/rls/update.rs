@@ -24,7 +24,7 @@
 //! through it, so every check exercises what flies.
 
 use super::info_ls::{AddPlan, Factored, InfoLs, Solution};
-use super::mass_id::{EstimateState, MassId, RlsStatus};
+use super::mass_id::{DetectorConfig, EstimateState, MassId, RlsStatus};
 use crate::deferred_stage::DeferredStage;
 use crate::lu::LuError;
 use crate::scalar::{Scalar, Scaled};
@@ -463,39 +463,6 @@ impl<S: Scalar> MassId<S> {
         self.com.merge(&pc);
         self.pending_com = InfoLs::new();
         self.pending_updates = 0;
-    }
-}
-
-/// Change detector on the RLS innovations, evaluated once per firing from the firing's
-/// final angular acceleration: the normalised innovation squared
-/// `nis = sum_i nu_i^2 / (P_i + (A Q A')_ii)` against the estimate from before the firing
-/// (inertia equations for a firing with torque, CoM equations for a translation), divided by its learnt level (the Kalman filter's formal variances
-/// are optimistic, so the level is learnt over `warmup_firings` firings and then tracked),
-/// feeds a one-sided CUSUM `g = max(0, g + ratio - 1 - drift)`; an alarm (`g > threshold`)
-/// divides the information by `2^deflate_bits` (a covariance reset that keeps the estimate)
-/// and restarts the level learning while the estimate re-converges.
-#[derive(Clone, Copy, Debug)]
-pub struct DetectorConfig<S> {
-    /// Allowed excess of the ratio over 1 per firing.
-    pub drift: S,
-    /// Alarm when the cumulative excess exceeds this.
-    pub threshold: S,
-    /// On alarm, the information is divided by 2^deflate_bits (covariance reset).
-    pub deflate_bits: i32,
-    /// Firings (with every term observable) that only learn the innovation level.
-    pub warmup_firings: u32,
-}
-
-impl<S: Scalar> DetectorConfig<S> {
-    /// Drift 3, threshold 30, information divided by 2^10 (~1e-3, the reference's shrink),
-    /// level learnt over 6 firings.
-    pub fn standard() -> Self {
-        DetectorConfig {
-            drift: S::from_int_pow2(3, 0),
-            threshold: S::from_int_pow2(30, 0),
-            deflate_bits: 10,
-            warmup_firings: 6,
-        }
     }
 }
 

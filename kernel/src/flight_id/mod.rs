@@ -19,6 +19,7 @@
 //! tests are of a command delay and of thrust symmetry per torque axis ([`consistency`]), not
 //! of each thruster's thrust.
 pub mod active;
+pub mod components;
 pub mod consider;
 pub mod consistency;
 pub mod delay;

@@ -22,19 +22,7 @@ use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
-/// Drive components: accumulated torque (N m s), force (N s), and the rate products
-/// `integral omega_i omega_j dt` (rad^2/s, order xx yy zz xy xz yz) that the gyroscopic term
-/// `omega x I omega` is linear in; then two sets the model leaves out, the directions of the
-/// consistency tests (`super::consistency`):
-/// - the torque held over the interval that ends at the sample: a command-to-thrust delay `L`
-///   moves the accumulated torque by `-L` times it;
-/// - the accumulated positive part of each torque component (N m s): a thrust error that
-///   scales a turn one way and not the other (one weak thruster) is a torque error along it.
-pub const NZ: usize = 18;
-/// Components the model uses (the rest only enter the consistency tests).
-pub const N_MODEL: usize = 12;
-/// First of the accumulated positive torques (after the held torque, `N_MODEL..SPLIT_TORQUE`).
-pub const SPLIT_TORQUE: usize = N_MODEL + 3;
+pub use super::components::{NZ, N_MODEL, SPLIT_TORQUE};
 /// Which drive components the flight has moved so far ([`super::active`]).
 pub type Active = ActiveOf<NZ>;
 // Component numbers fit the active list's bytes.

@@ -361,15 +361,54 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 /// The C ABI's version (`MASSID_ABI_VERSION` in `massid_kernel.h`), raised with every change
 /// of a struct's layout or of a function's meaning, so that a caller built against another
 /// header refuses to run instead of misreading a struct: 1 the first ABI, 2
-/// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`. [`ABI_LAYOUT`] holds
-/// this version's struct sizes and a test fails when a size changes without a new version.
+/// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`. [`ABI_LAYOUTS`] records
+/// each version's struct sizes from this one on.
 pub const ABI_VERSION: u32 = 3;
 
-/// The sizes of the ABI's types at [`ABI_VERSION`] on a 64-bit host (`massid_type_size(0..8)`
-/// then `massid_craft_type_size(0..7)`).
-pub const ABI_LAYOUT: [u32; 15] = [
-    388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 188, 436, 32768,
-];
+/// Per version (append-only: a new version adds a row, no row is edited), the sizes of the
+/// ABI's types on a 64-bit host (`massid_type_size(0..8)` then `massid_craft_type_size(0..7)`;
+/// every field is a fixed-width type, so a 32-bit target lays them out alike). A struct that
+/// changes size without a new version no longer matches its version's row
+/// ([`abi_layout_check`]). A change that keeps every size (fields reordered or retyped alike)
+/// is not seen here: the version must still be raised by hand.
+pub const ABI_LAYOUTS: [(u32, [u32; 15]); 1] = [(
+    3,
+    [
+        388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 188, 436, 32768,
+    ],
+)];
+
+/// Whether `sizes` ([`abi_sizes`]) are the layout recorded for `version` in [`ABI_LAYOUTS`]:
+/// `Err` names the first type whose size differs, or says the version has no row.
+pub fn abi_layout_check(version: u32, sizes: &[u32; 15]) -> Result<(), AbiMismatch> {
+    let Some((_, recorded)) = ABI_LAYOUTS.iter().find(|(v, _)| *v == version) else {
+        return Err(AbiMismatch::UnknownVersion(version));
+    };
+    match recorded.iter().zip(sizes).position(|(r, s)| r != s) {
+        Some(i) => Err(AbiMismatch::Size {
+            index: i,
+            recorded: recorded.get(i).copied().unwrap_or(0),
+            now: sizes.get(i).copied().unwrap_or(0),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// How a layout differs from its version's row ([`abi_layout_check`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AbiMismatch {
+    /// No row for this version in [`ABI_LAYOUTS`].
+    UnknownVersion(u32),
+    /// Type `index` (in [`abi_sizes`]' order) has another size than recorded.
+    Size {
+        /// Position in [`abi_sizes`]' order.
+        index: usize,
+        /// Bytes recorded for the version.
+        recorded: u32,
+        /// Bytes now.
+        now: u32,
+    },
+}
 
 /// [`ABI_VERSION`], for a C caller to compare with the `MASSID_ABI_VERSION` it was built
 /// against before any other call.
@@ -378,7 +417,7 @@ pub extern "C" fn massid_abi_version() -> u32 {
     ABI_VERSION
 }
 
-/// Every ABI type's size as laid out here, in [`ABI_LAYOUT`]'s order.
+/// Every ABI type's size as laid out here, in [`ABI_LAYOUTS`]' order.
 pub fn abi_sizes() -> [u32; 15] {
     core::array::from_fn(|i| match u32::try_from(i) {
         Ok(k) if k < 8 => massid_type_size(k),

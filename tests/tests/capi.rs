@@ -1040,27 +1040,45 @@ fn the_c_abi_carries_the_thrust_uncertainty() {
     assert_eq!(run(sigma).err(), Some(MassidStatus::BadParameters));
 }
 
-/// The ABI's version follows its layout: every struct's size is the one recorded for
-/// `ABI_VERSION`, so a struct that changes without a new version (as `turn_weight` and
-/// `thrust_sigma_rel` once did) fails here, and the C program checks the version against
-/// its header's `MASSID_ABI_VERSION` (`c_program_matches_the_rust_api_on_open_recordings`).
+/// The ABI's layout is the one recorded for its version: every struct's size is checked
+/// against `ABI_LAYOUTS`' row for `ABI_VERSION`, so a struct that changes size without a new
+/// version (as `turn_weight` and `thrust_sigma_rel` once did) fails here; the C program
+/// checks the version against its header's `MASSID_ABI_VERSION`
+/// (`c_program_matches_the_rust_api_on_open_recordings`).
 #[test]
-fn the_abi_version_changes_with_every_struct_layout() {
-    use massid_kernel::capi::{abi_sizes, massid_abi_version, ABI_LAYOUT, ABI_VERSION};
+fn the_abi_layout_is_the_one_recorded_for_its_version() {
+    use massid_kernel::capi::{
+        abi_layout_check, abi_sizes, massid_abi_version, AbiMismatch, ABI_LAYOUTS, ABI_VERSION,
+    };
     let sizes = abi_sizes();
     assert_eq!(massid_abi_version(), ABI_VERSION);
-    assert_eq!(
-        sizes, ABI_LAYOUT,
-        "an ABI struct changed size: raise ABI_VERSION (kernel/src/capi.rs and \
-         MASSID_ABI_VERSION in massid_kernel.h) and record the new sizes in ABI_LAYOUT"
-    );
     assert!(
         sizes.iter().all(|s| *s > 0),
         "every ABI type has a size: {sizes:?}"
     );
-    // Planted: the settings struct one field longer (its size, code 4 of the craft types, is
-    // entry 12) is a layout this version does not have.
+    assert_eq!(
+        abi_layout_check(ABI_VERSION, &sizes),
+        Ok(()),
+        "an ABI struct changed size: raise ABI_VERSION (kernel/src/capi.rs and \
+         MASSID_ABI_VERSION in massid_kernel.h) and add its row to ABI_LAYOUTS"
+    );
+    // Versions are distinct rows, the newest is this one.
+    let versions: Vec<u32> = ABI_LAYOUTS.iter().map(|(v, _)| *v).collect();
+    assert_eq!(versions.iter().max(), Some(&ABI_VERSION));
+    // Planted: the settings struct (craft type 4, entry 12) one field longer, as
+    // `thrust_sigma_rel` made it, is caught and named; so is a version with no row.
     let mut grown = sizes;
-    grown[12] += 4;
-    assert_ne!(grown, ABI_LAYOUT);
+    grown[12] += 64;
+    assert_eq!(
+        abi_layout_check(ABI_VERSION, &grown),
+        Err(AbiMismatch::Size {
+            index: 12,
+            recorded: sizes[12],
+            now: sizes[12] + 64
+        })
+    );
+    assert_eq!(
+        abi_layout_check(ABI_VERSION + 1, &sizes),
+        Err(AbiMismatch::UnknownVersion(ABI_VERSION + 1))
+    );
 }

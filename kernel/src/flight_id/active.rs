@@ -4,14 +4,17 @@
 //! torque, the rate products when the model has no gyroscopic term, a force no thruster
 //! gives) contributes exactly zero to every product and every window sum: skipping it leaves
 //! each sum bit for bit what adding its zeros would (`x + 0 = x` in every format here, and the
-//! fixed kernel's integer sums are exact). The set grows from the data, never from the
+//! fixed kernel's integer sums are exact), for finite data. A sample with a non-finite value
+//! (f32) is the exception: the dense products `0 * inf` would put NaN in the skipped entries,
+//! which stay zero here; the sums are invalid either way and the fit refuses them alike. The set grows from the data, never from the
 //! configuration: the first sample in which a component is other than zero (or not a valid
 //! number) makes it active from that sample on, so a wrong guess cannot drop a product. Once
 //! more than half are active the sums take their dense path (3-D craft after a few samples);
 //! a planar craft keeps about 5 of the 18 and its tick the fraction of the products.
 
 /// The active ones of `N` components, in increasing order (the lag-0 triangle needs
-/// `i <= j`); `N` at most 255.
+/// `i <= j`). `N` must be at most 255 (the list holds bytes; the user of `Active<NZ>` asserts
+/// it at compile time).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Active<const N: usize> {
     /// Component numbers; the first `len` are the active ones.

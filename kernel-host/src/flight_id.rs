@@ -7,7 +7,8 @@ use crate::HostError;
 use massid_kernel::flight_id::consider::ThrustUncertainty;
 use massid_kernel::flight_id::consistency::rejects;
 use massid_kernel::flight_id::exact::{Envelope, RATE_LIMIT_RAD_S};
-use massid_kernel::flight_id::solve::{SolveConfig, SolveError, MAX_ORDER, NP};
+use massid_kernel::flight_id::ma_prefilter::MAX_ROOT;
+use massid_kernel::flight_id::solve::{Solution, SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
 use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
@@ -21,6 +22,76 @@ use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
 use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
+/// The lag-1 correlation below which a fitted axis' noise is taken for a moving average
+/// (`-rho / (1 + rho^2)` for a root `rho` of 0.1; a smaller root the AR terms absorb). The
+/// diagnosis reads the rate sensor's kind from the same sign (`differenced_attitude`).
+const MA_EVIDENT_LAG1: f32 = -0.1;
+
+/// Whether a fit's AR noise shows a moving average on a fitted axis: the lag-1 correlation its
+/// AR model implies (`phi_1 / (1 - phi_2)`, Yule-Walker) below [`MA_EVIDENT_LAG1`]. A gyro's
+/// white or band-limited noise has it near zero or positive; rates differenced from attitude
+/// near -0.5. The AR fit has already chosen its order by BIC, so an order-0 axis shows none.
+fn moving_average_evident<S: SumScalar>(sol: &Solution<S>, axes: [bool; 3]) -> bool {
+    sol.noise.iter().zip(axes).any(|(n, fitted)| {
+        let [p1, p2] = n.phi.map(|v| v.to_f32());
+        let lag1 = match n.order {
+            0 => 0.0,
+            1 => p1,
+            _ => p1 / (1.0 - p2),
+        };
+        fitted && lag1 < MA_EVIDENT_LAG1
+    })
+}
+
+/// Golden-section steps of the MA root's search: the bracket `[0, MAX_ROOT]` shrinks to
+/// 0.99 x 0.618^12 = 0.003.
+const MA_ROOT_STEPS: usize = 12;
+
+/// The rate noise's MA root by conditional least squares: the root whose filter leaves the
+/// smallest innovation variance, `sigma2(c) / (1 - c)^2` (the kernel's filter has unit gain),
+/// summed over the fitted `axes`, each fit with white innovations (`fit(c)` is the flight
+/// replayed through the kernel with root `c` and no AR terms), by golden section on
+/// `[0, MAX_ROOT]`. The standard estimate of an MA coefficient (the reference fits it within
+/// its ARMA model). Reading the root instead from one fit's residual lag-1 correlation was
+/// tried and drifted to the bound: near a root of 1 the fitted terms absorb the filtered
+/// noise's low frequencies, and the residuals look whiter than the noise is (50 Hz motion
+/// capture of root 0.88 read as 0.99, sigmas 6 times too small).
+fn ma_root_by_least_squares<S: SumScalar>(
+    axes: [bool; 3],
+    fit: impl Fn(S) -> Result<Solution<S>, HostError>,
+) -> Result<S, HostError> {
+    let cost = |c: f64| -> Result<f64, HostError> {
+        let sol = fit(S::from_f32(c as f32))?;
+        let sigma2: f64 = sol
+            .noise
+            .iter()
+            .zip(axes)
+            .filter(|(_, fitted)| *fitted)
+            .map(|(n, _)| f64::from(n.sigma2.to_f32()))
+            .sum();
+        Ok(sigma2 / ((1.0 - c) * (1.0 - c)))
+    };
+    let golden = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut lo, mut hi) = (0.0, f64::from(MAX_ROOT));
+    let mut a = hi - golden * (hi - lo);
+    let mut b = lo + golden * (hi - lo);
+    let (mut fa, mut fb) = (cost(a)?, cost(b)?);
+    for _ in 0..MA_ROOT_STEPS {
+        if fa <= fb {
+            hi = b;
+            (b, fb) = (a, fa);
+            a = hi - golden * (hi - lo);
+            fa = cost(a)?;
+        } else {
+            lo = a;
+            (a, fa) = (b, fb);
+            b = lo + golden * (hi - lo);
+            fb = cost(b)?;
+        }
+    }
+    Ok(S::from_f32((0.5 * (lo + hi)) as f32))
+}
+
 fn sensor(s: SensorResponse) -> KSensor {
     match s {
         SensorResponse::Point => KSensor::Point,
@@ -29,13 +100,35 @@ fn sensor(s: SensorResponse) -> KSensor {
     }
 }
 
+/// The rate noise's moving-average root the kernel is configured with
+/// (`FlightIdConfig::rate_noise_ma_root`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaRoot {
+    /// Found on the flight itself when its noise shows a moving average (what the ground tool
+    /// does; onboard, the root comes from an earlier flight).
+    FromFlight,
+    /// This root, as a team that has characterised its sensor configures it (0: none).
+    Fixed(f32),
+}
+
 /// Identifies `sat` from `flight` with the kernel in format `S`; `response` is the rate
-/// sensor's (a gyro's point sample when `None`).
+/// sensor's (a gyro's point sample when `None`); the rate noise's MA root from the flight.
 pub fn identify<S: SumScalar>(
     flight: &Flight,
     sat: &Satellite,
     response: Option<SensorResponse>,
     latency_ms: f64,
+) -> Result<FlightEstimate, HostError> {
+    identify_with::<S>(flight, sat, response, latency_ms, MaRoot::FromFlight)
+}
+
+/// [`identify`] with the rate noise's MA root given by `ma`.
+pub fn identify_with<S: SumScalar>(
+    flight: &Flight,
+    sat: &Satellite,
+    response: Option<SensorResponse>,
+    latency_ms: f64,
+    ma: MaRoot,
 ) -> Result<FlightEstimate, HostError> {
     flight
         .check(sat)
@@ -104,6 +197,7 @@ pub fn identify<S: SumScalar>(
     let cfg = FlightIdConfig {
         period_s: S::from_f32(period as f32),
         sensor: sensor(response),
+        rate_noise_ma_root: S::ZERO,
         delay_periods: (latency_ms * 1e-3 / period) as f32,
         cut_at_changes: coarse,
         max_window,
@@ -141,50 +235,90 @@ pub fn identify<S: SumScalar>(
             )
         })?,
     };
-    let mut id = FlightId::new(cfg).ok_or_else(|| {
-        model_error(
-            sat,
-            format!(
-                "inertia is singular, or the latency {latency_ms} ms is not 0-{} sample periods",
-                massid_kernel::flight_id::delay::MAX_DELAY_SAMPLES
+    let run =
+        |rate_noise_ma_root: S, max_noise_order: u8| -> Result<(Solution<S>, u32), HostError> {
+            let mut cfg = cfg;
+            cfg.rate_noise_ma_root = rate_noise_ma_root;
+            cfg.solve.max_noise_order = max_noise_order;
+            let mut id = FlightId::new(cfg).ok_or_else(|| {
+                model_error(
+                    sat,
+                    format!(
+                "inertia is singular, the latency {latency_ms} ms is not 0-{} sample periods, \
+                 or the rate noise's MA root {} is not 0-{MAX_ROOT}",
+                massid_kernel::flight_id::delay::MAX_DELAY_SAMPLES,
+                rate_noise_ma_root.to_f32()
             ),
-        )
-    })?;
-    let mut prev_t: Option<f64> = None;
-    for ((t, rate), cmd) in flight
-        .time_s
-        .iter()
-        .zip(flight.rate.iter())
-        .zip(&flight.commands)
-    {
-        let dt = prev_t.map_or(0.0, |p| t - p);
-        prev_t = Some(*t);
-        let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
-        let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
-        let wrench = match cmd {
-            Command::Word(w) => table.wrench(*w),
-            Command::Wrench { force, torque } => {
-                let v = [
-                    torque[0], torque[1], torque[2], force[0], force[1], force[2],
-                ];
-                v.map(|x| S::from_f32(x as f32))
+                )
+            })?;
+            let mut prev_t: Option<f64> = None;
+            for ((t, rate), cmd) in flight
+                .time_s
+                .iter()
+                .zip(flight.rate.iter())
+                .zip(&flight.commands)
+            {
+                let dt = prev_t.map_or(0.0, |p| t - p);
+                prev_t = Some(*t);
+                let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
+                let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
+                let wrench = match cmd {
+                    Command::Word(w) => table.wrench(*w),
+                    Command::Wrench { force, torque } => {
+                        let v = [
+                            torque[0], torque[1], torque[2], force[0], force[1], force[2],
+                        ];
+                        v.map(|x| S::from_f32(x as f32))
+                    }
+                };
+                id.push(S::from_f32(dt as f32), r, valid, wrench);
             }
+            id.finish();
+            let samples = id.sums().samples;
+            let sol = id.solve().map_err(|e| {
+                HostError::Fit(match e {
+                    SolveError::NoData => {
+                        "no run of consecutive samples with every measured axis".into()
+                    }
+                    SolveError::Overflow => {
+                        "the flight's sums do not fit the kernel's number format (Overflow)".into()
+                    }
+                    SolveError::Singular => {
+                        "singular information: the commands excite none of the terms".into()
+                    }
+                    SolveError::NotConverged => "the kernel's fit did not converge".into(),
+                })
+            })?;
+            Ok((sol, samples))
         };
-        id.push(S::from_f32(dt as f32), r, valid, wrench);
-    }
-    id.finish();
-    let sol = id.solve().map_err(|e| {
-        HostError::Fit(match e {
-            SolveError::NoData => "no run of consecutive samples with every measured axis".into(),
-            SolveError::Overflow => {
-                "the flight's sums do not fit the kernel's number format (Overflow)".into()
+    // Rates differenced from attitude carry moving-average noise that the kernel takes out
+    // with a root fixed before the flight (`ma_prefilter`). Onboard, the root is the sensor's,
+    // found on the ground from an earlier flight; here it is found on this one when the first
+    // fit's noise shows it (and reported as the noise's `ma`). Rates from gyro counts are a
+    // gyro's.
+    let (ma_root, sol, samples) = match ma {
+        MaRoot::Fixed(root) => {
+            let root = S::from_f32(root);
+            let order = if S::ZERO.lt(root) { 0 } else { max_noise_order };
+            let (sol, samples) = run(root, order)?;
+            (root, sol, samples)
+        }
+        MaRoot::FromFlight => {
+            let (sol, samples) = run(S::ZERO, max_noise_order)?;
+            if !flight.from_gyro_counts && moving_average_evident(&sol, axes) {
+                let root = ma_root_by_least_squares(axes, |root| run(root, 0).map(|(sol, _)| sol))?;
+                // The noise model is then the MA(1) the root was fitted with. AR terms on top
+                // of it read a lag-2 structure of the filtered residuals as less low-frequency
+                // noise: on the Monte Carlo's 50 Hz motion capture (`identification_mc`, seeds
+                // 66000-66099) they chose orders 1-2 on most flights and made the sigmas 15-20 %
+                // too small (RMS error/sigma 1.17-1.20, against 0.95-0.98 without).
+                let (sol, samples) = run(root, 0)?;
+                (root, sol, samples)
+            } else {
+                (S::ZERO, sol, samples)
             }
-            SolveError::Singular => {
-                "singular information: the commands excite none of the terms".into()
-            }
-            SolveError::NotConverged => "the kernel's fit did not converge".into(),
-        })
-    })?;
+        }
+    };
     let theta: [f64; NP] = sol.theta.map(|v| f64::from(v.to_f32()));
     let cov_t = DMatrix::from_fn(NP, NP, |r, c| {
         f64::from(
@@ -262,11 +396,12 @@ pub fn identify<S: SumScalar>(
     } else {
         (0..3).map(|a| theta[a] / j_nom[(a, a)]).collect()
     };
-    // The timing test is sized for a gyro's noise. Rates differenced from attitude have a
-    // noise (moving average, root near the unit circle) the kernel's AR model does not
-    // whiten, and the test then rejects nominal flights (planar motion capture, 50 Hz closed
-    // loop: 12 of 40): for those sensors the kernel does not test and says so.
-    let tested = response == SensorResponse::Point;
+    // The tests are sized for white innovations. Rates differenced from attitude over one
+    // sample are whitened by the moving-average filter above; before it, the AR model alone
+    // left their noise coloured and the timing test rejected nominal flights (planar motion
+    // capture, 50 Hz closed loop: 12 of 40). Central differences (a moving average of two
+    // samples' span) are not whitened: for those the kernel does not test and says so.
+    let tested = response != SensorResponse::CentralMean;
     let timing = sol
         .timing_statistic
         .filter(|_| tested)
@@ -326,11 +461,11 @@ pub fn identify<S: SumScalar>(
                     .map(|v| f64::from(v.to_f32()))
                     .collect(),
                 sigma2: f64::from(n.sigma2.to_f32()),
-                ma: 0.0,
+                ma: -f64::from(ma_root.to_f32()),
             }
         })
     });
-    let samples = id.sums().samples as usize * axes.iter().filter(|a| **a).count();
+    let samples = samples as usize * axes.iter().filter(|a| **a).count();
     Ok(FlightEstimate {
         inertia_kgm2: inertia,
         inertia_stderr_kgm2: inertia_stderr,

@@ -34,8 +34,9 @@ extern "C" {
 /* Version of this ABI, raised with every change of a struct's layout or a function's meaning.
  * Check massid_abi_version() == MASSID_ABI_VERSION before any other call: a library built
  * from another header then refuses instead of misreading a struct. History: 1 the first ABI,
- * 2 massid_flight_id_settings.turn_weight, 3 massid_flight_id_settings.thrust_sigma_rel. */
-#define MASSID_ABI_VERSION 3u
+ * 2 massid_flight_id_settings.turn_weight, 3 massid_flight_id_settings.thrust_sigma_rel,
+ * 4 massid_flight_id_settings.rate_noise_ma_root. */
+#define MASSID_ABI_VERSION 4u
 uint32_t massid_abi_version(void);
 
 #define MASSID_N_THRUSTERS 12
@@ -261,6 +262,7 @@ typedef struct massid_flight_id_settings {
     float com_m[3];               /* the model's CoM from the geometric centre, m */
     float period_s;               /* nominal sample period; a step over 1.5 of it starts a window */
     float delay_periods;          /* known command-to-thrust delay, sample periods */
+    float rate_noise_ma_root;     /* the rate noise's moving-average root, [0, 0.99] (0: a gyro; the noise's ma that massid estimate reports for an earlier flight, negated) */
     float max_window_turn_rad;    /* past turn_window samples, cut a window after this weighted turn (INFINITY: never) */
     float turn_weight[3];         /* per axis, how much its turn counts: finite, > 0 (1 for SPHERES-like coupling) */
     float scale[MASSID_ID_TERMS]; /* per term, the standard error beyond which it is held */

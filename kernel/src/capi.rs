@@ -361,9 +361,10 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 /// The C ABI's version (`MASSID_ABI_VERSION` in `massid_kernel.h`), raised with every change
 /// of a struct's layout or of a function's meaning, so that a caller built against another
 /// header refuses to run instead of misreading a struct: 1 the first ABI, 2
-/// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`. [`ABI_LAYOUTS`] records
-/// each version's struct sizes from this one on.
-pub const ABI_VERSION: u32 = 3;
+/// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`, 4 its
+/// `rate_noise_ma_root`. [`ABI_LAYOUTS`] records
+/// each version's struct sizes from version 3 on.
+pub const ABI_VERSION: u32 = 4;
 
 /// Per version (append-only: a new version adds a row, no row is edited), the sizes of the
 /// ABI's types on a 64-bit host (`massid_type_size(0..8)` then `massid_craft_type_size(0..7)`;
@@ -371,12 +372,20 @@ pub const ABI_VERSION: u32 = 3;
 /// changes size without a new version no longer matches its version's row
 /// ([`abi_layout_check`]). A change that keeps every size (fields reordered or retyped alike)
 /// is not seen here: the version must still be raised by hand.
-pub const ABI_LAYOUTS: [(u32, [u32; 15]); 1] = [(
-    3,
-    [
-        388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 188, 436, 32768,
-    ],
-)];
+pub const ABI_LAYOUTS: [(u32, [u32; 15]); 2] = [
+    (
+        3,
+        [
+            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 188, 436, 32768,
+        ],
+    ),
+    (
+        4,
+        [
+            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 192, 436, 32768,
+        ],
+    ),
+];
 
 /// Whether `sizes` ([`abi_sizes`]) are the layout recorded for `version` in [`ABI_LAYOUTS`]:
 /// `Err` names the first type whose size differs, or says the version has no row.

@@ -770,6 +770,7 @@ fn c_flight_id_matches_the_rust_flight_id() {
         let cfg = FlightIdConfig {
             period_s: period,
             sensor: SensorResponse::Point,
+            rate_noise_ma_root: 0.0,
             delay_periods: 0.0,
             cut_at_changes: false,
             max_window,
@@ -836,6 +837,7 @@ fn rust_flight_id_line<S: SumScalar>(
     let cfg = FlightIdConfig {
         period_s: c(cfg.period_s),
         sensor: cfg.sensor,
+        rate_noise_ma_root: c(cfg.rate_noise_ma_root),
         delay_periods: cfg.delay_periods,
         cut_at_changes: cfg.cut_at_changes,
         max_window: cfg.max_window,

@@ -403,6 +403,10 @@ pub struct MassidFlightIdSettings {
     pub period_s: f32,
     /// Known command-to-thrust delay, sample periods.
     pub delay_periods: f32,
+    /// The rate noise's moving-average root, 0 to `flight_id::ma_prefilter::MAX_ROOT` (0 for
+    /// a gyro; for rates differenced from attitude, the root `massid estimate --kernel f32`
+    /// finds on an earlier flight with the same sensor: its noise `ma`, negated).
+    pub rate_noise_ma_root: f32,
     /// Past `turn_window` samples a window is cut once the craft turned this far, rad, each
     /// axis' turn weighted by `turn_weight` (infinity: never).
     pub max_window_turn_rad: f32,
@@ -497,6 +501,7 @@ fn flight_id_config<S: Scalar>(
         && !s.max_window_turn_rad.is_nan()
         && s.turn_weight.iter().all(|w| w.is_finite() && *w > 0.0)
         && usize::from(s.max_noise_order) <= MAX_ORDER
+        && (0.0..=crate::flight_id::ma_prefilter::MAX_ROOT).contains(&s.rate_noise_ma_root)
         && s.thrust_sigma_rel
             .iter()
             .all(|v| v.is_finite() && *v >= 0.0);
@@ -508,6 +513,7 @@ fn flight_id_config<S: Scalar>(
         period_s: S::from_f32(s.period_s),
         sensor: sensor_of(s.sensor)?,
         delay_periods: s.delay_periods,
+        rate_noise_ma_root: S::from_f32(s.rate_noise_ma_root),
         cut_at_changes: s.cut_at_changes != 0,
         max_window: s.max_window,
         max_window_turn_rad: S::from_f32(s.max_window_turn_rad),
@@ -597,6 +603,7 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
         com_m: com,
         period_s,
         delay_periods: 0.0,
+        rate_noise_ma_root: 0.0,
         max_window_turn_rad: if planar {
             f32::INFINITY
         } else {

@@ -25,6 +25,7 @@ pub mod consistency;
 pub mod delay;
 pub mod drive;
 pub mod exact;
+pub mod ma_prefilter;
 pub mod solve;
 pub mod sums;
 pub mod window;
@@ -56,6 +57,11 @@ pub struct FlightIdConfig<S> {
     pub period_s: S,
     /// The rate sensor's response.
     pub sensor: SensorResponse,
+    /// The root `rho` of the rate noise's moving-average part (`e_k = eps_k - rho eps_(k-1)`;
+    /// 0 for a gyro's, near 1 for rates differenced from attitude): the measurement is
+    /// filtered by `1 / (1 - rho B)` before the sums ([`ma_prefilter`]). A property of the
+    /// sensor, measured on the ground from an earlier flight ([`ma_prefilter`]).
+    pub rate_noise_ma_root: S,
     /// Known command-to-thrust delay, in sample periods ([`delay::CommandDelay`]).
     pub delay_periods: f32,
     /// Cut the windows wherever the acting wrench changes (the interval before the change is
@@ -117,6 +123,8 @@ pub struct FlightId<S: SumScalar> {
     anchor: Option<[S; 3]>,
     /// The delay line of the commands.
     delay: delay::CommandDelay<S>,
+    /// The rate noise's moving-average part, taken out of each measurement.
+    prefilter: ma_prefilter::MaPrefilter<S>,
     /// The previous sample's acting wrench and measured rate.
     previous: Option<([S; 6], [S; 3])>,
     /// The nominal model's matrix: the sums hold rates minus its prediction, so that they
@@ -149,6 +157,7 @@ impl<S: SumScalar> FlightId<S> {
     ) -> Option<&mut Self> {
         // What can fail comes first, so that a refused configuration writes nothing.
         let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
+        let prefilter = ma_prefilter::MaPrefilter::new(cfg.rate_noise_ma_root)?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
         // The longest window: `max_window` samples, each step up to 1.5 periods.
@@ -173,6 +182,7 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, anchor).write(None);
         field!(slot, Self, previous).write(None);
         field!(slot, Self, delay).write(delay);
+        field!(slot, Self, prefilter).write(prefilter);
         field!(slot, Self, nominal).write(nominal);
         // SAFETY: every field was written just above.
         Some(unsafe {
@@ -194,6 +204,7 @@ impl<S: SumScalar> FlightId<S> {
                     turned,
                     anchor,
                     delay,
+                    prefilter,
                     previous,
                     nominal
                 }
@@ -341,18 +352,21 @@ impl<S: SumScalar> FlightId<S> {
         };
         let anchor = *self.anchor.get_or_insert(*y);
         let y_raw = core::array::from_fn(|a| get(y, a).minus(get(&anchor, a)));
+        let skip = self.cfg.skip.saturating_add(self.prefilter.settle());
+        let measurement = self.prefilter.apply(z, &y_raw);
         self.window.push(
             &mut self.sums,
             &mut self.recent,
-            (z, &y_raw),
+            measurement,
             &self.nominal,
-            self.cfg.skip,
+            skip,
         );
     }
 
     fn close_window(&mut self) {
         self.window.close_into(&mut self.sums, &self.recent);
         self.drive.clear();
+        self.prefilter.reset();
         self.filled = 0;
         self.turned = S::ZERO;
         self.anchor = None;
@@ -435,6 +449,7 @@ mod tests {
         let cfg = FlightIdConfig {
             period_s: 1e-3,
             sensor: SensorResponse::Point,
+            rate_noise_ma_root: 0.0,
             delay_periods: 0.0,
             cut_at_changes: false,
             max_window: 100_000,
@@ -483,6 +498,7 @@ mod tests {
             let cfg = FlightIdConfig {
                 period_s: c(1e-3),
                 sensor: SensorResponse::Point,
+                rate_noise_ma_root: S::ZERO,
                 delay_periods: 0.0,
                 cut_at_changes: false,
                 max_window: 2000,

@@ -333,6 +333,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
     let cfg = FlightIdConfig {
         period_s: S::from_f32(1e-3),
         sensor: SensorResponse::Point,
+        rate_noise_ma_root: S::ZERO,
         delay_periods: 0.0,
         cut_at_changes: false,
         max_window: 8000,

@@ -86,8 +86,8 @@ fn a_planar_motion_capture_recording_reports_only_what_it_can_know() {
 fn the_onboard_kernels_identify_v2_craft_and_the_seed_method_refuses_them() {
     for (name, term, truth, status) in [
         ("r04_ft10_nominal", 0, 0.045, "ok"),
-        // Motion-capture rates: estimated, but the kernel's timing test is for gyros.
-        ("r01_pl6_nominal", 2, 0.085, "consistency_untested"),
+        // Motion-capture rates (central differences): the moving average taken out, tested.
+        ("r01_pl6_nominal", 2, 0.085, "ok"),
     ] {
         let (stdout, v) = estimate_with(name, &["--kernel", "all"]);
         // both kernels answer (the fixed one in its integer float) next to f64
@@ -98,6 +98,14 @@ fn the_onboard_kernels_identify_v2_craft_and_the_seed_method_refuses_them() {
             assert_eq!(r["status"], status, "{name} {kernel}: {r}");
             if status == "ok" {
                 assert_eq!(r["consistency"][0]["test"], "valve_timing", "{r}");
+            }
+            // The motion-capture noise's moving average (lag 2 for a central mean) is found
+            // and reported, a gyro's is none.
+            let ma = r["noise_model"][0]["ma_coefficient"].as_f64().unwrap();
+            if name.contains("pl6") {
+                assert!(ma < -0.2 && r["noise_model"][0]["ma_lag"] == 2, "{r}");
+            } else {
+                assert_eq!(ma, 0.0, "{r}");
             }
             let value = r["inertia_kgm2"][term].as_f64().unwrap();
             let se = r["inertia_stderr_kgm2"][term].as_f64().unwrap();

@@ -7,7 +7,7 @@ use crate::HostError;
 use massid_kernel::flight_id::consider::ThrustUncertainty;
 use massid_kernel::flight_id::consistency::rejects;
 use massid_kernel::flight_id::exact::{Envelope, RATE_LIMIT_RAD_S};
-use massid_kernel::flight_id::ma_prefilter::MAX_ROOT;
+use massid_kernel::flight_id::ma_prefilter::{lag_of, MAX_ROOT};
 use massid_kernel::flight_id::solve::{Solution, SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
@@ -22,24 +22,30 @@ use reference_f64::flight_id::{term_scale, FlightEstimate, NOT_PLANAR};
 use reference_f64::mass_id::{physical_validity, sym_to_vec6, COM_TERMS, INERTIA_TERMS};
 use reference_f64::satellite::Satellite;
 
-/// The lag-1 correlation below which a fitted axis' noise is taken for a moving average
-/// (`-rho / (1 + rho^2)` for a root `rho` of 0.1; a smaller root the AR terms absorb). The
-/// diagnosis reads the rate sensor's kind from the same sign (`differenced_attitude`).
-const MA_EVIDENT_LAG1: f32 = -0.1;
+/// The correlation (at the noise's MA lag) below which a fitted axis' noise is taken for a
+/// moving average (`-rho / (1 + rho^2)` for a root `rho` of 0.1; a smaller root the AR terms
+/// absorb). The diagnosis reads the rate sensor's kind from the same sign
+/// (`differenced_attitude`).
+const MA_EVIDENT_CORRELATION: f32 = -0.1;
 
-/// Whether a fit's AR noise shows a moving average on a fitted axis: the lag-1 correlation its
-/// AR model implies (`phi_1 / (1 - phi_2)`, Yule-Walker) below [`MA_EVIDENT_LAG1`]. A gyro's
-/// white or band-limited noise has it near zero or positive; rates differenced from attitude
-/// near -0.5. The AR fit has already chosen its order by BIC, so an order-0 axis shows none.
-fn moving_average_evident<S: SumScalar>(sol: &Solution<S>, axes: [bool; 3]) -> bool {
+/// Whether a fit's AR noise shows a moving average at `lag` (1 or 2) on a fitted axis: the
+/// correlation its AR model implies there (Yule-Walker: `r1 = phi_1 / (1 - phi_2)`,
+/// `r2 = phi_1 r1 + phi_2`) below [`MA_EVIDENT_CORRELATION`]. A gyro's white or band-limited
+/// noise has it near zero or positive; rates differenced from attitude near -0.5. The AR fit
+/// has already chosen its order by BIC, so an order-0 axis shows none.
+fn moving_average_evident<S: SumScalar>(sol: &Solution<S>, axes: [bool; 3], lag: usize) -> bool {
     sol.noise.iter().zip(axes).any(|(n, fitted)| {
         let [p1, p2] = n.phi.map(|v| v.to_f32());
-        let lag1 = match n.order {
-            0 => 0.0,
-            1 => p1,
-            _ => p1 / (1.0 - p2),
+        let (r1, r2) = match n.order {
+            0 => (0.0, 0.0),
+            1 => (p1, p1 * p1),
+            _ => {
+                let r1 = p1 / (1.0 - p2);
+                (r1, p1 * r1 + p2)
+            }
         };
-        fitted && lag1 < MA_EVIDENT_LAG1
+        let r = if lag == 2 { r2 } else { r1 };
+        fitted && r < MA_EVIDENT_CORRELATION
     })
 }
 
@@ -305,7 +311,9 @@ pub fn identify_with<S: SumScalar>(
         }
         MaRoot::FromFlight => {
             let (sol, samples) = run(S::ZERO, max_noise_order)?;
-            if !flight.from_gyro_counts && moving_average_evident(&sol, axes) {
+            if !flight.from_gyro_counts
+                && moving_average_evident(&sol, axes, lag_of(sensor(response)))
+            {
                 let root = ma_root_by_least_squares(axes, |root| run(root, 0).map(|(sol, _)| sol))?;
                 // The noise model is then the MA(1) the root was fitted with. AR terms on top
                 // of it read a lag-2 structure of the filtered residuals as less low-frequency
@@ -396,16 +404,12 @@ pub fn identify_with<S: SumScalar>(
     } else {
         (0..3).map(|a| theta[a] / j_nom[(a, a)]).collect()
     };
-    // The tests are sized for white innovations. Rates differenced from attitude over one
-    // sample are whitened by the moving-average filter above; before it, the AR model alone
-    // left their noise coloured and the timing test rejected nominal flights (planar motion
-    // capture, 50 Hz closed loop: 12 of 40). Central differences (a moving average of two
-    // samples' span) are not whitened: for those the kernel does not test and says so.
-    let tested = response != SensorResponse::CentralMean;
-    let timing = sol
-        .timing_statistic
-        .filter(|_| tested)
-        .map(|v| f64::from(v.to_f32()));
+    // The tests are sized for white innovations. Before the moving-average filter above, the
+    // AR model alone left differenced attitude's noise coloured and the timing test rejected
+    // nominal flights (planar motion capture, 50 Hz closed loop: 12 of 40), so the kernel
+    // tested gyro flights only; now every flight is tested where a direction is left to test
+    // after the fitted terms (as the reference says `consistency_untested` otherwise).
+    let timing = sol.timing_statistic.map(|v| f64::from(v.to_f32()));
     // The thrust-symmetry test per torque axis, each at a third of the level.
     const SYMMETRY_NAMES: [&str; 3] = [
         "thrust_symmetry_x",
@@ -415,8 +419,9 @@ pub fn identify_with<S: SumScalar>(
     let symmetry: Vec<(&'static str, f64)> = SYMMETRY_NAMES
         .iter()
         .zip(sol.symmetry_statistic)
-        .filter_map(|(name, v)| v.filter(|_| tested).map(|v| (*name, f64::from(v.to_f32()))))
+        .filter_map(|(name, v)| v.map(|v| (*name, f64::from(v.to_f32()))))
         .collect();
+    let tested = timing.is_some() || !symmetry.is_empty();
     // p-values at the level each test is held to: a symmetry axis' is multiplied by the three
     // axes (Bonferroni), so that every test rejects where its p-value is below 1e-3.
     let consistency: Vec<ScoreTest> = timing
@@ -434,7 +439,7 @@ pub fn identify_with<S: SumScalar>(
             p_value: (tests * chi2_sf(statistic, 1.0)).min(1.0),
         })
         .collect();
-    let inconsistent = tested && rejects(sol.timing_statistic, &sol.symmetry_statistic);
+    let inconsistent = rejects(sol.timing_statistic, &sol.symmetry_statistic);
     let status = if principal.iter().all(|r| r.abs() < 0.125) {
         "no_gyro_response"
     } else if !sol.positive_definite && !sat.planar {
@@ -450,6 +455,7 @@ pub fn identify_with<S: SumScalar>(
     } else {
         "ok"
     };
+    let rho = f64::from(ma_root.to_f32());
     let noise: [Option<ArNoise>; 3] = std::array::from_fn(|a| {
         axes[a].then(|| {
             let n = sol.noise[a];
@@ -460,8 +466,10 @@ pub fn identify_with<S: SumScalar>(
                     .take(usize::from(n.order))
                     .map(|v| f64::from(v.to_f32()))
                     .collect(),
-                sigma2: f64::from(n.sigma2.to_f32()),
-                ma: -f64::from(ma_root.to_f32()),
+                // The filter has unit gain: its innovations are the raw ones times `1 - rho`.
+                sigma2: f64::from(n.sigma2.to_f32()) / (1.0 - rho).powi(2),
+                ma: -rho,
+                ma_lag: lag_of(sensor(response)),
             }
         })
     });

@@ -253,6 +253,8 @@ pub fn flight_result_json(e: &FlightEstimate) -> Value {
                 json!({
                     "axis": AXIS_NAMES[a],
                     "ar_coefficients": n.phi,
+                    "ma_coefficient": n.ma,
+                    "ma_lag": n.ma_lag,
                     "innovation_rad_s": n.sigma2.sqrt(),
                     "rate_noise_rad_s": n.process_variance().sqrt(),
                 })
@@ -376,9 +378,14 @@ fn print_flight_result(out: Text, kernel: Kernel, e: &FlightEstimate, sat: &Sate
     }
     for (a, n) in e.noise.iter().enumerate() {
         if let Some(n) = n {
+            let ma = if n.ma == 0.0 {
+                String::new()
+            } else {
+                format!(", MA {:+.3} at lag {}", n.ma, n.ma_lag)
+            };
             say!(
                 out,
-                "  rate noise {}: {:.2e} rad/s, AR order {} (innovation {:.2e})",
+                "  rate noise {}: {:.2e} rad/s, AR order {}{ma} (innovation {:.2e})",
                 ["x", "y", "z"][a],
                 n.process_variance().sqrt(),
                 n.order(),

@@ -1,27 +1,28 @@
 //! The rate noise's moving-average part, taken out before the sums.
 //!
-//! Rates differenced from attitude (motion capture) carry noise `e_k = eps_k - rho eps_(k-1)`
-//! with `rho` near 1: the attitude noise differenced over one sample, plus a little white rate
-//! noise. No AR model of order <= 2 whitens it; the kernel's sigmas came out 2-4 times too
-//! large on such flights, and its consistency tests could not be applied.
+//! Rates differenced from attitude (motion capture) carry noise `e_k = eps_k - rho eps_(k-d)`
+//! with `rho` near 1: the attitude noise differenced over one sample (`d = 1`) or, for a
+//! central difference, over two (`d = 2`), plus a little white rate noise. No AR model of
+//! order <= 2 whitens it; the kernel's sigmas came out 2-4 times too large on such flights,
+//! and its consistency tests could not be applied.
 //!
-//! Passing the whole measurement (drive and rate alike) through `1 / (1 - rho B)` leaves white
-//! noise and the same model, because the filter is linear and acts on both sides. The AR fit on
-//! the sums then only mops up what is left. So the kernel's noise model is ARMA(p, 1) with the
-//! MA root fixed before the flight: the reference fits the root, but a streaming kernel cannot
-//! re-read the data.
+//! Passing the whole measurement (drive and rate alike) through `1 / (1 - rho B^d)` leaves
+//! white noise and the same model, because the filter is linear and acts on both sides. So
+//! the kernel's noise model is an MA of root `rho` at lag `d`, the root fixed before the
+//! flight: the reference fits its MA coefficient, but a streaming kernel cannot re-read the
+//! data.
 //!
-//! The filter has unit gain at zero frequency (`x~_k = x~_(k-1) + (1 - rho)(x_k - x~_(k-1))`,
+//! The filter has unit gain at zero frequency (`x~_k = x~_(k-d) + (1 - rho)(x_k - x~_(k-d))`,
 //! an exponential average). So every bound on the drive and the rate holds for the filtered
 //! values: the fixed kernel's envelope is unchanged. The window's initial rate stays a
-//! constant after a transient of about `1 / (1 - rho)` samples from the window's first sample,
-//! where the drive is still near zero; that transient is neglected, as the AR filter's edge is.
+//! constant once the filter's start-up transient has passed ([`MaPrefilter::settle`]).
 //!
 //! The root is a property of the rate sensor, measured on the ground from an earlier flight
 //! (`massid estimate --kernel f32` finds it by conditional least squares over replays of the
 //! flight through this kernel, and reports it as the noise's `ma`).
 
 use super::sums::NZ;
+use super::SensorResponse;
 use crate::scalar::Scalar;
 
 /// The largest root accepted: beyond it the filter's transient spans most of a window.
@@ -34,18 +35,33 @@ pub struct MaPrefilter<S> {
     gain: S,
     /// False for `rho = 0`: the measurement passes unchanged (bit for bit).
     active: bool,
-    /// Samples until the filter's start-up transient `rho^m` is below 2^-7 (see [`Self::settle`]).
+    /// The lag `d`: 2 for a central mean, else 1.
+    lag: usize,
+    /// Samples until the filter's start-up transient is below 2^-7 (see [`Self::settle`]).
     settle: u32,
-    z: [S; NZ],
-    y: [S; 3],
+    /// The last two filtered measurements, a ring whose newest is at `newest`.
+    z: [[S; NZ]; 2],
+    y: [[S; 3]; 2],
+    newest: usize,
+}
+
+/// The lag of the noise's moving average for a sensor's response: a central mean differences
+/// the attitude over two sample periods, the others over one.
+pub fn lag_of(sensor: SensorResponse) -> usize {
+    match sensor {
+        SensorResponse::CentralMean => 2,
+        SensorResponse::Point | SensorResponse::BackwardMean => 1,
+    }
 }
 
 impl<S: Scalar> MaPrefilter<S> {
-    /// A filter for the root `rho` (0 for none); None unless `0 <= rho <= MAX_ROOT`.
-    pub fn new(rho: S) -> Option<Self> {
+    /// A filter for the root `rho` (0 for none) at the lag of `sensor`'s noise ([`lag_of`]);
+    /// None unless `0 <= rho <= MAX_ROOT`.
+    pub fn new(rho: S, sensor: SensorResponse) -> Option<Self> {
         if !rho.is_valid() || rho.lt(S::ZERO) || S::from_f32(MAX_ROOT).lt(rho) {
             return None;
         }
+        let lag = lag_of(sensor);
         let threshold = S::from_int_pow2(1, -7);
         let mut settle = 0u32;
         let mut power = S::ONE;
@@ -56,18 +72,21 @@ impl<S: Scalar> MaPrefilter<S> {
         Some(MaPrefilter {
             gain: S::ONE.minus(rho),
             active: S::ZERO.lt(rho),
-            settle,
-            z: [S::ZERO; NZ],
-            y: [S::ZERO; 3],
+            lag,
+            settle: settle.saturating_mul(if lag == 2 { 2 } else { 1 }),
+            z: [[S::ZERO; NZ]; 2],
+            y: [[S::ZERO; 3]; 2],
+            newest: 0,
         })
     }
 
     /// Samples to leave out at each window's start. The filter starts from zero, so a window's
     /// constant (its initial rate less the anchor, of the size of one sample's noise) enters
-    /// as `1 - rho^(m+1)`, not as a constant. With a root near 1 that ramp spans hundreds of
-    /// samples, while the drive grows from zero, and it biased the inertia (a root of 0.99 on
-    /// 50 Hz motion capture: Izz 20 % low at 130 sigma). Past `settle` samples the ramp is
-    /// within 2^-7 of its end. The samples left out are those where the drive is smallest.
+    /// as `1 - rho^(m/d+1)`, not as a constant; with a root near 1 that ramp spans hundreds
+    /// of samples while the drive grows from zero. Past `settle` samples it is within 2^-7
+    /// of its end; the samples left out are those where the drive is smallest. Measured:
+    /// without them, random planar motion-capture craft gave RMS error/sigma 1.30-1.37
+    /// instead of 0.94-1.08 (`identification_mc -- 100 67000 "motion capture" f32`).
     pub fn settle(&self) -> u32 {
         if self.active {
             self.settle
@@ -78,8 +97,9 @@ impl<S: Scalar> MaPrefilter<S> {
 
     /// A new window: the state starts from zero, as the anchored rate and the drive do.
     pub fn reset(&mut self) {
-        self.z = [S::ZERO; NZ];
-        self.y = [S::ZERO; 3];
+        self.z = [[S::ZERO; NZ]; 2];
+        self.y = [[S::ZERO; 3]; 2];
+        self.newest = 0;
     }
 
     /// One measurement (drive `z`, anchored rate `y`), filtered.
@@ -87,14 +107,29 @@ impl<S: Scalar> MaPrefilter<S> {
         if !self.active {
             return (z, y);
         }
+        // The slot written is the older one; at lag 1 it starts from the newest.
+        let slot = 1usize.saturating_sub(self.newest);
+        if self.lag == 1 {
+            if let (Some(&z_new), Some(&y_new)) = (self.z.get(self.newest), self.y.get(self.newest))
+            {
+                if let (Some(zs), Some(ys)) = (self.z.get_mut(slot), self.y.get_mut(slot)) {
+                    *zs = z_new;
+                    *ys = y_new;
+                }
+            }
+        }
+        self.newest = slot;
         let g = self.gain;
-        for (s, x) in self.z.iter_mut().zip(z) {
+        let (Some(zs), Some(ys)) = (self.z.get_mut(slot), self.y.get_mut(slot)) else {
+            return (z, y);
+        };
+        for (s, x) in zs.iter_mut().zip(z) {
             *s = s.mul_add(g, x.minus(*s));
         }
-        for (s, x) in self.y.iter_mut().zip(y) {
+        for (s, x) in ys.iter_mut().zip(y) {
             *s = s.mul_add(g, x.minus(*s));
         }
-        (&self.z, &self.y)
+        (zs, ys)
     }
 }
 
@@ -108,9 +143,14 @@ mod tests {
     use super::*;
     use crate::IntFloat;
 
-    /// Autocovariances (lags 0-2) of `(1 - rho B) eps` filtered by the unit-gain filter of
-    /// root `c`, by the series itself (a long pseudo-random run).
-    fn filtered_autocovariances(rho: f64, c: f64) -> [f64; 3] {
+    /// Autocovariances (lags 0-2) of `(1 - rho B^d) eps` (`d` the lag of `sensor`) filtered
+    /// by the kernel's filter of root `c`, by the series itself (a long pseudo-random run).
+    fn filtered_autocovariances(rho: f64, c: f32, sensor: SensorResponse) -> [f64; 3] {
+        filtered_at(rho, lag_of(sensor), c, sensor)
+    }
+
+    /// The same for noise of lag `d` and the filter of `sensor`, whatever its lag.
+    fn filtered_at(rho: f64, d: usize, c: f32, sensor: SensorResponse) -> [f64; 3] {
         let mut state = 0x1234_5678_9abc_def0u64;
         let mut uniform = || {
             state = state
@@ -118,15 +158,18 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             ((state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
         };
-        let (mut eps_prev, mut f) = (0.0, 0.0);
+        let mut filter = MaPrefilter::new(c, sensor).unwrap();
+        let mut eps_back = [0.0f64; 2];
         let (mut back1, mut back2) = (0.0, 0.0);
         let mut sums = [0.0f64; 3];
         let n = 400_000;
         for _ in 0..n {
             let eps = uniform();
-            let e = eps - rho * eps_prev;
-            eps_prev = eps;
-            f += (1.0 - c) * (e - f);
+            let e = eps - rho * eps_back[d - 1];
+            eps_back = [eps, eps_back[0]];
+            let y = [e as f32, 0.0, 0.0];
+            let (_, fy) = filter.apply(&[0.0; NZ], &y);
+            let f = f64::from(fy[0]);
             sums[0] += f * f;
             sums[1] += f * back1;
             sums[2] += f * back2;
@@ -138,21 +181,28 @@ mod tests {
 
     #[test]
     fn the_filter_with_the_noise_root_leaves_white_noise() {
-        // MA(1) noise of root 0.88 (lag-1 correlation -0.496), filtered with its root: white.
-        let g = filtered_autocovariances(0.88, 0.88);
-        assert!(
-            (g[1] / g[0]).abs() < 0.01 && (g[2] / g[0]).abs() < 0.01,
-            "{g:?}"
-        );
-        // Planted fault: a filter of another root leaves it coloured.
-        let g = filtered_autocovariances(0.88, 0.5);
-        assert!(g[1] / g[0] < -0.2, "{g:?}");
+        for sensor in [SensorResponse::BackwardMean, SensorResponse::CentralMean] {
+            // MA noise of root 0.88 at the sensor's lag (correlation -0.496 there), filtered
+            // with its root: white.
+            let g = filtered_autocovariances(0.88, 0.88, sensor);
+            assert!(
+                (g[1] / g[0]).abs() < 0.01 && (g[2] / g[0]).abs() < 0.01,
+                "{sensor:?}: {g:?}"
+            );
+            // Planted fault: a filter of another root leaves it coloured.
+            let g = filtered_autocovariances(0.88, 0.5, sensor);
+            assert!(g[lag_of(sensor)] / g[0] < -0.2, "{sensor:?}: {g:?}");
+        }
+        // Central-difference noise (lag 2) through the lag-1 filter stays coloured.
+        let g = filtered_at(0.88, 2, 0.88, SensorResponse::BackwardMean);
+        assert!((g[1] / g[0]).abs() > 0.2, "{g:?}");
     }
 
     #[test]
     fn the_integer_float_filters_as_f32_does() {
-        let mut a = MaPrefilter::new(0.875f32).unwrap();
-        let mut b = MaPrefilter::new(IntFloat::from_f32(0.875)).unwrap();
+        let mut a = MaPrefilter::new(0.875f32, SensorResponse::BackwardMean).unwrap();
+        let mut b =
+            MaPrefilter::new(IntFloat::from_f32(0.875), SensorResponse::BackwardMean).unwrap();
         assert_eq!(a.settle(), b.settle());
         for k in 0..200 {
             let x = ((k * 37 % 101) as f32 - 50.0) * 1e-3;
@@ -176,10 +226,10 @@ mod tests {
     fn a_zero_root_passes_the_measurement_unchanged_and_others_keep_unit_gain() {
         let z = [0.25f32; NZ];
         let y = [1.0f32, -2.0, 0.5];
-        let mut off = MaPrefilter::new(0.0f32).unwrap();
+        let mut off = MaPrefilter::new(0.0f32, SensorResponse::Point).unwrap();
         let (fz, fy) = off.apply(&z, &y);
         assert_eq!((*fz, *fy), (z, y));
-        let mut on = MaPrefilter::new(0.9f32).unwrap();
+        let mut on = MaPrefilter::new(0.9f32, SensorResponse::Point).unwrap();
         // 0.9^47 = 0.0071 is the first power below 2^-7.
         assert_eq!((off.settle(), on.settle()), (0, 47));
         let mut last = ([0.0f32; NZ], [0.0f32; 3]);
@@ -191,8 +241,8 @@ mod tests {
         on.reset();
         let (fz, _) = on.apply(&z, &y);
         assert!((fz[0] - 0.025).abs() < 1e-6);
-        assert!(MaPrefilter::new(-0.1f32).is_none());
-        assert!(MaPrefilter::new(0.995f32).is_none());
-        assert!(MaPrefilter::new(f32::NAN).is_none());
+        assert!(MaPrefilter::new(-0.1f32, SensorResponse::Point).is_none());
+        assert!(MaPrefilter::new(0.995f32, SensorResponse::Point).is_none());
+        assert!(MaPrefilter::new(f32::NAN, SensorResponse::Point).is_none());
     }
 }

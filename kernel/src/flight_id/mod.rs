@@ -57,9 +57,10 @@ pub struct FlightIdConfig<S> {
     pub period_s: S,
     /// The rate sensor's response.
     pub sensor: SensorResponse,
-    /// The root `rho` of the rate noise's moving-average part (`e_k = eps_k - rho eps_(k-1)`;
-    /// 0 for a gyro's, near 1 for rates differenced from attitude): the measurement is
-    /// filtered by `1 / (1 - rho B)` before the sums ([`ma_prefilter`]). A property of the
+    /// The root `rho` of the rate noise's moving-average part (`e_k = eps_k - rho eps_(k-d)`,
+    /// `d` 2 for a central mean, else 1; 0 for a gyro's, near 1 for rates differenced from
+    /// attitude): the measurement is filtered by `1 / (1 - rho B^d)` before the sums
+    /// ([`ma_prefilter`]). A property of the
     /// sensor, measured on the ground from an earlier flight ([`ma_prefilter`]).
     pub rate_noise_ma_root: S,
     /// Known command-to-thrust delay, in sample periods ([`delay::CommandDelay`]).
@@ -157,7 +158,7 @@ impl<S: SumScalar> FlightId<S> {
     ) -> Option<&mut Self> {
         // What can fail comes first, so that a refused configuration writes nothing.
         let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
-        let prefilter = ma_prefilter::MaPrefilter::new(cfg.rate_noise_ma_root)?;
+        let prefilter = ma_prefilter::MaPrefilter::new(cfg.rate_noise_ma_root, cfg.sensor)?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
         // The longest window: `max_window` samples, each step up to 1.5 periods.

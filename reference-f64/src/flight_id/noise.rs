@@ -19,6 +19,10 @@ pub struct ArNoise {
     pub sigma2: f64,
     /// The moving-average coefficient, in (-1, 1).
     pub ma: f64,
+    /// The moving average's lag: 1 in every fit here (its whitener runs at lag 1); the onboard
+    /// kernel's filter runs at lag 2 for a central mean (`massid_kernel::flight_id::
+    /// ma_prefilter`), and its estimates say so through this field.
+    pub ma_lag: usize,
 }
 
 /// Median stretch length, samples, below which no moving-average term is fitted.
@@ -38,6 +42,7 @@ impl ArNoise {
             phi: Vec::new(),
             sigma2,
             ma: 0.0,
+            ma_lag: 1,
         }
     }
 
@@ -53,8 +58,9 @@ impl ArNoise {
         for k in 1..h.len() {
             h[k] = (1..=p.min(k)).map(|i| self.phi[i - 1] * h[k - i]).sum();
         }
-        for k in (1..h.len()).rev() {
-            h[k] += self.ma * h[k - 1];
+        let lag = self.ma_lag.max(1);
+        for k in (lag..h.len()).rev() {
+            h[k] += self.ma * h[k - lag];
         }
         self.sigma2 * h.iter().map(|x| x * x).sum::<f64>()
     }
@@ -244,6 +250,7 @@ mod whitener_tests {
                     phi,
                     sigma2: ss / n as f64,
                     ma: 0.0,
+                    ma_lag: 1,
                 },
                 n,
             ))
@@ -304,6 +311,7 @@ mod whitener_tests {
                     phi: phi.clone(),
                     sigma2: 1.0,
                     ma,
+                    ma_lag: 1,
                 };
                 let mut w = model.whitener(series.len());
                 let mut out = vec![0.0; series.len()];
@@ -425,6 +433,7 @@ fn fit_order(series: &[Vec<f64>], ma: f64, p: usize) -> Option<(ArNoise, usize)>
             phi,
             sigma2: ss / n as f64,
             ma: 0.0,
+            ma_lag: 1,
         },
         n,
     ))

@@ -201,7 +201,7 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "the 8-thruster planar air-bearing craft and the 16-thruster free-flyer of \`examples/models/\`), once per control period, not per tick;"
   echo "flight_id_push = one sample of the output-error identification (\`massid_kernel::flight_id\`): f32 on hard-float targets; fixed is"
   echo "the integer float \`massid_kernel::IntFloat\` over the first 150 samples (its trace is slow; M4F only: its 29 kB state does not fit the micro:bit M0's 16 kB of RAM);"
-  echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters) and the 16-thruster free-flyer, 500 samples (f32) / 150 (fixed)"
+  echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters; airbearing_mocap: with motion-capture rates, the moving-average filter on) and the 16-thruster free-flyer, 500 samples (f32) / 150 (fixed)"
   echo "of the window driving the craft's own thrusters (the free-flyer's 16 from the 12-bit word spread by 4 bits; sums only)."
   echo "The fit (SPHERES) runs outside the tick and is not counted; a push's min is a window's first samples, left out of the sums."
   echo "flight_id_close[_<craft>] = the window close (\`FlightId::finish\`, as a push that ends a window: its initial-rate terms), once per craft."
@@ -209,7 +209,7 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"
   for k in idle edge deferred deferred_measure deferred_aggregate deferred_fold_com deferred_plan_inertia deferred_fold_inertia deferred_detect deferred_detect_finish \
-           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push flight_id_push_airbearing flight_id_push_freeflyer16 flight_id_close flight_id_close_airbearing flight_id_close_freeflyer16 mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
+           deferred_merge_inertia deferred_merge_com deferred_solve_com deferred_factor_inertia kf kf_rls solve flight_id_push flight_id_push_airbearing flight_id_push_airbearing_mocap flight_id_push_freeflyer16 flight_id_close flight_id_close_airbearing flight_id_close_airbearing_mocap flight_id_close_freeflyer16 mixer_build mixer craft_mixer_sph2 craft_mixer_airbearing craft_mixer_freeflyer16 other; do
     [ -n "$(cnt m0 "fixed/$k" 2)$(cnt m0 "f32/$k" 2)" ] || continue
     echo "| $k | $(cnt m0 "fixed/$k" 4) / $(cnt m0 "fixed/$k" 5) | $(cnt m0 "f32/$k" 4) / $(cnt m0 "f32/$k" 5) | $(cnt m4f "fixed/$k" 4) / $(cnt m4f "fixed/$k" 5) | $(cnt m4f "f32/$k" 4) / $(cnt m4f "f32/$k" 5) | $(cnt m0 "fixed/$k" 2) |"
   done
@@ -227,7 +227,7 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "| worst tick < 8,400 instructions on the M4F, fixed | $m4_fix ($m4_fix_kind) | $(verdict "$m4_fix" 8400) |"
   # Per craft, the identification's push (worst sample) and window close.
   for call in "push:worst sample" "close:window close"; do
-    for craft in sph2 airbearing freeflyer16; do
+    for craft in sph2 airbearing airbearing_mocap freeflyer16; do
       k=flight_id_${call%%:*}; [ "$craft" = sph2 ] || k=${k}_$craft
       for f in f32 fixed; do
         n=$(cnt m4f "$f/$k" 5)

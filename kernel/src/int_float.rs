@@ -236,6 +236,10 @@ impl Scalar for IntFloat {
         }
     }
     #[inline]
+    fn is_certainly_zero(self) -> bool {
+        self.m == 0
+    }
+    #[inline]
     fn lt(self, rhs: Self) -> bool {
         let (sa, sb) = (self.m.signum(), rhs.m.signum());
         if sa != sb {

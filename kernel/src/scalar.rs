@@ -61,6 +61,12 @@ pub trait Scalar:
     /// or `None` if it does not fit or is not decided (an interval straddling an integer).
     /// The mixer's integer-millisecond rounding rests on this.
     fn floor_times(self, k: u32) -> Option<i64>;
+    /// `true` only if the value is certainly exactly zero: a shortcut for skipping work whose
+    /// result would be zero anyway. The default, `false`, never skips (right for intervals).
+    #[inline]
+    fn is_certainly_zero(self) -> bool {
+        false
+    }
 
     /// `self + rhs` (the contract makes the operators panic-free: saturating for fixed,
     /// IEEE for f32). Generic kernel code calls these named forms so that the crate-wide
@@ -175,6 +181,10 @@ macro_rules! ieee_float_ops {
         #[inline]
         fn is_valid(self) -> bool {
             self.is_finite()
+        }
+        #[inline]
+        fn is_certainly_zero(self) -> bool {
+            self == 0.0
         }
         #[inline]
         fn floor_times(self, k: u32) -> Option<i64> {

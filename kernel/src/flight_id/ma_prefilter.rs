@@ -39,6 +39,8 @@ pub struct MaPrefilter<S> {
     lag: usize,
     /// Samples until the filter's start-up transient is below 2^-7 (see [`Self::settle`]).
     settle: u32,
+    /// The rate axes filtered (those the fit reads; the others pass unchanged).
+    axes: [bool; 3],
     /// The last two filtered measurements, a ring whose newest is at `newest`.
     z: [[S; NZ]; 2],
     y: [[S; 3]; 2],
@@ -55,9 +57,9 @@ pub fn lag_of(sensor: SensorResponse) -> usize {
 }
 
 impl<S: Scalar> MaPrefilter<S> {
-    /// A filter for the root `rho` (0 for none) at the lag of `sensor`'s noise ([`lag_of`]);
-    /// None unless `0 <= rho <= MAX_ROOT`.
-    pub fn new(rho: S, sensor: SensorResponse) -> Option<Self> {
+    /// A filter for the root `rho` (0 for none) at the lag of `sensor`'s noise ([`lag_of`]),
+    /// of the rate `axes` the fit reads; None unless `0 <= rho <= MAX_ROOT`.
+    pub fn new(rho: S, sensor: SensorResponse, axes: [bool; 3]) -> Option<Self> {
         if !rho.is_valid() || rho.lt(S::ZERO) || S::from_f32(MAX_ROOT).lt(rho) {
             return None;
         }
@@ -73,6 +75,7 @@ impl<S: Scalar> MaPrefilter<S> {
             gain: S::ONE.minus(rho),
             active: S::ZERO.lt(rho),
             lag,
+            axes,
             settle: settle.saturating_mul(if lag == 2 { 2 } else { 1 }),
             z: [[S::ZERO; NZ]; 2],
             y: [[S::ZERO; 3]; 2],
@@ -107,29 +110,43 @@ impl<S: Scalar> MaPrefilter<S> {
         if !self.active {
             return (z, y);
         }
-        // The slot written is the older one; at lag 1 it starts from the newest.
+        // The slot written is the older one: at lag 2 the filter's previous value is that
+        // slot's, at lag 1 the newest's.
         let slot = 1usize.saturating_sub(self.newest);
-        if self.lag == 1 {
-            if let (Some(&z_new), Some(&y_new)) = (self.z.get(self.newest), self.y.get(self.newest))
-            {
-                if let (Some(zs), Some(ys)) = (self.z.get_mut(slot), self.y.get_mut(slot)) {
-                    *zs = z_new;
-                    *ys = y_new;
-                }
-            }
-        }
         self.newest = slot;
-        let g = self.gain;
-        let (Some(zs), Some(ys)) = (self.z.get_mut(slot), self.y.get_mut(slot)) else {
-            return (z, y);
+        let from_newest = self.lag == 1;
+        step(&mut self.z, slot, from_newest, z, self.gain, &[true; NZ]);
+        step(&mut self.y, slot, from_newest, y, self.gain, &self.axes);
+        match (self.z.get(slot), self.y.get(slot)) {
+            (Some(zs), Some(ys)) => (zs, ys),
+            _ => (z, y),
+        }
+    }
+}
+
+/// One filter step of each component of `x` into `ring[slot]`, from `ring[slot]` (lag 2) or
+/// the other slot (lag 1: `from_newest`); components not `used` pass unfiltered.
+fn step<S: Scalar, const N: usize>(
+    ring: &mut [[S; N]; 2],
+    slot: usize,
+    from_newest: bool,
+    x: &[S; N],
+    gain: S,
+    used: &[bool; N],
+) {
+    let [r0, r1] = ring;
+    let (out, newest) = if slot == 0 { (r0, r1) } else { (r1, r0) };
+    for (((o, n), xi), u) in out.iter_mut().zip(newest.iter()).zip(x).zip(used) {
+        let prev = if from_newest { *n } else { *o };
+        *o = if !u {
+            *xi
+        } else if xi.is_certainly_zero() && prev.is_certainly_zero() {
+            // Still zero, in and out: most of a planar craft's drive (the fixed kernel's
+            // products are the tick's dearest operations).
+            prev
+        } else {
+            prev.mul_add(gain, xi.minus(prev))
         };
-        for (s, x) in zs.iter_mut().zip(z) {
-            *s = s.mul_add(g, x.minus(*s));
-        }
-        for (s, x) in ys.iter_mut().zip(y) {
-            *s = s.mul_add(g, x.minus(*s));
-        }
-        (zs, ys)
     }
 }
 
@@ -158,7 +175,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             ((state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
         };
-        let mut filter = MaPrefilter::new(c, sensor).unwrap();
+        let mut filter = MaPrefilter::new(c, sensor, [true; 3]).unwrap();
         let mut eps_back = [0.0f64; 2];
         let (mut back1, mut back2) = (0.0, 0.0);
         let mut sums = [0.0f64; 3];
@@ -200,9 +217,13 @@ mod tests {
 
     #[test]
     fn the_integer_float_filters_as_f32_does() {
-        let mut a = MaPrefilter::new(0.875f32, SensorResponse::BackwardMean).unwrap();
-        let mut b =
-            MaPrefilter::new(IntFloat::from_f32(0.875), SensorResponse::BackwardMean).unwrap();
+        let mut a = MaPrefilter::new(0.875f32, SensorResponse::BackwardMean, [true; 3]).unwrap();
+        let mut b = MaPrefilter::new(
+            IntFloat::from_f32(0.875),
+            SensorResponse::BackwardMean,
+            [true; 3],
+        )
+        .unwrap();
         assert_eq!(a.settle(), b.settle());
         for k in 0..200 {
             let x = ((k * 37 % 101) as f32 - 50.0) * 1e-3;
@@ -226,10 +247,10 @@ mod tests {
     fn a_zero_root_passes_the_measurement_unchanged_and_others_keep_unit_gain() {
         let z = [0.25f32; NZ];
         let y = [1.0f32, -2.0, 0.5];
-        let mut off = MaPrefilter::new(0.0f32, SensorResponse::Point).unwrap();
+        let mut off = MaPrefilter::new(0.0f32, SensorResponse::Point, [true; 3]).unwrap();
         let (fz, fy) = off.apply(&z, &y);
         assert_eq!((*fz, *fy), (z, y));
-        let mut on = MaPrefilter::new(0.9f32, SensorResponse::Point).unwrap();
+        let mut on = MaPrefilter::new(0.9f32, SensorResponse::Point, [true; 3]).unwrap();
         // 0.9^47 = 0.0071 is the first power below 2^-7.
         assert_eq!((off.settle(), on.settle()), (0, 47));
         let mut last = ([0.0f32; NZ], [0.0f32; 3]);
@@ -241,8 +262,13 @@ mod tests {
         on.reset();
         let (fz, _) = on.apply(&z, &y);
         assert!((fz[0] - 0.025).abs() < 1e-6);
-        assert!(MaPrefilter::new(-0.1f32, SensorResponse::Point).is_none());
-        assert!(MaPrefilter::new(0.995f32, SensorResponse::Point).is_none());
-        assert!(MaPrefilter::new(f32::NAN, SensorResponse::Point).is_none());
+        // An axis the fit does not read passes unfiltered.
+        let mut planar =
+            MaPrefilter::new(0.9f32, SensorResponse::Point, [false, false, true]).unwrap();
+        let (_, fy) = planar.apply(&z, &y);
+        assert!(fy[0] == y[0] && fy[1] == y[1] && (fy[2] - 0.05).abs() < 1e-6);
+        assert!(MaPrefilter::new(-0.1f32, SensorResponse::Point, [true; 3]).is_none());
+        assert!(MaPrefilter::new(0.995f32, SensorResponse::Point, [true; 3]).is_none());
+        assert!(MaPrefilter::new(f32::NAN, SensorResponse::Point, [true; 3]).is_none());
     }
 }

@@ -14,10 +14,12 @@
 //! The gyroscopic term `omega x I omega` is linear in the six rate products
 //! `omega_i omega_j`, so their integrals are six more drive components and the inertia's
 //! information in the gyroscopic dynamics is used as the reference uses it (the reference
-//! integrates the model's rate, this the measured one). What the reference does and this does
-//! not (yet): the noise model is AR of order <= 2 (the reference: ARMA(p,1)), and the score
-//! tests are of a command delay and of thrust symmetry per torque axis ([`consistency`]), not
-//! of each thruster's thrust.
+//! integrates the model's rate, this the measured one). The noise model is AR of order <= 2,
+//! or, for rates differenced from attitude, a moving average of a root fixed before the
+//! flight, taken out of the measurement before the sums ([`ma_prefilter`]; the reference fits
+//! ARMA(p,1)). What the reference does and this does not (yet): the score tests are of a
+//! command delay and of thrust symmetry per torque axis ([`consistency`]), not of each
+//! thruster's thrust.
 pub mod active;
 pub mod components;
 pub mod consider;
@@ -158,7 +160,8 @@ impl<S: SumScalar> FlightId<S> {
     ) -> Option<&mut Self> {
         // What can fail comes first, so that a refused configuration writes nothing.
         let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
-        let prefilter = ma_prefilter::MaPrefilter::new(cfg.rate_noise_ma_root, cfg.sensor)?;
+        let prefilter =
+            ma_prefilter::MaPrefilter::new(cfg.rate_noise_ma_root, cfg.sensor, cfg.solve.axes)?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
         // The longest window: `max_window` samples, each step up to 1.5 periods.

@@ -114,7 +114,11 @@ pub fn run_suite<W: Write>(out: &mut W, identification: bool) -> fmt::Result {
         let sph2 = sph2_thrusters();
         run_flight_id::<IntFloat, W>(out, "", &FlightCraft::sph2(&sph2), sph2_n)?;
         run_flight_id::<f32, W>(out, "info ", &FlightCraft::sph2(&sph2), usize::MAX)?;
-        for craft in [FlightCraft::airbearing(), FlightCraft::freeflyer16()] {
+        for craft in [
+            FlightCraft::airbearing(),
+            FlightCraft::airbearing_mocap(),
+            FlightCraft::freeflyer16(),
+        ] {
             run_flight_id::<IntFloat, W>(out, "", &craft, other_n)?;
             run_flight_id::<f32, W>(out, "info ", &craft, OTHER_CRAFT_SAMPLES)?;
         }
@@ -241,6 +245,10 @@ pub struct FlightCraft<'a> {
     pub kind: Kind,
     /// The window close's kind.
     pub close_kind: Kind,
+    /// The rate sensor's response.
+    pub sensor: massid_kernel::flight_id::SensorResponse,
+    /// Its noise's moving-average root (0: a gyro's).
+    pub ma_root: f32,
 }
 
 /// The SPHERES table of the model (the kernel's `SPH2`), as thrusters.
@@ -265,6 +273,8 @@ impl<'a> FlightCraft<'a> {
             spread_word: false,
             kind: Kind::FlightIdPush,
             close_kind: Kind::FlightIdClose,
+            sensor: massid_kernel::flight_id::SensorResponse::Point,
+            ma_root: 0.0,
         }
     }
     /// The air-bearing craft (planar, 8 thrusters), sums only.
@@ -279,6 +289,21 @@ impl<'a> FlightCraft<'a> {
             spread_word: false,
             kind: Kind::FlightIdPushAirbearing,
             close_kind: Kind::FlightIdCloseAirbearing,
+            sensor: massid_kernel::flight_id::SensorResponse::Point,
+            ma_root: 0.0,
+        }
+    }
+    /// The air-bearing craft with its real sensor, motion capture: rates differenced from
+    /// attitude over one sample, the moving-average filter on (root 0.875, the Monte Carlo's
+    /// 50 Hz motion capture), sums only.
+    pub fn airbearing_mocap() -> Self {
+        FlightCraft {
+            name: "airbearing_mocap",
+            kind: Kind::FlightIdPushAirbearingMocap,
+            close_kind: Kind::FlightIdCloseAirbearingMocap,
+            sensor: massid_kernel::flight_id::SensorResponse::BackwardMean,
+            ma_root: 0.875,
+            ..Self::airbearing()
         }
     }
     /// The 16-thruster free-flyer, sums only.
@@ -293,6 +318,8 @@ impl<'a> FlightCraft<'a> {
             spread_word: true,
             kind: Kind::FlightIdPushFreeflyer16,
             close_kind: Kind::FlightIdCloseFreeflyer16,
+            sensor: massid_kernel::flight_id::SensorResponse::Point,
+            ma_root: 0.0,
         }
     }
 }
@@ -312,7 +339,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
     use massid_kernel::flight_id::consider::ThrustUncertainty;
     use massid_kernel::flight_id::exact::Envelope;
     use massid_kernel::flight_id::solve::{inverse_inertia, SolveConfig, NP};
-    use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+    use massid_kernel::flight_id::{FlightId, FlightIdConfig};
     use massid_kernel::model::SPH2_GYRO_BIAS_COUNTS;
     let name = craft.name;
     let j_f32 = inverse_inertia::<f32>(&craft.inertia_kgm2);
@@ -332,8 +359,8 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
     });
     let cfg = FlightIdConfig {
         period_s: S::from_f32(1e-3),
-        sensor: SensorResponse::Point,
-        rate_noise_ma_root: S::ZERO,
+        sensor: craft.sensor,
+        rate_noise_ma_root: S::from_f32(craft.ma_root),
         delay_periods: 0.0,
         cut_at_changes: false,
         max_window: 8000,

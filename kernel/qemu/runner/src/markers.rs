@@ -56,6 +56,11 @@ marker!(/// The window close for the air-bearing craft (planar, 8).
     massid_mark_kind_flight_id_close_airbearing = 0x4d42_0043);
 marker!(/// The window close for the 16-thruster free-flyer.
     massid_mark_kind_flight_id_close_freeflyer16 = 0x4d42_0044);
+marker!(/// One sample for the air-bearing craft with motion-capture rates (the moving-average
+    /// filter on: `massid_kernel::flight_id::ma_prefilter`).
+    massid_mark_kind_flight_id_push_airbearing_mocap = 0x4d42_0045);
+marker!(/// The window close for the air-bearing craft with motion-capture rates.
+    massid_mark_kind_flight_id_close_airbearing_mocap = 0x4d42_0046);
 marker!(/// A tick where the thruster word changed without a solve (firing edge: KF reset, batch row).
     massid_mark_kind_edge = 0x4d42_0017);
 marker!(/// A mixer rebuild from the current CoM estimate (mixing matrix, pseudo-inverse by LU).
@@ -135,6 +140,10 @@ pub enum Kind {
     FlightIdCloseAirbearing,
     /// The window close for the 16-thruster free-flyer.
     FlightIdCloseFreeflyer16,
+    /// One sample for the air-bearing craft with motion-capture rates.
+    FlightIdPushAirbearingMocap,
+    /// The window close for the air-bearing craft with motion-capture rates.
+    FlightIdCloseAirbearingMocap,
     /// One mix by `massid_kernel::craft_mixer` for SPHERES.
     CraftMixerSph2,
     /// One mix by `massid_kernel::craft_mixer` for the air-bearing craft.
@@ -192,6 +201,8 @@ pub fn kind(k: Kind) {
         Kind::FlightIdClose => massid_mark_kind_flight_id_close(),
         Kind::FlightIdCloseAirbearing => massid_mark_kind_flight_id_close_airbearing(),
         Kind::FlightIdCloseFreeflyer16 => massid_mark_kind_flight_id_close_freeflyer16(),
+        Kind::FlightIdPushAirbearingMocap => massid_mark_kind_flight_id_push_airbearing_mocap(),
+        Kind::FlightIdCloseAirbearingMocap => massid_mark_kind_flight_id_close_airbearing_mocap(),
         Kind::CraftMixerSph2 => massid_mark_kind_craft_mixer_sph2(),
         Kind::CraftMixerAirbearing => massid_mark_kind_craft_mixer_airbearing(),
         Kind::CraftMixerFreeflyer16 => massid_mark_kind_craft_mixer_freeflyer16(),

@@ -7,7 +7,7 @@ use crate::HostError;
 use massid_kernel::flight_id::consider::ThrustUncertainty;
 use massid_kernel::flight_id::consistency::rejects;
 use massid_kernel::flight_id::exact::{Envelope, RATE_LIMIT_RAD_S};
-use massid_kernel::flight_id::ma_prefilter::{lag_of, MAX_ROOT};
+use massid_kernel::flight_id::ma_prefilter::MAX_ROOT;
 use massid_kernel::flight_id::solve::{Solution, SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
@@ -28,13 +28,17 @@ use reference_f64::satellite::Satellite;
 /// (`differenced_attitude`).
 const MA_EVIDENT_CORRELATION: f32 = -0.1;
 
-/// Whether a fit's AR noise shows a moving average at `lag` (1 or 2) on a fitted axis: the
-/// correlation its AR model implies there (Yule-Walker: `r1 = phi_1 / (1 - phi_2)`,
-/// `r2 = phi_1 r1 + phi_2`) below [`MA_EVIDENT_CORRELATION`]. A gyro's white or band-limited
-/// noise has it near zero or positive; rates differenced from attitude near -0.5. The AR fit
-/// has already chosen its order by BIC, so an order-0 axis shows none.
-fn moving_average_evident<S: SumScalar>(sol: &Solution<S>, axes: [bool; 3], lag: usize) -> bool {
-    sol.noise.iter().zip(axes).any(|(n, fitted)| {
+/// The lag (1 or 2) at which a fit's AR noise shows a moving average on a fitted axis, if it
+/// does: the correlation its AR model implies there (Yule-Walker: `r1 = phi_1 / (1 - phi_2)`,
+/// `r2 = phi_1 r1 + phi_2`) below [`MA_EVIDENT_CORRELATION`], the more negative of the two.
+/// A gyro's white or band-limited noise has both near zero or positive; attitude differenced
+/// over one sample has `r1` near -0.5, a central difference `r2`. Read from the data, not from
+/// the sensor response the fit chose: on central differences at 50 Hz the reference chooses
+/// a point response (its ARMA model absorbs the difference). The AR fit has already chosen
+/// its order by BIC, so an order-0 axis shows none.
+fn moving_average_lag<S: SumScalar>(sol: &Solution<S>, axes: [bool; 3]) -> Option<u8> {
+    let mut best: Option<(f32, u8)> = None;
+    for (n, fitted) in sol.noise.iter().zip(axes) {
         let [p1, p2] = n.phi.map(|v| v.to_f32());
         let (r1, r2) = match n.order {
             0 => (0.0, 0.0),
@@ -44,9 +48,13 @@ fn moving_average_evident<S: SumScalar>(sol: &Solution<S>, axes: [bool; 3], lag:
                 (r1, p1 * r1 + p2)
             }
         };
-        let r = if lag == 2 { r2 } else { r1 };
-        fitted && r < MA_EVIDENT_CORRELATION
-    })
+        for (r, lag) in [(r1, 1), (r2, 2)] {
+            if fitted && r < MA_EVIDENT_CORRELATION && best.is_none_or(|(b, _)| r < b) {
+                best = Some((r, lag));
+            }
+        }
+    }
+    best.map(|(_, lag)| lag)
 }
 
 /// Golden-section steps of the MA root's search: the bracket `[0, MAX_ROOT]` shrinks to
@@ -113,8 +121,9 @@ pub enum MaRoot {
     /// Found on the flight itself when its noise shows a moving average (what the ground tool
     /// does; onboard, the root comes from an earlier flight).
     FromFlight,
-    /// This root, as a team that has characterised its sensor configures it (0: none).
-    Fixed(f32),
+    /// This root and lag (1 or 2), as a team that has characterised its sensor configures
+    /// them (root 0: none).
+    Fixed(f32, u8),
 }
 
 /// Identifies `sat` from `flight` with the kernel in format `S`; `response` is the rate
@@ -204,6 +213,7 @@ pub fn identify_with<S: SumScalar>(
         period_s: S::from_f32(period as f32),
         sensor: sensor(response),
         rate_noise_ma_root: S::ZERO,
+        rate_noise_ma_lag: 1,
         delay_periods: (latency_ms * 1e-3 / period) as f32,
         cut_at_changes: coarse,
         max_window,
@@ -241,89 +251,93 @@ pub fn identify_with<S: SumScalar>(
             )
         })?,
     };
-    let run =
-        |rate_noise_ma_root: S, max_noise_order: u8| -> Result<(Solution<S>, u32), HostError> {
-            let mut cfg = cfg;
-            cfg.rate_noise_ma_root = rate_noise_ma_root;
-            cfg.solve.max_noise_order = max_noise_order;
-            let mut id = FlightId::new(cfg).ok_or_else(|| {
-                model_error(
-                    sat,
-                    format!(
-                "inertia is singular, the latency {latency_ms} ms is not 0-{} sample periods, \
+    let run = |(rate_noise_ma_root, rate_noise_ma_lag): (S, u8),
+               max_noise_order: u8|
+     -> Result<(Solution<S>, u32), HostError> {
+        let mut cfg = cfg;
+        cfg.rate_noise_ma_root = rate_noise_ma_root;
+        cfg.rate_noise_ma_lag = rate_noise_ma_lag;
+        cfg.solve.max_noise_order = max_noise_order;
+        let mut id = FlightId::new(cfg).ok_or_else(|| {
+            model_error(
+                sat,
+                format!(
+                    "inertia is singular, the latency {latency_ms} ms is not 0-{} sample periods, \
                  or the rate noise's MA root {} is not 0-{MAX_ROOT}",
-                massid_kernel::flight_id::delay::MAX_DELAY_SAMPLES,
-                rate_noise_ma_root.to_f32()
-            ),
-                )
-            })?;
-            let mut prev_t: Option<f64> = None;
-            for ((t, rate), cmd) in flight
-                .time_s
-                .iter()
-                .zip(flight.rate.iter())
-                .zip(&flight.commands)
-            {
-                let dt = prev_t.map_or(0.0, |p| t - p);
-                prev_t = Some(*t);
-                let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
-                let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
-                let wrench = match cmd {
-                    Command::Word(w) => table.wrench(*w),
-                    Command::Wrench { force, torque } => {
-                        let v = [
-                            torque[0], torque[1], torque[2], force[0], force[1], force[2],
-                        ];
-                        v.map(|x| S::from_f32(x as f32))
-                    }
-                };
-                id.push(S::from_f32(dt as f32), r, valid, wrench);
-            }
-            id.finish();
-            let samples = id.sums().samples;
-            let sol = id.solve().map_err(|e| {
-                HostError::Fit(match e {
-                    SolveError::NoData => {
-                        "no run of consecutive samples with every measured axis".into()
-                    }
-                    SolveError::Overflow => {
-                        "the flight's sums do not fit the kernel's number format (Overflow)".into()
-                    }
-                    SolveError::Singular => {
-                        "singular information: the commands excite none of the terms".into()
-                    }
-                    SolveError::NotConverged => "the kernel's fit did not converge".into(),
-                })
-            })?;
-            Ok((sol, samples))
-        };
+                    massid_kernel::flight_id::delay::MAX_DELAY_SAMPLES,
+                    rate_noise_ma_root.to_f32()
+                ),
+            )
+        })?;
+        let mut prev_t: Option<f64> = None;
+        for ((t, rate), cmd) in flight
+            .time_s
+            .iter()
+            .zip(flight.rate.iter())
+            .zip(&flight.commands)
+        {
+            let dt = prev_t.map_or(0.0, |p| t - p);
+            prev_t = Some(*t);
+            let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
+            let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
+            let wrench = match cmd {
+                Command::Word(w) => table.wrench(*w),
+                Command::Wrench { force, torque } => {
+                    let v = [
+                        torque[0], torque[1], torque[2], force[0], force[1], force[2],
+                    ];
+                    v.map(|x| S::from_f32(x as f32))
+                }
+            };
+            id.push(S::from_f32(dt as f32), r, valid, wrench);
+        }
+        id.finish();
+        let samples = id.sums().samples;
+        let sol = id.solve().map_err(|e| {
+            HostError::Fit(match e {
+                SolveError::NoData => {
+                    "no run of consecutive samples with every measured axis".into()
+                }
+                SolveError::Overflow => {
+                    "the flight's sums do not fit the kernel's number format (Overflow)".into()
+                }
+                SolveError::Singular => {
+                    "singular information: the commands excite none of the terms".into()
+                }
+                SolveError::NotConverged => "the kernel's fit did not converge".into(),
+            })
+        })?;
+        Ok((sol, samples))
+    };
     // Rates differenced from attitude carry moving-average noise that the kernel takes out
     // with a root fixed before the flight (`ma_prefilter`). Onboard, the root is the sensor's,
     // found on the ground from an earlier flight; here it is found on this one when the first
     // fit's noise shows it (and reported as the noise's `ma`). Rates from gyro counts are a
     // gyro's.
-    let (ma_root, sol, samples) = match ma {
-        MaRoot::Fixed(root) => {
+    let ((ma_root, ma_lag), sol, samples) = match ma {
+        MaRoot::Fixed(root, lag) => {
             let root = S::from_f32(root);
             let order = if S::ZERO.lt(root) { 0 } else { max_noise_order };
-            let (sol, samples) = run(root, order)?;
-            (root, sol, samples)
+            let (sol, samples) = run((root, lag), order)?;
+            ((root, lag), sol, samples)
         }
         MaRoot::FromFlight => {
-            let (sol, samples) = run(S::ZERO, max_noise_order)?;
-            if !flight.from_gyro_counts
-                && moving_average_evident(&sol, axes, lag_of(sensor(response)))
-            {
-                let root = ma_root_by_least_squares(axes, |root| run(root, 0).map(|(sol, _)| sol))?;
-                // The noise model is then the MA(1) the root was fitted with. AR terms on top
-                // of it read a lag-2 structure of the filtered residuals as less low-frequency
-                // noise: on the Monte Carlo's 50 Hz motion capture (`identification_mc`, seeds
-                // 66000-66099) they chose orders 1-2 on most flights and made the sigmas 15-20 %
-                // too small (RMS error/sigma 1.17-1.20, against 0.95-0.98 without).
-                let (sol, samples) = run(root, 0)?;
-                (root, sol, samples)
-            } else {
-                (S::ZERO, sol, samples)
+            let (sol, samples) = run((S::ZERO, 1), max_noise_order)?;
+            match moving_average_lag(&sol, axes).filter(|_| !flight.from_gyro_counts) {
+                Some(lag) => {
+                    let root = ma_root_by_least_squares(axes, |root| {
+                        run((root, lag), 0).map(|(sol, _)| sol)
+                    })?;
+                    // The noise model is then the MA the root was fitted with. AR terms on
+                    // top of it read a lag-2 structure of the filtered residuals as less
+                    // low-frequency noise: on the Monte Carlo's 50 Hz motion capture
+                    // (`identification_mc`, seeds 66000-66099) they chose orders 1-2 on most
+                    // flights and made the sigmas 15-20 % too small (RMS error/sigma
+                    // 1.17-1.20, against 0.95-0.98 without).
+                    let (sol, samples) = run((root, lag), 0)?;
+                    ((root, lag), sol, samples)
+                }
+                None => ((S::ZERO, 1), sol, samples),
             }
         }
     };
@@ -469,7 +483,7 @@ pub fn identify_with<S: SumScalar>(
                 // The filter has unit gain: its innovations are the raw ones times `1 - rho`.
                 sigma2: f64::from(n.sigma2.to_f32()) / (1.0 - rho).powi(2),
                 ma: -rho,
-                ma_lag: lag_of(sensor(response)),
+                ma_lag: usize::from(ma_lag),
             }
         })
     });

@@ -35,7 +35,7 @@ extern "C" {
  * Check massid_abi_version() == MASSID_ABI_VERSION before any other call: a library built
  * from another header then refuses instead of misreading a struct. History: 1 the first ABI,
  * 2 massid_flight_id_settings.turn_weight, 3 massid_flight_id_settings.thrust_sigma_rel,
- * 4 massid_flight_id_settings.rate_noise_ma_root. */
+ * 4 massid_flight_id_settings.rate_noise_ma_root and rate_noise_ma_lag. */
 #define MASSID_ABI_VERSION 4u
 uint32_t massid_abi_version(void);
 
@@ -274,6 +274,7 @@ typedef struct massid_flight_id_settings {
     uint8_t cut_at_changes;       /* non-zero: cut windows where the acting wrench changes */
     uint8_t gyroscopic;           /* non-zero: Euler's gyroscopic term (3-D craft) */
     uint8_t max_noise_order;      /* 0-2 */
+    uint8_t rate_noise_ma_lag;    /* 1 (attitude differenced over one sample) or 2 (central difference): massid estimate's ma_lag */
     uint8_t free[MASSID_ID_TERMS];/* non-zero: the fit may move the term */
     uint8_t axes[3];              /* non-zero: the axis' rate enters the fit */
 } massid_flight_id_settings;

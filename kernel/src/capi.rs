@@ -362,7 +362,7 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 /// of a struct's layout or of a function's meaning, so that a caller built against another
 /// header refuses to run instead of misreading a struct: 1 the first ABI, 2
 /// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`, 4 its
-/// `rate_noise_ma_root`. [`ABI_LAYOUTS`] records
+/// `rate_noise_ma_root` and `rate_noise_ma_lag`. [`ABI_LAYOUTS`] records
 /// each version's struct sizes from version 3 on.
 pub const ABI_VERSION: u32 = 4;
 
@@ -382,7 +382,7 @@ pub const ABI_LAYOUTS: [(u32, [u32; 15]); 2] = [
     (
         4,
         [
-            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 192, 436, 32768,
+            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 32768,
         ],
     ),
 ];

@@ -15,6 +15,7 @@ fn main() {
         .unwrap_or(Implementation::F64);
     let cells: Vec<Condition> = grid()
         .into_iter()
+        .chain(mocap_central_grid())
         .chain(craft_grid())
         .chain(random_craft_grid())
         .filter(|c| c.label().contains(&filter))

@@ -32,6 +32,13 @@ pub enum Condition {
         control_ms: u64,
         closed_loop: bool,
     },
+    /// The same with the attitude central-differenced (over the previous and next samples:
+    /// noise correlated at lag 2, as in the independent simulator's `open3` pl6).
+    PlanarMocapCentral {
+        step_ms: u64,
+        control_ms: u64,
+        closed_loop: bool,
+    },
     /// A craft of `examples/models/` (the file's stem) in our simulator with a gyro, no effect:
     /// maneuver (single, combo and random-pwm fly any craft) and sample rate (Hz).
     Craft {
@@ -58,8 +65,18 @@ impl Condition {
                 step_ms,
                 control_ms,
                 closed_loop,
+            }
+            | Condition::PlanarMocapCentral {
+                step_ms,
+                control_ms,
+                closed_loop,
             } => format!(
-                "planar mocap {} Hz, {} ms steps, {}",
+                "planar mocap{} {} Hz, {} ms steps, {}",
+                if matches!(self, Condition::PlanarMocapCentral { .. }) {
+                    " central"
+                } else {
+                    ""
+                },
                 1000 / step_ms,
                 control_ms,
                 if *closed_loop {
@@ -114,7 +131,12 @@ pub fn fly(cond: &Condition, seed: u64) -> Simulated {
             step_ms,
             control_ms,
             closed_loop,
-        } => planar_mocap(*step_ms, *control_ms, *closed_loop, seed),
+        } => planar_mocap(*step_ms, *control_ms, *closed_loop, false, seed),
+        Condition::PlanarMocapCentral {
+            step_ms,
+            control_ms,
+            closed_loop,
+        } => planar_mocap(*step_ms, *control_ms, *closed_loop, true, seed),
         Condition::Craft {
             model,
             maneuver,
@@ -193,7 +215,16 @@ pub const MOCAP_WHITE_RAD_S: f64 = 0.002;
 /// (+6, -4) mm from the model's: the model is wrong, as on a real table. Closed loop: every
 /// control step a proportional controller on the measured rate towards a random target fires
 /// the thrusters whose yaw torque has the wanted sign for a pulse proportional to the error.
-fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> Simulated {
+/// `central`: the recorded rate is the attitude central-differenced, `(a_(k+1) - a_(k-1)) /
+/// 2 dt`, plus the same white rate noise (the controller still acts on the backward
+/// difference, the rate it has at the time; every random draw is the same as without).
+fn planar_mocap(
+    step_ms: u64,
+    control_ms: u64,
+    closed_loop: bool,
+    central: bool,
+    seed: u64,
+) -> Simulated {
     let model = airbearing_model();
     let izz = 0.36;
     let dc = [6e-3, -4e-3];
@@ -213,15 +244,22 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
     let mut meas_angle_prev: Option<f64> = None;
     let (mut time_s, mut rate, mut commands) = (Vec::new(), Vec::new(), Vec::new());
     let mut last_meas = 0.0;
+    let (mut angles, mut whites) = (Vec::new(), Vec::new());
     for t in 0..total {
         if t % step_ms == 0 {
             let meas_angle = angle + MOCAP_ANGLE_RAD * rng.normal();
             let r = match meas_angle_prev {
                 Some(prev) => {
-                    (meas_angle - prev) / (step_ms as f64 * 1e-3) + MOCAP_WHITE_RAD_S * rng.normal()
+                    let white = MOCAP_WHITE_RAD_S * rng.normal();
+                    whites.push(white);
+                    (meas_angle - prev) / (step_ms as f64 * 1e-3) + white
                 }
-                None => f64::NAN,
+                None => {
+                    whites.push(f64::NAN);
+                    f64::NAN
+                }
             };
+            angles.push(meas_angle);
             meas_angle_prev = Some(meas_angle);
             if r.is_finite() {
                 last_meas = r;
@@ -259,6 +297,18 @@ fn planar_mocap(step_ms: u64, control_ms: u64, closed_loop: bool, seed: u64) -> 
         let a = tau / izz;
         angle += omega * 1e-3 + 0.5 * a * 1e-6;
         omega += a * 1e-3;
+    }
+    if central {
+        let dt = step_ms as f64 * 1e-3;
+        for (k, r) in rate.iter_mut().enumerate() {
+            r[2] = match (
+                k.checked_sub(1).and_then(|b| angles.get(b)),
+                angles.get(k + 1),
+            ) {
+                (Some(before), Some(after)) => (after - before) / (2.0 * dt) + whites[k],
+                _ => f64::NAN,
+            };
+        }
     }
     let mut truth = [f64::NAN; 9];
     truth[0] = (dc[0]) * 1e3;
@@ -582,6 +632,26 @@ pub fn grid() -> Vec<Condition> {
         }
     }
     out
+}
+
+/// Motion capture central-differenced (the sensor of `open3`'s pl6): the planar cells of
+/// [`grid`] with the rate `(a_(k+1) - a_(k-1)) / 2 dt`.
+pub fn mocap_central_grid() -> Vec<Condition> {
+    grid()
+        .into_iter()
+        .filter_map(|c| match c {
+            Condition::PlanarMocap {
+                step_ms,
+                control_ms,
+                closed_loop,
+            } => Some(Condition::PlanarMocapCentral {
+                step_ms,
+                control_ms,
+                closed_loop,
+            }),
+            _ => None,
+        })
+        .collect()
 }
 
 /// Other craft with a gyro (issue 22 item 2, 23): the 8-thruster cubesat and the 16-thruster

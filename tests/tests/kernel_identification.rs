@@ -98,7 +98,7 @@ fn motion_capture_without_the_moving_average_filter_fails_the_calibration_check(
             &sim.model,
             Some(SensorResponse::BackwardMean),
             0.0,
-            MaRoot::Fixed(0.0),
+            MaRoot::Fixed(0.0, 1),
         )
         .map_err(|e| e.to_string());
         c.add(&sim, &est);

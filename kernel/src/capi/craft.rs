@@ -434,6 +434,9 @@ pub struct MassidFlightIdSettings {
     pub gyroscopic: u8,
     /// Highest AR noise order tried (0-2).
     pub max_noise_order: u8,
+    /// The lag of the rate noise's moving average: 1 (attitude differenced over one sample)
+    /// or 2 (a central difference); the `ma_lag` `massid estimate` reports.
+    pub rate_noise_ma_lag: u8,
     /// Per term (order of `scale`), non-zero: the fit may move it.
     pub free: [u8; NP],
     /// Per axis, non-zero: its rate enters the fit.
@@ -502,6 +505,7 @@ fn flight_id_config<S: Scalar>(
         && s.turn_weight.iter().all(|w| w.is_finite() && *w > 0.0)
         && usize::from(s.max_noise_order) <= MAX_ORDER
         && (0.0..=crate::flight_id::ma_prefilter::MAX_ROOT).contains(&s.rate_noise_ma_root)
+        && crate::flight_id::ma_prefilter::LAGS.contains(&s.rate_noise_ma_lag)
         && s.thrust_sigma_rel
             .iter()
             .all(|v| v.is_finite() && *v >= 0.0);
@@ -514,6 +518,7 @@ fn flight_id_config<S: Scalar>(
         sensor: sensor_of(s.sensor)?,
         delay_periods: s.delay_periods,
         rate_noise_ma_root: S::from_f32(s.rate_noise_ma_root),
+        rate_noise_ma_lag: s.rate_noise_ma_lag,
         cut_at_changes: s.cut_at_changes != 0,
         max_window: s.max_window,
         max_window_turn_rad: S::from_f32(s.max_window_turn_rad),
@@ -619,6 +624,7 @@ pub unsafe extern "C" fn massid_flight_id_settings_default(
         cut_at_changes: 0,
         gyroscopic: u8::from(!planar),
         max_noise_order: u8::try_from(MAX_ORDER).unwrap_or(0),
+        rate_noise_ma_lag: 1,
         free,
         axes: if planar { [0, 0, 1] } else { [1, 1, 1] },
     };

@@ -22,7 +22,6 @@
 //! flight through this kernel, and reports it as the noise's `ma`).
 
 use super::sums::NZ;
-use super::SensorResponse;
 use crate::scalar::Scalar;
 
 /// The largest root accepted: beyond it the filter's transient spans most of a window.
@@ -35,8 +34,8 @@ pub struct MaPrefilter<S> {
     gain: S,
     /// False for `rho = 0`: the measurement passes unchanged (bit for bit).
     active: bool,
-    /// The lag `d`: 2 for a central mean, else 1.
-    lag: usize,
+    /// The lag `d` ([`LAGS`]).
+    lag: u8,
     /// Samples until the filter's start-up transient is below 2^-7 (see [`Self::settle`]).
     settle: u32,
     /// The rate axes filtered (those the fit reads; the others pass unchanged).
@@ -47,23 +46,21 @@ pub struct MaPrefilter<S> {
     newest: usize,
 }
 
-/// The lag of the noise's moving average for a sensor's response: a central mean differences
-/// the attitude over two sample periods, the others over one.
-pub fn lag_of(sensor: SensorResponse) -> usize {
-    match sensor {
-        SensorResponse::CentralMean => 2,
-        SensorResponse::Point | SensorResponse::BackwardMean => 1,
-    }
-}
+/// The lags the filter runs at: 1 for attitude differenced over one sample, 2 over two (a
+/// central difference).
+pub const LAGS: core::ops::RangeInclusive<u8> = 1..=2;
 
 impl<S: Scalar> MaPrefilter<S> {
-    /// A filter for the root `rho` (0 for none) at the lag of `sensor`'s noise ([`lag_of`]),
-    /// of the rate `axes` the fit reads; None unless `0 <= rho <= MAX_ROOT`.
-    pub fn new(rho: S, sensor: SensorResponse, axes: [bool; 3]) -> Option<Self> {
-        if !rho.is_valid() || rho.lt(S::ZERO) || S::from_f32(MAX_ROOT).lt(rho) {
+    /// A filter for the root `rho` (0 for none) at `lag` ([`LAGS`]), of the rate `axes` the
+    /// fit reads; None unless `0 <= rho <= MAX_ROOT` and the lag is 1 or 2.
+    pub fn new(rho: S, lag: u8, axes: [bool; 3]) -> Option<Self> {
+        if !rho.is_valid()
+            || rho.lt(S::ZERO)
+            || S::from_f32(MAX_ROOT).lt(rho)
+            || !LAGS.contains(&lag)
+        {
             return None;
         }
-        let lag = lag_of(sensor);
         let threshold = S::from_int_pow2(1, -7);
         let mut settle = 0u32;
         let mut power = S::ONE;
@@ -160,14 +157,9 @@ mod tests {
     use super::*;
     use crate::IntFloat;
 
-    /// Autocovariances (lags 0-2) of `(1 - rho B^d) eps` (`d` the lag of `sensor`) filtered
-    /// by the kernel's filter of root `c`, by the series itself (a long pseudo-random run).
-    fn filtered_autocovariances(rho: f64, c: f32, sensor: SensorResponse) -> [f64; 3] {
-        filtered_at(rho, lag_of(sensor), c, sensor)
-    }
-
-    /// The same for noise of lag `d` and the filter of `sensor`, whatever its lag.
-    fn filtered_at(rho: f64, d: usize, c: f32, sensor: SensorResponse) -> [f64; 3] {
+    /// Autocovariances (lags 0-2) of `(1 - rho B^d) eps` filtered by the kernel's filter of
+    /// root `c` at lag `lag`, by the series itself (a long pseudo-random run).
+    fn filtered_at(rho: f64, d: usize, c: f32, lag: u8) -> [f64; 3] {
         let mut state = 0x1234_5678_9abc_def0u64;
         let mut uniform = || {
             state = state
@@ -175,7 +167,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             ((state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
         };
-        let mut filter = MaPrefilter::new(c, sensor, [true; 3]).unwrap();
+        let mut filter = MaPrefilter::new(c, lag, [true; 3]).unwrap();
         let mut eps_back = [0.0f64; 2];
         let (mut back1, mut back2) = (0.0, 0.0);
         let mut sums = [0.0f64; 3];
@@ -198,32 +190,28 @@ mod tests {
 
     #[test]
     fn the_filter_with_the_noise_root_leaves_white_noise() {
-        for sensor in [SensorResponse::BackwardMean, SensorResponse::CentralMean] {
-            // MA noise of root 0.88 at the sensor's lag (correlation -0.496 there), filtered
-            // with its root: white.
-            let g = filtered_autocovariances(0.88, 0.88, sensor);
+        for lag in LAGS {
+            let d = usize::from(lag);
+            // MA noise of root 0.88 at the lag (correlation -0.496 there), filtered with its
+            // root: white.
+            let g = filtered_at(0.88, d, 0.88, lag);
             assert!(
                 (g[1] / g[0]).abs() < 0.01 && (g[2] / g[0]).abs() < 0.01,
-                "{sensor:?}: {g:?}"
+                "{lag}: {g:?}"
             );
             // Planted fault: a filter of another root leaves it coloured.
-            let g = filtered_autocovariances(0.88, 0.5, sensor);
-            assert!(g[lag_of(sensor)] / g[0] < -0.2, "{sensor:?}: {g:?}");
+            let g = filtered_at(0.88, d, 0.5, lag);
+            assert!(g[d] / g[0] < -0.2, "{lag}: {g:?}");
         }
         // Central-difference noise (lag 2) through the lag-1 filter stays coloured.
-        let g = filtered_at(0.88, 2, 0.88, SensorResponse::BackwardMean);
+        let g = filtered_at(0.88, 2, 0.88, 1);
         assert!((g[1] / g[0]).abs() > 0.2, "{g:?}");
     }
 
     #[test]
     fn the_integer_float_filters_as_f32_does() {
-        let mut a = MaPrefilter::new(0.875f32, SensorResponse::BackwardMean, [true; 3]).unwrap();
-        let mut b = MaPrefilter::new(
-            IntFloat::from_f32(0.875),
-            SensorResponse::BackwardMean,
-            [true; 3],
-        )
-        .unwrap();
+        let mut a = MaPrefilter::new(0.875f32, 1, [true; 3]).unwrap();
+        let mut b = MaPrefilter::new(IntFloat::from_f32(0.875), 1, [true; 3]).unwrap();
         assert_eq!(a.settle(), b.settle());
         for k in 0..200 {
             let x = ((k * 37 % 101) as f32 - 50.0) * 1e-3;
@@ -247,10 +235,10 @@ mod tests {
     fn a_zero_root_passes_the_measurement_unchanged_and_others_keep_unit_gain() {
         let z = [0.25f32; NZ];
         let y = [1.0f32, -2.0, 0.5];
-        let mut off = MaPrefilter::new(0.0f32, SensorResponse::Point, [true; 3]).unwrap();
+        let mut off = MaPrefilter::new(0.0f32, 1, [true; 3]).unwrap();
         let (fz, fy) = off.apply(&z, &y);
         assert_eq!((*fz, *fy), (z, y));
-        let mut on = MaPrefilter::new(0.9f32, SensorResponse::Point, [true; 3]).unwrap();
+        let mut on = MaPrefilter::new(0.9f32, 1, [true; 3]).unwrap();
         // 0.9^47 = 0.0071 is the first power below 2^-7.
         assert_eq!((off.settle(), on.settle()), (0, 47));
         let mut last = ([0.0f32; NZ], [0.0f32; 3]);
@@ -263,12 +251,13 @@ mod tests {
         let (fz, _) = on.apply(&z, &y);
         assert!((fz[0] - 0.025).abs() < 1e-6);
         // An axis the fit does not read passes unfiltered.
-        let mut planar =
-            MaPrefilter::new(0.9f32, SensorResponse::Point, [false, false, true]).unwrap();
+        let mut planar = MaPrefilter::new(0.9f32, 1, [false, false, true]).unwrap();
         let (_, fy) = planar.apply(&z, &y);
         assert!(fy[0] == y[0] && fy[1] == y[1] && (fy[2] - 0.05).abs() < 1e-6);
-        assert!(MaPrefilter::new(-0.1f32, SensorResponse::Point, [true; 3]).is_none());
-        assert!(MaPrefilter::new(0.995f32, SensorResponse::Point, [true; 3]).is_none());
-        assert!(MaPrefilter::new(f32::NAN, SensorResponse::Point, [true; 3]).is_none());
+        assert!(MaPrefilter::new(-0.1f32, 1, [true; 3]).is_none());
+        assert!(MaPrefilter::new(0.995f32, 1, [true; 3]).is_none());
+        assert!(MaPrefilter::new(f32::NAN, 1, [true; 3]).is_none());
+        assert!(MaPrefilter::new(0.5f32, 0, [true; 3]).is_none());
+        assert!(MaPrefilter::new(0.5f32, 3, [true; 3]).is_none());
     }
 }

@@ -59,12 +59,13 @@ pub struct FlightIdConfig<S> {
     pub period_s: S,
     /// The rate sensor's response.
     pub sensor: SensorResponse,
-    /// The root `rho` of the rate noise's moving-average part (`e_k = eps_k - rho eps_(k-d)`,
-    /// `d` 2 for a central mean, else 1; 0 for a gyro's, near 1 for rates differenced from
-    /// attitude): the measurement is filtered by `1 / (1 - rho B^d)` before the sums
-    /// ([`ma_prefilter`]). A property of the
-    /// sensor, measured on the ground from an earlier flight ([`ma_prefilter`]).
+    /// The root `rho` of the rate noise's moving-average part (`e_k = eps_k - rho eps_(k-d)`;
+    /// 0 for a gyro's, near 1 for rates differenced from attitude): the measurement is
+    /// filtered by `1 / (1 - rho B^d)` before the sums ([`ma_prefilter`]). A property of the
+    /// sensor, measured on the ground from an earlier flight.
     pub rate_noise_ma_root: S,
+    /// Its lag `d`: 1 for attitude differenced over one sample, 2 for a central difference.
+    pub rate_noise_ma_lag: u8,
     /// Known command-to-thrust delay, in sample periods ([`delay::CommandDelay`]).
     pub delay_periods: f32,
     /// Cut the windows wherever the acting wrench changes (the interval before the change is
@@ -160,8 +161,11 @@ impl<S: SumScalar> FlightId<S> {
     ) -> Option<&mut Self> {
         // What can fail comes first, so that a refused configuration writes nothing.
         let delay = delay::CommandDelay::new(cfg.delay_periods).ok()?;
-        let prefilter =
-            ma_prefilter::MaPrefilter::new(cfg.rate_noise_ma_root, cfg.sensor, cfg.solve.axes)?;
+        let prefilter = ma_prefilter::MaPrefilter::new(
+            cfg.rate_noise_ma_root,
+            cfg.rate_noise_ma_lag,
+            cfg.solve.axes,
+        )?;
         let nominal =
             solve::model_matrix(&cfg.solve.j_nominal, &[S::ZERO; 3], cfg.solve.gyroscopic)?;
         // The longest window: `max_window` samples, each step up to 1.5 periods.
@@ -454,6 +458,7 @@ mod tests {
             period_s: 1e-3,
             sensor: SensorResponse::Point,
             rate_noise_ma_root: 0.0,
+            rate_noise_ma_lag: 1,
             delay_periods: 0.0,
             cut_at_changes: false,
             max_window: 100_000,
@@ -503,6 +508,7 @@ mod tests {
                 period_s: c(1e-3),
                 sensor: SensorResponse::Point,
                 rate_noise_ma_root: S::ZERO,
+                rate_noise_ma_lag: 1,
                 delay_periods: 0.0,
                 cut_at_changes: false,
                 max_window: 2000,

@@ -361,6 +361,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
         period_s: S::from_f32(1e-3),
         sensor: craft.sensor,
         rate_noise_ma_root: S::from_f32(craft.ma_root),
+        rate_noise_ma_lag: 1,
         delay_periods: 0.0,
         cut_at_changes: false,
         max_window: 8000,

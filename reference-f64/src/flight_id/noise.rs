@@ -19,11 +19,15 @@ pub struct ArNoise {
     pub sigma2: f64,
     /// The moving-average coefficient, in (-1, 1).
     pub ma: f64,
-    /// The moving average's lag: 1 in every fit here (its whitener runs at lag 1); the onboard
-    /// kernel's filter runs at lag 2 for a central mean (`massid_kernel::flight_id::
-    /// ma_prefilter`), and its estimates say so through this field.
+    /// The moving average's lag: 1 for attitude differenced over one sample, 2 for a central
+    /// difference (`v_k = ... + e_k + ma e_k-2`).
     pub ma_lag: usize,
 }
+
+/// The moving average's lags tried: attitude differenced over one sample or over two (a
+/// central difference, whose noise a lag-1 term with AR terms whitened only in part: on
+/// central-differenced 25-50 Hz motion capture the sigmas were 1.3-1.5x optimistic).
+pub const MA_LAGS: [usize; 2] = [1, 2];
 
 /// Median stretch length, samples, below which no moving-average term is fitted.
 pub const MIN_MA_STRETCH: usize = 200;
@@ -77,7 +81,7 @@ impl ArNoise {
 
     /// [`ArNoise::whiten`] one sample at a time for `width` series at once.
     pub fn whitener(&self, width: usize) -> Whitener<'_> {
-        Whitener::new(&self.phi, self.ma, width)
+        Whitener::new(&self.phi, self.ma, self.ma_lag, width)
     }
 
     /// Fits the moving-average coefficient (on [`MA_GRID`]) and the AR order (0..=`max_order`)
@@ -96,16 +100,28 @@ impl ArNoise {
             .is_some_and(|&m| m >= MIN_MA_STRETCH);
         let grid: &[f64] = if long { &MA_GRID } else { &[0.0] };
         let mut best: Option<(f64, ArNoise)> = None;
-        for &ma in grid {
+        // Lag 1, then lag 2 (a central difference; its zero coefficient is lag 1's).
+        let candidates = MA_LAGS
+            .iter()
+            .flat_map(|&lag| grid.iter().map(move |&ma| (ma, lag)))
+            .filter(|&(ma, lag)| lag == 1 || ma != 0.0);
+        for (ma, lag) in candidates {
             let mut worse_in_a_row = 0;
             for p in 0..=max_order {
-                let Some((m, n)) = fit_order(series, ma, p) else {
+                let Some((m, n)) = fit_order(series, (ma, lag), p) else {
                     break;
                 };
                 let k = p + usize::from(ma != 0.0);
                 let bic = n as f64 * m.sigma2.max(1e-300).ln() + k as f64 * (n as f64).ln();
                 if best.as_ref().is_none_or(|(b, _)| bic < *b) {
-                    best = Some((bic, ArNoise { ma, ..m }));
+                    best = Some((
+                        bic,
+                        ArNoise {
+                            ma,
+                            ma_lag: lag,
+                            ..m
+                        },
+                    ));
                     worse_in_a_row = 0;
                 } else {
                     worse_in_a_row += 1;
@@ -126,9 +142,11 @@ impl ArNoise {
 pub struct Whitener<'a> {
     phi: &'a [f64],
     ma: f64,
+    /// The moving average's lag (1 or 2).
+    ma_lag: usize,
     width: usize,
-    /// `z_k-1` of each series (the inverse moving average's state).
-    z_prev: Vec<f64>,
+    /// `z_k-1` and `z_k-2` of each series (the inverse moving average's state).
+    z_prev: Vec<[f64; 2]>,
     /// The last `order + 1` values of `z`, a ring of samples of `width` series each.
     ring: Vec<f64>,
     /// The ring slot of `z_k-i`, i = 1..=order, for the sample being pushed.
@@ -137,12 +155,13 @@ pub struct Whitener<'a> {
 }
 
 impl<'a> Whitener<'a> {
-    fn new(phi: &'a [f64], ma: f64, width: usize) -> Self {
+    fn new(phi: &'a [f64], ma: f64, ma_lag: usize, width: usize) -> Self {
         Whitener {
             phi,
             ma,
+            ma_lag: ma_lag.clamp(1, 2),
             width,
-            z_prev: vec![0.0; width],
+            z_prev: vec![[0.0; 2]; width],
             ring: vec![0.0; (phi.len() + 1) * width],
             lag_slots: vec![0; phi.len()],
             seen: 0,
@@ -160,9 +179,10 @@ impl<'a> Whitener<'a> {
         if self.ma == 0.0 {
             current.copy_from_slice(&x[..width]);
         } else {
+            let back = self.ma_lag - 1;
             for ((z, prev), v) in current.iter_mut().zip(&mut self.z_prev).zip(x) {
-                *z = v - self.ma * *prev;
-                *prev = *z;
+                *z = v - self.ma * prev[back];
+                *prev = [*z, prev[0]];
             }
         }
         let ready = self.seen >= p;
@@ -191,17 +211,18 @@ impl<'a> Whitener<'a> {
 mod whitener_tests {
     use super::*;
 
-    /// `z_k = x_k - ma z_k-1`, `z_-1 = 0`: the whole-series inverse moving average (the oracle).
-    fn inverse_ma(ma: f64, x: &[f64]) -> Vec<f64> {
+    /// `z_k = x_k - ma z_k-lag`, `z_-1 = z_-2 = 0`: the whole-series inverse moving average
+    /// (the oracle).
+    fn inverse_ma((ma, lag): (f64, usize), x: &[f64]) -> Vec<f64> {
         if ma == 0.0 {
             return x.to_vec();
         }
-        x.iter()
-            .scan(0.0, |z, v| {
-                *z = v - ma * *z;
-                Some(*z)
-            })
-            .collect()
+        let mut z: Vec<f64> = Vec::with_capacity(x.len());
+        for (k, v) in x.iter().enumerate() {
+            let back = k.checked_sub(lag).map_or(0.0, |i| z[i]);
+            z.push(v - ma * back);
+        }
+        z
     }
 
     /// `x_k - sum phi_i x_k-i` for `k >= phi.len()`: the whole-series AR filter (the oracle).
@@ -274,7 +295,7 @@ mod whitener_tests {
                     .collect()
             })
             .collect();
-        for ma in [0.0, -0.6, 0.45] {
+        for ma in [(0.0, 1), (-0.6, 1), (0.45, 1), (-0.6, 2)] {
             let filtered: Vec<Vec<f64>> = series.iter().map(|s| inverse_ma(ma, s)).collect();
             for p in 0..=12 {
                 let want = whole(&filtered, p);
@@ -285,7 +306,7 @@ mod whitener_tests {
                         (phi, m.sigma2.to_bits(), *n)
                     })
                 };
-                assert_eq!(bits(&want), bits(&got), "ma {ma} p {p}");
+                assert_eq!(bits(&want), bits(&got), "ma {ma:?} p {p}");
             }
         }
     }
@@ -304,14 +325,14 @@ mod whitener_tests {
                     .collect()
             })
             .collect();
-        for ma in [0.0, -0.9, 0.3] {
+        for (ma, lag) in [(0.0, 1), (-0.9, 1), (0.3, 1), (-0.9, 2)] {
             for p in 0..=10usize {
                 let phi: Vec<f64> = (0..p).map(|i| 0.5 / (i + 1) as f64 - 0.1).collect();
                 let model = ArNoise {
                     phi: phi.clone(),
                     sigma2: 1.0,
                     ma,
-                    ma_lag: 1,
+                    ma_lag: lag,
                 };
                 let mut w = model.whitener(series.len());
                 let mut out = vec![0.0; series.len()];
@@ -325,10 +346,10 @@ mod whitener_tests {
                     }
                 }
                 for (s, got) in series.iter().zip(&streamed) {
-                    let want = ar_filter(&phi, &inverse_ma(ma, s));
+                    let want = ar_filter(&phi, &inverse_ma((ma, lag), s));
                     assert_eq!(want.len(), got.len());
                     for (a, b) in want.iter().zip(got) {
-                        assert_eq!(a.to_bits(), b.to_bits(), "ma {ma} p {p}");
+                        assert_eq!(a.to_bits(), b.to_bits(), "ma {ma} lag {lag} p {p}");
                     }
                 }
             }
@@ -372,13 +393,15 @@ impl Lags {
     }
 }
 
-/// Calls `f` with `z_k-p ..= z_k` (latest last) of `z = x / (1 + ma q^-1)` for every `k >= p`.
-fn for_each_z(x: &[f64], ma: f64, p: usize, mut f: impl FnMut(&[f64])) {
+/// Calls `f` with `z_k-p ..= z_k` (latest last) of `z = x / (1 + ma q^-lag)` for every
+/// `k >= p`.
+fn for_each_z(x: &[f64], (ma, lag): (f64, usize), p: usize, mut f: impl FnMut(&[f64])) {
     let mut lags = Lags::new(p);
-    let mut z_prev = 0.0;
+    let back = lag.clamp(1, 2) - 1;
+    let mut z_prev = [0.0; 2];
     for (k, v) in x.iter().enumerate() {
-        let z = if ma == 0.0 { *v } else { v - ma * z_prev };
-        z_prev = z;
+        let z = if ma == 0.0 { *v } else { v - ma * z_prev[back] };
+        z_prev = [z, z_prev[0]];
         lags.push(z);
         if k >= p {
             f(lags.recent());
@@ -386,10 +409,10 @@ fn for_each_z(x: &[f64], ma: f64, p: usize, mut f: impl FnMut(&[f64])) {
     }
 }
 
-/// Least-squares AR(`p`) of `z = x / (1 + ma q^-1)` over every stretch `x`, with the number
-/// of innovations it used. None when there are too few samples. `z` is made as it is read
-/// (a stretch can be the whole flight, so no copy of it is kept).
-fn fit_order(series: &[Vec<f64>], ma: f64, p: usize) -> Option<(ArNoise, usize)> {
+/// Least-squares AR(`p`) of `z = x / (1 + ma q^-lag)` over every stretch `x`, with the
+/// number of innovations it used. None when there are too few samples. `z` is made as it is
+/// read (a stretch can be the whole flight, so no copy of it is kept).
+fn fit_order(series: &[Vec<f64>], ma: (f64, usize), p: usize) -> Option<(ArNoise, usize)> {
     let mut ata = DMatrix::<f64>::zeros(p, p);
     let mut atb = DVector::<f64>::zeros(p);
     let mut n = 0usize;
@@ -485,5 +508,32 @@ mod tests {
         let r1_raw =
             x.windows(2).map(|p| p[0] * p[1]).sum::<f64>() / x.iter().map(|v| v * v).sum::<f64>();
         assert!(r1_raw < -0.3, "{r1_raw}");
+        assert_eq!(m.ma_lag, 1, "{m:?}");
+    }
+
+    #[test]
+    fn central_differenced_attitude_noise_gets_a_lag_2_moving_average() {
+        // Attitude noise central-differenced (over the previous and next samples), plus a
+        // little white noise: lag-2 correlation near -0.45.
+        let a = gauss(20_002, 4);
+        let w = gauss(20_000, 5);
+        let x: Vec<f64> = (0..20_000)
+            .map(|k| 0.5 * (a[k + 2] - a[k]) + 0.25 * w[k])
+            .collect();
+        let m = ArNoise::fit(std::slice::from_ref(&x), 12);
+        assert!(m.ma_lag == 2 && m.ma < -0.5, "{m:?}");
+        let e = m.whiten(&x);
+        let lag = |v: &[f64], l: usize| {
+            v.iter().skip(l).zip(v).map(|(p, q)| p * q).sum::<f64>()
+                / v.iter().map(|u| u * u).sum::<f64>()
+        };
+        assert!(lag(&e, 1).abs() < 0.03 && lag(&e, 2).abs() < 0.03, "{m:?}");
+        // Planted: the same noise whitened at lag 1 with that coefficient stays correlated.
+        let wrong = ArNoise {
+            ma_lag: 1,
+            ..m.clone()
+        }
+        .whiten(&x);
+        assert!(lag(&wrong, 2).abs() > 0.1 || lag(&wrong, 1).abs() > 0.1);
     }
 }

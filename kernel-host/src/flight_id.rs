@@ -69,13 +69,17 @@ const MA_ROOT_STEPS: usize = 12;
 /// its ARMA model). Reading the root instead from one fit's residual lag-1 correlation was
 /// tried and drifted to the bound: near a root of 1 the fitted terms absorb the filtered
 /// noise's low frequencies, and the residuals look whiter than the noise is (50 Hz motion
-/// capture of root 0.88 read as 0.99, sigmas 6 times too small).
+/// capture of root 0.88 read as 0.99, sigmas 6 times too small). A root whose fit fails
+/// (its start-up samples leave a short window nothing to fit) costs infinity; None if every
+/// root's fit failed.
 fn ma_root_by_least_squares<S: SumScalar>(
     axes: [bool; 3],
     fit: impl Fn(S) -> Result<Solution<S>, HostError>,
-) -> Result<S, HostError> {
-    let cost = |c: f64| -> Result<f64, HostError> {
-        let sol = fit(S::from_f32(c as f32))?;
+) -> Option<S> {
+    let cost = |c: f64| -> f64 {
+        let Ok(sol) = fit(S::from_f32(c as f32)) else {
+            return f64::INFINITY;
+        };
         let sigma2: f64 = sol
             .noise
             .iter()
@@ -83,27 +87,30 @@ fn ma_root_by_least_squares<S: SumScalar>(
             .filter(|(_, fitted)| *fitted)
             .map(|(n, _)| f64::from(n.sigma2.to_f32()))
             .sum();
-        Ok(sigma2 / ((1.0 - c) * (1.0 - c)))
+        sigma2 / ((1.0 - c) * (1.0 - c))
     };
     let golden = 0.5 * (5f64.sqrt() - 1.0);
     let (mut lo, mut hi) = (0.0, f64::from(MAX_ROOT));
     let mut a = hi - golden * (hi - lo);
     let mut b = lo + golden * (hi - lo);
-    let (mut fa, mut fb) = (cost(a)?, cost(b)?);
+    let (mut fa, mut fb) = (cost(a), cost(b));
+    let mut finite = fa.is_finite() || fb.is_finite();
     for _ in 0..MA_ROOT_STEPS {
         if fa <= fb {
             hi = b;
             (b, fb) = (a, fa);
             a = hi - golden * (hi - lo);
-            fa = cost(a)?;
+            fa = cost(a);
+            finite |= fa.is_finite();
         } else {
             lo = a;
             (a, fa) = (b, fb);
             b = lo + golden * (hi - lo);
-            fb = cost(b)?;
+            fb = cost(b);
+            finite |= fb.is_finite();
         }
     }
-    Ok(S::from_f32((0.5 * (lo + hi)) as f32))
+    finite.then(|| S::from_f32((0.5 * (lo + hi)) as f32))
 }
 
 fn sensor(s: SensorResponse) -> KSensor {
@@ -263,9 +270,10 @@ pub fn identify_with<S: SumScalar>(
                 sat,
                 format!(
                     "inertia is singular, the latency {latency_ms} ms is not 0-{} sample periods, \
-                 or the rate noise's MA root {} is not 0-{MAX_ROOT}",
+                 or the rate noise's MA root {} is not 0-{MAX_ROOT} or its lag {} not 1-2",
                     massid_kernel::flight_id::delay::MAX_DELAY_SAMPLES,
-                    rate_noise_ma_root.to_f32()
+                    rate_noise_ma_root.to_f32(),
+                    rate_noise_ma_lag
                 ),
             )
         })?;
@@ -323,21 +331,20 @@ pub fn identify_with<S: SumScalar>(
         }
         MaRoot::FromFlight => {
             let (sol, samples) = run((S::ZERO, 1), max_noise_order)?;
-            match moving_average_lag(&sol, axes).filter(|_| !flight.from_gyro_counts) {
-                Some(lag) => {
-                    let root = ma_root_by_least_squares(axes, |root| {
-                        run((root, lag), 0).map(|(sol, _)| sol)
-                    })?;
-                    // The noise model is then the MA the root was fitted with. AR terms on
-                    // top of it read a lag-2 structure of the filtered residuals as less
-                    // low-frequency noise: on the Monte Carlo's 50 Hz motion capture
-                    // (`identification_mc`, seeds 66000-66099) they chose orders 1-2 on most
-                    // flights and made the sigmas 15-20 % too small (RMS error/sigma
-                    // 1.17-1.20, against 0.95-0.98 without).
-                    let (sol, samples) = run((root, lag), 0)?;
-                    ((root, lag), sol, samples)
-                }
-                None => ((S::ZERO, 1), sol, samples),
+            let lag = moving_average_lag(&sol, axes).filter(|_| !flight.from_gyro_counts);
+            let root = lag.and_then(|lag| {
+                ma_root_by_least_squares(axes, |root| run((root, lag), 0).map(|(sol, _)| sol))
+                    .map(|root| (root, lag))
+            });
+            // The noise model is then the MA the root was fitted with. AR terms on top of it
+            // read a lag-2 structure of the filtered residuals as less low-frequency noise: on
+            // the Monte Carlo's 50 Hz motion capture (`identification_mc`, seeds 66000-66099)
+            // they chose orders 1-2 on most flights and made the sigmas 15-20 % too small (RMS
+            // error/sigma 1.17-1.20, against 0.95-0.98 without). If that fit fails, the first
+            // (AR noise, conservative sigmas) stands.
+            match root.map(|ma| (ma, run(ma, 0))) {
+                Some((ma, Ok((sol, samples)))) => (ma, sol, samples),
+                _ => ((S::ZERO, 1), sol, samples),
             }
         }
     };
@@ -505,4 +512,61 @@ pub fn identify_with<S: SumScalar>(
         samples_used: samples,
         status,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use massid_kernel::flight_id::solve::ArNoise as KNoise;
+
+    /// A fit whose innovation variance (unit-gain filter of root `c`) is that of MA(1) noise
+    /// of root `rho` through it: `(1 - c)^2 (1 + rho^2 - 2 c rho) / (1 - c^2)`.
+    fn fit_of(rho: f64) -> impl Fn(f32) -> Result<Solution<f32>, HostError> {
+        move |c: f32| {
+            let c = f64::from(c);
+            let s2 = (1.0 - c).powi(2) * (1.0 + rho * rho - 2.0 * c * rho) / (1.0 - c * c);
+            let noise = KNoise {
+                order: 0,
+                phi: [0.0; MAX_ORDER],
+                sigma2: s2 as f32,
+            };
+            Ok(Solution {
+                theta: [0.0; NP],
+                covariance: [[0.0; NP]; NP],
+                held: [false; NP],
+                noise: [noise; 3],
+                steps: 1,
+                positive_definite: true,
+                timing_statistic: None,
+                symmetry_statistic: [None; 3],
+            })
+        }
+    }
+
+    #[test]
+    fn the_least_squares_root_is_the_noise_root() {
+        for rho in [0.3, 0.77, 0.88, 0.95] {
+            let got = ma_root_by_least_squares([false, false, true], fit_of(rho)).unwrap();
+            assert!((f64::from(got) - rho).abs() < 0.01, "{rho}: {got}");
+        }
+    }
+
+    #[test]
+    fn a_root_whose_fit_fails_is_avoided_and_all_failing_gives_none() {
+        // Fits fail above 0.5: the search settles below it, not on an error.
+        let good = fit_of(0.88);
+        let capped = |c: f32| {
+            if c > 0.5 {
+                Err(HostError::Fit("too short".into()))
+            } else {
+                good(c)
+            }
+        };
+        let got = ma_root_by_least_squares([false, false, true], capped).unwrap();
+        assert!(got <= 0.5 && got > 0.45, "{got}");
+        let none = ma_root_by_least_squares([false, false, true], |_: f32| {
+            Err::<Solution<f32>, _>(HostError::Fit("never".into()))
+        });
+        assert!(none.is_none());
+    }
 }

@@ -7,14 +7,31 @@ use crate::scalar::Scalar;
 
 /// A window's drive components, `z` of [`super::sums::Sample`].
 pub trait DriveSum<S>: Copy + core::fmt::Debug {
+    /// The components as kept for the sensor's response ([`DriveSum::mean2`],
+    /// [`DriveSum::mean3`]): the values in floating point; in the fixed kernel the exact
+    /// integers, so that the means are exact and the sample is rounded once, in integers
+    /// ([`super::sums::SumScalar::drive_item`]), not through the integer float.
+    type Snapshot: Copy + core::fmt::Debug;
+    /// The snapshot of an empty window.
+    const ZERO_SNAPSHOT: Self::Snapshot;
     /// Adds `increment` to component `i`.
     fn add(&mut self, i: usize, increment: S);
     /// Sets component `i` (one that is held, not accumulated).
     fn set(&mut self, i: usize, value: S);
-    /// The components.
-    fn values(&self) -> [S; NZ];
+    /// The components now.
+    fn snapshot(&self) -> Self::Snapshot;
+    /// `(a + b) / 2` componentwise (the backward mean's response).
+    fn mean2(a: &Self::Snapshot, b: &Self::Snapshot) -> Self::Snapshot;
+    /// `(a + 2 b + c) / 4` componentwise (the central mean's response).
+    fn mean3(a: &Self::Snapshot, b: &Self::Snapshot, c: &Self::Snapshot) -> Self::Snapshot;
+    /// A snapshot's values.
+    fn values_of(&self, snapshot: &Self::Snapshot) -> [S; NZ];
     /// All zero (a new window).
     fn clear(&mut self);
+}
+
+fn at<S: Scalar>(v: &[S; NZ], i: usize) -> S {
+    v.get(i).copied().unwrap_or(S::ZERO)
 }
 
 /// Kahan-compensated sums: without the compensation a window's small increments round into
@@ -49,8 +66,21 @@ impl<S: Scalar + core::fmt::Debug> DriveSum<S> for Compensated<S> {
             *zi = value;
         }
     }
-    fn values(&self) -> [S; NZ] {
+    type Snapshot = [S; NZ];
+    const ZERO_SNAPSHOT: [S; NZ] = [S::ZERO; NZ];
+    fn snapshot(&self) -> [S; NZ] {
         self.z
+    }
+    fn mean2(a: &[S; NZ], b: &[S; NZ]) -> [S; NZ] {
+        let h = S::from_int_pow2(1, -1);
+        core::array::from_fn(|i| h.times(at(a, i).plus(at(b, i))))
+    }
+    fn mean3(a: &[S; NZ], b: &[S; NZ], c: &[S; NZ]) -> [S; NZ] {
+        let q = S::from_int_pow2(1, -2);
+        core::array::from_fn(|i| q.times(at(a, i).plus(at(b, i).mul_pow2(1)).plus(at(c, i))))
+    }
+    fn values_of(&self, snapshot: &[S; NZ]) -> [S; NZ] {
+        *snapshot
     }
     fn clear(&mut self) {
         *self = Self::default();

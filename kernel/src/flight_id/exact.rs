@@ -152,6 +152,57 @@ fn exponent_for(bound: IntFloat) -> Option<i32> {
 }
 
 impl ExactMoments {
+    /// The item of the rounded drive `zq` and the anchored rate `y_raw`: the rate rounded, less
+    /// the nominal model's prediction from `zq` (in integers); None if out of range.
+    fn item_of(&self, zq: [i32; NZ], y_raw: &[IntFloat; 3]) -> Option<Sample<i32>> {
+        let ey = self.exp.get(NZ..).unwrap_or(&[]);
+        let mut y = [0i32; 3];
+        for ((o, (x, e)), row) in y.iter_mut().zip(y_raw.iter().zip(ey)).zip(&self.nominal) {
+            let raw = Self::round(*x, *e)?;
+            let sum = row.iter().zip(zq.iter()).fold(0u64, |acc, (n, q)| {
+                mul_acc(&Native, &acc, &(*n as u32), &(*q as u32))
+            });
+            let pred = round_product(&Native, &sum, PREDICTION_FRAC) as i32;
+            let r = raw.checked_sub(pred)?;
+            if r.unsigned_abs() >= 1u32 << VALUE_BITS {
+                return None;
+            }
+            *o = r;
+        }
+        Some(Sample { z: zq, y })
+    }
+
+    /// The item of an exact drive snapshot `z` (units `2^-frac` of the sums' resolution,
+    /// [`ExactDrive`]'s [`DriveSum::snapshot`] and the sensor's exact means): each component
+    /// rounded once to nearest ([`round_product`], proved for every `frac` of
+    /// [`response_frac`]), where the integer float rounded twice (to its mantissa, then to
+    /// the sums' resolution) and cost a conversion each way.
+    pub(crate) fn item_of_drive(
+        &self,
+        z: &[i64; NZ],
+        frac: u32,
+        y_raw: &[IntFloat; 3],
+    ) -> Option<Sample<i32>> {
+        let mut zq = [0i32; NZ];
+        for (o, v) in zq.iter_mut().zip(z) {
+            if *v == 0 {
+                // Most of a planar craft's components.
+                continue;
+            }
+            // The sentinel, and anything past round_product's |v| <= 2^62, is out of range
+            // (a component within its bound is far below).
+            if *v == i64::MAX || v.unsigned_abs() > 1u64 << 62 {
+                return None;
+            }
+            let q = round_product(&Native, &(*v as u64), frac) as i32;
+            if q.unsigned_abs() >= 1u32 << VALUE_BITS {
+                return None;
+            }
+            *o = q;
+        }
+        self.item_of(zq, y_raw)
+    }
+
     /// `v` rounded to the integer multiple of `2^exp`, if `|q| < 2^VALUE_BITS`.
     fn round(v: IntFloat, exp: i32) -> Option<i32> {
         if !v.is_valid() {
@@ -186,29 +237,12 @@ impl Recent<IntFloat> for ExactMoments {
         y_raw: &[IntFloat; 3],
         _: &[[IntFloat; NZ]; 3],
     ) -> Option<Sample<i32>> {
-        let (ez, ey) = self.exp.split_at(NZ);
-        let mut out = Self::ZERO_ITEM;
-        for (o, (x, e)) in out.z.iter_mut().zip(z.iter().zip(ez)) {
+        let ez = self.exp.get(..NZ).unwrap_or(&[]);
+        let mut zq = [0i32; NZ];
+        for (o, (x, e)) in zq.iter_mut().zip(z.iter().zip(ez)) {
             *o = Self::round(*x, *e)?;
         }
-        for ((o, (x, e)), row) in out
-            .y
-            .iter_mut()
-            .zip(y_raw.iter().zip(ey))
-            .zip(&self.nominal)
-        {
-            let raw = Self::round(*x, *e)?;
-            let sum = row.iter().zip(out.z.iter()).fold(0u64, |acc, (n, zq)| {
-                mul_acc(&Native, &acc, &(*n as u32), &(*zq as u32))
-            });
-            let pred = round_product(&Native, &sum, PREDICTION_FRAC) as i32;
-            let y = raw.checked_sub(pred)?;
-            if y.unsigned_abs() >= 1u32 << VALUE_BITS {
-                return None;
-            }
-            *o = y;
-        }
-        Some(out)
+        self.item_of(zq, y_raw)
     }
 
     fn accumulate(sum: &mut Sample<i64>, item: &Sample<i32>) {
@@ -265,8 +299,9 @@ impl Recent<IntFloat> for ExactMoments {
 /// rounding errors do not cancel but add up over a window (resolved to `2^-35` of the
 /// component's bound instead, the fixed kernel's inertia moved by 0.36 sigma on an rga12
 /// flight, seed 31000). A window's drive then errs by at most `2^-30` of the bound.
-pub fn drive_extra_bits(max_window: u32) -> i32 {
-    4i32.saturating_add(31i32.saturating_sub(max_window.max(1).leading_zeros() as i32))
+pub const fn drive_extra_bits(max_window: u32) -> i32 {
+    let n = if max_window == 0 { 1 } else { max_window };
+    4i32.saturating_add(31i32.saturating_sub(n.leading_zeros() as i32))
 }
 
 /// The integer float's window drive: exact `i64` sums of increments rounded at a
@@ -298,6 +333,51 @@ impl ExactDrive {
     }
 }
 
+/// The most bits below the drive's resolution a sensor's response takes: two, the central
+/// mean's quarter ([`Response`]).
+pub const RESPONSE_BITS: u32 = 2;
+
+/// The fixed kernel's drive as the sensor's response combines it: exact integer sums `z` in
+/// units `2^-bits` of the drive's resolution (0 for a point response, 1 for the backward mean's
+/// half, 2 for the central mean's quarter), so that the means are exact and the sample is
+/// rounded once ([`ExactMoments::item_of_drive`]). A component that is `i64::MAX` is out of
+/// range (the drive's sentinel).
+#[derive(Clone, Copy, Debug)]
+pub struct Response {
+    z: [i64; NZ],
+    bits: u32,
+}
+
+/// `a + w b` of two sums of a [`Response`], or the sentinel if either is the sentinel or the
+/// result does not fit.
+#[inline]
+fn add_weighted(a: i64, b: i64, w: i64) -> i64 {
+    if a == i64::MAX || b == i64::MAX {
+        return i64::MAX;
+    }
+    b.checked_mul(w)
+        .and_then(|t| a.checked_add(t))
+        .filter(|v| *v != i64::MAX)
+        .unwrap_or(i64::MAX)
+}
+
+/// The longest window the fixed kernel takes, samples (100 s at 168 kHz: no rate sensor
+/// samples that fast). It keeps [`response_frac`] within 29 bits, where every shift's rounding
+/// is proved and its mutants refuted (past 31 bits the result cannot saturate, so the
+/// saturation's mutants are equivalent).
+pub const MAX_WINDOW_SAMPLES: u32 = (1 << 24) - 1;
+const _: () = assert!(response_frac(MAX_WINDOW_SAMPLES, RESPONSE_BITS) <= 29);
+
+/// The fractional bits [`SumScalar::drive_item`] drops from the response of a drive of
+/// `max_window` samples: the drive's extra bits and the response's (`bits` of [`Response`]).
+pub const fn response_frac(max_window: u32, bits: u32) -> u32 {
+    // drive_extra_bits is 4..=27 for windows up to MAX_WINDOW_SAMPLES and bits 0..=2, so
+    // this is 4..=29.
+    drive_extra_bits(max_window)
+        .unsigned_abs()
+        .saturating_add(bits)
+}
+
 impl DriveSum<IntFloat> for ExactDrive {
     fn add(&mut self, i: usize, increment: IntFloat) {
         if let (Some(z), Some(e)) = (self.z.get_mut(i), self.exp.get(i)) {
@@ -324,18 +404,52 @@ impl DriveSum<IntFloat> for ExactDrive {
             };
         }
     }
-    fn values(&self) -> [IntFloat; NZ] {
+    type Snapshot = Response;
+    const ZERO_SNAPSHOT: Response = Response {
+        z: [0; NZ],
+        bits: 0,
+    };
+    fn snapshot(&self) -> Response {
+        Response { z: self.z, bits: 0 }
+    }
+    fn mean2(a: &Response, b: &Response) -> Response {
+        // The sum at one bit finer: the half, exactly. (Snapshots, bits 0.)
+        let mut z = a.z;
+        for (s, v) in z.iter_mut().zip(&b.z) {
+            *s = add_weighted(*s, *v, 1);
+        }
+        Response {
+            z,
+            bits: a.bits.saturating_add(1),
+        }
+    }
+    fn mean3(a: &Response, b: &Response, c: &Response) -> Response {
+        // The sum at two bits finer: the quarter, exactly. (Snapshots, bits 0.)
+        let mut z = a.z;
+        for ((s, v), w) in z.iter_mut().zip(&b.z).zip(&c.z) {
+            *s = add_weighted(add_weighted(*s, *v, 2), *w, 1);
+        }
+        Response {
+            z,
+            bits: a.bits.saturating_add(RESPONSE_BITS),
+        }
+    }
+    fn values_of(&self, r: &Response) -> [IntFloat; NZ] {
+        let shift = i32::try_from(r.bits).unwrap_or(0);
         core::array::from_fn(|i| {
             let (z, e) = (
-                self.z.get(i).copied().unwrap_or(0),
+                r.z.get(i).copied().unwrap_or(0),
                 self.exp.get(i).copied().unwrap_or(0),
             );
             if z == i64::MAX {
-                // Saturated, not a large valid number: it stays invalid through the sensor's
-                // means, and the sample is refused.
+                // Saturated, not a large valid number: it stays invalid through the
+                // moving-average filter, and the sample is refused.
                 IntFloat::from_i64_pow2(i64::MAX, crate::int_float::EXP_LIMIT)
+            } else if z == 0 {
+                // Most of a planar craft's components.
+                IntFloat::ZERO
             } else {
-                IntFloat::from_i64_pow2(z, e)
+                IntFloat::from_i64_pow2(z, e.saturating_sub(shift))
             }
         })
     }
@@ -365,7 +479,7 @@ impl SumScalar for IntFloat {
         max_window: u32,
         window_s: IntFloat,
     ) -> Option<ExactScales> {
-        if IntFloat::from_f32(MAX_REACH_S).lt(window_s) {
+        if IntFloat::from_f32(MAX_REACH_S).lt(window_s) || max_window > MAX_WINDOW_SAMPLES {
             return None;
         }
         let mut exp = [0i32; NZ + 3];
@@ -414,6 +528,16 @@ impl SumScalar for IntFloat {
             exp: scales.drive_exp,
             extra: scales.extra,
         }
+    }
+    fn drive_item(
+        recent: &ExactMoments,
+        drive: &ExactDrive,
+        z: &Response,
+        y_raw: &[IntFloat; 3],
+        _: &[[IntFloat; NZ]; 3],
+    ) -> Option<Sample<i32>> {
+        let frac = drive.extra.unsigned_abs().saturating_add(z.bits);
+        recent.item_of_drive(&z.z, frac, y_raw)
     }
 }
 
@@ -489,13 +613,14 @@ mod tests {
         }
         let step = ExactDrive::rounded(IntFloat::from_f32(1e-4), d.exp[0]);
         assert_eq!(d.z[0], 10_000 * step);
-        assert!((d.values()[0].to_f32() - 1.0).abs() < 1e-6);
+        let values = |d: &ExactDrive| d.values_of(&d.snapshot());
+        assert!((values(&d)[0].to_f32() - 1.0).abs() < 1e-6);
         // A held value at its bound (it does not fit 32 bits at the drive's resolution).
         d.set(1, IntFloat::from_f32(-2.9));
         assert!(
-            (d.values()[1].to_f32() + 2.9).abs() < 1e-6,
+            (values(&d)[1].to_f32() + 2.9).abs() < 1e-6,
             "{:?}",
-            d.values()[1]
+            values(&d)[1]
         );
         // An increment far beyond the bound saturates the component: the sums refuse it.
         d.add(2, IntFloat::from_f32(1e6));
@@ -505,9 +630,80 @@ mod tests {
             &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 20_000, IntFloat::ONE).unwrap(),
         );
         let none = [[IntFloat::ZERO; NZ]; 3];
-        assert!(r.item(&d.values(), &[IntFloat::ZERO; 3], &none).is_none());
+        assert!(r.item(&values(&d), &[IntFloat::ZERO; 3], &none).is_none());
+        // The same through the integer path.
+        let zero = [IntFloat::ZERO; 3];
+        assert!(IntFloat::drive_item(&r, &d, &d.snapshot(), &zero, &none).is_none());
         d.clear();
-        assert!(d.values().iter().all(|v| *v == IntFloat::ZERO));
+        assert!(values(&d).iter().all(|v| *v == IntFloat::ZERO));
+    }
+
+    /// The sensor's means of the exact drive are exact, and the sample's drive is rounded once
+    /// to the sums' resolution (within half a step of the exact mean; the integer float's
+    /// conversion and rounding, the path before, erred by up to a step).
+    #[test]
+    fn the_drive_s_item_is_its_exact_mean_rounded_once() {
+        let bounds = [IntFloat::from_f32(3.0); NZ + 3];
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let scales = IntFloat::scales(&bounds, &none, 20_000, IntFloat::ONE).unwrap();
+        let r = IntFloat::recent(&scales);
+        let mut drives = [IntFloat::drive(&scales); 3];
+        for (k, d) in drives.iter_mut().enumerate() {
+            for i in 0..NZ {
+                let sign = if i % 3 == 0 { -1.0 } else { 1.0 };
+                let inc = IntFloat::from_f32(sign * 5.01e-5 * (1.0 + 0.041 * i as f32));
+                for _ in 0..(12_000 + 500 * k + 300 * i) {
+                    d.add(i, inc);
+                }
+            }
+        }
+        let snaps = drives.map(|d| d.snapshot());
+        let frac_of = |d: &ExactDrive, r: &Response| d.extra as u32 + r.bits;
+        assert_eq!(frac_of(&drives[0], &snaps[0]), response_frac(20_000, 0));
+        let zero = [IntFloat::ZERO; 3];
+        let exact_of = |i: usize, w: [f64; 3]| -> f64 {
+            let sum: f64 = (0..3).map(|k| w[k] * drives[k].z[i] as f64).sum();
+            sum / w.iter().sum::<f64>() / 2f64.powi(drives[0].extra)
+        };
+        let responses = [
+            (snaps[2], [0.0, 0.0, 1.0]),
+            (ExactDrive::mean2(&snaps[1], &snaps[2]), [0.0, 1.0, 1.0]),
+            (
+                ExactDrive::mean3(&snaps[0], &snaps[1], &snaps[2]),
+                [1.0, 2.0, 1.0],
+            ),
+        ];
+        let mut worst_before = 0.0f64;
+        for (z, w) in responses {
+            let item = IntFloat::drive_item(&r, &drives[0], &z, &zero, &none).unwrap();
+            let old = r.item(&drives[0].values_of(&z), &zero, &none).unwrap();
+            for i in 0..NZ {
+                let exact = exact_of(i, w);
+                assert!(
+                    exact.abs() > 2f64.powi(24),
+                    "a component that matters: {exact}"
+                );
+                let err = f64::from(item.z[i]) - exact;
+                assert!(err.abs() <= 0.5, "component {i}: {} vs {exact}", item.z[i]);
+                worst_before = worst_before.max((f64::from(old.z[i]) - exact).abs());
+            }
+            // Planted: a shift one bit short is a different item.
+            let wrong = r
+                .item_of_drive(&z.z, frac_of(&drives[0], &z) - 1, &zero)
+                .unwrap();
+            assert_ne!(wrong.z, item.z);
+        }
+        assert!(worst_before > 0.5, "{worst_before}");
+    }
+
+    /// Windows past [`MAX_WINDOW_SAMPLES`] are refused (the shifts proved stop there).
+    #[test]
+    fn windows_beyond_the_proved_shifts_are_refused() {
+        let bounds = [IntFloat::from_f32(3.0); NZ + 3];
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let at = |n| IntFloat::scales(&bounds, &none, n, IntFloat::ONE);
+        assert!(at(MAX_WINDOW_SAMPLES).is_some());
+        assert!(at(MAX_WINDOW_SAMPLES + 1).is_none());
     }
 
     #[test]
@@ -568,7 +764,7 @@ mod tests {
             let z: [IntFloat; NZ] = core::array::from_fn(|i| IntFloat::from_f32(v(k, i) as f32));
             let y: [IntFloat; 3] =
                 core::array::from_fn(|a| IntFloat::from_f32(v(k, NZ + a) as f32));
-            window.push(&mut flight, &mut recent, (&z, &y), &none, 0);
+            window.push(&mut flight, &mut recent, 0, |r| r.item(&z, &y, &none));
         }
         recent.fold_all(&mut flight);
         let close = |got: IntFloat, want: f64, what: &str| {

@@ -95,6 +95,11 @@ impl<S: Scalar> MaPrefilter<S> {
         }
     }
 
+    /// True if the filter acts (a root other than zero).
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
     /// A new window: the state starts from zero, as the anchored rate and the drive do.
     pub fn reset(&mut self) {
         self.z = [[S::ZERO; NZ]; 2];

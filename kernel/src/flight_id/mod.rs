@@ -38,7 +38,7 @@ use crate::in_place::{assume_all_written, field};
 use crate::scalar::Scalar;
 use drive::DriveSum;
 use solve::{Solution, SolveConfig, SolveError, NP};
-use sums::{FlightSums, RecentSums, SumScalar, WindowSums, NZ, N_MODEL};
+use sums::{DriveSnapshot, FlightSums, Recent, RecentSums, SumScalar, WindowSums, NZ, N_MODEL};
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -118,7 +118,7 @@ pub struct FlightId<S: SumScalar> {
     gap: S,
     /// The window's last three (drive, measured rate), a ring whose newest is at `newest`
     /// (the older ones follow, modulo 3); `filled` of them valid.
-    last: [([S; NZ], [S; 3]); 3],
+    last: [(DriveSnapshot<S>, [S; 3]); 3],
     newest: usize,
     filled: u32,
     /// Weighted rotation in the window so far, rad (sum over the axes of `w_a |omega_a| dt`).
@@ -183,7 +183,7 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, products_before).write([S::ZERO; 6]);
         field!(slot, Self, dt_before).write(S::ZERO);
         field!(slot, Self, gap).write(S::from_f32(1.5).times(cfg.period_s));
-        field!(slot, Self, last).write([([S::ZERO; NZ], [S::ZERO; 3]); 3]);
+        field!(slot, Self, last).write([(S::Drive::ZERO_SNAPSHOT, [S::ZERO; 3]); 3]);
         field!(slot, Self, newest).write(0);
         field!(slot, Self, filled).write(0);
         field!(slot, Self, turned).write(S::ZERO);
@@ -325,7 +325,7 @@ impl<S: SumScalar> FlightId<S> {
             self.newest.saturating_sub(1)
         };
         if let Some(r) = self.last.get_mut(self.newest) {
-            *r = (self.drive.values(), rate);
+            *r = (self.drive.snapshot(), rate);
         }
         self.filled = self.filled.saturating_add(1);
         self.emit();
@@ -341,19 +341,15 @@ impl<S: SumScalar> FlightId<S> {
         let (Some((z2, y2)), Some((z1, y1)), Some((z0, _))) = (back(0), back(1), back(2)) else {
             return;
         };
-        let q = S::from_int_pow2(1, -2);
-        let h = S::from_int_pow2(1, -1);
-        let mean: [S; NZ];
+        let mean: DriveSnapshot<S>;
         let (z, y) = match self.cfg.sensor {
             SensorResponse::Point => (z2, y2),
             SensorResponse::BackwardMean if self.filled >= 2 => {
-                mean = core::array::from_fn(|i| h.times(get(z1, i).plus(get(z2, i))));
+                mean = S::Drive::mean2(z1, z2);
                 (&mean, y2)
             }
             SensorResponse::CentralMean if self.filled >= 3 => {
-                mean = core::array::from_fn(|i| {
-                    q.times(get(z0, i).plus(get(z1, i).mul_pow2(1)).plus(get(z2, i)))
-                });
+                mean = S::Drive::mean3(z0, z1, z2);
                 (&mean, y1)
             }
             _ => return,
@@ -361,14 +357,22 @@ impl<S: SumScalar> FlightId<S> {
         let anchor = *self.anchor.get_or_insert(*y);
         let y_raw = core::array::from_fn(|a| get(y, a).minus(get(&anchor, a)));
         let skip = self.cfg.skip.saturating_add(self.prefilter.settle());
-        let measurement = self.prefilter.apply(z, &y_raw);
-        self.window.push(
-            &mut self.sums,
-            &mut self.recent,
-            measurement,
-            &self.nominal,
-            skip,
-        );
+        if self.prefilter.is_active() {
+            // The filter runs on values (in the fixed kernel: converted from its integers).
+            let values = self.drive.values_of(z);
+            let (fz, fy) = self.prefilter.apply(&values, &y_raw);
+            let nominal = &self.nominal;
+            self.window
+                .push(&mut self.sums, &mut self.recent, skip, |r| {
+                    r.item(fz, fy, nominal)
+                });
+        } else {
+            let (drive, nominal) = (&self.drive, &self.nominal);
+            self.window
+                .push(&mut self.sums, &mut self.recent, skip, |r| {
+                    S::drive_item(r, drive, z, &y_raw, nominal)
+                });
+        }
     }
 
     fn close_window(&mut self) {

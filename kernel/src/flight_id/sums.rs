@@ -491,7 +491,20 @@ pub trait SumScalar: Scalar {
     }
     /// A zero drive.
     fn drive(scales: &Self::Scales) -> Self::Drive;
+    /// The item of the drive snapshot `z` (the sensor's response of `drive`'s snapshots) and
+    /// the anchored rate `y_raw`: [`Recent::item`] of its values in floating point; the fixed
+    /// kernel rounds its exact drive once, in integers.
+    fn drive_item(
+        recent: &Self::Recent,
+        drive: &Self::Drive,
+        z: &DriveSnapshot<Self>,
+        y_raw: &[Self; 3],
+        nominal: &[[Self; NZ]; 3],
+    ) -> Option<<Self::Recent as Recent<Self>>::Item>;
 }
+
+/// The drive's snapshot type of a [`SumScalar`] ([`DriveSum::Snapshot`]).
+pub type DriveSnapshot<S> = <<S as SumScalar>::Drive as DriveSum<S>>::Snapshot;
 
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     type Item = Sample<S>;
@@ -555,6 +568,15 @@ macro_rules! float_sums {
             }
             fn drive(_: &()) -> Self::Drive {
                 Compensated::default()
+            }
+            fn drive_item(
+                recent: &Self::Recent,
+                _: &Self::Drive,
+                z: &[$t; NZ],
+                y_raw: &[$t; 3],
+                nominal: &[[$t; NZ]; 3],
+            ) -> Option<Sample<$t>> {
+                recent.item(z, y_raw, nominal)
             }
         }
     )*};
@@ -731,22 +753,22 @@ impl<S: SumScalar> WindowSums<S> {
         self.n == 0
     }
 
-    /// Adds one measurement, drive `z` and anchored rate `y_raw` (see [`Recent::item`]), to
-    /// `flight`'s sums (its products through `recent`), except the window's first `skip` (the
-    /// noise model's order: their whitened residual would need samples before the window).
+    /// Adds one measurement, the item `item` makes of it ([`Recent::item`],
+    /// [`SumScalar::drive_item`]; None: not representable), to `flight`'s sums (its products
+    /// through `recent`), except the window's first `skip` (the noise model's order: their
+    /// whitened residual would need samples before the window), whose item is not made.
     pub fn push(
         &mut self,
         flight: &mut FlightSums<S>,
         recent: &mut RecentSums<S::Recent>,
-        (z, y_raw): (&[S; NZ], &[S; 3]),
-        nominal: &[[S; NZ]; 3],
         skip: u32,
+        item: impl FnOnce(&S::Recent) -> Option<<S::Recent as Recent<S>>::Item>,
     ) {
         self.seen = self.seen.saturating_add(1);
         if self.seen <= skip {
             return;
         }
-        let Some(item) = recent.sums.item(z, y_raw, nominal) else {
+        let Some(item) = item(&recent.sums) else {
             flight.out_of_range = true;
             return;
         };
@@ -881,7 +903,7 @@ mod tests {
                 }
             });
             let y: [S; 3] = core::array::from_fn(|a| S::from_f32(v(k, NZ + a)));
-            window.push(&mut flight, &mut recent, (&z, &y), &none, 0);
+            window.push(&mut flight, &mut recent, 0, |r| r.item(&z, &y, &none));
             if k == 50 {
                 window.close_into(&mut flight, &recent);
             }

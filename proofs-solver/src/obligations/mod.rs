@@ -52,7 +52,21 @@ pub fn all() -> Vec<Box<dyn Discharge>> {
     for bit in 0..FRAC.max(QUOTIENT_FRAC) {
         v.push(Box::new(RestoringStep { bit }));
     }
+    // The fixed kernel's sample rounded from its exact drive (`flight_id::exact`,
+    // `ExactMoments::item_of_drive`): every shift a drive's configuration can take.
+    let prediction = massid_kernel::flight_id::exact::PREDICTION_FRAC;
+    for frac in response_fracs().filter(|f| *f != prediction) {
+        v.push(Box::new(RoundedSum { frac }));
+    }
     v
+}
+
+/// The shifts `round_product` takes from a drive's response: [`massid_kernel::flight_id::
+/// exact::response_frac`] of every window length the kernel takes (`MAX_WINDOW_SAMPLES`; it
+/// grows with the length's bits) and every response (0 to `RESPONSE_BITS` bits).
+pub fn response_fracs() -> std::ops::RangeInclusive<u32> {
+    use massid_kernel::flight_id::exact::{response_frac, MAX_WINDOW_SAMPLES, RESPONSE_BITS};
+    response_frac(1, 0)..=response_frac(MAX_WINDOW_SAMPLES, RESPONSE_BITS)
 }
 
 /// Obligations Z3 has not discharged in the time tried (see `proofs/README.md`): each

@@ -366,12 +366,16 @@ pub const ENTRIES: usize = LAGS * NZ * NZ + 2 * LAGS * 3 * NZ + LAGS * 3;
 /// sums then round like sums of `n / BLOCK + BLOCK` terms, not `n` (two-level summation).
 pub const BLOCK: usize = 256;
 
-/// Entries folded per sample (a rolling fold: no tick carries the whole fold).
+/// Entries of floating-point recent sums folded per sample (a rolling fold: no tick carries
+/// the whole fold), so that each is folded every [`BLOCK`] samples or sooner.
 pub const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil(BLOCK);
 
-/// Samples between two folds of one entry, at most: each sample adds at most one product to
-/// an entry, so this bounds the products a recent entry holds ([`super::exact`]).
-pub const FOLD_PERIOD: usize = ENTRIES.div_ceil(FOLD_PER_SAMPLE);
+/// Samples between two folds of one entry when `per_sample` entries are folded per sample, at
+/// most: each sample adds at most one product to an entry, so this bounds the products a
+/// recent entry holds ([`super::exact`]).
+pub const fn fold_period(per_sample: usize) -> usize {
+    ENTRIES.div_ceil(if per_sample == 0 { 1 } else { per_sample })
+}
 
 /// Which two components of `v = (z, y)` entry `k` of the flat order multiplies (`z[i]` is
 /// component `i`, `y[a]` is `NZ + a`), or None past the last entry.
@@ -434,6 +438,9 @@ impl<T> LagMoments<T> {
 /// short sums, [`BLOCK`]); the fixed kernel's integer float adds exact integer products
 /// ([`super::exact`]), a multiply-accumulate each instead of a rounded sum.
 pub trait Recent<S>: Copy + core::fmt::Debug {
+    /// Entries folded into the flight's sums per sample ([`FOLD_PER_SAMPLE`] in floating
+    /// point; the exact sums as few as their width allows).
+    const FOLD_PER_SAMPLE: usize;
     /// A sample as these sums take it.
     type Item: Copy + core::fmt::Debug;
     /// The item of an all-zero sample.
@@ -507,6 +514,7 @@ pub trait SumScalar: Scalar {
 pub type DriveSnapshot<S> = <<S as SumScalar>::Drive as DriveSum<S>>::Snapshot;
 
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
+    const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
     type Item = Sample<S>;
     const ZERO_ITEM: Sample<S> = Sample::ZERO;
     type ItemSum = Sample<S>;
@@ -793,7 +801,7 @@ impl<S: SumScalar> WindowSums<S> {
         }
         self.n = self.n.saturating_add(1);
         flight.samples = flight.samples.saturating_add(1);
-        recent.fold(flight, FOLD_PER_SAMPLE);
+        recent.fold(flight, <S::Recent as Recent<S>>::FOLD_PER_SAMPLE);
     }
     /// Closes the window: its initial rate's term into `flight`; empties the window. Only the
     /// active components (the others' sums are zero: adding their products changes nothing).

@@ -157,8 +157,8 @@ impl Obligation for MulAcc {
         &["acc_hi", "acc_lo", "a", "b"]
     }
     fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
+        use massid_kernel::flight_id::exact::FOLD_PERIOD;
         use massid_kernel::flight_id::exact::VALUE_BITS;
-        use massid_kernel::flight_id::sums::FOLD_PERIOD;
         let acc = p.d_of(&x[0], &x[1]);
         let (a, b) = (&x[2], &x[3]);
         let got = p.under_test(|m| mul_acc(m, &acc, a, b));

@@ -204,7 +204,7 @@ deferred_<stage> = a tick that ran that end-of-firing stage (\`Pipeline::pending
   echo "flight_id_push_<craft> = the same for the air-bearing craft (planar, 8 thrusters; airbearing_mocap: with motion-capture rates, the moving-average filter on) and the 16-thruster free-flyer, 500 samples (f32) / 150 (fixed)"
   echo "of the window driving the craft's own thrusters (the free-flyer's 16 from the 12-bit word spread by 4 bits; sums only)."
   echo "The fit (SPHERES) runs outside the tick and is not counted; a push's min is a window's first samples, left out of the sums."
-  echo "flight_id_close[_<craft>] = the window close (\`FlightId::finish\`, as a push that ends a window: its initial-rate terms), once per craft."
+  echo "flight_id_close[_<craft>] = the window close: the push of a missing sample mid-flight, which closes the window and queues its initial-rate term (\`flight_id::close\`: the pushes after it add it 8 entries each, so the push rows include that), once per craft; \`FlightId::finish\` at the end of the flight adds what is left (not a tick, not counted)."
   echo
   echo "| call | M0 fixed mean / max | M0 f32 mean / max | M4F fixed mean / max | M4F f32 mean / max | calls (fixed) |"
   echo "|---|---|---|---|---|---|"

@@ -36,7 +36,7 @@ extern "C" {
  * from another header then refuses instead of misreading a struct. History: 1 the first ABI,
  * 2 massid_flight_id_settings.turn_weight, 3 massid_flight_id_settings.thrust_sigma_rel,
  * 4 massid_flight_id_settings.rate_noise_ma_root and rate_noise_ma_lag. */
-#define MASSID_ABI_VERSION 4u
+#define MASSID_ABI_VERSION 5u
 uint32_t massid_abi_version(void);
 
 #define MASSID_N_THRUSTERS 12
@@ -222,7 +222,7 @@ massid_status massid_f32_mix(massid_mixer *m, const float force_n[3], const floa
  * FIXED_FLIGHT_ID_BYTES). */
 #define MASSID_CRAFT_MIXER_BYTES 2048
 #define MASSID_FLIGHT_ID_BYTES 20480
-#define MASSID_FIXED_FLIGHT_ID_BYTES 32768
+#define MASSID_FIXED_FLIGHT_ID_BYTES 36864
 /* Terms of the identification: inverse inertia xx yy zz xy xz yz, CoM x y z. */
 #define MASSID_ID_TERMS 9
 #define MASSID_ID_MAX_NOISE_ORDER 2

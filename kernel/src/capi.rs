@@ -362,9 +362,10 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 /// of a struct's layout or of a function's meaning, so that a caller built against another
 /// header refuses to run instead of misreading a struct: 1 the first ABI, 2
 /// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`, 4 its
-/// `rate_noise_ma_root` and `rate_noise_ma_lag`. [`ABI_LAYOUTS`] records
+/// `rate_noise_ma_root` and `rate_noise_ma_lag`, 5 `massid_fixed_flight_id` 36,864 bytes
+/// (the closed windows waiting for their term, `flight_id::close`). [`ABI_LAYOUTS`] records
 /// each version's struct sizes from version 3 on.
-pub const ABI_VERSION: u32 = 4;
+pub const ABI_VERSION: u32 = 5;
 
 /// Per version (append-only: a new version adds a row, no row is edited), the sizes of the
 /// ABI's types on a 64-bit host (`massid_type_size(0..8)` then `massid_craft_type_size(0..7)`;
@@ -372,7 +373,7 @@ pub const ABI_VERSION: u32 = 4;
 /// changes size without a new version no longer matches its version's row
 /// ([`abi_layout_check`]). A change that keeps every size (fields reordered or retyped alike)
 /// is not seen here: the version must still be raised by hand.
-pub const ABI_LAYOUTS: [(u32, [u32; 15]); 2] = [
+pub const ABI_LAYOUTS: [(u32, [u32; 15]); 3] = [
     (
         3,
         [
@@ -383,6 +384,12 @@ pub const ABI_LAYOUTS: [(u32, [u32; 15]); 2] = [
         4,
         [
             388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 32768,
+        ],
+    ),
+    (
+        5,
+        [
+            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 36864,
         ],
     ),
 ];

@@ -74,7 +74,7 @@ const MAGIC_FIXED_FLIGHT_ID: u32 = 0x4d49_4649;
 /// Bytes reserved for an integer-float identification (header:
 /// `MASSID_FIXED_FLIGHT_ID_BYTES`): its numbers are 8 bytes where f32's are 4, so its state is
 /// twice f32's (`massid_craft_state_bytes(3)`).
-pub const FIXED_FLIGHT_ID_BYTES: usize = 32768;
+pub const FIXED_FLIGHT_ID_BYTES: usize = 36864;
 
 /// Opaque craft mixer block.
 #[repr(C, align(8))]

@@ -21,6 +21,7 @@
 //! command delay and of thrust symmetry per torque axis ([`consistency`]), not of each
 //! thruster's thrust.
 pub mod active;
+pub mod close;
 pub mod components;
 pub mod consider;
 pub mod consistency;
@@ -106,6 +107,8 @@ pub struct FlightId<S: SumScalar> {
     /// The last samples' products, folded into `sums` a few entries per sample.
     recent: RecentSums<S::Recent>,
     window: WindowSums<S>,
+    /// Closed windows whose initial-rate term is still being added to `sums` ([`close`]).
+    pending: close::PendingCloses<S>,
     /// Drive accumulated since the window's first sample ([`drive`]).
     drive: S::Drive,
     /// The previous sample's rate products (order of [`solve::PRODUCTS`]).
@@ -178,6 +181,7 @@ impl<S: SumScalar> FlightId<S> {
         FlightSums::init_in_place(field!(slot, Self, sums));
         RecentSums::init_in_place(field!(slot, Self, recent), |r| S::init_recent(r, &scales));
         field!(slot, Self, window).write(WindowSums::default());
+        field!(slot, Self, pending).write(close::PendingCloses::default());
         field!(slot, Self, drive).write(S::drive(&scales));
         field!(slot, Self, products).write([S::ZERO; 6]);
         field!(slot, Self, products_before).write([S::ZERO; 6]);
@@ -201,6 +205,7 @@ impl<S: SumScalar> FlightId<S> {
                     sums,
                     recent,
                     window,
+                    pending,
                     drive,
                     products,
                     products_before,
@@ -220,7 +225,8 @@ impl<S: SumScalar> FlightId<S> {
         })
     }
 
-    /// The sums so far (closed windows).
+    /// The sums so far: the closed windows whose term is in ([`close`]; after
+    /// [`FlightId::finish`], every window).
     pub fn sums(&self) -> &FlightSums<S> {
         &self.sums
     }
@@ -229,6 +235,8 @@ impl<S: SumScalar> FlightId<S> {
     /// for a missing or railed sample) and the commanded `wrench` (torque about the model's
     /// CoM N m, force N; [`crate::craft::Craft::wrench`] of the thruster word) held until the next.
     pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; 6]) {
+        // A few entries of the closed windows' terms ([`close`]).
+        self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);
         // The command history runs on whatever happens to the rate samples.
         let wrench = self.delay.push(command);
         if !valid {
@@ -376,7 +384,8 @@ impl<S: SumScalar> FlightId<S> {
     }
 
     fn close_window(&mut self) {
-        self.window.close_into(&mut self.sums, &self.recent);
+        self.window
+            .close_into(&mut self.sums, &mut self.pending, &self.recent);
         self.drive.clear();
         self.prefilter.reset();
         self.filled = 0;
@@ -384,9 +393,11 @@ impl<S: SumScalar> FlightId<S> {
         self.anchor = None;
     }
 
-    /// Ends the flight: closes the open window (call before the final [`FlightId::solve`]).
+    /// Ends the flight: closes the open window and adds every closed window's term to the
+    /// sums (call before the final [`FlightId::solve`]; the end of the flight, not a tick).
     pub fn finish(&mut self) {
         self.close_window();
+        self.pending.drain_all(&mut self.sums);
         self.previous = None;
     }
 
@@ -396,6 +407,8 @@ impl<S: SumScalar> FlightId<S> {
         let mut sums = self.sums;
         let mut recent = self.recent;
         recent.fold_all(&mut sums);
+        let mut pending = self.pending;
+        pending.drain_all(&mut sums);
         if sums.out_of_range {
             return Err(SolveError::Overflow);
         }

@@ -18,6 +18,7 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::active::Active as ActiveOf;
+use super::close::PendingCloses;
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
@@ -803,63 +804,24 @@ impl<S: SumScalar> WindowSums<S> {
         flight.samples = flight.samples.saturating_add(1);
         recent.fold(flight, <S::Recent as Recent<S>>::FOLD_PER_SAMPLE);
     }
-    /// Closes the window: its initial rate's term into `flight`; empties the window. Only the
-    /// active components (the others' sums are zero: adding their products changes nothing).
-    pub fn close_into(&mut self, flight: &mut FlightSums<S>, recent: &RecentSums<S::Recent>) {
+    /// Closes the window: its initial rate's term queued in `pending` (added to `flight` a
+    /// few entries per sample, [`super::close`]); empties the window.
+    pub fn close_into(
+        &mut self,
+        flight: &mut FlightSums<S>,
+        pending: &mut PendingCloses<S>,
+        recent: &RecentSums<S::Recent>,
+    ) {
         if self.n > 0 {
-            let Sample { z: sz, y: sy } = recent.sums.sum_value(&self.sum);
-            let n = S::from_int_pow2(i32::try_from(self.n).unwrap_or(i32::MAX), 0);
-            let mean_y = sy.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
-            if recent.active.sparse() {
-                let comps = recent.active.components();
-                let mut mean_z = [S::ZERO; NZ];
-                for i in comps.iter().map(|c| usize::from(*c)) {
-                    if let (Some(m), Some(s)) = (mean_z.get_mut(i), sz.get(i)) {
-                        *m = s.checked_div(n).unwrap_or(S::ZERO);
-                    }
-                }
-                for i in comps.iter().map(|c| usize::from(*c)) {
-                    let (Some(row), Some(mz)) = (flight.czz.get_mut(i), mean_z.get(i).copied())
-                    else {
-                        continue;
-                    };
-                    for j in comps.iter().map(|c| usize::from(*c)) {
-                        if let (Some(c), Some(s)) = (row.get_mut(j), sz.get(j).copied()) {
-                            *c = c.mul_add(mz, s);
-                        }
-                    }
-                }
-                for (row, my) in flight.czy.iter_mut().zip(mean_y) {
-                    for j in comps.iter().map(|c| usize::from(*c)) {
-                        if let (Some(c), Some(s)) = (row.get_mut(j), sz.get(j).copied()) {
-                            *c = c.mul_add(my, s);
-                        }
-                    }
-                }
-            } else {
-                let mean_z = sz.map(|s| s.checked_div(n).unwrap_or(S::ZERO));
-                for (row, mz) in flight.czz.iter_mut().zip(mean_z) {
-                    for (c, sz) in row.iter_mut().zip(sz) {
-                        *c = c.mul_add(mz, sz);
-                    }
-                }
-                for (row, my) in flight.czy.iter_mut().zip(mean_y) {
-                    for (c, sz) in row.iter_mut().zip(sz) {
-                        *c = c.mul_add(my, sz);
-                    }
-                }
-            }
-            for ((c, my), sy) in flight.cyy.iter_mut().zip(mean_y).zip(sy) {
-                *c = c.mul_add(my, sy);
-            }
-            flight.windows = flight.windows.saturating_add(1);
+            let sum = recent.sums.sum_value(&self.sum);
+            pending.close(flight, sum, self.n, &recent.active);
         }
         *self = WindowSums::default();
     }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     #![allow(
         clippy::unwrap_used,
         clippy::indexing_slicing,
@@ -879,7 +841,7 @@ mod tests {
             Ok(())
         }
     }
-    fn text_hash(v: &impl core::fmt::Debug) -> u64 {
+    pub(crate) fn text_hash(v: &impl core::fmt::Debug) -> u64 {
         let mut h = Fnv(0xcbf2_9ce4_8422_2325);
         write!(h, "{v:?}").unwrap();
         h.0
@@ -901,6 +863,7 @@ mod tests {
         recent.active = start;
         let mut flight = FlightSums::<S>::default();
         let mut window = WindowSums::<S>::default();
+        let mut pending = PendingCloses::<S>::default();
         let v = |k: usize, c: usize| ((k * 7 + c * 13) % 17) as f32 / 8.0 - 1.0 + c as f32 / 64.0;
         for k in 0..90 {
             let z: [S; NZ] = core::array::from_fn(|i| {
@@ -913,10 +876,12 @@ mod tests {
             let y: [S; 3] = core::array::from_fn(|a| S::from_f32(v(k, NZ + a)));
             window.push(&mut flight, &mut recent, 0, |r| r.item(&z, &y, &none));
             if k == 50 {
-                window.close_into(&mut flight, &recent);
+                window.close_into(&mut flight, &mut pending, &recent);
             }
+            pending.drain(&mut flight, crate::flight_id::close::DRAIN_PER_SAMPLE);
         }
-        window.close_into(&mut flight, &recent);
+        window.close_into(&mut flight, &mut pending, &recent);
+        pending.drain_all(&mut flight);
         recent.fold_all(&mut flight);
         text_hash(&flight)
     }

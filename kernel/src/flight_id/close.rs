@@ -97,8 +97,9 @@ impl<S: Scalar> Default for PendingCloses<S> {
 }
 
 impl<S: Scalar> PendingCloses<S> {
-    /// Queues the term of a closed window of `n` samples whose sums are `sum`, over the drive
-    /// components `active` (all when it is not sparse). Nothing for an empty window. When the
+    /// Queues the term of a closed window of `n` samples whose sums are `sum`
+    /// ([`super::sums::WindowSums::close`]), over the drive components `active` (all when it
+    /// is not sparse). Nothing for an empty window. When the
     /// queue is full its oldest term is finished first.
     pub fn close(&mut self, flight: &mut FlightSums<S>, sum: Sample<S>, n: u32, active: &Active) {
         if n == 0 {

@@ -384,8 +384,10 @@ impl<S: SumScalar> FlightId<S> {
     }
 
     fn close_window(&mut self) {
-        self.window
-            .close_into(&mut self.sums, &mut self.pending, &self.recent);
+        if let Some((sum, n)) = self.window.close(&self.recent) {
+            self.pending
+                .close(&mut self.sums, sum, n, self.recent.active());
+        }
         self.drive.clear();
         self.prefilter.reset();
         self.filled = 0;

@@ -18,7 +18,6 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::active::Active as ActiveOf;
-use super::close::PendingCloses;
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
@@ -644,6 +643,11 @@ impl<R> RecentSums<R> {
         }
     }
 
+    /// The drive components the flight has moved so far.
+    pub fn active(&self) -> &Active {
+        &self.active
+    }
+
     /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
     fn fold<S: Scalar>(&mut self, flight: &mut FlightSums<S>, count: usize)
     where
@@ -804,19 +808,12 @@ impl<S: SumScalar> WindowSums<S> {
         flight.samples = flight.samples.saturating_add(1);
         recent.fold(flight, <S::Recent as Recent<S>>::FOLD_PER_SAMPLE);
     }
-    /// Closes the window: its initial rate's term queued in `pending` (added to `flight` a
-    /// few entries per sample, [`super::close`]); empties the window.
-    pub fn close_into(
-        &mut self,
-        flight: &mut FlightSums<S>,
-        pending: &mut PendingCloses<S>,
-        recent: &RecentSums<S::Recent>,
-    ) {
-        if self.n > 0 {
-            let sum = recent.sums.sum_value(&self.sum);
-            pending.close(flight, sum, self.n, &recent.active);
-        }
+    /// Closes the window: the value of its sums and its sample count, for its initial-rate
+    /// term ([`super::close`]; None for an empty window); empties the window.
+    pub fn close(&mut self, recent: &RecentSums<S::Recent>) -> Option<(Sample<S>, u32)> {
+        let closed = (self.n > 0).then(|| (recent.sums.sum_value(&self.sum), self.n));
         *self = WindowSums::default();
+        closed
     }
 }
 
@@ -863,7 +860,15 @@ pub(crate) mod tests {
         recent.active = start;
         let mut flight = FlightSums::<S>::default();
         let mut window = WindowSums::<S>::default();
-        let mut pending = PendingCloses::<S>::default();
+        let mut pending = crate::flight_id::close::PendingCloses::<S>::default();
+        let close = |w: &mut WindowSums<S>,
+                     f: &mut FlightSums<S>,
+                     p: &mut crate::flight_id::close::PendingCloses<S>,
+                     r: &RecentSums<S::Recent>| {
+            if let Some((sum, n)) = w.close(r) {
+                p.close(f, sum, n, r.active());
+            }
+        };
         let v = |k: usize, c: usize| ((k * 7 + c * 13) % 17) as f32 / 8.0 - 1.0 + c as f32 / 64.0;
         for k in 0..90 {
             let z: [S; NZ] = core::array::from_fn(|i| {
@@ -876,11 +881,11 @@ pub(crate) mod tests {
             let y: [S; 3] = core::array::from_fn(|a| S::from_f32(v(k, NZ + a)));
             window.push(&mut flight, &mut recent, 0, |r| r.item(&z, &y, &none));
             if k == 50 {
-                window.close_into(&mut flight, &mut pending, &recent);
+                close(&mut window, &mut flight, &mut pending, &recent);
             }
             pending.drain(&mut flight, crate::flight_id::close::DRAIN_PER_SAMPLE);
         }
-        window.close_into(&mut flight, &mut pending, &recent);
+        close(&mut window, &mut flight, &mut pending, &recent);
         pending.drain_all(&mut flight);
         recent.fold_all(&mut flight);
         text_hash(&flight)

@@ -349,7 +349,7 @@ pub const RESPONSE_BITS: u32 = 2;
 /// The fixed kernel's drive as the sensor's response combines it: exact integer sums `z` in
 /// units `2^-bits` of the drive's resolution (0 for a point response, 1 for the backward mean's
 /// half, 2 for the central mean's quarter), so that the means are exact and the sample is
-/// rounded once ([`ExactMoments::item_of_drive`]). A component that is `i64::MAX` is out of
+/// rounded once (`ExactMoments::item_of_drive`). A component that is `i64::MAX` is out of
 /// range (the drive's sentinel).
 #[derive(Clone, Copy, Debug)]
 pub struct Response {

@@ -50,8 +50,12 @@ impl<S: Scalar> Closed<S> {
 
     /// Adds entry `k` of the term to `flight` (row by row: `czz`, then `czy`, then `cyy`).
     fn add_entry(&self, flight: &mut FlightSums<S>, k: usize) {
-        let n = usize::from(self.len).max(1);
-        let zz = usize::from(self.len).saturating_mul(usize::from(self.len));
+        let len = usize::from(self.len);
+        // The divisor of the splits below (never zero; with no component there is no `z`
+        // entry to split).
+        let n = len.max(1);
+        let zz = len.saturating_mul(len);
+        let zy = len.saturating_mul(3);
         let (mz, sz, my, sy) = (&self.mean.z, &self.sum.z, &self.mean.y, &self.sum.y);
         let at = |v: &[S], i: usize| v.get(i).copied().unwrap_or(S::ZERO);
         let split = |k: usize| (k.checked_div(n).unwrap_or(0), k.checked_rem(n).unwrap_or(0));
@@ -61,14 +65,14 @@ impl<S: Scalar> Closed<S> {
             if let Some(c) = flight.czz.get_mut(i).and_then(|row| row.get_mut(j)) {
                 *c = c.mul_add(at(mz, i), at(sz, j));
             }
-        } else if let Some(r) = k.checked_sub(zz).filter(|r| *r < n.saturating_mul(3)) {
+        } else if let Some(r) = k.checked_sub(zz).filter(|r| *r < zy) {
             let (a, c) = split(r);
             let j = self.comp(c);
             if let Some(c) = flight.czy.get_mut(a).and_then(|row| row.get_mut(j)) {
                 *c = c.mul_add(at(my, a), at(sz, j));
             }
         } else {
-            let a = k.saturating_sub(zz.saturating_add(n.saturating_mul(3)));
+            let a = k.saturating_sub(zz.saturating_add(zy));
             if let Some(c) = flight.cyy.get_mut(a) {
                 *c = c.mul_add(at(my, a), at(sy, a));
             }
@@ -202,9 +206,10 @@ mod tests {
     use crate::flight_id::sums::tests::text_hash;
     use crate::IntFloat;
 
-    /// Closed windows: sums, sample counts and the components moved by then. Window 1 is
-    /// sparse (a planar craft's components), the others dense; windows 2-6 are short, so they
-    /// close faster than their terms drain and the queue fills.
+    /// Closed windows: sums, sample counts and the components moved by then. Window 0 closes
+    /// before any component has moved (a coast, then a missing sample: only its `y` term),
+    /// window 1 is sparse (a planar craft's components), the others dense; windows 2-6 are
+    /// short, so they close faster than their terms drain and the queue fills.
     fn windows<S: Scalar>() -> [(Sample<S>, u32, Active, u32); 7] {
         let v = |w: usize, c: usize| {
             S::from_f32(((w * 11 + c * 7) % 13) as f32 / 4.0 - 1.3 + c as f32 / 32.0)
@@ -212,7 +217,11 @@ mod tests {
         let mut planar = Active::NONE;
         planar.note(|i| [2, 3, 4, 14, 17].contains(&i));
         core::array::from_fn(|w| {
-            let active = if w == 1 { planar } else { Active::full() };
+            let active = match w {
+                0 => Active::NONE,
+                1 => planar,
+                _ => Active::full(),
+            };
             let sum = Sample {
                 z: core::array::from_fn(|c| {
                     if active.sparse() && !active.contains(c) {

@@ -152,6 +152,19 @@ pub fn identify_with<S: SumScalar>(
     latency_ms: f64,
     ma: MaRoot,
 ) -> Result<FlightEstimate, HostError> {
+    identify_adjusted::<S>(flight, sat, response, latency_ms, ma, |_| {})
+}
+
+/// [`identify_with`] with the kernel's configuration changed by `adjust` after it is derived
+/// from the model and the flight (a team's own window limits; the tests' planted faults).
+pub fn identify_adjusted<S: SumScalar>(
+    flight: &Flight,
+    sat: &Satellite,
+    response: Option<SensorResponse>,
+    latency_ms: f64,
+    ma: MaRoot,
+    adjust: impl FnOnce(&mut FlightIdConfig<S>),
+) -> Result<FlightEstimate, HostError> {
     flight
         .check(sat)
         .map_err(|e| model_error(sat, e.to_string()))?;
@@ -231,6 +244,7 @@ pub fn identify_with<S: SumScalar>(
         }),
         turn_weight: turn_weight.map(S::from_f32),
         turn_window: window::samples(window::turn_window_s(&turn_weight), period as f32),
+        max_window_walk: S::from_f32(window::MAX_WINDOW_WALK),
         skip: u32::from(max_noise_order),
         solve: SolveConfig {
             j_nominal: std::array::from_fn(|m| S::from_f32(j6[m] as f32)),
@@ -258,6 +272,8 @@ pub fn identify_with<S: SumScalar>(
             )
         })?,
     };
+    let mut cfg = cfg;
+    adjust(&mut cfg);
     let run = |(rate_noise_ma_root, rate_noise_ma_lag): (S, u8),
                max_noise_order: u8|
      -> Result<(Solution<S>, u32), HostError> {

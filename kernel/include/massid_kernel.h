@@ -35,8 +35,10 @@ extern "C" {
  * Check massid_abi_version() == MASSID_ABI_VERSION before any other call: a library built
  * from another header then refuses instead of misreading a struct. History: 1 the first ABI,
  * 2 massid_flight_id_settings.turn_weight, 3 massid_flight_id_settings.thrust_sigma_rel,
- * 4 massid_flight_id_settings.rate_noise_ma_root and rate_noise_ma_lag. */
-#define MASSID_ABI_VERSION 5u
+ * 4 massid_flight_id_settings.rate_noise_ma_root and rate_noise_ma_lag, 5 massid_fixed_flight_id
+ * 36864 bytes, 6 a 3-D craft's windows also end at the coupled noise walk (same layout, other
+ * answers on fast-spinning craft). */
+#define MASSID_ABI_VERSION 6u
 uint32_t massid_abi_version(void);
 
 #define MASSID_N_THRUSTERS 12
@@ -263,7 +265,7 @@ typedef struct massid_flight_id_settings {
     float period_s;               /* nominal sample period; a step over 1.5 of it starts a window */
     float delay_periods;          /* known command-to-thrust delay, sample periods */
     float rate_noise_ma_root;     /* the rate noise's moving-average root, [0, 0.99] (0: a gyro; the noise's ma that massid estimate reports for an earlier flight, negated) */
-    float max_window_turn_rad;    /* past turn_window samples, cut a window after this weighted turn (INFINITY: never) */
+    float max_window_turn_rad;    /* past turn_window samples, cut a window after this weighted turn (INFINITY: never); a 3-D craft's window also ends at the coupled noise walk, whatever its length (flight_id::window) */
     float turn_weight[3];         /* per axis, how much its turn counts: finite, > 0 (1 for SPHERES-like coupling) */
     float scale[MASSID_ID_TERMS]; /* per term, the standard error beyond which it is held */
     float thrust_sigma_rel[MASSID_MAX_THRUSTERS]; /* per thruster, relative thrust uncertainty (0: known) */

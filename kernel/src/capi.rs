@@ -363,9 +363,11 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 /// header refuses to run instead of misreading a struct: 1 the first ABI, 2
 /// `massid_flight_id_settings.turn_weight`, 3 its `thrust_sigma_rel`, 4 its
 /// `rate_noise_ma_root` and `rate_noise_ma_lag`, 5 `massid_fixed_flight_id` 36,864 bytes
-/// (the closed windows waiting for their term, `flight_id::close`). [`ABI_LAYOUTS`] records
-/// each version's struct sizes from version 3 on.
-pub const ABI_VERSION: u32 = 5;
+/// (the closed windows waiting for their term, `flight_id::close`), 6 the identification's
+/// windows of a 3-D craft also end at the coupled noise walk (`flight_id::window`; same
+/// layout, other answers on fast-spinning craft). [`ABI_LAYOUTS`] records each version's
+/// struct sizes from version 3 on.
+pub const ABI_VERSION: u32 = 6;
 
 /// Per version (append-only: a new version adds a row, no row is edited), the sizes of the
 /// ABI's types on a 64-bit host (`massid_type_size(0..8)` then `massid_craft_type_size(0..7)`;
@@ -373,7 +375,7 @@ pub const ABI_VERSION: u32 = 5;
 /// changes size without a new version no longer matches its version's row
 /// ([`abi_layout_check`]). A change that keeps every size (fields reordered or retyped alike)
 /// is not seen here: the version must still be raised by hand.
-pub const ABI_LAYOUTS: [(u32, [u32; 15]); 3] = [
+pub const ABI_LAYOUTS: [(u32, [u32; 15]); 4] = [
     (
         3,
         [
@@ -388,6 +390,12 @@ pub const ABI_LAYOUTS: [(u32, [u32; 15]); 3] = [
     ),
     (
         5,
+        [
+            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 36864,
+        ],
+    ),
+    (
+        6,
         [
             388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 36864,
         ],

@@ -778,6 +778,8 @@ fn c_flight_id_matches_the_rust_flight_id() {
             max_window_turn_rad: turn,
             turn_weight,
             turn_window,
+            // The C ABI's: the settings do not carry it.
+            max_window_walk: massid_kernel::flight_id::window::MAX_WINDOW_WALK,
             skip,
             solve: SolveConfig {
                 j_nominal: [0.0; 6],
@@ -846,6 +848,7 @@ fn rust_flight_id_line<S: SumScalar>(
         max_window_turn_rad: c(cfg.max_window_turn_rad),
         turn_weight: cfg.turn_weight.map(c),
         turn_window: cfg.turn_window,
+        max_window_walk: c(cfg.max_window_walk),
         skip: cfg.skip,
         solve: SolveConfig {
             j_nominal: inverse_inertia(&inertia.map(c)).expect("inertia"),

@@ -523,6 +523,7 @@ fn flight_id_config<S: Scalar>(
         max_window: s.max_window,
         max_window_turn_rad: S::from_f32(s.max_window_turn_rad),
         turn_window: s.turn_window,
+        max_window_walk: S::from_f32(window::MAX_WINDOW_WALK),
         turn_weight: s.turn_weight.map(S::from_f32),
         skip: s.skip,
         solve: SolveConfig {

@@ -80,12 +80,56 @@ impl<S: Scalar> Envelope<S> {
         }
     }
 
+    /// How far a window's rate products reach, rad^2/s: the rate squared times `window_s`,
+    /// or less where the window ends at the coupled noise walk `max_walk` first (the walk
+    /// weighs each axis' `omega_a^2 dt` by `walk_weight[a]`, [`super::window`]; the window's
+    /// first sample and the one that crosses the limit are two steps of `step_s` beyond it).
+    /// Then each `integral omega_a^2 dt` is at most (walk plus two steps) over its weight, and
+    /// each cross product the largest of those. Also how many of the products' largest
+    /// steps (`rate^2 step_s`) the reach holds, at most `max_window`.
+    pub fn products_reach(
+        &self,
+        window_s: S,
+        walk_weight: &[S; 3],
+        max_walk: S,
+        step_s: S,
+        max_window: u32,
+    ) -> (S, u32) {
+        let rate2 = self.rate.times(self.rate);
+        let by_time = rate2.times(window_s);
+        let largest_step = rate2.times(step_s);
+        let total = walk_weight.iter().fold(S::ZERO, |acc, w| acc.plus(*w));
+        let least = walk_weight
+            .iter()
+            .fold(total, |m, w| if w.lt(m) { *w } else { m });
+        let by_walk = max_walk
+            .plus(total.times(largest_step).mul_pow2(1))
+            .checked_div(least);
+        match by_walk {
+            Some(b) if b.is_valid() && S::ZERO.lt(least) && b.lt(by_time) => {
+                // At least the two steps above; `as` saturates (no panic).
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let steps = b
+                    .checked_div(largest_step)
+                    .map_or(max_window, |n| n.to_f32() as u32);
+                (b, steps.clamp(2, max_window.max(2)))
+            }
+            _ => (by_time, max_window),
+        }
+    }
+
     /// Per component of a sample (`z`, then `y`), a bound on its magnitude in a window of at
     /// most `window_s` seconds, for the nominal model's matrix `nominal` (its prediction is
-    /// taken out of `y`): the drive integrates the wrench and the rate products over the
-    /// window, and the held torque is the wrench itself (each doubled for rounding's sake); the
-    /// residual's bound is below.
-    pub fn component_bounds(&self, window_s: S, nominal: &[[S; NZ]; 3]) -> [S; NZ + 3] {
+    /// taken out of `y`): the drive integrates the wrench over the window, and the rate
+    /// products up to `products_reach` (rad^2/s; at most the rate squared times the window,
+    /// less where the window's noise walk ends it first), and the held torque is the wrench
+    /// itself (each doubled for rounding's sake); the residual's bound is below.
+    pub fn component_bounds(
+        &self,
+        window_s: S,
+        products_reach: S,
+        nominal: &[[S; NZ]; 3],
+    ) -> [S; NZ + 3] {
         use super::sums::{N_MODEL, SPLIT_TORQUE};
         // A component the craft cannot push at all (a planar craft's roll torque) still gets
         // a bound, 2^-20 of the largest: a rounding residue there is not refused.
@@ -98,7 +142,7 @@ impl<S: Scalar> Envelope<S> {
             *b = if i < 6 {
                 w(i).times(window_s)
             } else if i < N_MODEL {
-                rate.times(rate).times(window_s)
+                products_reach
             } else if i < SPLIT_TORQUE {
                 w(i.saturating_sub(N_MODEL))
             } else {
@@ -180,19 +224,20 @@ impl ExactMoments {
         Some(Sample { z: zq, y })
     }
 
-    /// The item of an exact drive snapshot `z` (units `2^-frac` of the sums' resolution,
-    /// [`ExactDrive`]'s [`DriveSum::snapshot`] and the sensor's exact means): each component
-    /// rounded once to nearest ([`round_product`], proved for every `frac` of
-    /// [`response_frac`]), where the integer float rounded twice (to its mantissa, then to
+    /// The item of an exact drive snapshot `z` (component `c` in units `2^-(extra[c] + bits)`
+    /// of the sums' resolution, [`ExactDrive`]'s [`DriveSum::snapshot`] and the sensor's exact
+    /// means): each component rounded once to nearest ([`round_product`], proved for every
+    /// shift of [`response_frac`]), where the integer float rounded twice (to its mantissa, then to
     /// the sums' resolution) and cost a conversion each way.
     pub(crate) fn item_of_drive(
         &self,
         z: &[i64; NZ],
-        frac: u32,
+        extra: &[i32; NZ],
+        bits: u32,
         y_raw: &[IntFloat; 3],
     ) -> Option<Sample<i32>> {
         let mut zq = [0i32; NZ];
-        for (o, v) in zq.iter_mut().zip(z) {
+        for ((o, v), x) in zq.iter_mut().zip(z).zip(extra) {
             if *v == 0 {
                 // Most of a planar craft's components.
                 continue;
@@ -202,6 +247,7 @@ impl ExactMoments {
             if *v == i64::MAX || v.unsigned_abs() > 1u64 << 62 {
                 return None;
             }
+            let frac = x.unsigned_abs().saturating_add(bits);
             let q = round_product(&Native, &(*v as u64), frac) as i32;
             if q.unsigned_abs() >= 1u32 << VALUE_BITS {
                 return None;
@@ -313,6 +359,12 @@ pub const fn drive_extra_bits(max_window: u32) -> i32 {
     4i32.saturating_add(31i32.saturating_sub(n.leading_zeros() as i32))
 }
 
+/// Component `c` of the drive is a rate product (their reach is the noise walk's,
+/// [`Envelope::products_reach`]).
+const fn is_product(c: usize) -> bool {
+    c >= 6 && c < super::sums::N_MODEL
+}
+
 /// The integer float's window drive: exact `i64` sums of increments rounded at a
 /// per-component power of two [`drive_extra_bits`] below the sums' ([`ExactMoments`]). A
 /// component within its bound is below `2^(VALUE_BITS + 35)` (`max_window < 2^32`), so no sum
@@ -322,8 +374,8 @@ pub const fn drive_extra_bits(max_window: u32) -> i32 {
 pub struct ExactDrive {
     z: [i64; NZ],
     exp: [i32; NZ],
-    /// The drive's resolution below the sums' ([`drive_extra_bits`]).
-    extra: i32,
+    /// Per component, the drive's resolution below the sums' ([`drive_extra_bits`]).
+    extra: [i32; NZ],
 }
 
 impl ExactDrive {
@@ -403,13 +455,14 @@ impl DriveSum<IntFloat> for ExactDrive {
         if let (Some(z), Some(e)) = (self.z.get_mut(i), self.exp.get(i)) {
             // A held value is as large as its bound: rounded at the sums' resolution (it fits
             // 32 bits there), then brought to the drive's, exactly.
-            let q = Self::rounded(value, e.saturating_add(self.extra));
+            let extra = self.extra.get(i).copied().unwrap_or(0);
+            let q = Self::rounded(value, e.saturating_add(extra));
             *z = if q == i64::MAX {
                 q
             } else {
                 // |q| < 2^31 and extra <= 35: a value beyond its bound saturates to the
                 // sentinel (refused); within it |q| < 2^VALUE_BITS and nothing saturates.
-                q.saturating_mul(1i64 << self.extra.clamp(0, 35))
+                q.saturating_mul(1i64 << extra.clamp(0, 35))
             };
         }
     }
@@ -475,7 +528,7 @@ pub struct ExactScales {
     exp: [i32; NZ + 3],
     nominal: [[i32; NZ]; 3],
     drive_exp: [i32; NZ],
-    extra: i32,
+    extra: [i32; NZ],
 }
 
 impl SumScalar for IntFloat {
@@ -486,6 +539,7 @@ impl SumScalar for IntFloat {
         bounds: &[IntFloat; NZ + 3],
         nominal: &[[IntFloat; NZ]; 3],
         max_window: u32,
+        products_window: u32,
         window_s: IntFloat,
     ) -> Option<ExactScales> {
         if IntFloat::from_f32(MAX_REACH_S).lt(window_s) || max_window > MAX_WINDOW_SAMPLES {
@@ -509,10 +563,19 @@ impl SumScalar for IntFloat {
                 }
             }
         }
-        let extra = drive_extra_bits(max_window);
+        // The rate products' bound may be reached in fewer steps than a window has (a window
+        // that ends at its noise walk): their drive is kept finer by what that many steps
+        // need, so that their increments still fit 32 bits.
+        let extra: [i32; NZ] = core::array::from_fn(|c| {
+            drive_extra_bits(if is_product(c) {
+                products_window.clamp(1, max_window.max(1))
+            } else {
+                max_window
+            })
+        });
         let mut drive_exp = [0i32; NZ];
-        for (d, e) in drive_exp.iter_mut().zip(ez) {
-            *d = e.checked_sub(extra)?;
+        for ((d, e), x) in drive_exp.iter_mut().zip(ez).zip(extra) {
+            *d = e.checked_sub(x)?;
         }
         Some(ExactScales {
             exp,
@@ -545,8 +608,7 @@ impl SumScalar for IntFloat {
         y_raw: &[IntFloat; 3],
         _: &[[IntFloat; NZ]; 3],
     ) -> Option<Sample<i32>> {
-        let frac = drive.extra.unsigned_abs().saturating_add(z.bits);
-        recent.item_of_drive(&z.z, frac, y_raw)
+        recent.item_of_drive(&z.z, &drive.extra, z.bits, y_raw)
     }
 }
 
@@ -580,7 +642,14 @@ mod tests {
     fn exact_sums_equal_the_integer_products_and_fold_to_their_value() {
         let bounds = [IntFloat::from_f32(2.0); NZ + 3];
         let mut r = IntFloat::recent(
-            &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 1000, IntFloat::ONE).unwrap(),
+            &IntFloat::scales(
+                &bounds,
+                &[[IntFloat::ZERO; NZ]; 3],
+                1000,
+                1000,
+                IntFloat::ONE,
+            )
+            .unwrap(),
         );
         let v = Sample {
             z: core::array::from_fn(|i| IntFloat::from_f32(0.1 * i as f32 - 0.7)),
@@ -613,9 +682,16 @@ mod tests {
     fn the_drive_sums_increments_exactly_and_holds_values_as_large_as_their_bound() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let mut d = IntFloat::drive(
-            &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 20_000, IntFloat::ONE).unwrap(),
+            &IntFloat::scales(
+                &bounds,
+                &[[IntFloat::ZERO; NZ]; 3],
+                20_000,
+                20_000,
+                IntFloat::ONE,
+            )
+            .unwrap(),
         );
-        assert_eq!(d.extra, 4 + 14);
+        assert_eq!(d.extra, [4 + 14; NZ]);
         // 10,000 increments of 1e-4: exactly their rounded sum, close to 1.
         for _ in 0..10_000 {
             d.add(0, IntFloat::from_f32(1e-4));
@@ -636,7 +712,14 @@ mod tests {
         d.add(2, IntFloat::from_f32(-1e6));
         assert_eq!(d.z[2], i64::MAX);
         let r = IntFloat::recent(
-            &IntFloat::scales(&bounds, &[[IntFloat::ZERO; NZ]; 3], 20_000, IntFloat::ONE).unwrap(),
+            &IntFloat::scales(
+                &bounds,
+                &[[IntFloat::ZERO; NZ]; 3],
+                20_000,
+                20_000,
+                IntFloat::ONE,
+            )
+            .unwrap(),
         );
         let none = [[IntFloat::ZERO; NZ]; 3];
         assert!(r.item(&values(&d), &[IntFloat::ZERO; 3], &none).is_none());
@@ -654,7 +737,7 @@ mod tests {
     fn the_drive_s_item_is_its_exact_mean_rounded_once() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(&bounds, &none, 20_000, IntFloat::ONE).unwrap();
+        let scales = IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap();
         let r = IntFloat::recent(&scales);
         let mut drives = [IntFloat::drive(&scales); 3];
         for (k, d) in drives.iter_mut().enumerate() {
@@ -667,12 +750,12 @@ mod tests {
             }
         }
         let snaps = drives.map(|d| d.snapshot());
-        let frac_of = |d: &ExactDrive, r: &Response| d.extra as u32 + r.bits;
+        let frac_of = |d: &ExactDrive, r: &Response| d.extra[0] as u32 + r.bits;
         assert_eq!(frac_of(&drives[0], &snaps[0]), response_frac(20_000, 0));
         let zero = [IntFloat::ZERO; 3];
         let exact_of = |i: usize, w: [f64; 3]| -> f64 {
             let sum: f64 = (0..3).map(|k| w[k] * drives[k].z[i] as f64).sum();
-            sum / w.iter().sum::<f64>() / 2f64.powi(drives[0].extra)
+            sum / w.iter().sum::<f64>() / 2f64.powi(drives[0].extra[i])
         };
         let responses = [
             (snaps[2], [0.0, 0.0, 1.0]),
@@ -697,9 +780,8 @@ mod tests {
                 worst_before = worst_before.max((f64::from(old.z[i]) - exact).abs());
             }
             // Planted: a shift one bit short is a different item.
-            let wrong = r
-                .item_of_drive(&z.z, frac_of(&drives[0], &z) - 1, &zero)
-                .unwrap();
+            let short = drives[0].extra.map(|x| x - 1);
+            let wrong = r.item_of_drive(&z.z, &short, z.bits, &zero).unwrap();
             assert_ne!(wrong.z, item.z);
         }
         assert!(worst_before > 0.5, "{worst_before}");
@@ -710,7 +792,7 @@ mod tests {
     fn windows_beyond_the_proved_shifts_are_refused() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let at = |n| IntFloat::scales(&bounds, &none, n, IntFloat::ONE);
+        let at = |n| IntFloat::scales(&bounds, &none, n, n, IntFloat::ONE);
         assert!(at(MAX_WINDOW_SAMPLES).is_some());
         assert!(at(MAX_WINDOW_SAMPLES + 1).is_none());
     }
@@ -721,9 +803,12 @@ mod tests {
         let j = [20.0f32, 25.0, 30.0, 1.0, -0.5, 0.3].map(IntFloat::from_f32);
         let nominal = model_matrix(&j, &[IntFloat::ZERO; 3], true).unwrap();
         let env = Envelope::of_craft([0.05f32, 0.05, 0.05, 0.5, 0.5, 0.5].map(IntFloat::from_f32));
-        let bounds = env.component_bounds(IntFloat::from_f32(90.0), &nominal);
-        let r =
-            IntFloat::recent(&IntFloat::scales(&bounds, &nominal, 20_000, IntFloat::ONE).unwrap());
+        let window_s = IntFloat::from_f32(90.0);
+        let reach = env.rate * env.rate * window_s;
+        let bounds = env.component_bounds(window_s, reach, &nominal);
+        let r = IntFloat::recent(
+            &IntFloat::scales(&bounds, &nominal, 20_000, 20_000, IntFloat::ONE).unwrap(),
+        );
         // Each component at a third of its bound or less.
         let z: [IntFloat; NZ] =
             core::array::from_fn(|i| bounds[i] * IntFloat::from_f32(0.15 * (i as f32 + 1.0).sin()));
@@ -747,8 +832,9 @@ mod tests {
         }
         // A planted fault: the prediction left out is seen.
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let r0 =
-            IntFloat::recent(&IntFloat::scales(&bounds, &none, 20_000, IntFloat::ONE).unwrap());
+        let r0 = IntFloat::recent(
+            &IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap(),
+        );
         let raw = r0.item(&z, &y_raw, &none).unwrap();
         assert!((0..3).any(|a| (raw.y[a] - item.y[a]).abs() > 1000));
     }
@@ -762,7 +848,7 @@ mod tests {
         let bounds: [IntFloat; NZ + 3] =
             core::array::from_fn(|c| IntFloat::from_f32(2.0 + (c % 5) as f32));
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(&bounds, &none, 1000, IntFloat::ONE).unwrap();
+        let scales = IntFloat::scales(&bounds, &none, 1000, 1000, IntFloat::ONE).unwrap();
         let mut recent = RecentSums::new(IntFloat::recent(&scales));
         let mut flight = FlightSums::<IntFloat>::default();
         let mut window = WindowSums::<IntFloat>::default();

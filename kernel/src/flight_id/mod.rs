@@ -86,6 +86,10 @@ pub struct FlightIdConfig<S> {
     pub turn_weight: [S; 3],
     /// See `max_window_turn_rad`.
     pub turn_window: u32,
+    /// A 3-D craft's window is also cut, whatever its length, once its coupled noise walk
+    /// (`sum_a w_a omega_a^2 dt`, weights [`window::walk_weights`] of `turn_weight` and the
+    /// period) reaches this ([`window::MAX_WINDOW_WALK`]; infinity: never).
+    pub max_window_walk: S,
     /// Samples left out at each window's start: the noise model's highest order (their
     /// whitened residual would need samples before the window).
     pub skip: u32,
@@ -126,6 +130,11 @@ pub struct FlightId<S: SumScalar> {
     filled: u32,
     /// Weighted rotation in the window so far, rad (sum over the axes of `w_a |omega_a| dt`).
     turned: S,
+    /// Per axis, the weight of `omega_a^2 dt` in the coupled noise walk (zero for a planar
+    /// craft, which has no gyroscopic products).
+    walk_weight: [S; 3],
+    /// The window's coupled noise walk so far ([`window`]).
+    walked: S,
     /// The window's rate anchor (its first measurement).
     anchor: Option<[S; 3]>,
     /// The delay line of the commands.
@@ -175,8 +184,21 @@ impl<S: SumScalar> FlightId<S> {
         let window_s = S::from_int_pow2(i32::try_from(cfg.max_window).unwrap_or(i32::MAX), 0)
             .times(cfg.period_s)
             .times(S::from_f32(1.5));
-        let bounds = cfg.envelope.component_bounds(window_s, &nominal);
-        let scales = S::scales(&bounds, &nominal, cfg.max_window, window_s)?;
+        let walk_weight = if cfg.solve.gyroscopic {
+            window::walk_weights(&cfg.turn_weight.map(S::to_f32), cfg.period_s.to_f32())?
+                .map(S::from_f32)
+        } else {
+            [S::ZERO; 3]
+        };
+        let (reach, products_window) = cfg.envelope.products_reach(
+            window_s,
+            &walk_weight,
+            cfg.max_window_walk,
+            S::from_f32(1.5).times(cfg.period_s),
+            cfg.max_window,
+        );
+        let bounds = cfg.envelope.component_bounds(window_s, reach, &nominal);
+        let scales = S::scales(&bounds, &nominal, cfg.max_window, products_window, window_s)?;
         field!(slot, Self, cfg).write(cfg);
         FlightSums::init_in_place(field!(slot, Self, sums));
         RecentSums::init_in_place(field!(slot, Self, recent), |r| S::init_recent(r, &scales));
@@ -191,6 +213,8 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, newest).write(0);
         field!(slot, Self, filled).write(0);
         field!(slot, Self, turned).write(S::ZERO);
+        field!(slot, Self, walk_weight).write(walk_weight);
+        field!(slot, Self, walked).write(S::ZERO);
         field!(slot, Self, anchor).write(None);
         field!(slot, Self, previous).write(None);
         field!(slot, Self, delay).write(delay);
@@ -215,6 +239,8 @@ impl<S: SumScalar> FlightId<S> {
                     newest,
                     filled,
                     turned,
+                    walk_weight,
+                    walked,
                     anchor,
                     delay,
                     prefilter,
@@ -252,6 +278,7 @@ impl<S: SumScalar> FlightId<S> {
                     && self.filled < self.cfg.max_window
                     && (self.filled < self.cfg.turn_window
                         || self.turned.lt(self.cfg.max_window_turn_rad))
+                    && self.walked.lt(self.cfg.max_window_walk)
                     && !(self.cfg.cut_at_changes && differs(&w_prev, &wrench))
             }
             None => false,
@@ -325,6 +352,12 @@ impl<S: SumScalar> FlightId<S> {
             for (w, k) in rate.iter().zip(self.cfg.turn_weight) {
                 self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
             }
+            // The squared rates are the products' first three (zero for a planar craft).
+            let walk = products
+                .iter()
+                .zip(self.walk_weight)
+                .fold(S::ZERO, |acc, (p, k)| acc.mul_add(*p, k));
+            self.walked = self.walked.mul_add(walk, dt_s);
         }
         // A ring, not a rotation: no copying of the older entries per sample.
         self.newest = if self.newest == 0 {
@@ -392,6 +425,7 @@ impl<S: SumScalar> FlightId<S> {
         self.prefilter.reset();
         self.filled = 0;
         self.turned = S::ZERO;
+        self.walked = S::ZERO;
         self.anchor = None;
     }
 
@@ -484,6 +518,7 @@ mod tests {
             max_window_turn_rad: limit,
             turn_weight: weight,
             turn_window: 0,
+            max_window_walk: f32::INFINITY,
             skip: 0,
             solve: SolveConfig {
                 j_nominal: [10.0, 10.0, 10.0, 0.0, 0.0, 0.0],
@@ -534,6 +569,7 @@ mod tests {
                 max_window_turn_rad: c(f32::INFINITY),
                 turn_weight: [S::ONE; 3],
                 turn_window: 0,
+                max_window_walk: c(f32::INFINITY),
                 skip: 0,
                 solve: SolveConfig {
                     j_nominal: [10.0f32, 10.0, 10.0, 0.0, 0.0, 0.0].map(c),
@@ -568,5 +604,75 @@ mod tests {
         assert_eq!(run::<f32>(0.005), Ok(()));
         assert_eq!(run::<IntFloat>(0.5), Err(SolveError::Overflow));
         assert_ne!(run::<f32>(0.5), Err(SolveError::Overflow));
+    }
+
+    /// A 3-D craft spinning near its envelope's rate: its windows end at the coupled noise
+    /// walk whatever the turn limit says (one window without it), and the integer float's
+    /// rate products, whose bound is then the walk's and not the window's length
+    /// (`Envelope::products_reach`), stay in range. Measured with the products' drive kept at
+    /// the window's resolution instead of the walk's (`IntFloat::scales`): out of range.
+    #[test]
+    fn a_spinning_craft_s_windows_end_at_the_noise_walk_and_stay_in_range() {
+        use crate::IntFloat;
+        fn run<S: SumScalar>(walk: f32) -> (u32, bool, Result<(), SolveError>) {
+            let c = S::from_f32;
+            let cfg = FlightIdConfig {
+                period_s: c(1e-3),
+                sensor: SensorResponse::Point,
+                rate_noise_ma_root: S::ZERO,
+                rate_noise_ma_lag: 1,
+                delay_periods: 0.0,
+                cut_at_changes: false,
+                max_window: 60_000,
+                max_window_turn_rad: c(f32::INFINITY),
+                // a craft that couples the axes four times as much as SPHERES
+                turn_weight: [c(4.0); 3],
+                turn_window: 0,
+                max_window_walk: c(walk),
+                skip: 0,
+                solve: SolveConfig {
+                    j_nominal: [10.0f32, 12.0, 14.0, 0.0, 0.0, 0.0].map(c),
+                    free: [true; NP],
+                    axes: [true; 3],
+                    gyroscopic: true,
+                    max_noise_order: 0,
+                    scale: [1.0f32; NP].map(c),
+                },
+                envelope: exact::Envelope {
+                    wrench: [0.01f32, 0.01, 0.01, 0.1, 0.1, 0.1].map(c),
+                    rate: c(6.0),
+                },
+                thrust: consider::ThrustUncertainty::none(),
+            };
+            let mut id = FlightId::new(cfg).expect("config");
+            let mut x = 12345u32;
+            for k in 0..20_000u32 {
+                // 5.9 rad/s about x and 0.5 about y, pulses about z, the rate noisy
+                let on = (k / 150) % 2 == 0;
+                let torque = if on { c(0.005) } else { S::ZERO };
+                let rate = [5.9f32, 0.5, 0.0].map(|v| {
+                    x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    c(v + 1e-3 * ((x >> 8) as f32 / (1u32 << 24) as f32 - 0.5))
+                });
+                id.push(
+                    c(1e-3),
+                    rate,
+                    true,
+                    [S::ZERO, S::ZERO, torque, S::ZERO, S::ZERO, S::ZERO],
+                );
+            }
+            id.finish();
+            let sums = id.sums();
+            (sums.windows, sums.out_of_range, id.solve().map(|_| ()))
+        }
+        // The walk: 1e-3 s times the integral of (kappa omega)^2, kappa four times SPHERES'
+        // 0.22: about 0.027 a second, so 0.02 ends a window every 0.7 s (about 27 over the
+        // 20 s); without the limit: one window.
+        let (windows, beyond, _) = run::<IntFloat>(window::MAX_WINDOW_WALK);
+        assert!(!beyond, "{windows}");
+        assert!(windows > 20, "{windows}");
+        assert_eq!(run::<f32>(window::MAX_WINDOW_WALK).0, windows);
+        let (one, beyond, _) = run::<IntFloat>(f32::INFINITY);
+        assert_eq!((one, beyond), (1, false));
     }
 }

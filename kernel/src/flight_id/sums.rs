@@ -479,11 +479,13 @@ pub trait SumScalar: Scalar {
     type Scales: Copy + core::fmt::Debug;
     /// The scales for samples whose components (`z` then `y`) stay within `bounds` in
     /// magnitude, `y` taken from the prediction of `nominal`, in windows of at most
-    /// `max_window` samples and `window_s` seconds; None if they are not usable.
+    /// `max_window` samples and `window_s` seconds, whose rate products reach their bound in
+    /// no fewer than `products_window` of their largest steps; None if they are not usable.
     fn scales(
         bounds: &[Self; NZ + 3],
         nominal: &[[Self; NZ]; 3],
         max_window: u32,
+        products_window: u32,
         window_s: Self,
     ) -> Option<Self::Scales>;
     /// Writes empty recent sums to `slot` (in place: they are the state's largest part) and
@@ -565,7 +567,7 @@ macro_rules! float_sums {
             type Recent = LagMoments<$t>;
             type Drive = Compensated<$t>;
             type Scales = ();
-            fn scales(_: &[$t; NZ + 3], _: &[[$t; NZ]; 3], _: u32, _: $t) -> Option<()> {
+            fn scales(_: &[$t; NZ + 3], _: &[[$t; NZ]; 3], _: u32, _: u32, _: $t) -> Option<()> {
                 Some(())
             }
             fn init_recent<'a>(
@@ -855,7 +857,7 @@ pub(crate) mod tests {
     ) -> u64 {
         let bounds: [S; NZ + 3] = core::array::from_fn(|_| S::from_f32(4.0));
         let none = [[S::ZERO; NZ]; 3];
-        let scales = S::scales(&bounds, &none, 1000, S::ONE).unwrap();
+        let scales = S::scales(&bounds, &none, 1000, 1000, S::ONE).unwrap();
         let mut recent = RecentSums::new(S::recent(&scales));
         recent.active = start;
         let mut flight = FlightSums::<S>::default();

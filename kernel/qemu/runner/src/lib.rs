@@ -368,6 +368,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
         max_window_turn_rad: S::from_f32(1e9),
         turn_weight: [S::ONE; 3],
         turn_window: 8000,
+        max_window_walk: S::from_f32(1e9),
         skip: 2,
         solve: SolveConfig {
             j_nominal: j_f32.map(S::from_f32),

@@ -681,16 +681,9 @@ mod tests {
     #[test]
     fn the_drive_sums_increments_exactly_and_holds_values_as_large_as_their_bound() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
-        let mut d = IntFloat::drive(
-            &IntFloat::scales(
-                &bounds,
-                &[[IntFloat::ZERO; NZ]; 3],
-                20_000,
-                20_000,
-                IntFloat::ONE,
-            )
-            .unwrap(),
-        );
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let scales = IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap();
+        let mut d = IntFloat::drive(&scales);
         assert_eq!(d.extra, [4 + 14; NZ]);
         // 10,000 increments of 1e-4: exactly their rounded sum, close to 1.
         for _ in 0..10_000 {
@@ -711,17 +704,7 @@ mod tests {
         d.add(2, IntFloat::from_f32(1e6));
         d.add(2, IntFloat::from_f32(-1e6));
         assert_eq!(d.z[2], i64::MAX);
-        let r = IntFloat::recent(
-            &IntFloat::scales(
-                &bounds,
-                &[[IntFloat::ZERO; NZ]; 3],
-                20_000,
-                20_000,
-                IntFloat::ONE,
-            )
-            .unwrap(),
-        );
-        let none = [[IntFloat::ZERO; NZ]; 3];
+        let r = IntFloat::recent(&scales);
         assert!(r.item(&values(&d), &[IntFloat::ZERO; 3], &none).is_none());
         // The same through the integer path.
         let zero = [IntFloat::ZERO; 3];

@@ -551,6 +551,44 @@ mod tests {
         assert_eq!(windows_of([1.0, 5.0, 5.0], 0.1), plain);
     }
 
+    /// A 3-D test craft's configuration at 1 kHz, no turn limit, with the window length, the
+    /// turn weights, the noise walk limit, the nominal inertia, the free terms and the envelope
+    /// given.
+    fn config_3d<S: SumScalar>(
+        max_window: u32,
+        turn_weight: [S; 3],
+        max_window_walk: S,
+        inertia_inverse: [f32; 6],
+        free: [bool; NP],
+        envelope: exact::Envelope<S>,
+    ) -> FlightIdConfig<S> {
+        let c = S::from_f32;
+        FlightIdConfig {
+            period_s: c(1e-3),
+            sensor: SensorResponse::Point,
+            rate_noise_ma_root: S::ZERO,
+            rate_noise_ma_lag: 1,
+            delay_periods: 0.0,
+            cut_at_changes: false,
+            max_window,
+            max_window_turn_rad: c(f32::INFINITY),
+            turn_weight,
+            turn_window: 0,
+            max_window_walk,
+            skip: 0,
+            solve: SolveConfig {
+                j_nominal: inertia_inverse.map(c),
+                free,
+                axes: [true; 3],
+                gyroscopic: true,
+                max_noise_order: 0,
+                scale: [1.0f32; NP].map(c),
+            },
+            envelope,
+            thrust: consider::ThrustUncertainty::none(),
+        }
+    }
+
     /// The fixed kernel's exact sums are scaled to the envelope: a wrench beyond it makes the
     /// fit answer Overflow (f32, which has no such scale, answers).
     #[test]
@@ -558,31 +596,15 @@ mod tests {
         use crate::IntFloat;
         fn run<S: SumScalar>(torque: f32) -> Result<(), SolveError> {
             let c = S::from_f32;
-            let cfg = FlightIdConfig {
-                period_s: c(1e-3),
-                sensor: SensorResponse::Point,
-                rate_noise_ma_root: S::ZERO,
-                rate_noise_ma_lag: 1,
-                delay_periods: 0.0,
-                cut_at_changes: false,
-                max_window: 2000,
-                max_window_turn_rad: c(f32::INFINITY),
-                turn_weight: [S::ONE; 3],
-                turn_window: 0,
-                max_window_walk: c(f32::INFINITY),
-                skip: 0,
-                solve: SolveConfig {
-                    j_nominal: [10.0f32, 10.0, 10.0, 0.0, 0.0, 0.0].map(c),
-                    // the principal terms: the pulses excite them and nothing else
-                    free: core::array::from_fn(|m| m < 3),
-                    axes: [true; 3],
-                    gyroscopic: true,
-                    max_noise_order: 0,
-                    scale: [1.0f32; NP].map(c),
-                },
-                envelope: exact::Envelope::of_craft([0.01f32, 0.01, 0.01, 0.1, 0.1, 0.1].map(c)),
-                thrust: consider::ThrustUncertainty::none(),
-            };
+            let cfg = config_3d(
+                2000,
+                [S::ONE; 3],
+                c(f32::INFINITY),
+                [10.0, 10.0, 10.0, 0.0, 0.0, 0.0],
+                // the principal terms: the pulses excite them and nothing else
+                core::array::from_fn(|m| m < 3),
+                exact::Envelope::of_craft([0.01f32, 0.01, 0.01, 0.1, 0.1, 0.1].map(c)),
+            );
             let mut id = FlightId::new(cfg).expect("config");
             let mut w = [0.0f32; 3];
             let mut x = 12345u32;
@@ -616,34 +638,18 @@ mod tests {
         use crate::IntFloat;
         fn run<S: SumScalar>(walk: f32) -> (u32, bool, Result<(), SolveError>) {
             let c = S::from_f32;
-            let cfg = FlightIdConfig {
-                period_s: c(1e-3),
-                sensor: SensorResponse::Point,
-                rate_noise_ma_root: S::ZERO,
-                rate_noise_ma_lag: 1,
-                delay_periods: 0.0,
-                cut_at_changes: false,
-                max_window: 60_000,
-                max_window_turn_rad: c(f32::INFINITY),
+            let cfg = config_3d(
+                60_000,
                 // a craft that couples the axes four times as much as SPHERES
-                turn_weight: [c(4.0); 3],
-                turn_window: 0,
-                max_window_walk: c(walk),
-                skip: 0,
-                solve: SolveConfig {
-                    j_nominal: [10.0f32, 12.0, 14.0, 0.0, 0.0, 0.0].map(c),
-                    free: [true; NP],
-                    axes: [true; 3],
-                    gyroscopic: true,
-                    max_noise_order: 0,
-                    scale: [1.0f32; NP].map(c),
-                },
-                envelope: exact::Envelope {
+                [c(4.0); 3],
+                c(walk),
+                [10.0, 12.0, 14.0, 0.0, 0.0, 0.0],
+                [true; NP],
+                exact::Envelope {
                     wrench: [0.01f32, 0.01, 0.01, 0.1, 0.1, 0.1].map(c),
                     rate: c(6.0),
                 },
-                thrust: consider::ThrustUncertainty::none(),
-            };
+            );
             let mut id = FlightId::new(cfg).expect("config");
             let mut x = 12345u32;
             for k in 0..20_000u32 {

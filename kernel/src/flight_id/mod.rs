@@ -352,12 +352,14 @@ impl<S: SumScalar> FlightId<S> {
             for (w, k) in rate.iter().zip(self.cfg.turn_weight) {
                 self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
             }
-            // The squared rates are the products' first three (zero for a planar craft).
-            let walk = products
-                .iter()
-                .zip(self.walk_weight)
-                .fold(S::ZERO, |acc, (p, k)| acc.mul_add(*p, k));
-            self.walked = self.walked.mul_add(walk, dt_s);
+            // The squared rates are the products' first three; a planar craft has none.
+            if gyro {
+                let walk = products
+                    .iter()
+                    .zip(self.walk_weight)
+                    .fold(S::ZERO, |acc, (p, k)| acc.mul_add(*p, k));
+                self.walked = self.walked.mul_add(walk, dt_s);
+            }
         }
         // A ring, not a rotation: no copying of the older entries per sample.
         self.newest = if self.newest == 0 {

@@ -86,14 +86,21 @@ pub fn coupling(inertia_kgm2: &[f32; 6]) -> Option<[f32; 3]> {
     out.iter().all(|k| k.is_finite()).then_some(out)
 }
 
+/// SPHERES' largest coupling, the reference of the turn and walk weights.
+fn spheres_coupling() -> Option<f32> {
+    Some(
+        coupling(&SPHERES_INERTIA_KGM2)?
+            .into_iter()
+            .fold(0.0f32, f32::max),
+    )
+}
+
 /// Each axis' weight in the window's turn, `max(1, kappa_a / max kappa_SPHERES)`; the floor
 /// ([`TURN_WINDOW_S`]) is divided by the largest. All ones for a craft that couples no more
 /// than SPHERES. None for a singular inertia or one so ill-conditioned that a weight is not
 /// finite.
 pub fn turn_weights(inertia_kgm2: &[f32; 6]) -> Option<[f32; 3]> {
-    let reference = coupling(&SPHERES_INERTIA_KGM2)?
-        .into_iter()
-        .fold(0.0f32, f32::max);
+    let reference = spheres_coupling()?;
     let w = coupling(inertia_kgm2)?.map(|v| (v / reference).max(1.0));
     w.iter().all(|v| v.is_finite()).then_some(w)
 }
@@ -108,9 +115,7 @@ pub fn turn_window_s(weights: &[f32; 3]) -> f32 {
 /// largest coupling times the axis' turn weight, at least the axis' own coupling). None if
 /// a weight is not finite.
 pub fn walk_weights(turn_weight: &[f32; 3], period_s: f32) -> Option<[f32; 3]> {
-    let reference = coupling(&SPHERES_INERTIA_KGM2)?
-        .into_iter()
-        .fold(0.0f32, f32::max);
+    let reference = spheres_coupling()?;
     let w = turn_weight.map(|t| {
         let k = reference * t;
         k * k * period_s

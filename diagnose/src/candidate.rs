@@ -117,6 +117,8 @@ pub(crate) struct Tried {
     pub nuis: Vec<f64>,
     pub chi2_rigid: f64,
     pub stderr: Vec<f64>,
+    /// The joint fit's covariance (for the Wald test of one effect's parameters together).
+    pub cov: nalgebra::DMatrix<f64>,
     pub sizes: Vec<usize>,
     pub rigid_residual: Vec<[f64; 3]>,
     pub latency: (f64, f64),
@@ -174,7 +176,7 @@ fn try_candidate(
     }
     let mut pairs = rigid_acc.to_vec();
     pairs.extend_from_slice(new);
-    let (pairs, chi2_rigid, w, stderr, sizes) =
+    let (pairs, chi2_rigid, w, (stderr, cov), sizes) =
         refit_all(prob, fired, &pairs, nuis, hint, settings);
     let with = select::build(fired, &pairs, &w);
     let y1 = prob
@@ -234,6 +236,7 @@ fn try_candidate(
         nuis: w,
         chi2_rigid,
         stderr,
+        cov,
         sizes,
         rigid_residual,
         latency,
@@ -267,6 +270,7 @@ fn try_ringing(
         nuis: nuis.to_vec(),
         chi2_rigid: f64::NAN,
         stderr: vec![],
+        cov: nalgebra::DMatrix::zeros(0, 0),
         sizes: vec![],
         rigid_residual: rigid_residual.to_vec(),
         latency,
@@ -277,7 +281,14 @@ fn try_ringing(
     })
 }
 
-type Refit = (Vec<(Kind, Vec<f64>)>, f64, Vec<f64>, Vec<f64>, Vec<usize>);
+/// The refitted effects, chi-square, nuisances, (standard errors, covariance) and sizes.
+type Refit = (
+    Vec<(Kind, Vec<f64>)>,
+    f64,
+    Vec<f64>,
+    (Vec<f64>, nalgebra::DMatrix<f64>),
+    Vec<usize>,
+);
 
 /// Joint refit of every accepted effect (ringing held, then re-regressed on the result).
 fn refit_all(
@@ -295,7 +306,7 @@ fn refit_all(
             pairs.to_vec(),
             prob.chi2(&p).unwrap_or(f64::INFINITY),
             nuis.to_vec(),
-            vec![],
+            (vec![], nalgebra::DMatrix::zeros(0, 0)),
             vec![],
         );
     };
@@ -308,5 +319,5 @@ fn refit_all(
     let w = fr.theta[off..].to_vec();
     let p = select::build(fired, &out, &w);
     let chi2 = prob.chi2(&p).unwrap_or(fr.chi2);
-    (out, chi2, w, fr.stderr, sizes)
+    (out, chi2, w, (fr.stderr, fr.cov), sizes)
 }

@@ -12,7 +12,13 @@
 //!   (a disturbance, damping, slosh, pressure drop or mass change would have to be rescaled
 //!   too: then nothing is listed);
 //! - on a planar craft (yaw only) a `com_offset` changes each thruster's yaw torque alone, so
-//!   it is a per-thruster `thrust_scale`.
+//!   it is a per-thruster `thrust_scale`;
+//! - a `thruster_misalignment` that tilts the force toward the thruster's lever arm only (the
+//!   first tilt angle within its error of 0) keeps the torque's direction and changes its
+//!   size: a rate sensor sees that thruster's `thrust_scale` (the force is not measured), as
+//!   long as no effect moving the CoM or scaling thrusts is named with it. On craft whose
+//!   thrusters are canted toward their arms (most but SPHERES) a weak thruster was named as
+//!   an 18 degree tilt with no scale listed (`diagnose_random_craft`).
 //!
 //! A member is listed only when the fitted values lie in the class within their errors (a
 //! latency with open and close equal, an inertia proportional to the model's, scales equal);
@@ -41,6 +47,15 @@ const SCALE_BREAKERS: [Kind; 5] = [
     Kind::PressureDrop,
 ];
 
+/// Effects that move the CoM or scale thrusts: with one of them named, a tilt toward the lever
+/// arm is no longer one thruster's scale.
+const TILT_BREAKERS: [Kind; 4] = [
+    Kind::ComOffset,
+    Kind::MassPropertyChange,
+    Kind::ThrustScale,
+    Kind::Inertia,
+];
+
 /// Effects with a time of their own on the body's clock (a change, a blowdown start): a
 /// measurement delay shifts them too, a valve latency does not, so with one of them named
 /// a delay and an equal latency no longer give the same rates.
@@ -56,12 +71,14 @@ fn weight(se: f64) -> f64 {
 }
 
 /// The other members of `kind`'s class that give the same rates as its fitted `theta`
-/// (standard errors `se`), each as `{"effect": name, "params": {...}}`. `others`: the other
-/// effects named with it (some break an equivalence that holds alone).
+/// (standard errors `se`, covariance `cov`: NaN where not known), each as
+/// `{"effect": name, "params": {...}}`. `others`: the other effects named with it (some
+/// break an equivalence that holds alone).
 pub fn equivalents(
     kind: Kind,
     theta: &[f64],
     se: &dyn Fn(usize) -> f64,
+    cov: &dyn Fn(usize, usize) -> f64,
     others: &[Kind],
     plant: &Plant,
     cx: &Context,
@@ -82,8 +99,16 @@ pub fn equivalents(
     match kind {
         Kind::ThrusterLatency if !timing_breaks => {
             let (o, c) = (theta[0], theta[1]);
-            let e = se(0).hypot(se(1));
-            if e.is_finite() && (o - c).powi(2) <= chi2_99(1) * e * e {
+            // the difference's variance: open and close move together when the sensor sees
+            // mostly their sum (a 40 / 20 ms latency was listed as a 30 ms delay)
+            let shared = cov(0, 1);
+            let var = se(0).powi(2) + se(1).powi(2)
+                - if shared.is_finite() {
+                    2.0 * shared
+                } else {
+                    0.0
+                };
+            if var.is_finite() && var >= 0.0 && (o - c).powi(2) <= chi2_99(1) * var {
                 let d = 0.5 * (o + c);
                 vec![contract_json(&contract::Effect::MeasurementDelay(
                     contract::MeasurementDelay { delay_ms: d },
@@ -131,25 +156,36 @@ pub fn equivalents(
                 vec![]
             }
         }
-        Kind::ThrustScale if !scale_breaks && !named(Kind::Inertia) => {
-            let live: Vec<usize> = (0..theta.len()).filter(|&j| weight(se(j)) > 0.0).collect();
-            let den: f64 = live.iter().map(|&j| weight(se(j))).sum();
-            if live.is_empty() || !den.is_finite() || den <= 0.0 {
+        Kind::ThrustScale => {
+            let mut out = vec![];
+            if !scale_breaks && !named(Kind::Inertia) {
+                out.extend(uniform_scale_as_inertia(theta, se, cx));
+            }
+            if plant.planar && !named(Kind::ComOffset) && !named(Kind::MassPropertyChange) {
+                out.extend(planar_scales_as_com_offset(theta, se, plant, &fired_idx));
+            }
+            out
+        }
+        Kind::ThrusterMisalignment if !TILT_BREAKERS.iter().any(|&k| named(k)) => {
+            let k = theta[0].round().clamp(0.0, (NT - 1) as f64) as usize;
+            let (a, b) = (theta[1], theta[2]);
+            let e = se(1);
+            let n = cx.n_thrusters.min(NT);
+            let before = plant.tilted_torque(k, [0.0; 2]);
+            let size = before.norm_squared();
+            if k >= n
+                || !cx.fired[k]
+                || !e.is_finite()
+                || a * a > chi2_99(1) * e * e
+                || size < 1e-18 * plant.thrust_n(k).powi(2).max(1e-300)
+            {
                 return vec![];
             }
-            let mean = live.iter().map(|&j| weight(se(j)) * theta[j]).sum::<f64>() / den;
-            let chi2: f64 = live
-                .iter()
-                .map(|&j| weight(se(j)) * (theta[j] - mean).powi(2))
-                .sum();
-            if mean > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
-                let inertia_kgm2 = cx.nominal_inertia.map(|v| v / mean);
-                vec![contract_json(&contract::Effect::Inertia(
-                    contract::Inertia { inertia_kgm2 },
-                ))]
-            } else {
-                vec![]
-            }
+            let mut scale = vec![1.0; n];
+            scale[k] = plant.tilted_torque(k, [0.0, b]).dot(&before) / size;
+            vec![contract_json(&contract::Effect::ThrustScale(
+                contract::ThrustScale { scale },
+            ))]
         }
         Kind::ComOffset if plant.planar && !named(Kind::ThrustScale) => {
             let off = [theta[0], theta[1], theta[2]];
@@ -173,10 +209,91 @@ pub fn equivalents(
     }
 }
 
+/// A uniform thrust scale (the fired thrusters' scales equal within their errors) as the
+/// inertia divided by it.
+fn uniform_scale_as_inertia(
+    theta: &[f64],
+    se: &dyn Fn(usize) -> f64,
+    cx: &Context,
+) -> Option<Value> {
+    let live: Vec<usize> = (0..theta.len()).filter(|&j| weight(se(j)) > 0.0).collect();
+    let den: f64 = live.iter().map(|&j| weight(se(j))).sum();
+    if live.is_empty() || !den.is_finite() || den <= 0.0 {
+        return None;
+    }
+    let mean = live.iter().map(|&j| weight(se(j)) * theta[j]).sum::<f64>() / den;
+    let chi2: f64 = live
+        .iter()
+        .map(|&j| weight(se(j)) * (theta[j] - mean).powi(2))
+        .sum();
+    (mean > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1))).then(|| {
+        let inertia_kgm2 = cx.nominal_inertia.map(|v| v / mean);
+        contract_json(&contract::Effect::Inertia(contract::Inertia {
+            inertia_kgm2,
+        }))
+    })
+}
+
+/// On a planar craft, per-thruster scales as a CoM offset: each thruster's yaw torque is
+/// linear in the offset, `tau_j(d) = tau_j + g_j . d`, so scales `s_j = 1 + g_j . d / tau_j`
+/// are an offset when a weighted least-squares `d` reproduces them within their errors (the
+/// reverse of the offset's listing above: with only that direction, a planar CoM offset
+/// named as scales had no offset listed).
+fn planar_scales_as_com_offset(
+    theta: &[f64],
+    se: &dyn Fn(usize) -> f64,
+    plant: &Plant,
+    fired_idx: &[usize],
+) -> Option<Value> {
+    // per live thruster: (1 - s_j, a_j = -g_j / tau_j, weight)
+    let rows: Vec<(f64, [f64; 2], f64)> = fired_idx
+        .iter()
+        .enumerate()
+        .filter_map(|(j, &i)| {
+            let tau = plant.torque_about(i, &[0.0; 3])[2];
+            let w = weight(se(j)) * tau * tau;
+            if tau.abs() < 1e-9 * plant.thrust_n(i).max(1e-12)
+                || w.is_nan()
+                || w <= 0.0
+                || j >= theta.len()
+            {
+                return None;
+            }
+            let gx = plant.torque_about(i, &[1.0, 0.0, 0.0])[2] - tau;
+            let gy = plant.torque_about(i, &[0.0, 1.0, 0.0])[2] - tau;
+            Some((1.0 - theta[j], [-gx / tau, -gy / tau], weight(se(j))))
+        })
+        .collect();
+    if rows.len() < 2 {
+        return None;
+    }
+    let (mut n, mut b) = (nalgebra::Matrix2::zeros(), nalgebra::Vector2::zeros());
+    for (y, a, w) in &rows {
+        let a = nalgebra::Vector2::from(*a);
+        n += *w * a * a.transpose();
+        b += *w * *y * a;
+    }
+    let d = n.try_inverse()? * b;
+    let chi2: f64 = rows
+        .iter()
+        .map(|(y, a, w)| w * (y - a[0] * d[0] - a[1] * d[1]).powi(2))
+        .sum();
+    (d.iter().all(|v| v.is_finite()) && chi2 <= chi2_99(rows.len().saturating_sub(2))).then(|| {
+        contract_json(&contract::Effect::ComOffset(contract::ComOffset {
+            offset_mm: [d[0], d[1], 0.0],
+        }))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use reference_f64::satellite::Satellite;
+
+    /// No covariance known: the errors alone.
+    fn no_cov(_: usize, _: usize) -> f64 {
+        f64::NAN
+    }
 
     fn cx<'a>(fired: &'a [bool; NT], sat: &Satellite, plant: &'a Plant) -> Context<'a> {
         Context {
@@ -199,14 +316,170 @@ mod tests {
         let fired = [true; NT];
         let c = cx(&fired, &sat, &plant);
         let se = |_: usize| 0.1;
-        let eq = equivalents(Kind::ThrusterLatency, &[6.0, 6.1], &se, &[], &plant, &c);
+        let eq = equivalents(
+            Kind::ThrusterLatency,
+            &[6.0, 6.1],
+            &se,
+            &no_cov,
+            &[],
+            &plant,
+            &c,
+        );
         assert_eq!(eq.len(), 1);
         assert_eq!(eq[0]["effect"], "measurement_delay");
         assert!((eq[0]["params"]["delay_ms"].as_f64().unwrap() - 6.05).abs() < 1e-9);
         // planted fault: 6 and 8 ms differ by 14 sigma, no delay gives that
-        assert!(equivalents(Kind::ThrusterLatency, &[6.0, 8.0], &se, &[], &plant, &c).is_empty());
-        let d = equivalents(Kind::MeasurementDelay, &[120.0], &se, &[], &plant, &c);
+        assert!(equivalents(
+            Kind::ThrusterLatency,
+            &[6.0, 8.0],
+            &se,
+            &no_cov,
+            &[],
+            &plant,
+            &c
+        )
+        .is_empty());
+        let d = equivalents(
+            Kind::MeasurementDelay,
+            &[120.0],
+            &se,
+            &no_cov,
+            &[],
+            &plant,
+            &c,
+        );
         assert_eq!(d[0]["params"]["open_ms"], 120.0);
+    }
+
+    /// Open and close latencies that a slow sensor sees mostly as their sum have large,
+    /// strongly correlated errors: 40 and 20 ms are each 1.4 sigma apart, but their
+    /// difference is 7 sigma, and no delay gives it. Without the covariance it was listed.
+    #[test]
+    fn correlated_latencies_are_a_delay_only_when_their_difference_is_small() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let fired = [true; NT];
+        let c = cx(&fired, &sat, &plant);
+        let se = |_: usize| 14.2;
+        // correlation 0.98: the difference's error is 2.8 ms
+        let cov = |i: usize, j: usize| {
+            if i == j {
+                14.2 * 14.2
+            } else {
+                0.98 * 14.2 * 14.2
+            }
+        };
+        let lat = |theta: &[f64], cov: &dyn Fn(usize, usize) -> f64| {
+            equivalents(Kind::ThrusterLatency, theta, &se, cov, &[], &plant, &c)
+        };
+        assert!(lat(&[40.0, 20.0], &cov).is_empty());
+        assert_eq!(lat(&[40.0, 36.0], &cov)[0]["effect"], "measurement_delay");
+        // planted fault: the errors alone call 40 / 20 ms a delay
+        assert_eq!(lat(&[40.0, 20.0], &no_cov).len(), 1);
+    }
+
+    /// On the planar air-bearing craft, the per-thruster scales a CoM offset makes are listed
+    /// as that offset, and the offset as those scales; scales no offset gives are not.
+    #[test]
+    fn a_planar_craft_s_scales_and_com_offset_are_listed_both_ways() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .unwrap();
+        let sat = massid_sim::model_file::ModelFile::read(
+            &root.join("examples/models/airbearing-mpc.toml"),
+        )
+        .unwrap()
+        .satellite;
+        let plant = Plant::new(&sat);
+        let n = sat.n_thrusters();
+        let mut fired = [false; NT];
+        fired[..n].iter_mut().for_each(|f| *f = true);
+        let c = cx(&fired, &sat, &plant);
+        let off = [12.0, -7.0, 0.0];
+        let scales: Vec<f64> = (0..n)
+            .map(|i| plant.torque_about(i, &off)[2] / plant.torque_about(i, &[0.0; 3])[2])
+            .collect();
+        let se = |_: usize| 0.002;
+        let listed = |theta: &[f64]| {
+            equivalents(Kind::ThrustScale, theta, &se, &no_cov, &[], &plant, &c)
+                .into_iter()
+                .find(|e| e["effect"] == "com_offset")
+        };
+        let e = listed(&scales).expect("an offset listed");
+        for (k, want) in off.iter().enumerate() {
+            let got = e["params"]["offset_mm"][k].as_f64().unwrap();
+            assert!((got - want).abs() < 1e-9, "{k}: {got} {want}");
+        }
+        // and back: the offset lists the same scales
+        let back = equivalents(Kind::ComOffset, &off, &se, &no_cov, &[], &plant, &c);
+        let s0 = back[0]["params"]["scale"][0].as_f64().unwrap();
+        assert!((s0 - scales[0]).abs() < 1e-12);
+        // planted fault: one thruster 20 % weak is no CoM offset (it moves one torque alone)
+        let mut weak = vec![1.0; n];
+        weak[0] = 0.8;
+        assert!(listed(&weak).is_none());
+    }
+
+    /// A tilt toward the thruster's lever arm (second angle) only scales its torque: the
+    /// listed scale gives the same torque. A tilt about the first axis turns the torque: no
+    /// scale gives that, and nothing is listed.
+    #[test]
+    fn a_tilt_toward_the_arm_is_that_thruster_s_scale() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let fired = [true; NT];
+        let c = cx(&fired, &sat, &plant);
+        let se = |_: usize| 0.01;
+        let k = 3;
+        let eq = equivalents(
+            Kind::ThrusterMisalignment,
+            &[k as f64, 0.0, 0.2],
+            &se,
+            &no_cov,
+            &[],
+            &plant,
+            &c,
+        );
+        assert_eq!(eq.len(), 1, "{eq:?}");
+        assert_eq!(eq[0]["effect"], "thrust_scale");
+        let s: Vec<f64> = eq[0]["params"]["scale"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let tilted = plant.tilted_torque(k, [0.0, 0.2]);
+        let scaled = plant.tilted_torque(k, [0.0; 2]) * s[k];
+        assert!(
+            (tilted - scaled).norm() < 1e-12 * tilted.norm(),
+            "{tilted} {scaled}"
+        );
+        assert!(s.iter().enumerate().all(|(i, v)| i == k || *v == 1.0));
+        // planted fault: a tilt that turns the torque (first angle 20 sigma) is not a scale
+        let turned = [k as f64, 0.2, 0.2];
+        assert!(equivalents(
+            Kind::ThrusterMisalignment,
+            &turned,
+            &se,
+            &no_cov,
+            &[],
+            &plant,
+            &c
+        )
+        .is_empty());
+        // nor is it one with a CoM offset named (the arm the tilt refers to has moved)
+        let with_com = [Kind::ComOffset];
+        let again = [k as f64, 0.0, 0.2];
+        assert!(equivalents(
+            Kind::ThrusterMisalignment,
+            &again,
+            &se,
+            &no_cov,
+            &with_com,
+            &plant,
+            &c
+        )
+        .is_empty());
     }
 
     /// The listing follows the physics: a delay and an equal latency predict the same rates
@@ -248,7 +521,16 @@ mod tests {
         let c = cx(&fired, &sat, &plant);
         let se = |_: usize| 0.1;
         let listed = |others: &[Kind]| {
-            !equivalents(Kind::MeasurementDelay, &[50.0], &se, others, &plant, &c).is_empty()
+            !equivalents(
+                Kind::MeasurementDelay,
+                &[50.0],
+                &se,
+                &no_cov,
+                others,
+                &plant,
+                &c,
+            )
+            .is_empty()
         };
         assert!(differ(None) < 1e-12, "{}", differ(None));
         assert!(listed(&[]));
@@ -261,6 +543,7 @@ mod tests {
             Kind::ThrusterLatency,
             &[50.0, 50.0],
             &se,
+            &no_cov,
             &[Kind::MassPropertyChange],
             &plant,
             &c,
@@ -276,30 +559,38 @@ mod tests {
         let c = cx(&fired, &sat, &plant);
         let n = sat.n_thrusters();
         let se = |_: usize| 0.002;
-        let eq = equivalents(Kind::ThrustScale, &vec![0.8; n], &se, &[], &plant, &c);
+        let eq = equivalents(
+            Kind::ThrustScale,
+            &vec![0.8; n],
+            &se,
+            &no_cov,
+            &[],
+            &plant,
+            &c,
+        );
         assert_eq!(eq[0]["effect"], "inertia");
         let izz = eq[0]["params"]["inertia_kgm2"][2].as_f64().unwrap();
         assert!((izz - sat.inertia_kgm2[2] / 0.8).abs() < 1e-12);
         // one dead thruster is not a uniform scale
         let mut one = vec![1.0; n];
         one[4] = 0.0;
-        assert!(equivalents(Kind::ThrustScale, &one, &se, &[], &plant, &c).is_empty());
+        assert!(equivalents(Kind::ThrustScale, &one, &se, &no_cov, &[], &plant, &c).is_empty());
         // an inertia 1.25x the model's is a uniform 0.8 scale; a changed product is not
         let i: Vec<f64> = sat.inertia_kgm2.iter().map(|v| v * 1.25).collect();
         let ise = |_: usize| 1e-5;
-        let eq = equivalents(Kind::Inertia, &i, &ise, &[], &plant, &c);
+        let eq = equivalents(Kind::Inertia, &i, &ise, &no_cov, &[], &plant, &c);
         let s0 = eq[0]["params"]["scale"][0].as_f64().unwrap();
         assert!((s0 - 0.8).abs() < 1e-9, "{s0}");
         let mut j = i.clone();
         j[3] += 0.002;
-        assert!(equivalents(Kind::Inertia, &j, &ise, &[], &plant, &c).is_empty());
+        assert!(equivalents(Kind::Inertia, &j, &ise, &no_cov, &[], &plant, &c).is_empty());
         // with a disturbance torque named too, inertia / s is no longer the same rates
         let dist = [Kind::DisturbanceTorque];
-        assert!(equivalents(Kind::Inertia, &i, &ise, &dist, &plant, &c).is_empty());
+        assert!(equivalents(Kind::Inertia, &i, &ise, &no_cov, &dist, &plant, &c).is_empty());
         // an unidentifiable term (NaN error) is left out, not allowed to hide the rest
         let nan_one = |k: usize| if k == 5 { f64::NAN } else { 1e-5 };
         assert_eq!(
-            equivalents(Kind::Inertia, &i, &nan_one, &[], &plant, &c).len(),
+            equivalents(Kind::Inertia, &i, &nan_one, &no_cov, &[], &plant, &c).len(),
             1
         );
     }

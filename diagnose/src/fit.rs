@@ -203,6 +203,9 @@ pub struct Family<'f> {
 pub struct FitResult {
     pub theta: Vec<f64>,
     pub stderr: Vec<f64>,
+    /// The parameters' covariance, scaled like `stderr` (NaN rows and columns for the dead
+    /// ones): a test of several parameters at once needs their correlations.
+    pub cov: DMatrix<f64>,
     pub params: Params,
     /// Chi-square at full resolution.
     pub chi2: f64,
@@ -317,6 +320,11 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
             }
         })
         .collect();
+    let mut cov = cov * scale;
+    for (j, _) in dead.iter().enumerate().filter(|d| *d.1) {
+        cov.row_mut(j).fill(f64::NAN);
+        cov.column_mut(j).fill(f64::NAN);
+    }
     let params = (fam.apply)(&theta)?;
     // with every sample in the fit, `r` holds the same weighted residuals `chi2` sums, in
     // its order: the sum is the same number without predicting again
@@ -328,10 +336,21 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     Some(FitResult {
         theta,
         stderr,
+        cov,
         params,
         chi2,
         iterations: it,
     })
+}
+
+/// The covariance of parameters `from..from + n` of `cov` (empty when `cov` does not hold
+/// them: a fit that failed).
+pub fn cov_block(cov: &DMatrix<f64>, from: usize, n: usize) -> DMatrix<f64> {
+    if from + n <= cov.nrows() && from + n <= cov.ncols() {
+        cov.view((from, from), (n, n)).into_owned()
+    } else {
+        DMatrix::zeros(0, 0)
+    }
 }
 
 /// How many of the parameters with these standard errors the data could identify: those

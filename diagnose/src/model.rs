@@ -374,6 +374,14 @@ impl Plant {
         self.inertia
     }
 
+    /// The craft's size, m: the distance from the model's CoM to its farthest thruster.
+    pub fn size_m(&self) -> f64 {
+        self.pos[..self.n_thrusters.min(NT)]
+            .iter()
+            .map(|p| (p - self.com).norm())
+            .fold(0.0, f64::max)
+    }
+
     /// Nominal force magnitude of thruster i, N.
     pub fn thrust_n(&self, i: usize) -> f64 {
         self.force[i].norm()
@@ -383,6 +391,11 @@ impl Plant {
     pub fn torque_about(&self, i: usize, dcom_mm: &[f64; 3]) -> [f64; 3] {
         self.torque(i, &(self.com + Vector3::from(*dcom_mm) * 1e-3))
             .into()
+    }
+
+    /// Torque of thruster i tilted by `tilt` ([`Plant::tilted_force`]) about the model's CoM.
+    pub fn tilted_torque(&self, i: usize, tilt: [f64; 2]) -> Vector3<f64> {
+        (self.pos[i] - self.com).cross(&self.tilted_force(i, tilt))
     }
 
     /// Torque of thruster i at unit scale for a CoM `com`.

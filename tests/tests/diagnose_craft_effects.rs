@@ -164,3 +164,51 @@ fn a_uniform_thrust_scale_is_named_once_with_its_inertia_equivalent() {
     };
     assert!((s - 0.9).abs() < 0.01, "scale {s}");
 }
+
+/// The 16-thruster free-flyer (0.26 m from its CoM to its farthest thruster) with its CoM
+/// 70 mm off: named, near the truth. The CoM search was fixed at 50 mm for every craft (a
+/// 0.2 m SPHERES' tolerance), so this offset was clamped at the bound, called implausible
+/// and replaced by other effects; the bound now scales with the craft (118 mm here).
+#[test]
+fn a_large_craft_s_com_offset_beyond_spheres_tolerance_is_named() {
+    let com = Effect::ComOffset(massid_sim::effects::ComOffset {
+        offset_mm: [70.0, -40.0, 30.0],
+    });
+    let out = diagnose_with("freeflyer16.toml", vec![com], 8, 30.0, Some(5.0));
+    assert_eq!(named(&out), vec!["com_offset"]);
+    let e = &out.effects[0];
+    for (k, want) in [70.0, -40.0, 30.0].into_iter().enumerate() {
+        near(
+            "CoM offset",
+            e.params["offset_mm"][k].as_f64().unwrap(),
+            e.stderr["offset_mm"][k].as_f64().unwrap(),
+            want,
+        );
+    }
+}
+
+/// One of the cubesat's canted thrusters at 80 % of its force. A tilt toward the thruster's
+/// lever arm changes only the size of its torque, so the rates cannot tell the two apart:
+/// whichever is named, the other is listed under `equivalent_to` with the same thruster at
+/// 0.8 (a misalignment used to be named alone, an 18 degree tilt for a weak valve).
+#[test]
+fn a_weak_canted_thruster_is_named_with_its_equivalent_tilt_or_scale() {
+    let mut scale = vec![1.0; 8];
+    scale[2] = 0.8;
+    let weak = Effect::ThrustScale(ThrustScale { scale });
+    let out = diagnose_with("cubesat8.toml", vec![weak], 4, 30.0, Some(5.0));
+    let names = named(&out);
+    assert_eq!(names.len(), 1, "{names:?}");
+    let e = &out.effects[0];
+    let s = match names[0] {
+        "thrust_scale" => e.params["scale"][2].as_f64().unwrap(),
+        "thruster_misalignment" => {
+            assert_eq!(e.params["thrusters"], serde_json::json!([3]));
+            assert_eq!(e.equivalent_to.len(), 1, "{:?}", e.equivalent_to);
+            assert_eq!(e.equivalent_to[0]["effect"], "thrust_scale");
+            e.equivalent_to[0]["params"]["scale"][2].as_f64().unwrap()
+        }
+        n => panic!("named {n}"),
+    };
+    assert!((s - 0.8).abs() < 0.03, "scale of thruster 3: {s}");
+}

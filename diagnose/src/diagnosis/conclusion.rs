@@ -90,6 +90,7 @@ fn attach_stderr(named: &mut Named) {
             .get(off..off + k)
             .map(|s| s.to_vec())
             .unwrap_or_default();
+        a.cov = crate::fit::cov_block(&named.cov, off, k);
         off += k;
     }
     if let Some(rf) = &named.ringing {
@@ -162,9 +163,12 @@ fn report_effect(
     plant: &Plant,
 ) -> EffectReport {
     let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
+    let cov = |i: usize, j: usize| a.cov.get((i, j)).copied().unwrap_or(f64::NAN);
     let (p, s) = a.kind.effect().report(&a.theta, &se, cx).maps();
     EffectReport {
-        equivalent_to: crate::equivalence::equivalents(a.kind, &a.theta, &se, others, plant, cx),
+        equivalent_to: crate::equivalence::equivalents(
+            a.kind, &a.theta, &se, &cov, others, plant, cx,
+        ),
         effect: a.kind.name().into(),
         params: p,
         stderr: s,

@@ -141,6 +141,7 @@ fn swap_in(n: &Nominal, named: &mut Named, swap: Swap, out: Kind, k_rest: usize)
         kind: swap.kind,
         theta: t.pairs.last().map(|p| p.1.clone()).unwrap_or_default(),
         stderr: vec![],
+        cov: nalgebra::DMatrix::zeros(0, 0),
         delta_bic: named.delta_bic(n),
         rms_after: named.rms(n),
         windows,
@@ -224,7 +225,8 @@ fn replacement(
     let th = t.pairs.last().map(|p| p.1.clone()).unwrap_or_default();
     let off: usize = t.sizes.iter().take(t.sizes.len().saturating_sub(1)).sum();
     let se = t.stderr.get(off..off + th.len()).unwrap_or(&[]);
-    if wald(kind, &th, se, trial.prob) < k_in as f64 * ln_n {
+    let cov = fit::cov_block(&t.cov, off, th.len());
+    if wald(kind, &th, se, &cov, trial.prob) < k_in as f64 * ln_n {
         return Err(fail(
             "its own parameters are within their noise of no effect".into(),
         ));

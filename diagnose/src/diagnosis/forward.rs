@@ -34,6 +34,8 @@ pub(super) struct Candidate {
     pub theta: Vec<f64>,
     /// Their standard errors (empty for the ringing tone).
     pub stderr: Vec<f64>,
+    /// Their covariance (for the Wald test; empty for the ringing tone).
+    pub cov: nalgebra::DMatrix<f64>,
     /// Chi-square of the model with it.
     pub chi2: f64,
     /// The ringing fit, for the tone.
@@ -158,6 +160,7 @@ fn rank(
                 kind,
                 theta: vec![],
                 stderr: vec![],
+                cov: nalgebra::DMatrix::zeros(0, 0),
                 chi2: chi2_cur - rf.gain,
                 note: rf.evidence.clone(),
                 ringing: Some(rf),
@@ -182,6 +185,7 @@ fn rank(
                 kind,
                 theta: fr.theta[off..off + k_new].to_vec(),
                 stderr: fr.stderr[off..off + k_new].to_vec(),
+                cov: fit::cov_block(&fr.cov, off, k_new),
                 chi2,
                 note: String::new(),
                 ringing: None,
@@ -227,6 +231,7 @@ fn rank(
                     c.delta_bic = fr.chi2 - ring_gain - chi2_cur + k_live as f64 * ln_n;
                     c.theta = fr.theta[off..off + k_new].to_vec();
                     c.stderr = fr.stderr[off..off + k_new].to_vec();
+                    c.cov = fit::cov_block(&fr.cov, off, k_new);
                 }
             }
         }
@@ -237,7 +242,7 @@ fn rank(
         let w = if kind.effect().on_residual() {
             f64::INFINITY
         } else {
-            wald(kind, &c.theta, &c.stderr, &n.prob)
+            wald(kind, &c.theta, &c.stderr, &c.cov, &n.prob)
         };
         let strong = c.delta_bic <= -settings.accept_margin;
         if w < k_live as f64 * ln_n {
@@ -390,6 +395,7 @@ fn accept(
             kind,
             theta,
             stderr: vec![],
+            cov: nalgebra::DMatrix::zeros(0, 0),
             delta_bic: delta_bic_total,
             rms_after: named.rms(n),
             windows,

@@ -19,6 +19,8 @@ pub(super) struct Accepted {
     pub theta: Vec<f64>,
     /// Standard errors, filled from the final joint fit (`conclusion.rs`).
     pub stderr: Vec<f64>,
+    /// Their covariance, filled with them (empty for the ringing tone).
+    pub cov: nalgebra::DMatrix<f64>,
     /// BIC of the whole model when it was named, against the nominal model.
     pub delta_bic: f64,
     pub rms_after: [f64; 3],
@@ -40,6 +42,8 @@ pub(super) struct Named {
     pub rigid_residual: Vec<[f64; 3]>,
     /// Standard errors of the last joint fit, the named rigid effects in order.
     pub stderr: Vec<f64>,
+    /// The covariance of the same fit.
+    pub cov: nalgebra::DMatrix<f64>,
     /// Parameters per named rigid effect in `stderr`.
     pub sizes: Vec<usize>,
     /// Valve latency of the named effects (ringing is excited at the actual valve motion).
@@ -60,6 +64,7 @@ impl Named {
             chi2_rigid: n.chi2,
             rigid_residual: n.residual.clone(),
             stderr: vec![],
+            cov: nalgebra::DMatrix::zeros(0, 0),
             sizes: vec![],
             latency: (0.0, 0.0),
             ringing: None,
@@ -165,6 +170,7 @@ impl Named {
             self.chi2_rigid = t.chi2_rigid;
             self.rigid_residual = t.rigid_residual.clone();
             self.stderr = t.stderr.clone();
+            self.cov = t.cov.clone();
             self.sizes = t.sizes.clone();
             self.latency = t.latency;
         }

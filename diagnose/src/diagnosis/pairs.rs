@@ -59,7 +59,9 @@ pub(super) fn try_pairs(
             }
             let own = |kind: Kind, from: usize, to: usize| {
                 let se = &fr.stderr[from..to];
-                wald(kind, &fr.theta[from..to], se, &n.prob) >= fit::identifiable(se) as f64 * ln_n
+                let cov = fit::cov_block(&fr.cov, from, to - from);
+                wald(kind, &fr.theta[from..to], se, &cov, &n.prob)
+                    >= fit::identifiable(se) as f64 * ln_n
             };
             if !own(ka, off_a, off_b) || !own(kb, off_b, end) {
                 continue;

@@ -1,6 +1,6 @@
 //! A step change of CoM and inertia at one time in the run (a proof mass attached).
 
-use super::com_offset::MAX_OFFSET_MM;
+use super::com_offset::{plausible_mm, search_bound_mm};
 use super::inertia::{inertia_bounds, not_a_body};
 use super::{contract, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
@@ -25,8 +25,9 @@ impl Effect for MassPropertyChange {
     fn spec(&self, cx: &Context) -> Spec {
         let dur = cx.duration_s;
         let (ilo, ihi) = inertia_bounds(&cx.nominal_inertia);
-        let mut lo = vec![0.0, -50.0, -50.0, -50.0];
-        let mut hi = vec![dur, 50.0, 50.0, 50.0];
+        let b = search_bound_mm(cx.plant);
+        let mut lo = vec![0.0, -b, -b, -b];
+        let mut hi = vec![dur, b, b, b];
         lo.extend(ilo);
         hi.extend(ihi);
         let mut step = vec![0.05; 10];
@@ -61,12 +62,13 @@ impl Effect for MassPropertyChange {
     fn observable(&self, theta: &[f64], first_s: f64, last_s: f64) -> bool {
         theta[0] > first_s + 0.5 && theta[0] < last_s - 0.5
     }
-    fn implausible(&self, th: &[f64], _: &dyn Fn(usize) -> bool, _: &Context) -> Option<String> {
+    fn implausible(&self, th: &[f64], _: &dyn Fn(usize) -> bool, cx: &Context) -> Option<String> {
+        let limit = plausible_mm(cx.plant);
         not_a_body(&th[4..10]).or_else(|| {
             th[1..4]
                 .iter()
-                .any(|x| x.abs() > MAX_OFFSET_MM)
-                .then(|| "CoM offset beyond 45 mm".into())
+                .any(|x| x.abs() > limit)
+                .then(|| format!("CoM offset beyond {limit:.0} mm"))
         })
     }
     fn signature(&self) -> &'static str {

@@ -1,0 +1,145 @@
+//! The diagnosis on craft nobody developed on: a random craft (`massid_tests::random_craft`,
+//! 3-D or planar, 1-16 thrusters, its own noise and gyro band) flies 40 s of random PWM at
+//! 100 Hz with nothing wrong or with one planted effect, and `diagnose_rate_recording` is run
+//! against the craft's own model. One line per flight, then per planted effect: flights,
+//! named exactly (the planted effect, or an effect that lists it under `equivalent_to`),
+//! nothing named, something else named, unexplained.
+//! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
+//! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com; all of them when left out).
+use massid_diagnose::{diagnose_rate_recording, Settings};
+use massid_sim::effects::{ComOffset, Effect, MeasurementDelay, ThrustScale, ThrusterLatency};
+use massid_sim::simulate::{simulate, Maneuver};
+use massid_tests::random_craft::{draw, CraftClass};
+use std::time::Instant;
+
+/// The planted effect of `plant` on a craft of `n` thrusters and size `size_m`, and the names
+/// that count as found.
+fn planted(plant: &str, n: usize, size_m: f64, planar: bool) -> (Vec<Effect>, Vec<&'static str>) {
+    match plant {
+        "none" => (vec![], vec![]),
+        "latency" => (
+            vec![Effect::ThrusterLatency(ThrusterLatency {
+                open_ms: 40.0,
+                close_ms: 20.0,
+            })],
+            vec!["thruster_latency"],
+        ),
+        "delay" => (
+            vec![Effect::MeasurementDelay(MeasurementDelay {
+                delay_ms: 100.0,
+            })],
+            vec!["measurement_delay"],
+        ),
+        "scale" => {
+            let mut scale = vec![1.0; n];
+            scale[0] = 0.8;
+            (
+                vec![Effect::ThrustScale(ThrustScale { scale })],
+                vec!["thrust_scale"],
+            )
+        }
+        "com" => {
+            let d = 0.1 * size_m * 1e3;
+            let offset_mm = if planar { [d, -d, 0.0] } else { [d, -d, d] };
+            (
+                vec![Effect::ComOffset(ComOffset { offset_mm })],
+                vec!["com_offset"],
+            )
+        }
+        other => panic!("unknown plant {other}"),
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let flights: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10);
+    let seed0: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(74000);
+    let planar = args.get(3).is_some_and(|s| s == "planar");
+    let plants: Vec<String> = if args.len() > 4 {
+        args[4..].to_vec()
+    } else {
+        ["none", "latency", "delay", "scale", "com"]
+            .map(String::from)
+            .to_vec()
+    };
+    let class = CraftClass {
+        planar,
+        thrusters: (1, 16),
+        mocap: false,
+    };
+    let mut table = Vec::new();
+    for plant in &plants {
+        let (mut exact, mut nothing, mut other, mut unexplained) = (0, 0, 0, 0);
+        for seed in seed0..seed0 + flights {
+            let d = draw(&class, seed);
+            let n = d.model.n_thrusters();
+            let size = d
+                .model
+                .thruster_pos_m
+                .iter()
+                .map(|p| p.iter().map(|v| v * v).sum::<f64>().sqrt())
+                .fold(0.0, f64::max);
+            let (effects, want) = planted(plant, n, size, planar);
+            let mut spec = d.spec.clone();
+            spec.effects = effects;
+            spec.maneuver = Maneuver::RandomPwm;
+            spec.seconds = Some(40.0);
+            spec.rate_hz = 100.0;
+            let start = Instant::now();
+            let out = simulate(&spec).expect("simulate");
+            let rec = out.rate_recording.expect("a v2 craft");
+            let result = diagnose_rate_recording(&rec, &d.model, &Settings::default());
+            let secs = start.elapsed().as_secs_f64();
+            let Ok(a) = result else {
+                println!("seed {seed} {plant}: error {:?}", result.err());
+                other += 1;
+                continue;
+            };
+            if std::env::var_os("DRC_SUMMARY").is_some() {
+                println!("{}", massid_diagnose::report::summary(&a));
+            }
+            let o = a.output;
+            let names: Vec<String> = o.effects.iter().map(|e| e.effect.clone()).collect();
+            let listed: Vec<String> = o
+                .effects
+                .iter()
+                .flat_map(|e| e.equivalent_to.iter())
+                .filter_map(|v| v["effect"].as_str().map(String::from))
+                .collect();
+            let found = if want.is_empty() {
+                names.is_empty()
+            } else {
+                names.len() == 1
+                    && (want.contains(&names[0].as_str())
+                        || listed.iter().any(|l| want.contains(&l.as_str())))
+            };
+            if found {
+                exact += 1;
+            } else if names.is_empty() {
+                nothing += 1;
+            } else {
+                other += 1;
+            }
+            if o.unexplained.is_some() {
+                unexplained += 1;
+            }
+            println!(
+                "seed {seed} {plant}: {n} thr, noise {:.1e}, named {names:?} (equivalent {listed:?}){}{} {secs:.1} s",
+                spec.sensors.gyro_noise_rad_s[0],
+                if found { "" } else { "  MISS" },
+                if o.unexplained.is_some() { ", unexplained" } else { "" },
+            );
+        }
+        table.push(format!(
+            "| {} | {plant} | {flights} | {exact} | {nothing} | {other} | {unexplained} |",
+            if planar { "planar" } else { "3-D" }
+        ));
+    }
+    println!(
+        "| craft | planted | flights | named exactly | nothing named | other named | unexplained |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for row in table {
+        println!("{row}");
+    }
+}

@@ -47,13 +47,15 @@ const SCALE_BREAKERS: [Kind; 5] = [
     Kind::PressureDrop,
 ];
 
-/// Effects that move the CoM or scale thrusts: with one of them named, a tilt toward the lever
-/// arm is no longer one thruster's scale.
-const TILT_BREAKERS: [Kind; 4] = [
+/// Effects that move the CoM, scale thrusts or take a pressure drop off them (a drop is
+/// subtracted from the force, not a factor of it), or refit the inertia the scale would stand
+/// for: with one of them named, a tilt toward the lever arm is no longer one thruster's scale.
+const TILT_BREAKERS: [Kind; 5] = [
     Kind::ComOffset,
     Kind::MassPropertyChange,
     Kind::ThrustScale,
     Kind::Inertia,
+    Kind::PressureDrop,
 ];
 
 /// Effects with a time of their own on the body's clock (a change, a blowdown start): a
@@ -102,13 +104,15 @@ pub fn equivalents(
             // the difference's variance: open and close move together when the sensor sees
             // mostly their sum (a 40 / 20 ms latency was listed as a 30 ms delay)
             let shared = cov(0, 1);
-            let var = se(0).powi(2) + se(1).powi(2)
+            // (rounding can take the variance of equal, fully correlated terms just below 0)
+            let var = (se(0).powi(2) + se(1).powi(2)
                 - if shared.is_finite() {
                     2.0 * shared
                 } else {
                     0.0
-                };
-            if var.is_finite() && var >= 0.0 && (o - c).powi(2) <= chi2_99(1) * var {
+                })
+            .max(0.0);
+            if var.is_finite() && (o - c).powi(2) <= chi2_99(1) * var {
                 let d = 0.5 * (o + c);
                 vec![contract_json(&contract::Effect::MeasurementDelay(
                     contract::MeasurementDelay { delay_ms: d },
@@ -161,7 +165,11 @@ pub fn equivalents(
             if !scale_breaks && !named(Kind::Inertia) {
                 out.extend(uniform_scale_as_inertia(theta, se, cx));
             }
-            if plant.planar && !named(Kind::ComOffset) && !named(Kind::MassPropertyChange) {
+            if plant.planar
+                && !named(Kind::ComOffset)
+                && !named(Kind::MassPropertyChange)
+                && !named(Kind::PressureDrop)
+            {
                 out.extend(planar_scales_as_com_offset(theta, se, plant, &fired_idx));
             }
             out
@@ -236,9 +244,12 @@ fn uniform_scale_as_inertia(
 
 /// On a planar craft, per-thruster scales as a CoM offset: each thruster's yaw torque is
 /// linear in the offset, `tau_j(d) = tau_j + g_j . d`, so scales `s_j = 1 + g_j . d / tau_j`
-/// are an offset when a weighted least-squares `d` reproduces them within their errors (the
-/// reverse of the offset's listing above: with only that direction, a planar CoM offset
-/// named as scales had no offset listed).
+/// are an offset when a weighted least-squares `d` reproduces them within their errors and
+/// lies within the craft's plausible CoM range (the reverse of the offset's listing above:
+/// with only that direction, a planar CoM offset named as scales had no offset listed). Two
+/// scales are always some offset, so the range is what refuses a pair no CoM could give. A
+/// fired thruster with no yaw arm refuses the listing, as in the other direction: an offset
+/// gives it a torque no scale can.
 fn planar_scales_as_com_offset(
     theta: &[f64],
     se: &dyn Fn(usize) -> f64,
@@ -252,11 +263,7 @@ fn planar_scales_as_com_offset(
         .filter_map(|(j, &i)| {
             let tau = plant.torque_about(i, &[0.0; 3])[2];
             let w = weight(se(j)) * tau * tau;
-            if tau.abs() < 1e-9 * plant.thrust_n(i).max(1e-12)
-                || w.is_nan()
-                || w <= 0.0
-                || j >= theta.len()
-            {
+            if w.is_nan() || w <= 0.0 || j >= theta.len() {
                 return None;
             }
             let gx = plant.torque_about(i, &[1.0, 0.0, 0.0])[2] - tau;
@@ -264,7 +271,10 @@ fn planar_scales_as_com_offset(
             Some((1.0 - theta[j], [-gx / tau, -gy / tau], weight(se(j))))
         })
         .collect();
-    if rows.len() < 2 {
+    let no_arm = fired_idx
+        .iter()
+        .any(|&i| plant.torque_about(i, &[0.0; 3])[2].abs() < 1e-9 * plant.thrust_n(i).max(1e-12));
+    if rows.len() < 2 || no_arm {
         return None;
     }
     let (mut n, mut b) = (nalgebra::Matrix2::zeros(), nalgebra::Vector2::zeros());
@@ -278,7 +288,9 @@ fn planar_scales_as_com_offset(
         .iter()
         .map(|(y, a, w)| w * (y - a[0] * d[0] - a[1] * d[1]).powi(2))
         .sum();
-    (d.iter().all(|v| v.is_finite()) && chi2 <= chi2_99(rows.len().saturating_sub(2))).then(|| {
+    let limit = crate::effects::plausible_com_mm(plant);
+    let plausible = d.iter().all(|v| v.is_finite() && v.abs() <= limit);
+    (plausible && chi2 <= chi2_99(rows.len().saturating_sub(2))).then(|| {
         contract_json(&contract::Effect::ComOffset(contract::ComOffset {
             offset_mm: [d[0], d[1], 0.0],
         }))

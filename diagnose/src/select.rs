@@ -343,7 +343,7 @@ pub(crate) fn wald(
         .collect();
     let diagonal: f64 = live.iter().map(|(_, z, _)| z * z).sum();
     let m = live.len();
-    if m == 0 || cov.nrows() < theta.len() || cov.ncols() < theta.len() {
+    if m == 0 || cov.nrows() != theta.len() || cov.ncols() != theta.len() {
         return diagonal;
     }
     // the correlation matrix of the live parameters and their z-scores: `z' R^-1 z`

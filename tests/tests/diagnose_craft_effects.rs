@@ -188,9 +188,10 @@ fn a_large_craft_s_com_offset_beyond_spheres_tolerance_is_named() {
 }
 
 /// One of the cubesat's canted thrusters at 80 % of its force. A tilt toward the thruster's
-/// lever arm changes only the size of its torque, so the rates cannot tell the two apart:
-/// whichever is named, the other is listed under `equivalent_to` with the same thruster at
-/// 0.8 (a misalignment used to be named alone, an 18 degree tilt for a weak valve).
+/// lever arm changes only the size of its torque, so the rates cannot tell the two apart: the
+/// scale is named, or the tilt with the scale listed under `equivalent_to`, with the same
+/// thruster at 0.8 either way (a misalignment used to be named alone, an 18 degree tilt for a
+/// weak valve). A named scale does not list a tilt.
 #[test]
 fn a_weak_canted_thruster_is_named_with_its_equivalent_tilt_or_scale() {
     let mut scale = vec![1.0; 8];

@@ -24,6 +24,7 @@ mod thrust_scale;
 mod thruster_latency;
 mod thruster_misalignment;
 
+pub use com_offset::plausible_mm as plausible_com_mm;
 pub use mass_property_change::MASS_CHANGE_STARTS;
 
 use crate::json_number::num;

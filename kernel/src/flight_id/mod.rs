@@ -200,7 +200,8 @@ impl<S: SumScalar> FlightId<S> {
         let bounds = cfg.envelope.component_bounds(window_s, reach, &nominal);
         let scales = S::scales(&bounds, &nominal, cfg.max_window, products_window, window_s)?;
         field!(slot, Self, cfg).write(cfg);
-        FlightSums::init_in_place(field!(slot, Self, sums));
+        FlightSums::init_in_place(field!(slot, Self, sums)).lag_form =
+            <S::Recent as Recent<S>>::LAG_FORM;
         RecentSums::init_in_place(field!(slot, Self, recent), |r| S::init_recent(r, &scales));
         field!(slot, Self, window).write(WindowSums::default());
         field!(slot, Self, pending).write(close::PendingCloses::default());

@@ -10,7 +10,7 @@
 //! window term `C`, AR weights `w_l` and gain `c`). Edge effects of the AR filter at window
 //! starts (p of each window's samples) are neglected.
 
-use super::sums::{FlightSums, LAGS, NZ};
+use super::sums::{FlightSums, LagForm, LAGS, NZ};
 use crate::lu::{Lu, LuError};
 use crate::scalar::Scalar;
 
@@ -276,11 +276,39 @@ fn basis<S: Scalar>(m: usize) -> [S; 6] {
     core::array::from_fn(|i| if i == m { S::ONE } else { S::ZERO })
 }
 
-/// Axis `a`'s whitened, initial-rate-eliminated moment matrix for AR weights `w`, gain^2 `c2`.
-pub(crate) fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, w: &[S; LAGS], c2: S) -> M7<S> {
+/// A combination of the sums, `sum_l w_l L_l - c2 C`, with the weights' sum `level` given
+/// (not summed: for the AR weights it is the gain squared, `c2`, which can be 1e-4 of the
+/// largest weight; [`LagForm::Differences`] weighs `L_0` by it).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Combination<S> {
+    pub w: [S; LAGS],
+    pub level: S,
+    pub c2: S,
+}
+
+impl<S: Scalar> Combination<S> {
+    /// `L_l - C`: the lag-`l` moments about the windows' means.
+    fn centred_lag(l: usize) -> Self {
+        Combination {
+            w: core::array::from_fn(|i| if i == l { S::ONE } else { S::ZERO }),
+            level: S::ONE,
+            c2: S::ONE,
+        }
+    }
+}
+
+/// Axis `a`'s moment matrix for the combination `k`: with the AR noise model's weights
+/// ([`ar_weights`]) the whitened, initial-rate-eliminated moments.
+pub(crate) fn weighted<S: Scalar>(s: &FlightSums<S>, a: usize, k: &Combination<S>) -> M7<S> {
+    let (w, c2) = (&k.w, k.c2);
     let mut out = [[S::ZERO; NV]; NV];
     for l in 0..LAGS {
-        let wl = get(w, l);
+        // `sum_l w_l L_l = level L_0 - sum_(l>0) w_l M_l` in differences.
+        let wl = match (s.lag_form, l) {
+            (LagForm::Levels, _) => get(w, l),
+            (LagForm::Differences, 0) => k.level,
+            (LagForm::Differences, _) => get(w, l).negate(),
+        };
         let Some(yy) = s.lag.yy.get(l) else {
             continue;
         };
@@ -319,8 +347,8 @@ pub(crate) fn quad<S: Scalar>(m: &M7<S>, u: &[S; NV], v: &[S; NV]) -> S {
 }
 
 /// AR weights of `(1 - sum phi_i B^i)`: `w_0 = sum f_i^2`, `w_l = 2 sum f_i f_(i+l)`,
-/// and the gain squared `(sum f_i)^2`.
-pub(crate) fn ar_weights<S: Scalar>(phi: &[S; MAX_ORDER]) -> ([S; LAGS], S) {
+/// and the gain squared `(sum f_i)^2`, also their sum.
+pub(crate) fn ar_weights<S: Scalar>(phi: &[S; MAX_ORDER]) -> Combination<S> {
     let f: [S; LAGS] = core::array::from_fn(|i| match i.checked_sub(1) {
         None => S::ONE,
         Some(k) => get(phi, k).negate(),
@@ -335,7 +363,8 @@ pub(crate) fn ar_weights<S: Scalar>(phi: &[S; MAX_ORDER]) -> ([S; LAGS], S) {
         *wl = if l == 0 { acc } else { two.times(acc) };
     }
     let c = f.iter().fold(S::ZERO, |a, v| a.plus(*v));
-    (w, c.times(c))
+    let c2 = c.times(c);
+    Combination { w, level: c2, c2 }
 }
 
 /// `log2(n)` to within 0.09 (integer part plus a linear fraction): the BIC's order penalty.
@@ -463,8 +492,7 @@ pub(crate) fn axis_forms<S: Scalar>(
     nz: &ArNoise<S>,
     a: usize,
 ) -> Option<AxisForms<S>> {
-    let (w, c2) = ar_weights(&nz.phi);
-    let wm = weighted(s, a, &w, c2);
+    let wm = weighted(s, a, &ar_weights(&nz.phi));
     let (u, d) = residual_and_jacobian(theta, cfg, a)?;
     let (j6, dc) = theta.split_at(6);
     let row = model_matrix(j6, dc, cfg.gyroscopic)?.get(a).copied()?;
@@ -494,8 +522,7 @@ fn normal<S: Scalar>(
         if !used {
             continue;
         }
-        let (w, c2) = ar_weights(&nz.phi);
-        let wm = weighted(s, a, &w, c2);
+        let wm = weighted(s, a, &ar_weights(&nz.phi));
         let Some((u, d)) = residual_and_jacobian(theta, cfg, a) else {
             continue;
         };
@@ -548,13 +575,10 @@ fn autocovariances<S: Scalar>(
 ) -> Option<[S; LAGS]> {
     let (u, _) = residual_and_jacobian(theta, cfg, a)?;
     let n = dof::<S>(s);
-    // u^T C u: the window means' share (weights zero, gain^2 -1 leaves +C).
-    let centre = quad(&weighted(s, a, &[S::ZERO; LAGS], S::ONE.negate()), &u, &u);
     let mut g = [S::ZERO; LAGS];
     for (l, gl) in g.iter_mut().enumerate() {
-        let w: [S; LAGS] = core::array::from_fn(|i| if i == l { S::ONE } else { S::ZERO });
-        let raw = quad(&weighted(s, a, &w, S::ZERO), &u, &u);
-        *gl = raw.minus(centre).checked_div(n)?;
+        // One quadratic form of `L_l - C`, not two subtracted: their difference is small.
+        *gl = quad(&weighted(s, a, &Combination::centred_lag(l)), &u, &u).checked_div(n)?;
     }
     Some(g)
 }

@@ -359,6 +359,60 @@ impl<S: Scalar> Sample<S> {
     };
 }
 
+/// A window's sum of samples in floating point, compensated (Kahan): its error stays a few
+/// roundings of the sum whatever the window's length.
+///
+/// Why: closing a window subtracts `s s^T / n` from the window's moments
+/// ([`super::close`]), and the difference (the scatter about the window's mean, what carries the
+/// information) is far smaller than either term when the drive drifts over a long window. A
+/// plain f32 running sum of 10^4 samples is off by up to `10^4` roundings, about 3e-5 of the
+/// sum; the difference amplified that into estimates 3.5-5 sigma off with status `ok` (planar
+/// craft, 42 s windows at 250 Hz, random-craft seeds 73009 and 73017), where the same sums in
+/// f64 were within 1.3 sigma.
+#[derive(Clone, Copy, Debug)]
+pub struct CompensatedSum<S> {
+    sum: Sample<S>,
+    /// The low-order part the sum lost, negated (Kahan's `c`).
+    lost: Sample<S>,
+}
+
+impl<S: Scalar> CompensatedSum<S> {
+    /// The empty sum.
+    pub const ZERO: Self = CompensatedSum {
+        sum: Sample::ZERO,
+        lost: Sample::ZERO,
+    };
+
+    fn add_one(s: &mut S, lost: &mut S, x: S) {
+        let y = x.minus(*lost);
+        let t = s.plus(y);
+        *lost = t.minus(*s).minus(y);
+        *s = t;
+    }
+
+    /// Adds `item`.
+    pub fn add(&mut self, item: &Sample<S>) {
+        for ((s, c), x) in self.sum.z.iter_mut().zip(&mut self.lost.z).zip(item.z) {
+            Self::add_one(s, c, x);
+        }
+        for ((s, c), x) in self.sum.y.iter_mut().zip(&mut self.lost.y).zip(item.y) {
+            Self::add_one(s, c, x);
+        }
+    }
+
+    /// The sum, its lost part restored.
+    pub fn value(&self) -> Sample<S> {
+        let mut out = self.sum;
+        for (v, c) in out.z.iter_mut().zip(self.lost.z) {
+            *v = v.minus(c);
+        }
+        for (v, c) in out.y.iter_mut().zip(self.lost.y) {
+            *v = v.minus(c);
+        }
+        out
+    }
+}
+
 /// Entries of a [`LagMoments`], in the order `zz`, `zy`, `yz`, `yy`.
 pub const ENTRIES: usize = LAGS * NZ * NZ + 2 * LAGS * 3 * NZ + LAGS * 3;
 
@@ -441,6 +495,8 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     /// Entries folded into the flight's sums per sample ([`FOLD_PER_SAMPLE`] in floating
     /// point; the exact sums as few as their width allows).
     const FOLD_PER_SAMPLE: usize;
+    /// What these sums keep at lags 1 and 2 ([`LagForm`]).
+    const LAG_FORM: LagForm;
     /// A sample as these sums take it.
     type Item: Copy + core::fmt::Debug;
     /// The item of an all-zero sample.
@@ -458,8 +514,9 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     fn accumulate(sum: &mut Self::ItemSum, item: &Self::Item);
     /// A sum's value.
     fn sum_value(&self, sum: &Self::ItemSum) -> Sample<S>;
-    /// Adds `now then^T` at lag `l` (at lag 0 the upper triangle of `zz` only), skipping the
-    /// components that are not `active` (zero in both).
+    /// Adds `now then^T` at lag `l` (at lag 0 the upper triangle of `zz` only; at lags 1 and 2
+    /// `now (now - then)^T` in [`LagForm::Differences`]), skipping the components that are
+    /// not `active` (zero in both).
     fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item, active: &Active);
     /// True if `item`'s drive component `i` is other than zero or not a valid number.
     fn nonzero(item: &Self::Item, i: usize) -> bool;
@@ -517,10 +574,11 @@ pub type DriveSnapshot<S> = <<S as SumScalar>::Drive as DriveSum<S>>::Snapshot;
 
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
+    const LAG_FORM: LagForm = LagForm::Differences;
     type Item = Sample<S>;
     const ZERO_ITEM: Sample<S> = Sample::ZERO;
-    type ItemSum = Sample<S>;
-    const ZERO_SUM: Sample<S> = Sample::ZERO;
+    type ItemSum = CompensatedSum<S>;
+    const ZERO_SUM: CompensatedSum<S> = CompensatedSum::ZERO;
     fn item(&self, z: &[S; NZ], y_raw: &[S; 3], nominal: &[[S; NZ]; 3]) -> Option<Sample<S>> {
         let y = core::array::from_fn(|a| {
             let (Some(row), Some(y)) = (nominal.get(a), y_raw.get(a)) else {
@@ -534,19 +592,26 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
         });
         Some(Sample { z: *z, y })
     }
-    fn accumulate(sum: &mut Sample<S>, item: &Sample<S>) {
-        for (s, z) in sum.z.iter_mut().zip(item.z) {
-            *s = s.plus(z);
-        }
-        for (s, y) in sum.y.iter_mut().zip(item.y) {
-            *s = s.plus(y);
-        }
+    fn accumulate(sum: &mut CompensatedSum<S>, item: &Sample<S>) {
+        sum.add(item);
     }
-    fn sum_value(&self, sum: &Sample<S>) -> Sample<S> {
-        *sum
+    fn sum_value(&self, sum: &CompensatedSum<S>) -> Sample<S> {
+        sum.value()
     }
     fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>, active: &Active) {
-        self.add_pair_by(l, now, then, active, |m, a, b| *m = m.mul_add(a, b));
+        let mac = |m: &mut S, a: S, b: S| *m = m.mul_add(a, b);
+        if l == 0 {
+            self.add_pair_by(l, now, then, active, mac);
+            return;
+        }
+        let mut step = *now;
+        for (d, t) in step.z.iter_mut().zip(then.z) {
+            *d = d.minus(t);
+        }
+        for (d, t) in step.y.iter_mut().zip(then.y) {
+            *d = d.minus(t);
+        }
+        self.add_pair_by(l, now, &step, active, mac);
     }
     fn nonzero(item: &Sample<S>, i: usize) -> bool {
         item.z
@@ -677,11 +742,33 @@ impl<R> RecentSums<R> {
     }
 }
 
+/// What the flight's sums keep at lags `l` = 1, 2: the lagged moments `L_l = sum v_k v_(k-l)^T`
+/// or their differences from lag 0, `M_l = sum v_k (v_k - v_(k-l))^T = L_0 - L_l`.
+///
+/// Why both: the fit weighs the lags by the AR noise model, `sum_l w_l L_l`, and for strongly
+/// coloured noise (AR roots near 1: a gyro filtered well below the sampling rate) the weights
+/// sum to the gain squared, ~1e-4 of the largest, so the levels cancel to four digits in the
+/// smooth drive and an f32 sum of levels has nothing left (planar random craft seed 73009:
+/// AR(0.66, 0.33) at 250 Hz, an estimate 5 sigma off with status `ok`). The differences are of
+/// the size of what remains, `sum_l w_l L_l = (sum_l w_l) L_0 - w_1 M_1 - w_2 M_2`. The fixed
+/// kernel adds exact integer products and rounds them once, with a 64-bit integer float: it
+/// keeps the levels (its accumulators and their proofs are sized for `|a b|`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LagForm {
+    /// `L_l`.
+    Levels,
+    /// `M_l = L_0 - L_l`.
+    Differences,
+}
+
 /// The flight's sums: lagged moments and the windows' initial-rate terms.
 #[derive(Clone, Copy, Debug)]
 pub struct FlightSums<S> {
-    /// Lagged moments, folded (the fit reads them after [`RecentSums::fold_all`]).
+    /// Lagged moments, folded (the fit reads them after [`RecentSums::fold_all`]); at lags 1
+    /// and 2 in `lag_form`.
     pub lag: LagMoments<S>,
+    /// What `lag` keeps at lags 1 and 2.
+    pub lag_form: LagForm,
     /// `sum_w s_w s_w^T / n_w` by the same blocks (`s_w` the window's sum of `v`).
     pub czz: [[S; NZ]; NZ],
     /// See `czz`: `z` sum times axis `a`'s `y` sum.
@@ -701,6 +788,7 @@ impl<S: Scalar> FlightSums<S> {
     /// Empty sums written to `slot` in place (no copy of them on the stack).
     pub fn init_in_place(slot: &mut MaybeUninit<Self>) -> &mut Self {
         LagMoments::fill_in_place(field!(slot, Self, lag), S::ZERO);
+        field!(slot, Self, lag_form).write(LagForm::Levels);
         fill2(field!(slot, Self, czz), S::ZERO);
         fill2(field!(slot, Self, czy), S::ZERO);
         fill(field!(slot, Self, cyy), S::ZERO);
@@ -713,6 +801,7 @@ impl<S: Scalar> FlightSums<S> {
                 slot,
                 Self {
                     lag,
+                    lag_form,
                     czz,
                     czy,
                     cyy,
@@ -891,6 +980,87 @@ pub(crate) mod tests {
         pending.drain_all(&mut flight);
         recent.fold_all(&mut flight);
         text_hash(&flight)
+    }
+
+    /// One window of a drifting yaw torque and a rate `0.2 z + e`, `e` an AR(0.66, 0.33) noise
+    /// (a gyro filtered far below the sampling rate, as on random craft seed 73009): the
+    /// whitened cost at the true parameter, `u^T W u`, from sums kept in `form` in `S` (each
+    /// window sum and `C` in f64, so only the lag form differs).
+    fn whitened_cost<S: Scalar>(form: LagForm) -> f64 {
+        use crate::flight_id::solve::{ar_weights, quad, weighted, NV};
+        let n = 10_000usize;
+        let (phi, theta) = ([0.66f64, 0.33], 0.2f64);
+        let mut flight = FlightSums::<S> {
+            lag_form: form,
+            ..FlightSums::default()
+        };
+        let mac = |m: &mut S, a: S, b: S| *m = m.mul_add(a, b);
+        let (mut z, mut e1, mut e2, mut seed) = (0.0f64, 0.0f64, 0.0f64, 7u64);
+        let mut history: [Sample<S>; 2] = [Sample::ZERO; 2];
+        let mut sum = [0.0f64; NZ + 3];
+        for k in 0..n {
+            // Torque of a changing sign, 4 ms steps; innovations of 1e-4 rad/s.
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let uniform = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            z += if (k / 700) % 3 == 1 { -0.02 } else { 0.03 } * 0.004;
+            let e = phi[0] * e1 + phi[1] * e2 + 3.5e-4 * uniform;
+            (e2, e1) = (e1, e);
+            let mut item = Sample::<S>::ZERO;
+            item.z[2] = S::from_f32(z as f32);
+            item.y[2] = S::from_f32((theta * z + e) as f32);
+            flight
+                .lag
+                .add_pair_by(0, &item, &item, &Active::full(), mac);
+            for (l, then) in [history[1], history[0]].iter().enumerate() {
+                if k > l {
+                    let mut other = *then;
+                    if form == LagForm::Differences {
+                        for (d, (a, b)) in other.z.iter_mut().zip(item.z.iter().zip(then.z)) {
+                            *d = a.minus(b);
+                        }
+                        for (d, (a, b)) in other.y.iter_mut().zip(item.y.iter().zip(then.y)) {
+                            *d = a.minus(b);
+                        }
+                    }
+                    flight
+                        .lag
+                        .add_pair_by(l + 1, &item, &other, &Active::full(), mac);
+                }
+            }
+            history = [history[1], item];
+            sum[2] += f64::from(item.z[2].to_f32());
+            sum[NZ + 2] += f64::from(item.y[2].to_f32());
+        }
+        let c = |a: f64, b: f64| S::from_f32((a * b / n as f64) as f32);
+        flight.czz[2][2] = c(sum[2], sum[2]);
+        flight.czy[2][2] = c(sum[2], sum[NZ + 2]);
+        flight.cyy[2] = c(sum[NZ + 2], sum[NZ + 2]);
+        let mut u = [S::ZERO; NV];
+        u[2] = S::from_f32(-theta as f32);
+        u[NZ] = S::ONE;
+        let k = ar_weights(&phi.map(|v| S::from_f32(v as f32)));
+        f64::from(quad(&weighted(&flight, 2, &k), &u, &u).to_f32())
+    }
+
+    #[test]
+    fn differenced_lags_keep_the_whitened_cost_of_a_coloured_noise_in_f32() {
+        let truth = whitened_cost::<f64>(LagForm::Levels);
+        // The forms agree where the arithmetic is exact enough.
+        let f64_differences = whitened_cost::<f64>(LagForm::Differences);
+        assert!(
+            (f64_differences / truth - 1.0).abs() < 1e-3,
+            "{f64_differences} {truth}"
+        );
+        let differences = whitened_cost::<f32>(LagForm::Differences);
+        assert!(
+            (differences / truth - 1.0).abs() < 0.05,
+            "{differences} {truth}"
+        );
+        // Planted: the levels in f32 (what the kernel kept before) lose the cost.
+        let levels = whitened_cost::<f32>(LagForm::Levels);
+        assert!((levels / truth - 1.0).abs() > 0.5, "{levels} {truth}");
     }
 
     fn skipping_equals_the_dense_sums<S: SumScalar + core::fmt::Debug>() {

@@ -10,6 +10,9 @@
 //! instead of the flight, and the fit ([`super::solve`]) iterates on them at any time, as often
 //! as it likes: no second pass over data it cannot store.
 //!
+//! Floating point keeps lags 1 and 2 as differences from lag 0 ([`LagForm`]): the noise
+//! model's whitening cancels the levels to a few digits.
+//!
 //! Products go into recent sums that are folded into the flight's a few entries per sample,
 //! so each entry is folded about every [`BLOCK`] samples (shorter f32 sums round less) and no
 //! sample carries a whole fold (the M4F tick budget).

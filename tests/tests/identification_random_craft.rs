@@ -218,6 +218,11 @@ fn the_f32_kernel_matches_its_algorithm_in_f64_under_coloured_noise() {
     assert!(!a.is_empty());
     for ((t, ea, sa), (_, eb, _)) in a.iter().zip(&b) {
         let gap = (ea - eb) / sa;
-        assert!(gap.abs() < 0.3, "{}: f32 {:+.2} sigma from f64", TERMS[*t], gap);
+        assert!(
+            gap.abs() < 0.3,
+            "{}: f32 {:+.2} sigma from f64",
+            TERMS[*t],
+            gap
+        );
     }
 }

@@ -360,6 +360,18 @@ impl<S: Scalar> Sample<S> {
         z: [S::ZERO; NZ],
         y: [S::ZERO; 3],
     };
+
+    /// `self - other`, component by component.
+    pub fn minus(&self, other: &Self) -> Self {
+        let mut out = *self;
+        for (v, o) in out.z.iter_mut().zip(other.z) {
+            *v = v.minus(o);
+        }
+        for (v, o) in out.y.iter_mut().zip(other.y) {
+            *v = v.minus(o);
+        }
+        out
+    }
 }
 
 /// A window's sum of samples in floating point, compensated (Kahan): its error stays a few
@@ -405,14 +417,7 @@ impl<S: Scalar> CompensatedSum<S> {
 
     /// The sum, its lost part restored.
     pub fn value(&self) -> Sample<S> {
-        let mut out = self.sum;
-        for (v, c) in out.z.iter_mut().zip(self.lost.z) {
-            *v = v.minus(c);
-        }
-        for (v, c) in out.y.iter_mut().zip(self.lost.y) {
-            *v = v.minus(c);
-        }
-        out
+        self.sum.minus(&self.lost)
     }
 }
 
@@ -607,14 +612,7 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
             self.add_pair_by(l, now, then, active, mac);
             return;
         }
-        let mut step = *now;
-        for (d, t) in step.z.iter_mut().zip(then.z) {
-            *d = d.minus(t);
-        }
-        for (d, t) in step.y.iter_mut().zip(then.y) {
-            *d = d.minus(t);
-        }
-        self.add_pair_by(l, now, &step, active, mac);
+        self.add_pair_by(l, now, &now.minus(then), active, mac);
     }
     fn nonzero(item: &Sample<S>, i: usize) -> bool {
         item.z
@@ -754,8 +752,8 @@ impl<R> RecentSums<R> {
 /// smooth drive and an f32 sum of levels has nothing left (planar random craft seed 73009:
 /// AR(0.66, 0.33) at 250 Hz, an estimate 5 sigma off with status `ok`). The differences are of
 /// the size of what remains, `sum_l w_l L_l = (sum_l w_l) L_0 - w_1 M_1 - w_2 M_2`. The fixed
-/// kernel adds exact integer products and rounds them once, with a 64-bit integer float: it
-/// keeps the levels (its accumulators and their proofs are sized for `|a b|`).
+/// kernel adds exact integer products and rounds each entry once per fold: it keeps the
+/// levels (its accumulators and their proofs are sized for `|a b|`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LagForm {
     /// `L_l`.
@@ -1018,15 +1016,10 @@ pub(crate) mod tests {
                 .add_pair_by(0, &item, &item, &Active::full(), mac);
             for (l, then) in [history[1], history[0]].iter().enumerate() {
                 if k > l {
-                    let mut other = *then;
-                    if form == LagForm::Differences {
-                        for (d, (a, b)) in other.z.iter_mut().zip(item.z.iter().zip(then.z)) {
-                            *d = a.minus(b);
-                        }
-                        for (d, (a, b)) in other.y.iter_mut().zip(item.y.iter().zip(then.y)) {
-                            *d = a.minus(b);
-                        }
-                    }
+                    let other = match form {
+                        LagForm::Levels => *then,
+                        LagForm::Differences => item.minus(then),
+                    };
                     flight
                         .lag
                         .add_pair_by(l + 1, &item, &other, &Active::full(), mac);

@@ -133,6 +133,23 @@ pub enum MaRoot {
     Fixed(f32, u8),
 }
 
+/// Samples before the first re-anchoring of floating-point sums; then at every doubling of the
+/// flight ([`reanchor`]).
+const FIRST_REANCHOR: usize = 1024;
+
+/// What an onboard caller does with a fit mid-flight: moves the sums' reference to its
+/// estimate ([`FlightId::reanchor`]), so that f32 sums hold the rates' residual from the
+/// flight's own model, not their drift from the model file's (a fit that fails, or a
+/// non-rigid body, leaves them).
+fn reanchor<S: SumScalar>(id: &mut FlightId<S>) {
+    if let Ok(sol) = id.solve() {
+        if sol.positive_definite {
+            // An error leaves the sums as they were.
+            let _ = id.reanchor(&sol.theta);
+        }
+    }
+}
+
 /// Identifies `sat` from `flight` with the kernel in format `S`; `response` is the rate
 /// sensor's (a gyro's point sample when `None`); the rate noise's MA root from the flight.
 pub fn identify<S: SumScalar>(
@@ -294,11 +311,13 @@ pub fn identify_adjusted<S: SumScalar>(
             )
         })?;
         let mut prev_t: Option<f64> = None;
-        for ((t, rate), cmd) in flight
+        let mut next_anchor = FIRST_REANCHOR;
+        for (k, ((t, rate), cmd)) in flight
             .time_s
             .iter()
             .zip(flight.rate.iter())
             .zip(&flight.commands)
+            .enumerate()
         {
             let dt = prev_t.map_or(0.0, |p| t - p);
             prev_t = Some(*t);
@@ -314,6 +333,10 @@ pub fn identify_adjusted<S: SumScalar>(
                 }
             };
             id.push(S::from_f32(dt as f32), r, valid, wrench);
+            if FlightId::<S>::REANCHORS && k + 1 == next_anchor {
+                next_anchor = next_anchor.saturating_mul(2);
+                reanchor(&mut id);
+            }
         }
         id.finish();
         let samples = id.sums().samples;

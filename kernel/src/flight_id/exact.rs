@@ -272,6 +272,7 @@ impl ExactMoments {
 impl Recent<IntFloat> for ExactMoments {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
     const LAG_FORM: LagForm = LagForm::Levels;
+    const SHIFTS: bool = false;
     type Item = Sample<i32>;
     const ZERO_ITEM: Sample<i32> = Sample {
         z: [0; NZ],
@@ -326,6 +327,12 @@ impl Recent<IntFloat> for ExactMoments {
 
     fn nonzero(item: &Sample<i32>, i: usize) -> bool {
         item.z.get(i).is_some_and(|q| *q != 0)
+    }
+
+    /// Not moved: the exact sums do not round, and their scales are derived for the model
+    /// they were built for ([`super::anchor`]).
+    fn shift(_: &mut [Sample<i32>], _: &mut Sample<i64>, _: &[[IntFloat; NZ]; 3]) -> bool {
+        false
     }
 
     fn add_pair(&mut self, l: usize, now: &Sample<i32>, then: &Sample<i32>, active: &Active) {

@@ -21,6 +21,7 @@
 //! command delay and of thrust symmetry per torque axis ([`consistency`]), not of each
 //! thruster's thrust.
 pub mod active;
+pub mod anchor;
 pub mod close;
 pub mod components;
 pub mod consider;
@@ -443,11 +444,7 @@ impl<S: SumScalar> FlightId<S> {
     /// Fits the mass properties to the closed windows and tests their consistency (on a
     /// folded copy of the sums: this is a background task's work, not a tick's).
     pub fn solve(&self) -> Result<Solution<S>, SolveError> {
-        let mut sums = self.sums;
-        let mut recent = self.recent;
-        recent.fold_all(&mut sums);
-        let mut pending = self.pending;
-        pending.drain_all(&mut sums);
+        let sums = self.sums_so_far();
         if sums.out_of_range {
             return Err(SolveError::Overflow);
         }
@@ -488,10 +485,81 @@ impl<S: SumScalar> FlightId<S> {
         Ok(solution)
     }
 
+    /// Every sample's sums so far, folded, the open window's initial-rate term included (as
+    /// if it closed now: without it, a fit mid-window took the window's samples as measured
+    /// from a known initial rate). A copy: the flight goes on.
+    fn sums_so_far(&self) -> FlightSums<S> {
+        let mut sums = self.sums;
+        let mut recent = self.recent;
+        recent.fold_all(&mut sums);
+        let mut pending = self.pending;
+        if let Some((sum, n)) = self.window.term(&recent) {
+            pending.close(&mut sums, sum, n, recent.active());
+        }
+        pending.drain_all(&mut sums);
+        sums
+    }
+
+    /// Whether [`FlightId::reanchor`] moves this format's sums (floating point; the fixed
+    /// kernel's exact sums are not moved).
+    pub const REANCHORS: bool = <S::Recent as sums::Recent<S>>::SHIFTS;
+
+    /// Moves the sums' reference model to `theta` (a fit's [`Solution::theta`]): from here on
+    /// the sums hold the rates' residual from that model rather than from the configuration's
+    /// nominal ([`anchor`]: exact, so a fit before and after differ by rounding only; where the
+    /// nominal is far from the craft, f32's later fits are the better). Background work, as
+    /// [`FlightId::solve`]: it folds every waiting sum. Nothing changes on an error.
+    pub fn reanchor(&mut self, theta: &[S; NP]) -> Result<(), ReanchorError> {
+        let (j6, dc) = theta.split_at(6);
+        let new = solve::model_matrix(j6, dc, self.cfg.solve.gyroscopic)
+            .ok_or(ReanchorError::Singular)?;
+        let d: [[S; NZ]; 3] = core::array::from_fn(|a| {
+            core::array::from_fn(|j| {
+                let at = |m: &[[S; NZ]; 3]| m.get(a).and_then(|r| r.get(j)).copied();
+                at(&new)
+                    .zip(at(&self.nominal))
+                    .map_or(S::ZERO, |(n, o)| n.minus(o))
+            })
+        });
+        let mut window = self.window;
+        if !window.shift(&d) {
+            return Err(ReanchorError::ExactSums);
+        }
+        let mut sums = self.sums;
+        let mut recent = self.recent;
+        recent.fold_all(&mut sums);
+        let mut pending = self.pending;
+        pending.drain_all(&mut sums);
+        anchor::shift_sums(&mut sums, &d);
+        let valid = |v: &[S]| v.iter().all(|x| x.is_valid());
+        if !(sums.lag.is_valid() && valid(sums.czy.as_flattened()) && valid(&sums.cyy)) {
+            return Err(ReanchorError::Overflow);
+        }
+        sums.anchor = Some(*theta);
+        self.sums = sums;
+        self.recent = recent;
+        self.pending = pending;
+        self.window = window;
+        self.nominal = new;
+        Ok(())
+    }
+
     /// The configuration.
     pub fn config(&self) -> &FlightIdConfig<S> {
         &self.cfg
     }
+}
+
+/// Why [`FlightId::reanchor`] did not move the sums.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReanchorError {
+    /// The new model's inverse inertia is singular.
+    Singular,
+    /// The fixed kernel's exact sums are not moved: they do not round, and their integer
+    /// scales are derived for the model they were built for.
+    ExactSums,
+    /// A moved sum left the number format.
+    Overflow,
 }
 
 /// Terms of [`Solution::theta`], in order: inverse inertia xx yy zz xy xz yz, then the CoM.

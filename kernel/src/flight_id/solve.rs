@@ -37,7 +37,8 @@ pub struct ArNoise<S> {
 /// What the fit is told.
 #[derive(Clone, Copy, Debug)]
 pub struct SolveConfig<S> {
-    /// Nominal inverse inertia (the sums' anchor), xx yy zz xy xz yz.
+    /// Nominal inverse inertia, xx yy zz xy xz yz: where held terms stay, and the sums'
+    /// anchor until the caller moves it ([`super::anchor`]).
     pub j_nominal: [S; 6],
     /// Terms the fit may move (others stay at the nominal).
     pub free: [bool; NP],
@@ -439,16 +440,30 @@ fn dof<S: Scalar>(s: &FlightSums<S>) -> S {
     S::from_int_pow2(i32::try_from(d).unwrap_or(i32::MAX), 0)
 }
 
+/// The parameters whose model the sums' rates are relative to ([`FlightSums::anchor`]):
+/// inverse inertia and CoM offset.
+fn anchor<S: Scalar>(s: &FlightSums<S>, cfg: &SolveConfig<S>) -> ([S; 6], [S; 3]) {
+    match s.anchor {
+        Some(t) => (
+            core::array::from_fn(|m| get(&t, m)),
+            core::array::from_fn(|m| get(&t, m.saturating_add(6))),
+        ),
+        None => (cfg.j_nominal, [S::ZERO; 3]),
+    }
+}
+
 /// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns); None
 /// when the inverse inertia is singular.
 pub(crate) fn residual_and_jacobian<S: Scalar>(
+    s: &FlightSums<S>,
     theta: &[S; NP],
     cfg: &SolveConfig<S>,
     a: usize,
 ) -> Option<([S; NV], [[S; NV]; NP])> {
     let (j6, dc) = theta.split_at(6);
     let am = model_matrix(j6, dc, cfg.gyroscopic)?;
-    let an = model_matrix(&cfg.j_nominal, &[S::ZERO; 3], cfg.gyroscopic)?;
+    let (rj, rc) = anchor(s, cfg);
+    let an = model_matrix(&rj, &rc, cfg.gyroscopic)?;
     let row = |m: &[[S; NZ]; 3]| m.get(a).copied().unwrap_or([S::ZERO; NZ]);
     let (ar, anr) = (row(&am), row(&an));
     let mut u = [S::ZERO; NV];
@@ -493,7 +508,7 @@ pub(crate) fn axis_forms<S: Scalar>(
     a: usize,
 ) -> Option<AxisForms<S>> {
     let wm = weighted(s, a, &ar_weights(&nz.phi));
-    let (u, d) = residual_and_jacobian(theta, cfg, a)?;
+    let (u, d) = residual_and_jacobian(s, theta, cfg, a)?;
     let (j6, dc) = theta.split_at(6);
     let row = model_matrix(j6, dc, cfg.gyroscopic)?.get(a).copied()?;
     let inv_sigma2 = S::ONE.checked_div(nz.sigma2)?;
@@ -523,7 +538,7 @@ fn normal<S: Scalar>(
             continue;
         }
         let wm = weighted(s, a, &ar_weights(&nz.phi));
-        let Some((u, d)) = residual_and_jacobian(theta, cfg, a) else {
+        let Some((u, d)) = residual_and_jacobian(s, theta, cfg, a) else {
             continue;
         };
         let inv = S::ONE.checked_div(nz.sigma2).unwrap_or(S::ZERO);
@@ -573,7 +588,7 @@ fn autocovariances<S: Scalar>(
     theta: &[S; NP],
     a: usize,
 ) -> Option<[S; LAGS]> {
-    let (u, _) = residual_and_jacobian(theta, cfg, a)?;
+    let (u, _) = residual_and_jacobian(s, theta, cfg, a)?;
     let n = dof::<S>(s);
     let mut g = [S::ZERO; LAGS];
     for (l, gl) in g.iter_mut().enumerate() {
@@ -827,8 +842,17 @@ pub fn solve<S: Scalar>(
         phi: [S::ZERO; MAX_ORDER],
         sigma2: S::ONE,
     };
+    // Free terms start at the sums' anchor (the nominal unless re-anchored): their residual
+    // is smallest there.
+    let (aj, ac) = anchor(s, cfg);
     'holding: for _ in 0..NP {
-        let mut theta = nominal;
+        let mut theta: [S; NP] = core::array::from_fn(|m| {
+            match (free.get(m).copied().unwrap_or(false), m.checked_sub(6)) {
+                (false, _) => get(&nominal, m),
+                (true, None) => get(&aj, m),
+                (true, Some(c)) => get(&ac, c),
+            }
+        });
         let mut noise = [white; 3];
         for (a, nz) in noise.iter_mut().enumerate() {
             if let Some(g) = autocovariances(s, cfg, &theta, a) {

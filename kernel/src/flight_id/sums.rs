@@ -21,11 +21,13 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::active::Active as ActiveOf;
+use super::anchor::shifted;
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
 pub use super::components::{NZ, N_MODEL, SPLIT_TORQUE};
+use super::solve::NP;
 /// Which drive components the flight has moved so far ([`super::active`]).
 pub type Active = ActiveOf<NZ>;
 // Component numbers fit the active list's bytes.
@@ -415,6 +417,14 @@ impl<S: Scalar> CompensatedSum<S> {
         }
     }
 
+    /// A sum of value `v`, nothing lost.
+    pub fn of(v: Sample<S>) -> Self {
+        CompensatedSum {
+            sum: v,
+            lost: Sample::ZERO,
+        }
+    }
+
     /// The sum, its lost part restored.
     pub fn value(&self) -> Sample<S> {
         self.sum.minus(&self.lost)
@@ -528,6 +538,12 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item, active: &Active);
     /// True if `item`'s drive component `i` is other than zero or not a valid number.
     fn nonzero(item: &Self::Item, i: usize) -> bool;
+    /// Whether [`Recent::shift`] moves these sums.
+    const SHIFTS: bool;
+    /// Moves `item` and the window sum `sum` to a reference model `d` further on (`y -= d z`,
+    /// [`super::anchor`]); false, with nothing changed, where these sums are not moved (the
+    /// fixed kernel's exact sums).
+    fn shift(item: &mut [Self::Item], sum: &mut Self::ItemSum, d: &[[S; NZ]; 3]) -> bool;
     /// Entry `k` of the flat order, in `S`, and empties it.
     fn take(&mut self, k: usize) -> S;
 }
@@ -583,6 +599,7 @@ pub type DriveSnapshot<S> = <<S as SumScalar>::Drive as DriveSum<S>>::Snapshot;
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
     const LAG_FORM: LagForm = LagForm::Differences;
+    const SHIFTS: bool = true;
     type Item = Sample<S>;
     const ZERO_ITEM: Sample<S> = Sample::ZERO;
     type ItemSum = CompensatedSum<S>;
@@ -613,6 +630,13 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
             return;
         }
         self.add_pair_by(l, now, &now.minus(then), active, mac);
+    }
+    fn shift(items: &mut [Sample<S>], sum: &mut CompensatedSum<S>, d: &[[S; NZ]; 3]) -> bool {
+        for item in items {
+            *item = shifted(item, d);
+        }
+        *sum = CompensatedSum::of(shifted(&sum.value(), d));
+        true
     }
     fn nonzero(item: &Sample<S>, i: usize) -> bool {
         item.z
@@ -783,6 +807,10 @@ pub struct FlightSums<S> {
     /// A sample could not be represented in the recent sums (the fixed kernel's: a value
     /// beyond the envelope its exact sums are scaled to): the sums do not hold the flight.
     pub out_of_range: bool,
+    /// The parameters (as [`super::solve::Solution::theta`]) whose model's prediction the
+    /// rates in the sums are relative to ([`super::anchor`]); None: the configuration's
+    /// nominal (`j_nominal`, the model's CoM).
+    pub anchor: Option<[S; NP]>,
 }
 
 impl<S: Scalar> FlightSums<S> {
@@ -796,6 +824,7 @@ impl<S: Scalar> FlightSums<S> {
         field!(slot, Self, samples).write(0);
         field!(slot, Self, windows).write(0);
         field!(slot, Self, out_of_range).write(false);
+        field!(slot, Self, anchor).write(None);
         // SAFETY: every field was written just above.
         unsafe {
             assume_all_written!(
@@ -808,7 +837,8 @@ impl<S: Scalar> FlightSums<S> {
                     cyy,
                     samples,
                     windows,
-                    out_of_range
+                    out_of_range,
+                    anchor
                 }
             )
         }
@@ -900,12 +930,23 @@ impl<S: SumScalar> WindowSums<S> {
         flight.samples = flight.samples.saturating_add(1);
         recent.fold(flight, <S::Recent as Recent<S>>::FOLD_PER_SAMPLE);
     }
-    /// Closes the window: the value of its sums and its sample count, for its initial-rate
-    /// term ([`super::close`]; None for an empty window); empties the window.
+    /// The value of the window's sum and its sample count, for its initial-rate term
+    /// ([`super::close`]; None for an empty window).
+    pub fn term(&self, recent: &RecentSums<S::Recent>) -> Option<(Sample<S>, u32)> {
+        (self.n > 0).then(|| (recent.sums.sum_value(&self.sum), self.n))
+    }
+
+    /// Closes the window: [`WindowSums::term`]; empties the window.
     pub fn close(&mut self, recent: &RecentSums<S::Recent>) -> Option<(Sample<S>, u32)> {
-        let closed = (self.n > 0).then(|| (recent.sums.sum_value(&self.sum), self.n));
+        let closed = self.term(recent);
         *self = WindowSums::default();
         closed
+    }
+
+    /// Moves the window's sum and lag history to a reference `d` further on
+    /// ([`Recent::shift`]; false where the sums are not moved).
+    pub fn shift(&mut self, d: &[[S; NZ]; 3]) -> bool {
+        <S::Recent as Recent<S>>::shift(&mut self.history, &mut self.sum, d)
     }
 }
 

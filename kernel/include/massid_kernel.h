@@ -38,7 +38,7 @@ extern "C" {
  * 4 massid_flight_id_settings.rate_noise_ma_root and rate_noise_ma_lag, 5 massid_fixed_flight_id
  * 36864 bytes, 6 a 3-D craft's windows also end at the coupled noise walk (same layout, other
  * answers on fast-spinning craft). */
-#define MASSID_ABI_VERSION 6u
+#define MASSID_ABI_VERSION 7u
 uint32_t massid_abi_version(void);
 
 #define MASSID_N_THRUSTERS 12
@@ -340,6 +340,12 @@ massid_status massid_f32_flight_id_finish(massid_flight_id *id);
 /* Outside the tick (copies the sums: 21,728 bytes of stack on the M4F, 22,160 on the M0).
  * Never while a push on the same block can run (mask it, or push into a second block). */
 massid_status massid_f32_flight_id_solve(massid_flight_id *id, massid_flight_id_result *out);
+/* Moves the f32 sums' reference model to a solve's theta (9 floats, the result's theta), so
+ * that f32 keeps its precision on a craft far from the configured model: exact (solves before
+ * and after agree up to rounding). Outside the tick, as the solve. A caller solves and
+ * re-anchors now and then (the ground tool: after 1,024 samples and at each doubling).
+ * MASSID_SINGULAR, MASSID_OVERFLOW: nothing changed. No integer-float form (its sums are exact). */
+massid_status massid_f32_flight_id_reanchor(massid_flight_id *id, const float theta[9]);
 /* The integer-float form keeps its per-sample sums as exact integers scaled to the craft: a
  * wrench 2-4 times beyond its thrusters' (push_wrench) or a rate 2-4 times beyond one turn a
  * second (2 pi rad/s) makes its solve answer MASSID_OVERFLOW rather than a rounded wrong sum;

@@ -934,19 +934,17 @@ fn rust_flight_id_line<S: SumScalar>(
     expected
 }
 
-/// The C ABI's settings carry each thruster's thrust uncertainty to the fit: the estimate is
-/// unchanged, Izz's variance grows by about what a common thrust error of that size does to it
-/// (a uniform thrust error is an inertia error), and a non-finite entry is refused.
-#[test]
-fn the_c_abi_carries_the_thrust_uncertainty() {
-    use massid_kernel::capi::craft::{
-        massid_f32_flight_id_finish, massid_f32_flight_id_init, massid_f32_flight_id_push,
-        massid_f32_flight_id_solve, massid_flight_id_settings_default, MassidCraft, MassidFlightId,
-        MassidFlightIdResult, MassidFlightIdSettings,
-    };
-    use massid_kernel::capi::MassidStatus;
-    use std::mem::MaybeUninit;
-    // A planar craft: one thruster turns it each way, a third pushes it along y.
+use massid_kernel::capi::craft::{
+    massid_f32_flight_id_finish, massid_f32_flight_id_init, massid_f32_flight_id_push,
+    massid_f32_flight_id_reanchor, massid_f32_flight_id_solve, massid_flight_id_settings_default,
+    MassidCraft, MassidFlightId, MassidFlightIdResult, MassidFlightIdSettings,
+};
+use massid_kernel::capi::MassidStatus;
+use std::mem::MaybeUninit;
+
+/// A planar craft through the C ABI: one thruster turns it each way, a third pushes it along
+/// y; Izz 0.25, sampled at 100 Hz. Its default settings.
+fn three_thruster_craft() -> (MassidCraft, MassidFlightIdSettings) {
     let mut craft = MassidCraft {
         count: 3,
         planar: 1,
@@ -962,10 +960,8 @@ fn the_c_abi_carries_the_thrust_uncertainty() {
     ]);
     craft.thrust_dir[..3].copy_from_slice(&[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
     craft.thrust_n[..3].copy_from_slice(&[0.5, 0.5, 0.5]);
-    let izz = 0.25f32;
-    let inertia = [0.2f32, 0.2, izz, 0.0, 0.0, 0.0];
+    let inertia = [0.2f32, 0.2, 0.25, 0.0, 0.0, 0.0];
     let com = [0.0f32; 3];
-    let period = 0.01f32;
     let mut settings = MaybeUninit::<MassidFlightIdSettings>::uninit();
     // SAFETY: valid pointers to a craft, six and three floats and a settings slot.
     let status = unsafe {
@@ -973,60 +969,79 @@ fn the_c_abi_carries_the_thrust_uncertainty() {
             &craft,
             inertia.as_ptr(),
             com.as_ptr(),
-            period,
+            0.01,
             settings.as_mut_ptr(),
         )
     };
     assert_eq!(status, MassidStatus::Ok);
     // SAFETY: written by the call above.
-    let defaults = unsafe { settings.assume_init() };
-    assert_eq!(defaults.thrust_sigma_rel, [0.0; 16]);
-    let run = |sigma: [f32; 16]| -> Result<MassidFlightIdResult, MassidStatus> {
-        // (Field assignment: struct-update syntax here made rustc 1.95 panic, "broken MIR".)
-        let mut s = defaults;
-        s.thrust_sigma_rel = sigma;
-        let mut block: Box<MaybeUninit<MassidFlightId>> = Box::new(MaybeUninit::uninit());
-        let b = block.as_mut_ptr();
-        // SAFETY: an 8-aligned block of the type, a craft and settings.
-        let st = unsafe { massid_f32_flight_id_init(b, &craft, &s) };
+    (craft, unsafe { settings.assume_init() })
+}
+
+/// Flies [`three_thruster_craft`] (true Izz `izz`) through the C ABI with `settings`: pulses
+/// each way and along y, the yaw rate following Izz (torque 0.1 N m), with a small
+/// deterministic noise; `between(block, k)` runs before sample `k` is pushed. The final solve.
+fn fly_three_thruster_craft(
+    settings: &MassidFlightIdSettings,
+    izz: f32,
+    mut between: impl FnMut(*mut MassidFlightId, u32),
+) -> Result<MassidFlightIdResult, MassidStatus> {
+    let (craft, _) = three_thruster_craft();
+    let mut block: Box<MaybeUninit<MassidFlightId>> = Box::new(MaybeUninit::uninit());
+    let b = block.as_mut_ptr();
+    // SAFETY: an 8-aligned block of the type, a craft and settings.
+    let st = unsafe { massid_f32_flight_id_init(b, &craft, settings) };
+    if st != MassidStatus::Ok {
+        return Err(st);
+    }
+    let mut rate = 0.0f32;
+    let mut x = 7u32;
+    for k in 0..6000u32 {
+        between(b, k);
+        let word: u16 = match (k / 50) % 6 {
+            0 => 1,
+            2 => 2,
+            4 => 4,
+            _ => 0,
+        };
+        x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        let noise = 1e-3 * ((x >> 8) as f32 / (1u32 << 24) as f32 - 0.5);
+        let r = [0.0, 0.0, rate + noise];
+        // SAFETY: an initialised block and three floats.
+        let st = unsafe { massid_f32_flight_id_push(b, 0.01, r.as_ptr(), 1, word) };
+        assert_eq!(st, MassidStatus::Ok);
+        // (lever x force about z: -0.1, +0.1 and -0.1 N m)
+        let torque = match word {
+            1 | 4 => -0.1,
+            2 => 0.1,
+            _ => 0.0,
+        };
+        rate += torque / izz * 0.01;
+    }
+    let mut out = MaybeUninit::<MassidFlightIdResult>::uninit();
+    // SAFETY: an initialised block and a result slot.
+    unsafe {
+        assert_eq!(massid_f32_flight_id_finish(b), MassidStatus::Ok);
+        let st = massid_f32_flight_id_solve(b, out.as_mut_ptr());
         if st != MassidStatus::Ok {
             return Err(st);
         }
-        // Pulses each way and along y, the yaw rate following Izz (torque 0.1 N m), with a
-        // small deterministic noise.
-        let mut rate = 0.0f32;
-        let mut x = 7u32;
-        for k in 0..6000u32 {
-            let word: u16 = match (k / 50) % 6 {
-                0 => 1,
-                2 => 2,
-                4 => 4,
-                _ => 0,
-            };
-            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            let noise = 1e-3 * ((x >> 8) as f32 / (1u32 << 24) as f32 - 0.5);
-            let r = [0.0, 0.0, rate + noise];
-            // SAFETY: an initialised block and three floats.
-            let st = unsafe { massid_f32_flight_id_push(b, period, r.as_ptr(), 1, word) };
-            assert_eq!(st, MassidStatus::Ok);
-            // (lever x force about z: -0.1, +0.1 and -0.1 N m)
-            let torque = match word {
-                1 | 4 => -0.1,
-                2 => 0.1,
-                _ => 0.0,
-            };
-            rate += torque / izz * period;
-        }
-        let mut out = MaybeUninit::<MassidFlightIdResult>::uninit();
-        // SAFETY: an initialised block and a result slot.
-        unsafe {
-            assert_eq!(massid_f32_flight_id_finish(b), MassidStatus::Ok);
-            assert_eq!(
-                massid_f32_flight_id_solve(b, out.as_mut_ptr()),
-                MassidStatus::Ok
-            );
-            Ok(out.assume_init())
-        }
+        Ok(out.assume_init())
+    }
+}
+
+/// The C ABI's settings carry each thruster's thrust uncertainty to the fit: the estimate is
+/// unchanged, Izz's variance grows by about what a common thrust error of that size does to it
+/// (a uniform thrust error is an inertia error), and a non-finite entry is refused.
+#[test]
+fn the_c_abi_carries_the_thrust_uncertainty() {
+    let (_, defaults) = three_thruster_craft();
+    assert_eq!(defaults.thrust_sigma_rel, [0.0; 16]);
+    let run = |sigma: [f32; 16]| {
+        // (Field assignment: struct-update syntax here made rustc 1.95 panic, "broken MIR".)
+        let mut s = defaults;
+        s.thrust_sigma_rel = sigma;
+        fly_three_thruster_craft(&s, 0.25, |_, _| {})
     };
     let plain = run([0.0; 16]).expect("no uncertainty");
     let mut sigma = [0.0f32; 16];
@@ -1045,6 +1060,62 @@ fn the_c_abi_carries_the_thrust_uncertainty() {
     );
     sigma[1] = f32::NAN;
     assert_eq!(run(sigma).err(), Some(MassidStatus::BadParameters));
+}
+
+/// A C caller re-anchors the f32 sums at its solve mid-flight (`massid_f32_flight_id_reanchor`):
+/// on a craft 30 % heavier in yaw than its model, the final estimate is the one without
+/// re-anchoring to within a hundredth of its sigma (the move is exact); a NULL theta and a
+/// NaN one are refused and change nothing (the final solve bit for bit the plain one).
+#[test]
+fn the_c_abi_re_anchors_the_f32_sums() {
+    let (_, settings) = three_thruster_craft();
+    let izz = 0.325;
+    let plain = fly_three_thruster_craft(&settings, izz, |_, _| {}).expect("plain");
+    let moved = fly_three_thruster_craft(&settings, izz, |b, k| {
+        if k == 1024 || k == 2048 || k == 4096 {
+            let mut fit = MaybeUninit::<MassidFlightIdResult>::uninit();
+            // SAFETY: an initialised block, a result slot, then nine floats.
+            unsafe {
+                assert_eq!(
+                    massid_f32_flight_id_solve(b, fit.as_mut_ptr()),
+                    MassidStatus::Ok
+                );
+                let theta = fit.assume_init().theta;
+                assert_eq!(
+                    massid_f32_flight_id_reanchor(b, theta.as_ptr()),
+                    MassidStatus::Ok
+                );
+            }
+        }
+    })
+    .expect("re-anchored");
+    for m in [2, 6, 7] {
+        let gap = (moved.theta[m] - plain.theta[m]) / plain.covariance[m][m].sqrt();
+        assert!(gap.abs() < 0.01, "term {m}: {gap}");
+    }
+    assert!(
+        (1.0 / plain.theta[2] - izz).abs() < 0.01 * izz,
+        "{}",
+        1.0 / plain.theta[2]
+    );
+    let refused = fly_three_thruster_craft(&settings, izz, |b, k| {
+        if k == 3000 {
+            // SAFETY: an initialised block; NULL, then nine floats.
+            unsafe {
+                assert_eq!(
+                    massid_f32_flight_id_reanchor(b, std::ptr::null()),
+                    MassidStatus::NullPointer
+                );
+                assert_eq!(
+                    massid_f32_flight_id_reanchor(b, [f32::NAN; 9].as_ptr()),
+                    MassidStatus::Overflow
+                );
+            }
+        }
+    })
+    .expect("refused");
+    assert_eq!(refused.theta, plain.theta);
+    assert_eq!(refused.covariance, plain.covariance);
 }
 
 /// The ABI's layout is the one recorded for its version: every struct's size is checked

@@ -16,7 +16,7 @@ use crate::flight_id::exact::Envelope;
 use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDER, NP};
 use crate::flight_id::sums::SumScalar;
 use crate::flight_id::window;
-use crate::flight_id::{FlightId, FlightIdConfig, SensorResponse};
+use crate::flight_id::{FlightId, FlightIdConfig, ReanchorError, SensorResponse};
 use crate::in_place::field;
 use crate::mixer::MixerConfig;
 use crate::scalar::{Scalar, Q8_24};
@@ -841,6 +841,37 @@ fn flight_id_solve<S: SumScalar>(
             SolveError::Overflow => MassidStatus::Overflow,
             SolveError::NotConverged => MassidStatus::NotConverged,
         },
+    })
+}
+
+/// Moves the f32 identification's sums to the model of `theta` (9 floats, a solve's result
+/// `theta`: inverse inertia xx yy zz xy xz yz in 1/(kg m^2), then the CoM offset from the
+/// model's in m): from then on they hold the rates' residual from that model, so that f32 keeps
+/// its precision on a craft far from the model it was configured with
+/// (`massid_kernel::flight_id::anchor`). Exact: a solve before and after agree up to rounding.
+/// Background work, as the solve (it folds every waiting sum; never while a push on the block
+/// can run). Errors: `MASSID_SINGULAR` (the inverse inertia), `MASSID_OVERFLOW` (a moved sum
+/// left f32; nothing changed). The integer-float form has no such call: its sums are exact.
+///
+/// # Safety
+/// `block` is NULL or points to a `massid_flight_id`; `theta` is NULL or points to nine
+/// readable floats.
+#[no_mangle]
+pub unsafe extern "C" fn massid_f32_flight_id_reanchor(
+    block: *mut MassidFlightId,
+    theta: *const f32,
+) -> MassidStatus {
+    if theta.is_null() {
+        return MassidStatus::NullPointer;
+    }
+    // SAFETY: non-NULL; the caller passes nine floats.
+    let theta = unsafe { theta.cast::<[f32; NP]>().read_unaligned() };
+    with_flight_id::<f32>(block.cast::<u8>(), MAGIC_F32_FLIGHT_ID, |st| {
+        match st.id.reanchor(&theta) {
+            Ok(()) => MassidStatus::Ok,
+            Err(ReanchorError::Singular) => MassidStatus::Singular,
+            Err(ReanchorError::Overflow | ReanchorError::ExactSums) => MassidStatus::Overflow,
+        }
     })
 }
 

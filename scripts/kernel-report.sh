@@ -81,7 +81,7 @@ ENTRIES=(massid_fixed_init massid_fixed_tick massid_fixed_finish massid_fixed_es
          massid_fixed_craft_mixer_init massid_fixed_craft_mix
          massid_f32_craft_mixer_init massid_f32_craft_mix
          massid_f32_flight_id_init massid_f32_flight_id_push massid_f32_flight_id_push_wrench
-         massid_f32_flight_id_finish massid_f32_flight_id_solve
+         massid_f32_flight_id_finish massid_f32_flight_id_solve massid_f32_flight_id_reanchor
          massid_fixed_flight_id_init massid_fixed_flight_id_push massid_fixed_flight_id_push_wrench
          massid_fixed_flight_id_finish massid_fixed_flight_id_solve)
 SBASE=$BASE/qemu-stack

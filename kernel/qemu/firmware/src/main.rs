@@ -48,7 +48,7 @@ mod keep_capi {
 
     /// Addresses of functions (only stored, never dereferenced).
     #[allow(dead_code)]
-    pub struct Keep(pub [*const (); 30]);
+    pub struct Keep(pub [*const (); 31]);
     // SAFETY: the array is immutable and only holds code addresses.
     unsafe impl Sync for Keep {}
 
@@ -79,6 +79,7 @@ mod keep_capi {
         c::craft::massid_f32_flight_id_push_wrench as *const (),
         c::craft::massid_f32_flight_id_finish as *const (),
         c::craft::massid_f32_flight_id_solve as *const (),
+        c::craft::massid_f32_flight_id_reanchor as *const (),
         c::craft::massid_fixed_flight_id_init as *const (),
         c::craft::massid_fixed_flight_id_push as *const (),
         c::craft::massid_fixed_flight_id_push_wrench as *const (),

@@ -8,7 +8,9 @@
 //!
 //! One call of [`FlightId::push`] per sample adds the sample to a few hundred sums
 //! ([`sums`]); [`FlightId::solve`] fits the mass properties and an AR noise model per axis
-//! to those sums at any time ([`solve`]). Any craft: the thrusters are a table ([`crate::craft`])
+//! to those sums at any time ([`solve`]); [`FlightId::reanchor`] then moves the floating-point
+//! sums to that fit's model, so that they hold noise rather than the drift from a model far
+//! from the craft ([`anchor`]). Any craft: the thrusters are a table ([`crate::craft`])
 //! and the caller passes the commanded wrench, so thruster words and wrench commands alike.
 //!
 //! The gyroscopic term `omega x I omega` is linear in the six rate products

@@ -842,17 +842,11 @@ pub fn solve<S: Scalar>(
         phi: [S::ZERO; MAX_ORDER],
         sigma2: S::ONE,
     };
-    // Free terms start at the sums' anchor (the nominal unless re-anchored): their residual
-    // is smallest there.
-    let (aj, ac) = anchor(s, cfg);
+    // Every round starts at the model, whatever the sums' anchor: on a flight the model does
+    // not fit (a dead thruster) the cost has several minima, and a start at a mid-flight fit
+    // led f32 to another one than the integer float's (open2 p08: CoM x 52 mm against 21).
     'holding: for _ in 0..NP {
-        let mut theta: [S; NP] = core::array::from_fn(|m| {
-            match (free.get(m).copied().unwrap_or(false), m.checked_sub(6)) {
-                (false, _) => get(&nominal, m),
-                (true, None) => get(&aj, m),
-                (true, Some(c)) => get(&ac, c),
-            }
-        });
+        let mut theta = nominal;
         let mut noise = [white; 3];
         for (a, nz) in noise.iter_mut().enumerate() {
             if let Some(g) = autocovariances(s, cfg, &theta, a) {

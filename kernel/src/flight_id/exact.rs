@@ -205,7 +205,7 @@ fn exponent_for(bound: IntFloat) -> Option<i32> {
 }
 
 impl ExactMoments {
-    /// The item of the rounded drive `zq` and the anchored rate `y_raw`: the rate rounded, less
+    /// The item of the rounded drive `zq` and the rate `y_raw` relative to the window's first: the rate rounded, less
     /// the nominal model's prediction from `zq` (in integers); None if out of range.
     fn item_of(&self, zq: [i32; NZ], y_raw: &[IntFloat; 3]) -> Option<Sample<i32>> {
         let ey = self.exp.get(NZ..).unwrap_or(&[]);

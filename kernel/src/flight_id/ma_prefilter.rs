@@ -100,14 +100,14 @@ impl<S: Scalar> MaPrefilter<S> {
         self.active
     }
 
-    /// A new window: the state starts from zero, as the anchored rate and the drive do.
+    /// A new window: the state starts from zero, as the rate relative to the window's first and the drive do.
     pub fn reset(&mut self) {
         self.z = [[S::ZERO; NZ]; 2];
         self.y = [[S::ZERO; 3]; 2];
         self.newest = 0;
     }
 
-    /// One measurement (drive `z`, anchored rate `y`), filtered.
+    /// One measurement (drive `z`, rate `y` relative to the window's first), filtered.
     pub fn apply<'a>(&'a mut self, z: &'a [S; NZ], y: &'a [S; 3]) -> (&'a [S; NZ], &'a [S; 3]) {
         if !self.active {
             return (z, y);

@@ -138,8 +138,9 @@ pub struct FlightId<S: SumScalar> {
     walk_weight: [S; 3],
     /// The window's coupled noise walk so far ([`window`]).
     walked: S,
-    /// The window's rate anchor (its first measurement).
-    anchor: Option<[S; 3]>,
+    /// The window's first measured rate (the sums hold rates relative to it; the model they
+    /// are relative to is the sums' [`FlightSums::anchor`]).
+    first_rate: Option<[S; 3]>,
     /// The delay line of the commands.
     delay: delay::CommandDelay<S>,
     /// The rate noise's moving-average part, taken out of each measurement.
@@ -219,7 +220,7 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, turned).write(S::ZERO);
         field!(slot, Self, walk_weight).write(walk_weight);
         field!(slot, Self, walked).write(S::ZERO);
-        field!(slot, Self, anchor).write(None);
+        field!(slot, Self, first_rate).write(None);
         field!(slot, Self, previous).write(None);
         field!(slot, Self, delay).write(delay);
         field!(slot, Self, prefilter).write(prefilter);
@@ -245,7 +246,7 @@ impl<S: SumScalar> FlightId<S> {
                     turned,
                     walk_weight,
                     walked,
-                    anchor,
+                    first_rate,
                     delay,
                     prefilter,
                     previous,
@@ -401,8 +402,8 @@ impl<S: SumScalar> FlightId<S> {
             }
             _ => return,
         };
-        let anchor = *self.anchor.get_or_insert(*y);
-        let y_raw = core::array::from_fn(|a| get(y, a).minus(get(&anchor, a)));
+        let first = *self.first_rate.get_or_insert(*y);
+        let y_raw = core::array::from_fn(|a| get(y, a).minus(get(&first, a)));
         let skip = self.cfg.skip.saturating_add(self.prefilter.settle());
         if self.prefilter.is_active() {
             // The filter runs on values (in the fixed kernel: converted from its integers).
@@ -432,7 +433,7 @@ impl<S: SumScalar> FlightId<S> {
         self.filled = 0;
         self.turned = S::ZERO;
         self.walked = S::ZERO;
-        self.anchor = None;
+        self.first_rate = None;
     }
 
     /// Ends the flight: closes the open window and adds every closed window's term to the

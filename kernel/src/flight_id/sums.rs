@@ -347,12 +347,13 @@ impl<S: Scalar> LagMoments<S> {
     }
 }
 
-/// One measurement as the sums take it: drive `z` and the anchored rate `y`, rad/s.
+/// One measurement as the sums take it: drive `z` and the rate `y` relative to the window's first, rad/s.
 #[derive(Clone, Copy, Debug)]
 pub struct Sample<S> {
     /// Accumulated drive, seen through the sensor's response.
     pub z: [S; NZ],
-    /// Measured rate minus the window's anchor and the nominal model's prediction.
+    /// Measured rate minus the window's first and the prediction of the sums' reference model
+    /// ([`FlightSums::anchor`]).
     pub y: [S; 3],
 }
 
@@ -523,7 +524,7 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     type ItemSum: Copy + core::fmt::Debug;
     /// The empty sum.
     const ZERO_SUM: Self::ItemSum;
-    /// The sample of drive `z` and anchored rate `y_raw` (the rate minus the window's first),
+    /// The sample of drive `z` and rate `y_raw` relative to the window's first,
     /// its `y` the residual from the nominal model's prediction `nominal z` (so that the sums
     /// stay small whatever the rates), as an item; None if it cannot be represented (the
     /// flight's sums are then [`FlightSums::out_of_range`]).
@@ -582,7 +583,7 @@ pub trait SumScalar: Scalar {
     /// A zero drive.
     fn drive(scales: &Self::Scales) -> Self::Drive;
     /// The item of the drive snapshot `z` (the sensor's response of `drive`'s snapshots) and
-    /// the anchored rate `y_raw`: [`Recent::item`] of its values in floating point; the fixed
+    /// the rate `y_raw` relative to the window's first: [`Recent::item`] of its values in floating point; the fixed
     /// kernel rounds its exact drive once, in integers.
     fn drive_item(
         recent: &Self::Recent,

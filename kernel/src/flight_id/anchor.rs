@@ -139,39 +139,11 @@ mod tests {
         clippy::indexing_slicing,
         clippy::arithmetic_side_effects
     )]
-    use super::super::solve::{SolveConfig, NP};
+    use super::super::solve::NP;
     use super::super::sums::{entry_components, SumScalar, ENTRIES};
-    use super::super::{consider, exact, FlightId, FlightIdConfig, SensorResponse};
+    use super::super::test_flights::{config, fly_planar, planar};
+    use super::super::FlightId;
     use super::*;
-
-    /// A 3-D craft at 1 kHz, windows of 700 samples, the gyroscopic term in.
-    fn config<S: SumScalar>(j_nominal: [f32; 6]) -> FlightIdConfig<S> {
-        let c = S::from_f32;
-        FlightIdConfig {
-            period_s: c(1e-3),
-            sensor: SensorResponse::Point,
-            rate_noise_ma_root: S::ZERO,
-            rate_noise_ma_lag: 1,
-            delay_periods: 0.0,
-            cut_at_changes: false,
-            max_window: 700,
-            max_window_turn_rad: c(f32::INFINITY),
-            turn_weight: [S::ONE; 3],
-            turn_window: 0,
-            max_window_walk: c(f32::INFINITY),
-            skip: 2,
-            solve: SolveConfig {
-                j_nominal: j_nominal.map(c),
-                free: [true; NP],
-                axes: [true; 3],
-                gyroscopic: true,
-                max_noise_order: 2,
-                scale: [S::ONE; NP],
-            },
-            envelope: exact::Envelope::of_craft([S::ONE; 6]),
-            thrust: consider::ThrustUncertainty::none(),
-        }
-    }
 
     const J0: [f32; 6] = [10.0, 12.0, 14.0, 0.5, -0.3, 0.2];
     /// The new anchor: inverse inertia 10-15 % off, a CoM 2-5 cm off.
@@ -290,18 +262,6 @@ mod tests {
         assert!(largest_difference(&open, &later.sums_so_far()) > 1e-6);
     }
 
-    /// A planar craft at 500 Hz, one window, the model's Izz `izz` (the craft's 0.1), Izz and
-    /// the CoM free.
-    fn planar<S: SumScalar>(izz: f32) -> FlightIdConfig<S> {
-        let mut cfg = config::<S>([1.0, 1.0, 1.0 / izz, 0.0, 0.0, 0.0]);
-        cfg.period_s = S::from_f32(2e-3);
-        cfg.max_window = 100_000;
-        cfg.solve.free = core::array::from_fn(|m| matches!(m, 2 | 6 | 7));
-        cfg.solve.axes = [false, false, true];
-        cfg.solve.gyroscopic = false;
-        cfg
-    }
-
     /// The fit of a flight far from its model (three nearly collinear thrusters, `n` samples
     /// in one window, AR(`phi`) rate noise from generator seed `seed`) in format `S`, the sums
     /// re-anchored at the fit after 1024 samples and each doubling (as `massid_kernel_host`
@@ -313,32 +273,21 @@ mod tests {
         izz: f32,
         n: u32,
     ) -> Option<([f64; 3], [f64; 3])> {
-        let c = |v: f64| S::from_f32(v as f32);
         let mut id = FlightId::new(planar::<S>(izz)).unwrap();
-        // (position, direction, thrust) of the three thrusters, one firing at a time.
+        // Three nearly collinear thrusters.
         let thrusters = [
             ((0.0, 0.1), (1.0, 0.05), 3.0),
             ((0.0, -0.1), (1.0, -0.05), 3.0),
             ((0.0, 0.12), (-1.0, 0.02), 0.3),
         ];
-        let (j_zz, dc) = (10.0f64, (0.01f64, -0.02f64));
-        let (mut w, mut e, mut x, mut next) = (0.0f64, 0.0f64, seed, 1024u32);
-        for k in 0..n {
-            let ((rx, ry), (fx, fy), f) = thrusters[((k / 100) % 3) as usize];
-            let wrench = [0.0, 0.0, f * (rx * fy - ry * fx), f * fx, f * fy, 0.0];
-            x = x
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            e = phi * e + 0.027 * ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
-            id.push(c(2e-3), [S::ZERO, S::ZERO, c(w + e)], true, wrench.map(c));
-            // The torque about the true CoM, integrated exactly over the held interval.
-            w += j_zz * (wrench[2] + wrench[3] * dc.1 - wrench[4] * dc.0) * 2e-3;
+        let mut next = 1024u32;
+        fly_planar(&mut id, &thrusters, n, (phi, seed), |id, k| {
             if reanchor && k + 1 == next {
                 next *= 2;
                 let fit = id.solve().unwrap();
                 id.reanchor(&fit.theta).unwrap();
             }
-        }
+        });
         id.finish();
         let fit = id.solve().ok()?;
         let terms = [2, 6, 7];

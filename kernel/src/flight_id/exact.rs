@@ -23,8 +23,8 @@ use core::mem::MaybeUninit;
 
 use super::drive::DriveSum;
 use super::sums::{
-    entry_components, fold_period, Active, LagForm, LagMoments, Recent, Sample, SumScalar, ENTRIES,
-    NZ,
+    entry_components, fold_period, Active, LagForm, LagMoments, Recent, Sample, SumScalar,
+    DEFAULT_PIVOT_EXP, ENTRIES, NZ,
 };
 use crate::in_place::{assume_all_written, field};
 use crate::int::mul::{mul_acc, round_product};
@@ -272,6 +272,8 @@ impl ExactMoments {
 impl Recent<IntFloat> for ExactMoments {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
     const LAG_FORM: LagForm = LagForm::Levels;
+    /// Exact integer products, each entry rounded once per fold.
+    const PIVOT_EXP: i32 = DEFAULT_PIVOT_EXP;
     const SHIFTS: bool = false;
     type Item = Sample<i32>;
     const ZERO_ITEM: Sample<i32> = Sample {

@@ -34,6 +34,8 @@ pub mod exact;
 pub mod ma_prefilter;
 pub mod solve;
 pub mod sums;
+#[cfg(test)]
+mod test_flights;
 pub mod window;
 
 use core::mem::MaybeUninit;
@@ -204,8 +206,9 @@ impl<S: SumScalar> FlightId<S> {
         let bounds = cfg.envelope.component_bounds(window_s, reach, &nominal);
         let scales = S::scales(&bounds, &nominal, cfg.max_window, products_window, window_s)?;
         field!(slot, Self, cfg).write(cfg);
-        FlightSums::init_in_place(field!(slot, Self, sums)).lag_form =
-            <S::Recent as Recent<S>>::LAG_FORM;
+        let sums = FlightSums::init_in_place(field!(slot, Self, sums));
+        sums.lag_form = <S::Recent as Recent<S>>::LAG_FORM;
+        sums.pivot_exp = <S::Recent as Recent<S>>::PIVOT_EXP;
         RecentSums::init_in_place(field!(slot, Self, recent), |r| S::init_recent(r, &scales));
         field!(slot, Self, window).write(WindowSums::default());
         field!(slot, Self, pending).write(close::PendingCloses::default());

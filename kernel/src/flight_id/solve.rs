@@ -630,6 +630,7 @@ impl From<SolveError> for StepError {
 fn scaled_solve<S: Scalar>(
     info: &[[S; NP]; NP],
     score: &[S; NP],
+    pivot_exp: i32,
 ) -> Result<([S; NP], [[S; NP]; NP]), StepError> {
     let k = scaling(info);
     let kk = |m: usize| k.get(m).copied().unwrap_or(0);
@@ -640,7 +641,7 @@ fn scaled_solve<S: Scalar>(
         }
     }
     let b: [S; NP] = core::array::from_fn(|m| get(score, m).mul_pow2(kk(m).saturating_neg()));
-    let lu = Lu::factor(&a, S::from_int_pow2(1, -20)).map_err(|e| match e {
+    let lu = Lu::factor(&a, S::from_int_pow2(1, pivot_exp)).map_err(|e| match e {
         LuError::Overflow => StepError::Other(SolveError::Overflow),
         LuError::Singular { column } => StepError::Singular(column),
         LuError::ZeroMatrix => StepError::Other(SolveError::Singular),
@@ -691,7 +692,7 @@ fn gauss_newton<S: Scalar>(
     let tol = S::from_int_pow2(1, -6);
     for step in 1..=max_steps {
         let (info, score, cost) = normal(s, cfg, theta, noise, free);
-        let (delta, cov) = scaled_solve(&info, &score)?;
+        let (delta, cov) = scaled_solve(&info, &score, s.pivot_exp)?;
         let mut settled = true;
         let mut long = false;
         for (m, dv) in delta.iter().copied().enumerate() {
@@ -874,7 +875,7 @@ pub fn solve<S: Scalar>(
                     // wandered along the directions they do not excite).
                     Err(StepError::Other(SolveError::NotConverged)) => {
                         let (info, score, _) = normal(s, cfg, &theta, &noise, &free);
-                        let beyond = scaled_solve(&info, &score)
+                        let beyond = scaled_solve(&info, &score, s.pivot_exp)
                             .ok()
                             .and_then(|(_, cov)| least_determined(&cov, &free, &cfg.scale));
                         match beyond.and_then(|m| free.get_mut(m)) {
@@ -915,7 +916,7 @@ pub fn solve<S: Scalar>(
         }
         steps = steps.saturating_add(step!(gauss_newton(s, cfg, &mut theta, &noise, &free, 20)));
         let (info, score, _) = normal(s, cfg, &theta, &noise, &free);
-        let (_, cov) = step!(scaled_solve(&info, &score));
+        let (_, cov) = step!(scaled_solve(&info, &score, s.pivot_exp));
         // Hold the least determined term beyond its scale and start again.
         if let Some(m) = least_determined(&cov, &free, &cfg.scale) {
             if let Some(f) = free.get_mut(m) {

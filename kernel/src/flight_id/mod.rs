@@ -584,30 +584,12 @@ mod tests {
     /// Windows of a craft turning about x at 1 rad/s for 1 s, cut after `limit` rad of
     /// weighted turn.
     fn windows_of(weight: [f32; 3], limit: f32) -> u32 {
-        let cfg = FlightIdConfig {
-            period_s: 1e-3,
-            sensor: SensorResponse::Point,
-            rate_noise_ma_root: 0.0,
-            rate_noise_ma_lag: 1,
-            delay_periods: 0.0,
-            cut_at_changes: false,
-            max_window: 100_000,
-            max_window_turn_rad: limit,
-            turn_weight: weight,
-            turn_window: 0,
-            max_window_walk: f32::INFINITY,
-            skip: 0,
-            solve: SolveConfig {
-                j_nominal: [10.0, 10.0, 10.0, 0.0, 0.0, 0.0],
-                free: [true; NP],
-                axes: [true; 3],
-                gyroscopic: true,
-                max_noise_order: 0,
-                scale: [1.0; NP],
-            },
-            envelope: exact::Envelope::of_craft([1.0; 6]),
-            thrust: consider::ThrustUncertainty::none(),
-        };
+        let mut cfg = test_flights::config::<f32>([10.0, 10.0, 10.0, 0.0, 0.0, 0.0]);
+        cfg.max_window = 100_000;
+        cfg.max_window_turn_rad = limit;
+        cfg.turn_weight = weight;
+        cfg.skip = 0;
+        cfg.solve.max_noise_order = 0;
         let mut id = FlightId::new(cfg).expect("config");
         for _ in 0..1000 {
             id.push(1e-3, [1.0, 0.0, 0.0], true, [0.0; 6]);
@@ -639,31 +621,15 @@ mod tests {
         free: [bool; NP],
         envelope: exact::Envelope<S>,
     ) -> FlightIdConfig<S> {
-        let c = S::from_f32;
-        FlightIdConfig {
-            period_s: c(1e-3),
-            sensor: SensorResponse::Point,
-            rate_noise_ma_root: S::ZERO,
-            rate_noise_ma_lag: 1,
-            delay_periods: 0.0,
-            cut_at_changes: false,
-            max_window,
-            max_window_turn_rad: c(f32::INFINITY),
-            turn_weight,
-            turn_window: 0,
-            max_window_walk,
-            skip: 0,
-            solve: SolveConfig {
-                j_nominal: inertia_inverse.map(c),
-                free,
-                axes: [true; 3],
-                gyroscopic: true,
-                max_noise_order: 0,
-                scale: [1.0f32; NP].map(c),
-            },
-            envelope,
-            thrust: consider::ThrustUncertainty::none(),
-        }
+        let mut cfg = test_flights::config::<S>(inertia_inverse);
+        cfg.max_window = max_window;
+        cfg.turn_weight = turn_weight;
+        cfg.max_window_walk = max_window_walk;
+        cfg.skip = 0;
+        cfg.solve.free = free;
+        cfg.solve.max_noise_order = 0;
+        cfg.envelope = envelope;
+        cfg
     }
 
     /// The fixed kernel's exact sums are scaled to the envelope: a wrench beyond it makes the

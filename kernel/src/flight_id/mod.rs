@@ -541,7 +541,10 @@ impl<S: SumScalar> FlightId<S> {
         if !(sums.lag.is_valid() && valid(sums.czy.as_flattened()) && valid(&sums.cyy)) {
             return Err(ReanchorError::Overflow);
         }
-        sums.anchor = Some(*theta);
+        sums.anchor = Some((
+            core::array::from_fn(|m| get(j6, m)),
+            core::array::from_fn(|m| get(dc, m)),
+        ));
         self.sums = sums;
         self.recent = recent;
         self.pending = pending;

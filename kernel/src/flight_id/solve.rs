@@ -443,13 +443,7 @@ fn dof<S: Scalar>(s: &FlightSums<S>) -> S {
 /// The parameters whose model the sums' rates are relative to ([`FlightSums::anchor`]):
 /// inverse inertia and CoM offset.
 fn anchor<S: Scalar>(s: &FlightSums<S>, cfg: &SolveConfig<S>) -> ([S; 6], [S; 3]) {
-    match s.anchor {
-        Some(t) => (
-            core::array::from_fn(|m| get(&t, m)),
-            core::array::from_fn(|m| get(&t, m.saturating_add(6))),
-        ),
-        None => (cfg.j_nominal, [S::ZERO; 3]),
-    }
+    s.anchor.unwrap_or((cfg.j_nominal, [S::ZERO; 3]))
 }
 
 /// Per-axis residual direction `u_a` and the parameter derivatives `D_a` (columns); None

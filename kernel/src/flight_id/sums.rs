@@ -21,13 +21,11 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::active::Active as ActiveOf;
-use super::anchor::shifted;
 use super::drive::{Compensated, DriveSum};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
 pub use super::components::{NZ, N_MODEL, SPLIT_TORQUE};
-use super::solve::NP;
 /// Which drive components the flight has moved so far ([`super::active`]).
 pub type Active = ActiveOf<NZ>;
 // Component numbers fit the active list's bytes.
@@ -364,6 +362,20 @@ impl<S: Scalar> Sample<S> {
         y: [S::ZERO; 3],
     };
 
+    /// The sample relative to a reference model `d` further on (`d` the new model matrix less
+    /// the old, [`super::anchor`]): `y_a - d_a . z`.
+    pub fn shifted(&self, d: &[[S; NZ]; 3]) -> Self {
+        let mut out = *self;
+        for (y, da) in out.y.iter_mut().zip(d) {
+            let pred = da
+                .iter()
+                .zip(&self.z)
+                .fold(S::ZERO, |acc, (dj, zj)| acc.mul_add(*dj, *zj));
+            *y = y.minus(pred);
+        }
+        out
+    }
+
     /// `self - other`, component by component.
     pub fn minus(&self, other: &Self) -> Self {
         let mut out = *self;
@@ -646,9 +658,9 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     }
     fn shift(items: &mut [Sample<S>], sum: &mut CompensatedSum<S>, d: &[[S; NZ]; 3]) -> bool {
         for item in items {
-            *item = shifted(item, d);
+            *item = item.shifted(d);
         }
-        *sum = CompensatedSum::of(shifted(&sum.value(), d));
+        *sum = CompensatedSum::of(sum.value().shifted(d));
         true
     }
     fn nonzero(item: &Sample<S>, i: usize) -> bool {
@@ -828,10 +840,10 @@ pub struct FlightSums<S> {
     /// A sample could not be represented in the recent sums (the fixed kernel's: a value
     /// beyond the envelope its exact sums are scaled to): the sums do not hold the flight.
     pub out_of_range: bool,
-    /// The parameters (as [`super::solve::Solution::theta`]) whose model's prediction the
-    /// rates in the sums are relative to ([`super::anchor`]); None: the configuration's
-    /// nominal (`j_nominal`, the model's CoM).
-    pub anchor: Option<[S; NP]>,
+    /// The inverse inertia and CoM offset (as in [`super::solve::Solution::theta`]) whose
+    /// model's prediction the rates in the sums are relative to ([`super::anchor`]); None: the
+    /// configuration's nominal (`j_nominal`, the model's CoM).
+    pub anchor: Option<([S; 6], [S; 3])>,
 }
 
 impl<S: Scalar> FlightSums<S> {

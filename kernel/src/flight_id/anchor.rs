@@ -25,6 +25,11 @@ fn dot<S: Scalar>(d: &[S; NZ], x: impl Fn(usize) -> S) -> S {
         .fold(S::ZERO, |acc, (j, dj)| acc.mul_add(*dj, x(j)))
 }
 
+/// Entry `[l][a][i]` of a `zy` or `yz` block.
+fn entry_mut<S>(m: &mut [[[S; NZ]; 3]; LAGS], l: usize, a: usize, i: usize) -> Option<&mut S> {
+    m.get_mut(l)?.get_mut(a)?.get_mut(i)
+}
+
 /// `zz[l][i][j]` as a full matrix (lag 0 keeps its upper triangle only).
 fn zz_at<S: Scalar>(m: &LagMoments<S>, l: usize, i: usize, j: usize) -> S {
     let (r, c) = if l == 0 { (i.min(j), i.max(j)) } else { (i, j) };
@@ -70,23 +75,11 @@ pub(crate) fn shift_sums<S: Scalar>(f: &mut FlightSums<S>, d: &[[S; NZ]; 3]) {
             }
             for i in 0..NZ {
                 // zy'[i] = zy[i] - sum_j zz[i][j] d_j;  yz'[i] = yz[i] - sum_j d_j zz[j][i]
-                if let Some(e) = f
-                    .lag
-                    .zy
-                    .get_mut(l)
-                    .and_then(|x| x.get_mut(a))
-                    .and_then(|r| r.get_mut(i))
-                {
+                if let Some(e) = entry_mut(&mut f.lag.zy, l, a, i) {
                     *e = e.minus(dot(da, |j| zz_at(&old, l, i, j)));
                 }
                 if l > 0 {
-                    if let Some(e) = f
-                        .lag
-                        .yz
-                        .get_mut(l)
-                        .and_then(|x| x.get_mut(a))
-                        .and_then(|r| r.get_mut(i))
-                    {
+                    if let Some(e) = entry_mut(&mut f.lag.yz, l, a, i) {
                         *e = e.minus(dot(da, |j| zz_at(&old, l, j, i)));
                     }
                 }

@@ -106,7 +106,7 @@ fn main() {
                         e.com_offset_stderr_mm,
                         &sim.truth[..3],
                         e.samples_used,
-                        e.noise.iter().map(|n| n.as_ref().map(|n| (n.phi.len(), n.ma))).collect::<Vec<_>>()
+                        e.noise.iter().map(|n| n.as_ref().map(|n| format!("phi {:.3?} var {:.2e} ma {:.3}", n.phi, n.sigma2, n.ma))).collect::<Vec<_>>()
                     );
                 }
             }

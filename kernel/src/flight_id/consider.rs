@@ -431,6 +431,21 @@ mod tests {
         }
     }
 
+    /// A planar craft's three thrusters: yaw both ways and a push along x; the wrenches alone
+    /// tell them apart.
+    fn three_planar_thrusters() -> Craft<f32> {
+        Craft::<f32>::new(
+            &[
+                thruster([0.1, 0.1, 0.0], [1.0, 0.0, 0.0]),
+                thruster([0.1, -0.1, 0.0], [0.0, 1.0, 0.0]),
+                thruster([-0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
+            ],
+            [0.0; 3],
+            0.0,
+        )
+        .unwrap()
+    }
+
     /// Recovered on-time of thruster `i` from the drive of `on` seconds of each thruster,
     /// one at a time (each adds its wrench, and its torque's positive parts).
     fn recovered(t: &ThrustUncertainty, craft: &Craft<f32>, on: &[f32], i: usize) -> f32 {
@@ -454,17 +469,7 @@ mod tests {
     /// whatever the others did; the signature is one sigma of the thruster's wrench.
     #[test]
     fn independent_thrusters_are_recovered_exactly() {
-        // A planar craft's three thrusters: yaw both ways and a push along x.
-        let craft = Craft::<f32>::new(
-            &[
-                thruster([0.1, 0.1, 0.0], [1.0, 0.0, 0.0]),
-                thruster([0.1, -0.1, 0.0], [0.0, 1.0, 0.0]),
-                thruster([-0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
-            ],
-            [0.0; 3],
-            0.0,
-        )
-        .unwrap();
+        let craft = three_planar_thrusters();
         let t = ThrustUncertainty::of_craft(&craft, &[0.05, 0.0, 0.02]).unwrap();
         assert!(t.exact());
         assert_eq!(t.count(), 3);
@@ -500,16 +505,7 @@ mod tests {
     /// planar craft 78063 got a CoM sigma 0.47 of the reference's and was `ok` 4.6 sigma off).
     #[test]
     fn thrusters_fired_together_are_recovered_from_the_wrench() {
-        let craft = Craft::<f32>::new(
-            &[
-                thruster([0.1, 0.1, 0.0], [1.0, 0.0, 0.0]),
-                thruster([0.1, -0.1, 0.0], [0.0, 1.0, 0.0]),
-                thruster([-0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
-            ],
-            [0.0; 3],
-            0.0,
-        )
-        .unwrap();
+        let craft = three_planar_thrusters();
         let t = ThrustUncertainty::of_craft(&craft, &[0.05; 3]).unwrap();
         assert!(t.exact());
         // Thrusters 0 (yaw -) and 1 (yaw +) on together for 1 s: no net yaw, so no positive part.

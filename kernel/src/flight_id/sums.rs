@@ -509,11 +509,63 @@ fn locate(k: usize) -> Option<(Block, usize, usize, usize)> {
 impl<T> LagMoments<T> {
     /// Entry `k` of the flat order (`zz`, `zy`, `yz`, `yy`).
     pub(crate) fn entry_mut(&mut self, k: usize) -> Option<&mut T> {
-        match locate(k)? {
-            (Block::Zz, l, r, c) => self.zz.get_mut(l)?.get_mut(r)?.get_mut(c),
-            (Block::Zy, l, a, c) => self.zy.get_mut(l)?.get_mut(a)?.get_mut(c),
-            (Block::Yz, l, a, c) => self.yz.get_mut(l)?.get_mut(a)?.get_mut(c),
-            (Block::Yy, l, a, _) => self.yy.get_mut(l)?.get_mut(a),
+        let (block, l, r, c) = locate(k)?;
+        self.entry_at(block, l, r, c)
+    }
+
+    /// The entry of `block` at lag `l`, row `r` (the axis of `zy`, `yz` and `yy`), column `c`.
+    fn entry_at(&mut self, block: Block, l: usize, r: usize, c: usize) -> Option<&mut T> {
+        match block {
+            Block::Zz => self.zz.get_mut(l)?.get_mut(r)?.get_mut(c),
+            Block::Zy => self.zy.get_mut(l)?.get_mut(r)?.get_mut(c),
+            Block::Yz => self.yz.get_mut(l)?.get_mut(r)?.get_mut(c),
+            Block::Yy => self.yy.get_mut(l)?.get_mut(r),
+        }
+    }
+}
+
+impl<S: Scalar> LagMoments<S> {
+    /// Adds `v`, the part of flat entry `k` of level sums gathered since its last fold, to
+    /// these sums kept in [`LagForm::Differences`]: a lag-0 entry to `L_0` and to every
+    /// `M_l = L_0 - L_l` it is part of (both triangles of `zz`, `zy` and `yz` alike); a
+    /// lag-`l` entry is taken from `M_l`. Each sum then holds what it would in levels, up to
+    /// rounding, but rounds relative to its own size: a difference, not a level.
+    pub fn fold_level_into_differences(&mut self, k: usize, v: S) {
+        let Some((block, l, r, c)) = locate(k) else {
+            return;
+        };
+        if l > 0 {
+            if let Some(d) = self.entry_at(block, l, r, c) {
+                *d = d.minus(v);
+            }
+            return;
+        }
+        let mut add = |block: Block, m: usize, r: usize, c: usize| {
+            if let Some(d) = self.entry_at(block, m, r, c) {
+                *d = d.plus(v);
+            }
+        };
+        add(block, 0, r, c);
+        if !(S::ZERO.lt(v) || v.lt(S::ZERO)) {
+            // Nothing gathered (an inactive component, the lower triangle kept at zero).
+            return;
+        }
+        for m in 1..LAGS {
+            match block {
+                Block::Zz => {
+                    add(Block::Zz, m, r, c);
+                    if r != c {
+                        add(Block::Zz, m, c, r);
+                    }
+                }
+                Block::Zy => {
+                    add(Block::Zy, m, r, c);
+                    add(Block::Yz, m, r, c);
+                }
+                // Not gathered at lag 0 (`zy[0]` holds it).
+                Block::Yz => {}
+                Block::Yy => add(Block::Yy, m, r, c),
+            }
         }
     }
 }
@@ -526,8 +578,11 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     /// Entries folded into the flight's sums per sample ([`FOLD_PER_SAMPLE`] in floating
     /// point; the exact sums as few as their width allows).
     const FOLD_PER_SAMPLE: usize;
-    /// What these sums keep at lags 1 and 2 ([`LagForm`]).
+    /// What the flight's sums these fold into keep at lags 1 and 2 ([`LagForm`]).
     const LAG_FORM: LagForm;
+    /// What these recent sums gather at lags 1 and 2: the fold turns levels into the flight's
+    /// differences where the two differ ([`LagMoments::fold_level_into_differences`]).
+    const RECENT_FORM: LagForm;
     /// The fit's pivot threshold on the information these sums give, as a power of two relative
     /// to its scaled diagonal ([`FlightSums::pivot_exp`]).
     const PIVOT_EXP: i32;
@@ -615,6 +670,7 @@ pub type DriveSnapshot<S> = <<S as SumScalar>::Drive as DriveSum<S>>::Snapshot;
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
     const LAG_FORM: LagForm = LagForm::Differences;
+    const RECENT_FORM: LagForm = LagForm::Differences;
     /// Rounded sums: f32's entries were measured 1e-7 - 1.6e-6 (relative) from the same sums in
     /// f64 (random planar craft 73017), so a pivot of 2^-20 (1e-6) was within f32's rounding of
     /// the information, and a nearly degenerate direction (two thrusters) passed for determined:
@@ -773,7 +829,9 @@ impl<R> RecentSums<R> {
         for _ in 0..count {
             let k = self.cursor;
             let moved = self.sums.take(k);
-            if let Some(d) = flight.lag.entry_mut(k) {
+            if R::RECENT_FORM == LagForm::Levels && flight.lag_form == LagForm::Differences {
+                flight.lag.fold_level_into_differences(k, moved);
+            } else if let Some(d) = flight.lag.entry_mut(k) {
                 *d = d.plus(moved);
             }
             self.cursor = k.saturating_add(1);
@@ -801,8 +859,9 @@ impl<R> RecentSums<R> {
 /// smooth drive and an f32 sum of levels has nothing left (planar random craft seed 73009:
 /// AR(0.66, 0.33) at 250 Hz, an estimate 5 sigma off with status `ok`). The differences are of
 /// the size of what remains, `sum_l w_l L_l = (sum_l w_l) L_0 - w_1 M_1 - w_2 M_2`. The fixed
-/// kernel adds exact integer products and rounds each entry once per fold: it keeps the
-/// levels (its accumulators and their proofs are sized for `|a b|`).
+/// kernel gathers exact integer products of levels (its accumulators and their proofs are
+/// sized for `|a b|`) and its fold turns them into differences
+/// ([`LagMoments::fold_level_into_differences`]): its 25-bit integer float rounds like f32.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LagForm {
     /// `L_l`.

@@ -20,11 +20,12 @@
 //! each torque ([`RECOVERED_FROM`]), which tell the two thrusters of an opposing pair apart
 //! so long as they do not fire together ([`ThrustUncertainty::exact`]). Reading the positive
 //! parts for every thruster undercounted the thrust error of thrusters fired together
-//! against each other: random planar craft 78063 got a CoM sigma 0.47 of the reference's. The thrust-symmetry test reads
-//! exactly those components, and without them in the signature it rejected 20 of 100 nominal
-//! random planar craft whose thrusts were drawn from the stated uncertainty (p down to
-//! 1e-110; f32, seeds 63000-63099). What the components cannot tell apart (thrusters fired
-//! together against each other) is missing from the signature.
+//! against each other: random planar craft 78063 got a CoM sigma 0.47 of the reference's.
+//! The thrust-symmetry test reads exactly those components, and without them in the
+//! signature it rejected 20 of 100 nominal random planar craft whose thrusts were drawn from
+//! the stated uncertainty (p down to 1e-110; f32, seeds 63000-63099). What the components
+//! cannot tell apart (thrusters the wrenches do not tell apart, fired together against each
+//! other) is missing from the signature.
 use super::solve::{axis_forms, quad, ArNoise, SolveConfig, NP, NV};
 use super::sums::{FlightSums, SPLIT_TORQUE};
 use crate::craft::{Craft, MAX_THRUSTERS};

@@ -905,14 +905,12 @@ mod tests {
         assert_eq!(flight.samples, n as u32);
     }
 
-    /// One window of a drifting yaw torque and a rate `0.2 z + e`, `e` an AR(0.66, 0.33) noise
-    /// (a gyro filtered far below the sampling rate): the whitened cost at the true parameter,
-    /// `u^T W u`, from the lag sums gathered by `recent` and folded, sample by sample, into a
-    /// flight keeping `form`.
+    /// The whitened cost at the true parameter, `u^T W u`, of a strongly coloured flight
+    /// (`test_flights::coloured_yaw`) from the lag sums gathered by `recent` and folded, sample by sample,
+    /// into a flight keeping `form`.
     fn coloured_cost<S: SumScalar>(recent: S::Recent, form: LagForm) -> f64 {
-        use crate::flight_id::solve::{ar_weights, quad, weighted, NV};
         use crate::flight_id::sums::{FlightSums, RecentSums, WindowSums};
-        let (phi, theta) = ([0.66f64, 0.33], 0.2f64);
+        use crate::flight_id::test_flights::{coloured_cost_of, coloured_yaw};
         let mut recent = RecentSums::new(recent);
         let mut flight = FlightSums::<S> {
             lag_form: form,
@@ -920,29 +918,15 @@ mod tests {
         };
         let mut window = WindowSums::<S>::default();
         let none = [[S::ZERO; NZ]; 3];
-        let (mut z, mut e1, mut e2, mut seed) = (0.0f64, 0.0f64, 0.0f64, 7u64);
-        for k in 0..10_000usize {
-            // Torque of a changing sign, 4 ms steps; innovations of 1e-4 rad/s.
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let uniform = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            z += if (k / 700) % 3 == 1 { -0.02 } else { 0.03 } * 0.004;
-            let e = phi[0] * e1 + phi[1] * e2 + 3.5e-4 * uniform;
-            (e2, e1) = (e1, e);
+        for (z, y) in coloured_yaw(10_000) {
             let zs: [S; NZ] =
                 core::array::from_fn(|i| S::from_f32(if i == 2 { z as f32 } else { 0.0 }));
-            let ys: [S; 3] = core::array::from_fn(|a| {
-                S::from_f32(if a == 2 { (theta * z + e) as f32 } else { 0.0 })
-            });
+            let ys: [S; 3] =
+                core::array::from_fn(|a| S::from_f32(if a == 2 { y as f32 } else { 0.0 }));
             window.push(&mut flight, &mut recent, 0, |r| r.item(&zs, &ys, &none));
         }
         recent.fold_all(&mut flight);
-        let mut u = [S::ZERO; NV];
-        u[2] = S::from_f32(-theta as f32);
-        u[NZ] = S::ONE;
-        let k = ar_weights(&phi.map(|v| S::from_f32(v as f32)));
-        f64::from(quad(&weighted(&flight, 2, &k), &u, &u).to_f32())
+        coloured_cost_of(&flight)
     }
 
     /// The fixed kernel's fold of its exact sums into differences keeps the whitened cost of

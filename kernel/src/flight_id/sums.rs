@@ -1123,29 +1123,19 @@ pub(crate) mod tests {
     /// whitened cost at the true parameter, `u^T W u`, from sums kept in `form` in `S` (each
     /// window sum and `C` in f64, so only the lag form differs).
     fn whitened_cost<S: Scalar>(form: LagForm) -> f64 {
-        use crate::flight_id::solve::{ar_weights, quad, weighted, NV};
+        use crate::flight_id::test_flights::{coloured_cost_of, coloured_yaw};
         let n = 10_000usize;
-        let (phi, theta) = ([0.66f64, 0.33], 0.2f64);
         let mut flight = FlightSums::<S> {
             lag_form: form,
             ..FlightSums::default()
         };
         let mac = |m: &mut S, a: S, b: S| *m = m.mul_add(a, b);
-        let (mut z, mut e1, mut e2, mut seed) = (0.0f64, 0.0f64, 0.0f64, 7u64);
         let mut history: [Sample<S>; 2] = [Sample::ZERO; 2];
         let mut sum = [0.0f64; NZ + 3];
-        for k in 0..n {
-            // Torque of a changing sign, 4 ms steps; innovations of 1e-4 rad/s.
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let uniform = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            z += if (k / 700) % 3 == 1 { -0.02 } else { 0.03 } * 0.004;
-            let e = phi[0] * e1 + phi[1] * e2 + 3.5e-4 * uniform;
-            (e2, e1) = (e1, e);
+        for (k, (z, y)) in coloured_yaw(n).enumerate() {
             let mut item = Sample::<S>::ZERO;
             item.z[2] = S::from_f32(z as f32);
-            item.y[2] = S::from_f32((theta * z + e) as f32);
+            item.y[2] = S::from_f32(y as f32);
             flight
                 .lag
                 .add_pair_by(0, &item, &item, &Active::full(), mac);
@@ -1168,11 +1158,7 @@ pub(crate) mod tests {
         flight.czz[2][2] = c(sum[2], sum[2]);
         flight.czy[2][2] = c(sum[2], sum[NZ + 2]);
         flight.cyy[2] = c(sum[NZ + 2], sum[NZ + 2]);
-        let mut u = [S::ZERO; NV];
-        u[2] = S::from_f32(-theta as f32);
-        u[NZ] = S::ONE;
-        let k = ar_weights(&phi.map(|v| S::from_f32(v as f32)));
-        f64::from(quad(&weighted(&flight, 2, &k), &u, &u).to_f32())
+        coloured_cost_of(&flight)
     }
 
     #[test]

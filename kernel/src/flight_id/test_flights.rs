@@ -1,5 +1,6 @@
 //! Synthetic flights for the identification's unit tests: a configuration and a planar craft
-//! whose thrusters fire one at a time, pushed sample by sample (no simulator in the kernel).
+//! whose thrusters fire one at a time, pushed sample by sample, and a strongly coloured rate
+//! noise (no simulator in the kernel).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,
@@ -80,4 +81,40 @@ pub(crate) fn fly_planar<S: SumScalar>(
         w += j_zz * (wrench[2] + wrench[3] * dc.1 - wrench[4] * dc.0) * 2e-3;
         after(id, k);
     }
+}
+
+/// The AR coefficients of [`coloured_yaw`]'s noise, and its rate's true parameter.
+pub(crate) const COLOURED_PHI: [f64; 2] = [0.66, 0.33];
+/// See [`COLOURED_PHI`].
+pub(crate) const COLOURED_THETA: f64 = 0.2;
+
+/// One window of `n` samples `(z, y)`: a drifting yaw torque's drive `z` (a changing sign, 4 ms
+/// steps) and a rate `0.2 z + e`, `e` an AR(0.66, 0.33) noise of 1e-4 rad/s innovations (a gyro
+/// filtered far below the sampling rate, as on random planar craft 73009).
+pub(crate) fn coloured_yaw(n: usize) -> impl Iterator<Item = (f64, f64)> {
+    let (mut z, mut e1, mut e2, mut seed) = (0.0f64, 0.0f64, 0.0f64, 7u64);
+    (0..n).map(move |k| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let uniform = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        z += if (k / 700) % 3 == 1 { -0.02 } else { 0.03 } * 0.004;
+        let e = COLOURED_PHI[0] * e1 + COLOURED_PHI[1] * e2 + 3.5e-4 * uniform;
+        (e2, e1) = (e1, e);
+        (z, COLOURED_THETA * z + e)
+    })
+}
+
+/// The whitened cost at [`coloured_yaw`]'s true parameter, `u^T W u`, from `flight`'s sums of
+/// its samples (axis z, drive component 2) under its AR noise model.
+pub(crate) fn coloured_cost_of<S: crate::scalar::Scalar>(
+    flight: &super::sums::FlightSums<S>,
+) -> f64 {
+    use super::solve::{ar_weights, quad, weighted, NV};
+    use super::sums::NZ;
+    let mut u = [S::ZERO; NV];
+    u[2] = S::from_f32(-COLOURED_THETA as f32);
+    u[NZ] = S::ONE;
+    let k = ar_weights(&COLOURED_PHI.map(|v| S::from_f32(v as f32)));
+    f64::from(quad(&weighted(flight, 2, &k), &u, &u).to_f32())
 }

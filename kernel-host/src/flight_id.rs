@@ -11,7 +11,9 @@ use massid_kernel::flight_id::ma_prefilter::MAX_ROOT;
 use massid_kernel::flight_id::solve::{Solution, SolveConfig, SolveError, MAX_ORDER, NP};
 use massid_kernel::flight_id::sums::SumScalar;
 use massid_kernel::flight_id::window::{self, MAX_WINDOW_S, MAX_WINDOW_TURN_RAD};
-use massid_kernel::flight_id::{FlightId, FlightIdConfig, SensorResponse as KSensor};
+use massid_kernel::flight_id::{
+    command_of_wrench, FlightId, FlightIdConfig, SensorResponse as KSensor,
+};
 use nalgebra::{DMatrix, Matrix3};
 use reference_f64::flight_id::consistency::{chi2_sf, ScoreTest};
 use reference_f64::flight_id::fit::SensorResponse;
@@ -323,16 +325,16 @@ pub fn identify_adjusted<S: SumScalar>(
             prev_t = Some(*t);
             let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
             let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
-            let wrench = match cmd {
-                Command::Word(w) => table.wrench(*w),
+            let command = match cmd {
+                Command::Word(w) => table.command(*w),
                 Command::Wrench { force, torque } => {
                     let v = [
                         torque[0], torque[1], torque[2], force[0], force[1], force[2],
                     ];
-                    v.map(|x| S::from_f32(x as f32))
+                    command_of_wrench(v.map(|x| S::from_f32(x as f32)))
                 }
             };
-            id.push(S::from_f32(dt as f32), r, valid, wrench);
+            id.push(S::from_f32(dt as f32), r, valid, command);
             if FlightId::<S>::REANCHORS && k + 1 == next_anchor {
                 next_anchor = next_anchor.saturating_mul(2);
                 reanchor(&mut id);

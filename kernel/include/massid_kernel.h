@@ -330,7 +330,9 @@ massid_status massid_f32_flight_id_init(massid_flight_id *id, const massid_craft
                                         const massid_flight_id_settings *settings);
 /* One sample: dt since the previous one, body rate rad/s, valid (0: missing/railed), and the
  * thruster word (bit i = thruster i+1) or body wrench (torque N m about the model CoM, force N)
- * commanded from this sample on. */
+ * commanded from this sample on. Prefer the word: from a wrench the kernel cannot tell two
+ * thrusters turning the craft opposite ways and fired together from neither firing, which the
+ * stated thrust uncertainty's sigma and the thrust-symmetry test then miss. */
 massid_status massid_f32_flight_id_push(massid_flight_id *id, float dt_s, const float rate_rad_s[3],
                                         uint8_t valid, uint16_t thrusters);
 massid_status massid_f32_flight_id_push_wrench(massid_flight_id *id, float dt_s,

@@ -7,6 +7,8 @@ use crate::scalar::Scalar;
 
 /// Thruster slots of the table (the recording format's word is 16 bits).
 pub const MAX_THRUSTERS: usize = 16;
+/// Entries of [`Craft::command`]: the wrench (6), then the open thrusters' positive torques (3).
+pub const COMMAND_LEN: usize = 9;
 
 /// Why a craft table cannot be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -167,20 +169,53 @@ impl<S: Scalar> Craft<S> {
     /// The body wrench (torque N m, force N) while `word` is open; bits beyond the craft's
     /// thrusters are ignored (the host checks words against the model before flying).
     pub fn wrench(&self, word: u16) -> [S; 6] {
+        let mut out = [S::ZERO; 6];
+        self.each_open(word, |w, u, drop| {
+            for ((o, wv), uv) in out.iter_mut().zip(w).zip(u) {
+                *o = o.plus(*wv).minus(drop.times(*uv));
+            }
+        });
+        out
+    }
+
+    /// What the identification ([`crate::flight_id::FlightId::push`]) is told while `word`
+    /// is open: the body wrench, then per torque axis the sum of the open thrusters' positive
+    /// torques about it. The summed torque's positive part cannot tell two thrusters turning
+    /// the craft opposite ways and fired together from neither firing; these sums can, and a
+    /// thruster's thrust error is along them (the thrust-uncertainty recovery,
+    /// [`crate::flight_id::consider`], and the thrust-symmetry test).
+    pub fn command(&self, word: u16) -> [S; COMMAND_LEN] {
+        let mut out = [S::ZERO; COMMAND_LEN];
+        self.each_open(word, |w, u, drop| {
+            let (wrench, positive) = out.split_at_mut(6);
+            for ((o, wv), uv) in wrench.iter_mut().zip(w).zip(u) {
+                *o = o.plus(*wv).minus(drop.times(*uv));
+            }
+            for ((o, wv), uv) in positive.iter_mut().zip(w).zip(u) {
+                // Summed as the wrench is: the same value where no open thruster turns
+                // the craft the other way.
+                if S::ZERO.lt(wv.minus(drop.times(*uv))) {
+                    *o = o.plus(*wv).minus(drop.times(*uv));
+                }
+            }
+        });
+        out
+    }
+
+    /// Calls `each` with the wrench and unit wrench of every thruster open in `word` and the
+    /// pressure drop the others open take from its thrust; bits beyond the craft's thrusters
+    /// are ignored.
+    fn each_open(&self, word: u16, mut each: impl FnMut(&[S; 6], &[S; 6], S)) {
         let word = word & self.word_mask();
         let extra = word.count_ones().saturating_sub(1);
         let drop = self
             .pressure_drop_n
             .times(S::from_int_pow2(i32::try_from(extra).unwrap_or(0), 0));
-        let mut out = [S::ZERO; 6];
         for (i, (w, u)) in self.wrench.iter().zip(self.unit.iter()).enumerate() {
             if word & (1u16 << i.min(15)) == 0 || i >= self.count {
                 continue;
             }
-            for ((o, wv), uv) in out.iter_mut().zip(w).zip(u) {
-                *o = o.plus(*wv).minus(drop.times(*uv));
-            }
+            each(w, u, drop);
         }
-        out
     }
 }

@@ -868,7 +868,7 @@ fn rust_flight_id_line<S: SumScalar>(
     };
     let mut id = FlightId::new(cfg).expect("flight id");
     for (dt, r, valid, w) in samples {
-        id.push(c(*dt), r.map(c), *valid, table.wrench(*w));
+        id.push(c(*dt), r.map(c), *valid, table.command(*w));
     }
     id.finish();
     let h = |v: S| hx(v.to_f32());

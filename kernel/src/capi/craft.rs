@@ -16,7 +16,9 @@ use crate::flight_id::exact::Envelope;
 use crate::flight_id::solve::{inverse_inertia, SolveConfig, SolveError, MAX_ORDER, NP};
 use crate::flight_id::sums::SumScalar;
 use crate::flight_id::window;
-use crate::flight_id::{FlightId, FlightIdConfig, ReanchorError, SensorResponse};
+use crate::flight_id::{
+    command_of_wrench, FlightId, FlightIdConfig, ReanchorError, SensorResponse,
+};
 use crate::in_place::field;
 use crate::mixer::MixerConfig;
 use crate::scalar::{Scalar, Q8_24};
@@ -727,9 +729,13 @@ unsafe fn flight_id_push<S: SumScalar>(
     // SAFETY: non-NULL; the caller passes three floats.
     let rate = unsafe { rate_rad_s.cast::<[f32; 3]>().read_unaligned() };
     with_flight_id::<S>(block, magic, |st| {
-        let w = st.craft.wrench(thrusters);
-        st.id
-            .push(S::from_f32(dt_s), rate.map(S::from_f32), valid != 0, w);
+        let command = st.craft.command(thrusters);
+        st.id.push(
+            S::from_f32(dt_s),
+            rate.map(S::from_f32),
+            valid != 0,
+            command,
+        );
         MassidStatus::Ok
     })
 }
@@ -761,7 +767,7 @@ unsafe fn flight_id_push_wrench<S: SumScalar>(
             S::from_f32(dt_s),
             rate.map(S::from_f32),
             valid != 0,
-            w.map(S::from_f32),
+            command_of_wrench(w.map(S::from_f32)),
         );
         MassidStatus::Ok
     })

@@ -154,7 +154,7 @@ mod tests {
                 -0.1 * t + 1e-3 * (f64::from(k) * 1.3).cos(),
                 0.5 - 0.15 * t + 1e-3 * (f64::from(k) * 2.1).sin(),
             ];
-            id.push(1e-3, rate, true, wrench);
+            id.push(1e-3, rate, true, super::super::command_of_wrench(wrench));
         }
     }
 

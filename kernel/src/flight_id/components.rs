@@ -7,8 +7,9 @@
 /// consistency tests (`super::consistency`):
 /// - the torque held over the interval that ends at the sample: a command-to-thrust delay `L`
 ///   moves the accumulated torque by `-L` times it;
-/// - the accumulated positive part of each torque component (N m s): a thrust error that
-///   scales a turn one way and not the other (one weak thruster) is a torque error along it.
+/// - the open thrusters' positive torques about each axis, accumulated (N m s): a thrust error
+///   that scales a turn one way and not the other (one weak thruster) is a torque error along
+///   it ([`crate::craft::Craft::command`]).
 pub const NZ: usize = 18;
 /// Components the model uses (the rest only enter the consistency tests).
 pub const N_MODEL: usize = 12;

@@ -13,19 +13,21 @@
 //! components; the fitted terms then have covariance `V0 + sum_k s_k g_k g_k^T` with
 //! `g_k = V0 D^T W E_k`, and a score test's statistic allows for them in its variance.
 //!
-//! The kernel sees the commanded wrench, not each thruster's on-time: a thruster's on-time
-//! is recovered from the drive components it moves by the table's pseudo-inverse,
-//! `t_i = b_i . z`: from the accumulated wrench alone where the wrenches tell it from the
-//! others (exact whatever fires together), else from the wrench and the positive part of
-//! each torque ([`RECOVERED_FROM`]), which tell the two thrusters of an opposing pair apart
-//! so long as they do not fire together ([`ThrustUncertainty::exact`]). Reading the positive
-//! parts for every thruster undercounted the thrust error of thrusters fired together
-//! against each other: random planar craft 78063 got a CoM sigma 0.47 of the reference's.
-//! The thrust-symmetry test reads exactly those components, and without them in the
-//! signature it rejected 20 of 100 nominal random planar craft whose thrusts were drawn from
-//! the stated uncertainty (p down to 1e-110; f32, seeds 63000-63099). What the components
-//! cannot tell apart (thrusters the wrenches do not tell apart, fired together against each
-//! other) is missing from the signature.
+//! The kernel sees the command ([`crate::craft::Craft::command`]), not each thruster's
+//! on-time: a thruster's on-time is recovered from the drive components it moves by the
+//! table's pseudo-inverse, `t_i = b_i . z`: from the accumulated wrench alone where the
+//! wrenches tell it from the others, else from the wrench and the open thrusters' positive
+//! torques ([`RECOVERED_FROM`]), which tell the two thrusters of an opposing pair apart
+//! ([`ThrustUncertainty::exact`]): either way exact whatever fires together. Both once took
+//! the positive part of the summed torque, and thrusters fired together against each other
+//! cancelled in it: random planar craft 78063 got a CoM sigma 0.47 of the reference's, and
+//! 79105 (four thrusters the wrenches cannot tell apart) an `ok` Izz 5.6 sigma off. The
+//! thrust-symmetry test reads the same components, and without them in the signature it
+//! rejected 20 of 100 nominal random planar craft whose thrusts were drawn from the stated
+//! uncertainty (p down to 1e-110; f32, seeds 63000-63099). What no component tells apart
+//! (more thrusters than the nine components separate, eight planar ones) is missing from the
+//! signature; so is what a recording of wrench commands, not words, cannot say
+//! ([`super::command_of_wrench`]).
 use super::solve::{axis_forms, quad, ArNoise, SolveConfig, NP, NV};
 use super::sums::{FlightSums, SPLIT_TORQUE};
 use crate::craft::{Craft, MAX_THRUSTERS};
@@ -33,8 +35,8 @@ use crate::lu::Lu;
 use crate::scalar::Scalar;
 
 /// The drive components a thruster's on-time is recovered from: the accumulated wrench and
-/// the accumulated positive part of each torque component (which tells a thruster that turns
-/// the craft one way from one that turns it the other, an opposing pair's two halves).
+/// the open thrusters' accumulated positive torques about each axis (which tell a thruster
+/// that turns the craft one way from one that turns it the other, an opposing pair's halves).
 pub const RECOVERED_FROM: [usize; NR] = [
     0,
     1,
@@ -88,10 +90,9 @@ impl ThrustUncertainty {
             return Some(out);
         }
         let column = columns(craft, n);
-        // Each thruster's on-time from the wrench alone where the table allows (exact
-        // whatever fires together), else from the wrench and the positive torque parts
-        // (exact while thrusters turning the craft opposite ways about an axis do not fire
-        // together: the drive holds the positive part of the summed torque).
+        // Each thruster's on-time from the wrench alone where the table allows, else from
+        // the wrench and the open thrusters' positive torques (the wrench alone holds on
+        // recordings of wrench commands too, [`super::command_of_wrench`]).
         let linear = recovery(&column, n, 6)?;
         let with_parts = recovery(&column, n, NR)?;
         out.count = n;
@@ -128,10 +129,10 @@ impl ThrustUncertainty {
     }
 
     /// Every thruster's on-time follows from the drive: from its wrench alone, or, for the
-    /// thrusters the wrenches cannot tell apart (an opposing pair's halves), from the
-    /// positive torque parts too, while thrusters whose torques about an axis have opposite
-    /// signs do not fire together (the drive accumulates the positive part of the summed
-    /// torque): the consider covariance then covers the whole stated thrust error.
+    /// thrusters the wrenches cannot tell apart (an opposing pair's halves), from the open
+    /// thrusters' positive torques too: the consider covariance then covers the whole stated
+    /// thrust error (on thruster words; [`super::command_of_wrench`] has the positive parts
+    /// only while thrusters turning the craft opposite ways do not fire together).
     /// Not read by the kernel's rules; for a caller deciding how far to trust the sigma.
     pub fn exact(&self) -> bool {
         self.exact
@@ -422,7 +423,7 @@ mod tests {
         clippy::indexing_slicing
     )]
     use super::*;
-    use crate::craft::Thruster;
+    use crate::craft::{Thruster, COMMAND_LEN};
 
     fn thruster(pos_m: [f32; 3], dir: [f32; 3]) -> Thruster {
         Thruster {
@@ -499,8 +500,9 @@ mod tests {
         assert!((recovered(&p, &pair, &[0.4, 1.5], 1) - 1.5).abs() < 1e-4);
     }
 
-    /// Thrusters turning the craft opposite ways, fired together: the drive holds the
-    /// positive part of their summed torque, not the sum of theirs, so a recovery that reads
+    /// Thrusters turning the craft opposite ways, fired together, on a recording of wrench
+    /// commands: the drive holds the positive part of their summed torque
+    /// ([`super::super::command_of_wrench`]), not the sum of theirs, so a recovery that reads
     /// the positive parts is wrong; where the wrenches alone tell the thrusters apart the
     /// recovery reads only them. Planted: the recovery from every component (before, random
     /// planar craft 78063 got a CoM sigma 0.47 of the reference's and was `ok` 4.6 sigma off).
@@ -537,6 +539,54 @@ mod tests {
             .map(|i| (read(&every, i) - f64::from(on[i])).abs())
             .fold(0.0, f64::max);
         assert!(worst > 0.05, "every component: off by {worst} only");
+    }
+
+    /// Four planar thrusters, two of them an opposing pair the wrenches cannot tell apart,
+    /// fired together against each other: the open thrusters' positive torques
+    /// ([`Craft::command`]) recover every on-time. Planted: the positive part of the summed
+    /// torque, all a drive of wrenches has (random planar craft 79105 was `ok` 5.6 sigma off).
+    #[test]
+    fn an_opposing_pair_fired_together_is_recovered_from_the_command() {
+        let mut four = [
+            thruster([0.1, 0.1, 0.0], [1.0, 0.0, 0.0]),
+            thruster([0.1, -0.1, 0.0], [0.0, 1.0, 0.0]),
+            thruster([-0.1, 0.0, 0.0], [0.0, -1.0, 0.0]),
+            thruster([0.1, 0.1, 0.0], [-1.0, 0.0, 0.0]),
+        ];
+        four[3].thrust_n = 0.3;
+        let craft = Craft::<f32>::new(&four, [0.0; 3], 0.0).unwrap();
+        let t = ThrustUncertainty::of_craft(&craft, &[0.05; 4]).unwrap();
+        assert!(t.exact());
+        // (word, seconds): the pair 0 and 3 together, with 1 and alone.
+        let firings = [
+            (0b1001u16, 0.6f32),
+            (0b1011, 0.5),
+            (0b0001, 0.2),
+            (0b0100, 0.4),
+        ];
+        let on: [f32; 4] = core::array::from_fn(|i| {
+            firings
+                .iter()
+                .filter(|(w, _)| w & (1 << i) != 0)
+                .map(|(_, s)| s)
+                .sum()
+        });
+        let drive = |command: &dyn Fn(u16) -> [f32; COMMAND_LEN]| -> [f32; NR] {
+            core::array::from_fn(|c| firings.iter().map(|(w, s)| s * command(*w)[c]).sum())
+        };
+        let read = |z: &[f32; NR], i: usize| -> f32 {
+            t.recover[i].iter().zip(z).map(|(b, v)| b * v).sum()
+        };
+        let per_thruster = drive(&|w| craft.command(w));
+        for (i, want) in on.iter().enumerate() {
+            let got = read(&per_thruster, i);
+            assert!((got - want).abs() < 1e-4, "thruster {i}: {got} vs {want}");
+        }
+        let summed = drive(&|w| super::super::command_of_wrench(craft.wrench(w)));
+        let worst = (0..4)
+            .map(|i| (read(&summed, i) - on[i]).abs())
+            .fold(0.0, f32::max);
+        assert!(worst > 0.05, "summed torque: off by {worst} only");
     }
 
     /// Two opposing pairs along parallel lines: what one pair does, the other can, so the

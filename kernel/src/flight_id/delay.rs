@@ -3,6 +3,7 @@
 //! covered by command `k - m - 1` for its first fraction `f` and by command `k - m` for the
 //! rest; before the first command acts nothing fires. A fixed ring of the last commands, so a
 //! delay costs memory in proportion to [`MAX_DELAY_SAMPLES`], never to the flight.
+use crate::craft::COMMAND_LEN;
 use crate::scalar::Scalar;
 
 /// Longest delay in sample periods.
@@ -14,7 +15,7 @@ const RING: usize = MAX_DELAY_SAMPLES + 2;
 pub struct CommandDelay<S> {
     /// Last commands (zero before the flight's first); the newest at `head`, older ones at
     /// increasing indices modulo the length (a circular buffer: no copying per sample).
-    ring: [[S; 6]; RING],
+    ring: [[S; COMMAND_LEN]; RING],
     head: usize,
     whole: usize,
     fraction: S,
@@ -36,16 +37,16 @@ impl<S: Scalar> CommandDelay<S> {
         let whole = periods as usize; // floor: non-negative and at most 62
         let fraction = periods - whole as f32;
         Ok(CommandDelay {
-            ring: [[S::ZERO; 6]; RING],
+            ring: [[S::ZERO; COMMAND_LEN]; RING],
             head: 0,
             whole,
             fraction: S::from_f32(fraction),
         })
     }
 
-    /// Takes the command of the newest sample and returns the wrench acting over the interval
-    /// that starts at it.
-    pub fn push(&mut self, command: [S; 6]) -> [S; 6] {
+    /// Takes the command of the newest sample ([`crate::craft::Craft::command`]) and returns
+    /// the command acting over the interval that starts at it.
+    pub fn push(&mut self, command: [S; COMMAND_LEN]) -> [S; COMMAND_LEN] {
         self.head = self.head.checked_sub(1).unwrap_or(RING - 1);
         if let Some(r) = self.ring.get_mut(self.head) {
             *r = command;
@@ -54,7 +55,7 @@ impl<S: Scalar> CommandDelay<S> {
         let at = |i: usize| {
             let k = self.head.saturating_add(i);
             let k = if k >= RING { k.saturating_sub(RING) } else { k };
-            self.ring.get(k).copied().unwrap_or([S::ZERO; 6])
+            self.ring.get(k).copied().unwrap_or([S::ZERO; COMMAND_LEN])
         };
         let late = at(self.whole);
         if !S::ZERO.lt(self.fraction) {

@@ -40,6 +40,7 @@ pub mod window;
 
 use core::mem::MaybeUninit;
 
+use crate::craft::COMMAND_LEN;
 use crate::in_place::{assume_all_written, field};
 use crate::scalar::Scalar;
 use drive::DriveSum;
@@ -147,8 +148,8 @@ pub struct FlightId<S: SumScalar> {
     delay: delay::CommandDelay<S>,
     /// The rate noise's moving-average part, taken out of each measurement.
     prefilter: ma_prefilter::MaPrefilter<S>,
-    /// The previous sample's acting wrench and measured rate.
-    previous: Option<([S; 6], [S; 3])>,
+    /// The previous sample's acting command ([`crate::craft::Craft::command`]) and measured rate.
+    previous: Option<([S; COMMAND_LEN], [S; 3])>,
     /// The nominal model's matrix: the sums hold rates minus its prediction, so that they
     /// stay small (f32 rounding) whatever the rates.
     nominal: [[S; NZ]; 3],
@@ -158,9 +159,24 @@ fn get<S: Scalar>(v: &[S], i: usize) -> S {
     v.get(i).copied().unwrap_or(S::ZERO)
 }
 
-/// Whether two wrenches differ in any component.
-fn differs<S: Scalar>(a: &[S; 6], b: &[S; 6]) -> bool {
-    a.iter().zip(b).any(|(x, y)| x.lt(*y) || y.lt(*x))
+/// Whether two commands' wrenches differ in any component.
+fn differs<S: Scalar>(a: &[S; COMMAND_LEN], b: &[S; COMMAND_LEN]) -> bool {
+    a.iter().zip(b).take(6).any(|(x, y)| x.lt(*y) || y.lt(*x))
+}
+
+/// The command for a sample whose wrench is all that is known (a recording of wrench
+/// commands, not thruster words): the positive parts are those of the summed torque, which
+/// is each thruster's only while thrusters turning the craft opposite ways do not fire
+/// together ([`crate::craft::Craft::command`] has them per thruster).
+pub fn command_of_wrench<S: Scalar>(wrench: [S; 6]) -> [S; COMMAND_LEN] {
+    core::array::from_fn(|c| {
+        let w = get(&wrench, c % 6);
+        if c < 6 || S::ZERO.lt(w) {
+            w
+        } else {
+            S::ZERO
+        }
+    })
 }
 
 impl<S: SumScalar> FlightId<S> {
@@ -266,9 +282,10 @@ impl<S: SumScalar> FlightId<S> {
     }
 
     /// One sample: `dt_s` since the previous sample, the measured `rate` (rad/s; `valid` false
-    /// for a missing or railed sample) and the commanded `wrench` (torque about the model's
-    /// CoM N m, force N; [`crate::craft::Craft::wrench`] of the thruster word) held until the next.
-    pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; 6]) {
+    /// for a missing or railed sample) and the `command` held until the next:
+    /// [`crate::craft::Craft::command`] of the thruster word (the wrench, torque about the model's CoM N m
+    /// and force N, then the open thrusters' positive torques), or [`command_of_wrench`].
+    pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; COMMAND_LEN]) {
         // A few entries of the closed windows' terms ([`close`]).
         self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);
         // The command history runs on whatever happens to the rate samples.
@@ -304,7 +321,7 @@ impl<S: SumScalar> FlightId<S> {
         if let (true, Some((w_prev, _))) = (joins, self.previous) {
             let h = S::from_int_pow2(1, -1).times(dt_s);
             // Torque and force held over the interval.
-            let impulse = w_prev.map(|w| w.times(dt_s));
+            let impulse: [S; 6] = core::array::from_fn(|c| get(&w_prev, c).times(dt_s));
             for (i, v) in impulse.iter().enumerate() {
                 self.drive.add(i, *v);
             }
@@ -345,11 +362,13 @@ impl<S: SumScalar> FlightId<S> {
             for b in 0..3 {
                 // The held torque itself (the timing test's direction), not summed.
                 self.drive.set(N_MODEL.saturating_add(b), get(&w_prev, b));
-                // The positive part of the torque about axis b, accumulated (the
-                // thrust-symmetry test's direction, [`consistency`]).
-                if S::ZERO.lt(get(&w_prev, b)) {
+                // The open thrusters' positive torques about axis b, accumulated (the
+                // thrust-symmetry test's direction, [`consistency`], and what tells thrusters
+                // apart in the thrust-uncertainty recovery, [`consider`]).
+                let positive = get(&w_prev, 6usize.saturating_add(b));
+                if S::ZERO.lt(positive) {
                     self.drive
-                        .add(sums::SPLIT_TORQUE.saturating_add(b), get(&impulse, b));
+                        .add(sums::SPLIT_TORQUE.saturating_add(b), positive.times(dt_s));
                 }
             }
         }
@@ -595,7 +614,7 @@ mod tests {
         cfg.solve.max_noise_order = 0;
         let mut id = FlightId::new(cfg).expect("config");
         for _ in 0..1000 {
-            id.push(1e-3, [1.0, 0.0, 0.0], true, [0.0; 6]);
+            id.push(1e-3, [1.0, 0.0, 0.0], true, [0.0; COMMAND_LEN]);
         }
         id.finish();
         id.sums().windows
@@ -656,13 +675,14 @@ mod tests {
             let mut x = 12345u32;
             for k in 0..6000 {
                 let on = (k / 100) % 3;
-                let wrench = core::array::from_fn(|i| if i == on { c(torque) } else { S::ZERO });
+                let wrench: [S; 6] =
+                    core::array::from_fn(|i| if i == on { c(torque) } else { S::ZERO });
                 // the rate that follows the torque (J = 10), measured with noise
                 let noisy = w.map(|v| {
                     x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
                     c(v + 1e-3 * ((x >> 8) as f32 / (1u32 << 24) as f32 - 0.5))
                 });
-                id.push(c(1e-3), noisy, true, wrench);
+                id.push(c(1e-3), noisy, true, command_of_wrench(wrench));
                 w[on] += 10.0 * torque * 1e-3;
             }
             id.finish();
@@ -710,7 +730,7 @@ mod tests {
                     c(1e-3),
                     rate,
                     true,
-                    [S::ZERO, S::ZERO, torque, S::ZERO, S::ZERO, S::ZERO],
+                    command_of_wrench([S::ZERO, S::ZERO, torque, S::ZERO, S::ZERO, S::ZERO]),
                 );
             }
             id.finish();

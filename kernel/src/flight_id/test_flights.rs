@@ -76,7 +76,12 @@ pub(crate) fn fly_planar<S: SumScalar>(
             .wrapping_mul(6_364_136_223_846_793_005)
             .wrapping_add(1_442_695_040_888_963_407);
         e = phi * e + 0.027 * ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
-        id.push(c(2e-3), [S::ZERO, S::ZERO, c(w + e)], true, wrench.map(c));
+        id.push(
+            c(2e-3),
+            [S::ZERO, S::ZERO, c(w + e)],
+            true,
+            super::command_of_wrench(wrench.map(c)),
+        );
         // The torque about the true CoM, integrated exactly over the held interval.
         w += j_zz * (wrench[2] + wrench[3] * dc.1 - wrench[4] * dc.0) * 2e-3;
         after(id, k);

@@ -25,8 +25,8 @@
 //! thrust-symmetry test reads the same components, and without them in the signature it
 //! rejected 20 of 100 nominal random planar craft whose thrusts were drawn from the stated
 //! uncertainty (p down to 1e-110; f32, seeds 63000-63099). What no component tells apart
-//! (more thrusters than the nine components separate, eight planar ones) is missing from the
-//! signature; so is what a recording of wrench commands, not words, cannot say
+//! (beyond 4 planar or 9 3-D thrusters, when they fire together against each other) is
+//! missing from the signature; so is what a recording of wrench commands, not words, cannot say
 //! ([`super::command_of_wrench`]).
 use super::solve::{axis_forms, quad, ArNoise, SolveConfig, NP, NV};
 use super::sums::{FlightSums, SPLIT_TORQUE};

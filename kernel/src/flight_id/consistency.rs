@@ -13,8 +13,8 @@
 //! - **Thrust symmetry, per axis.** A uniform thrust error is exactly an inertia error on
 //!   rates and no test can see it, but one weak or strong thruster scales the turns it drives
 //!   one way and not the other: its signature is `J e_b` times the open thrusters' positive
-//!   torques about axis `b`, accumulated (components 15-17; [`crate::craft::Craft::command`]). The three axes are tested at a third of
-//!   the level each (Bonferroni). The reference tests each thruster's scale; the kernel cannot
+//!   torques about axis `b`, accumulated (components 15-17; [`crate::craft::Craft::command`]).
+//!   The three axes are tested at a third of the level each (Bonferroni). The reference tests each thruster's scale; the kernel cannot
 //!   afford a drive component per thruster in the tick, and tests the symmetry it breaks.
 //!
 //! Either test over its threshold makes the estimate `inconsistent`, never `ok`.

@@ -11,7 +11,9 @@
 //! to those sums at any time ([`solve`]); [`FlightId::reanchor`] then moves the floating-point
 //! sums to that fit's model, so that they hold noise rather than the drift from a model far
 //! from the craft ([`anchor`]). Any craft: the thrusters are a table ([`crate::craft`])
-//! and the caller passes the commanded wrench, so thruster words and wrench commands alike.
+//! and the caller passes the command ([`crate::craft::Craft::command`] of the thruster word,
+//! or [`command_of_wrench`] of a commanded wrench), so thruster words and wrench commands
+//! alike.
 //!
 //! The gyroscopic term `omega x I omega` is linear in the six rate products
 //! `omega_i omega_j`, so their integrals are six more drive components and the inertia's
@@ -159,7 +161,9 @@ fn get<S: Scalar>(v: &[S], i: usize) -> S {
     v.get(i).copied().unwrap_or(S::ZERO)
 }
 
-/// Whether two commands' wrenches differ in any component.
+/// Whether two commands' wrenches differ in any component (the window cut at word changes,
+/// `cut_at_changes`, is for the model's timing; a change of the positive torques alone, an
+/// opposing pair opening, moves only the consistency tests' components).
 fn differs<S: Scalar>(a: &[S; COMMAND_LEN], b: &[S; COMMAND_LEN]) -> bool {
     a.iter().zip(b).take(6).any(|(x, y)| x.lt(*y) || y.lt(*x))
 }
@@ -283,8 +287,9 @@ impl<S: SumScalar> FlightId<S> {
 
     /// One sample: `dt_s` since the previous sample, the measured `rate` (rad/s; `valid` false
     /// for a missing or railed sample) and the `command` held until the next:
-    /// [`crate::craft::Craft::command`] of the thruster word (the wrench, torque about the model's CoM N m
-    /// and force N, then the open thrusters' positive torques), or [`command_of_wrench`].
+    /// [`crate::craft::Craft::command`] of the thruster word (the wrench, torque about the
+    /// model's CoM N m and force N, then the open thrusters' positive torques), or
+    /// [`command_of_wrench`].
     pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; COMMAND_LEN]) {
         // A few entries of the closed windows' terms ([`close`]).
         self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);

@@ -5,16 +5,29 @@
 //! named exactly (the planted effect, or an effect that lists it under `equivalent_to`),
 //! nothing named, something else named, unexplained.
 //! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
-//! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com; all of them when left out).
+//! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure; the
+//! first five when left out). The disturbance and the pressure drop are sized to the craft
+//! (5 % of its weakest thruster's torque at the craft's size on each turning axis; 10 % of
+//! its weakest thrust per extra open valve), so that a large craft's are as visible as
+//! SPHERES'.
 use massid_diagnose::{diagnose_rate_recording, Settings};
-use massid_sim::effects::{ComOffset, Effect, MeasurementDelay, ThrustScale, ThrusterLatency};
+use massid_sim::effects::{
+    ComOffset, DisturbanceTorque, Effect, MeasurementDelay, PressureDrop, ThrustScale,
+    ThrusterLatency,
+};
 use massid_sim::simulate::{simulate, Maneuver};
 use massid_tests::random_craft::{draw, CraftClass};
 use std::time::Instant;
 
-/// The planted effect of `plant` on a craft of `n` thrusters and size `size_m`, and the names
-/// that count as found.
-fn planted(plant: &str, n: usize, size_m: f64, planar: bool) -> (Vec<Effect>, Vec<&'static str>) {
+/// The planted effect of `plant` on a craft of `n` thrusters, size `size_m` and weakest
+/// thrust `min_thrust_n`, and the names that count as found.
+fn planted(
+    plant: &str,
+    n: usize,
+    size_m: f64,
+    min_thrust_n: f64,
+    planar: bool,
+) -> (Vec<Effect>, Vec<&'static str>) {
     match plant {
         "none" => (vec![], vec![]),
         "latency" => (
@@ -46,6 +59,20 @@ fn planted(plant: &str, n: usize, size_m: f64, planar: bool) -> (Vec<Effect>, Ve
                 vec!["com_offset"],
             )
         }
+        "disturbance" => {
+            let t = 0.05 * min_thrust_n * size_m;
+            let torque_nm = if planar { [0.0, 0.0, t] } else { [t, -t, t] };
+            (
+                vec![Effect::DisturbanceTorque(DisturbanceTorque { torque_nm })],
+                vec!["disturbance_torque"],
+            )
+        }
+        "pressure" => (
+            vec![Effect::PressureDrop(PressureDrop {
+                newton_per_extra_thruster: 0.1 * min_thrust_n,
+            })],
+            vec!["pressure_drop"],
+        ),
         other => panic!("unknown plant {other}"),
     }
 }
@@ -79,7 +106,8 @@ fn main() {
                 .iter()
                 .map(|p| p.iter().map(|v| v * v).sum::<f64>().sqrt())
                 .fold(0.0, f64::max);
-            let (effects, want) = planted(plant, n, size, planar);
+            let min_thrust = d.model.thrust_n.iter().copied().fold(f64::MAX, f64::min);
+            let (effects, want) = planted(plant, n, size, min_thrust, planar);
             let mut spec = d.spec.clone();
             spec.effects = effects;
             spec.maneuver = Maneuver::RandomPwm;

@@ -187,6 +187,47 @@ fn a_large_craft_s_com_offset_beyond_spheres_tolerance_is_named() {
     }
 }
 
+/// The free-flyer (0.6 N thrusters, 0.26 m) under an external torque of a few percent of a
+/// thruster's, and with a tank that loses 0.1 N per extra open valve: each named, near the
+/// truth. Both searches were SPHERES-sized (a disturbance over 1e-3 N m implausible, a drop
+/// searched to 0.05 N), so a larger craft's disturbance was refused and something else named
+/// (`diagnose_random_craft`: 2 of 12 planar and 0 of 12 3-D random craft named it), and its
+/// drop would have been clamped at the bound; the bounds now scale with the craft's thrust
+/// and size (`effects::craft_scale`).
+#[test]
+fn a_large_craft_s_disturbance_and_pressure_drop_are_named_at_their_size() {
+    let want = [6e-3, -4e-3, 3e-3];
+    let torque =
+        Effect::DisturbanceTorque(massid_sim::effects::DisturbanceTorque { torque_nm: want });
+    let out = diagnose_with("freeflyer16.toml", vec![torque], 8, 30.0, Some(5.0));
+    assert_eq!(named(&out), vec!["disturbance_torque"]);
+    let e = &out.effects[0];
+    for (k, want) in want.into_iter().enumerate() {
+        near(
+            "disturbance torque",
+            e.params["torque_nm"][k].as_f64().unwrap().abs(),
+            e.stderr["torque_nm"][k].as_f64().unwrap(),
+            want.abs(),
+        );
+        assert_eq!(
+            e.params["torque_nm"][k].as_f64().unwrap().signum(),
+            want.signum()
+        );
+    }
+    let drop = Effect::PressureDrop(massid_sim::effects::PressureDrop {
+        newton_per_extra_thruster: 0.1,
+    });
+    let out = diagnose_with("freeflyer16.toml", vec![drop], 8, 30.0, Some(5.0));
+    assert_eq!(named(&out), vec!["pressure_drop"]);
+    let e = &out.effects[0];
+    near(
+        "pressure drop",
+        e.params["newton_per_extra_thruster"].as_f64().unwrap(),
+        e.stderr["newton_per_extra_thruster"].as_f64().unwrap(),
+        0.1,
+    );
+}
+
 /// One of the cubesat's canted thrusters at 80 % of its force. A tilt toward the thruster's
 /// lever arm changes only the size of its torque, so the rates cannot tell the two apart: the
 /// scale is named, or the tilt with the scale listed under `equivalent_to`, with the same

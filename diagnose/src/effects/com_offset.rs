@@ -1,20 +1,16 @@
 //! The centre of mass away from the model's.
 
-use super::{all_at, contract, errors, vec3, Context, Effect, Reported, Spec};
+use super::{all_at, contract, craft_scale, errors, vec3, Context, Effect, Reported, Spec};
 use crate::model::{Params, Plant, NT};
 
 pub struct ComOffset;
-
-/// SPHERES' size (its CoM to its farthest thruster, 0.109 m, rounded up): the bounds below
-/// were set for a craft this big.
-const SPHERES_SIZE_M: f64 = 0.11;
 
 /// How far from the model's the CoM is searched, mm: 50 mm on a craft up to SPHERES' size,
 /// in proportion on a larger one. A fixed 50 mm clamped a 1 m free-flyer's 60 mm offset at
 /// the bound and called it implausible: the diagnosis named nothing, or a thrust scale,
 /// where the CoM had moved (`diagnose_random_craft`).
 pub fn search_bound_mm(plant: &Plant) -> f64 {
-    50.0 * (plant.size_m() / SPHERES_SIZE_M).max(1.0)
+    50.0 * craft_scale::length(plant)
 }
 
 /// A CoM farther than this from the model's (mm) is outside the craft's tolerance: 0.9 of

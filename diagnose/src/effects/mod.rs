@@ -9,6 +9,7 @@
 
 mod blowdown;
 mod com_offset;
+mod craft_scale;
 mod disturbance_torque;
 mod fuel_slosh;
 mod gyro_bias;

@@ -1,6 +1,6 @@
 //! Thrust lost per additional open valve (a shared tank's pressure drop).
 
-use super::{all_at, contract, Context, Effect, Reported, Spec};
+use super::{all_at, contract, craft_scale, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct PressureDrop;
@@ -12,12 +12,14 @@ impl Effect for PressureDrop {
     fn apply(&self, th: &[f64], _: &[bool; NT], p: &mut Params) {
         p.pressure_drop = th[0];
     }
-    fn spec(&self, _: &Context) -> Spec {
+    // searched to 0.05 N per extra valve on SPHERES, in proportion to a stronger craft's thrust
+    fn spec(&self, cx: &Context) -> Spec {
+        let k = craft_scale::force(cx);
         Spec {
             lo: vec![0.0],
-            hi: vec![0.05],
-            step: vec![1e-5],
-            starts: vec![vec![0.002]],
+            hi: vec![0.05 * k],
+            step: vec![1e-5 * k],
+            starts: vec![vec![0.002 * k]],
         }
     }
     fn no_effect(&self, theta: &[f64], _: &Context) -> Vec<(usize, f64)> {

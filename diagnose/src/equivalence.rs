@@ -13,6 +13,14 @@
 //!   too: then nothing is listed);
 //! - on a planar craft (yaw only) a `com_offset` changes each thruster's yaw torque alone, so
 //!   it is a per-thruster `thrust_scale`;
+//! - on a planar craft a yaw `gyro_scale` s is the `inertia` with Izz / s (the sensor reads
+//!   s w, whose rate of change is s tau / Izz = tau / (Izz / s) for every torque; a planar
+//!   craft has no gyroscopic term, which on a 3-D craft would scale by 1 / s instead), and the
+//!   uniform `thrust_scale` s when no other torque is named, as long as nothing that acts on
+//!   the rate itself or on the inertia is named with it (damping, a mass change, slosh, or
+//!   the inertia or thrust scale that would stand for the same thing). On random planar craft
+//!   a 10 % inertia change was named a gyro scale, and a 3 % gyro scale an inertia, on half
+//!   the flights with nothing listed (`diagnose_random_craft`);
 //! - a `thruster_misalignment` that tilts the force toward the thruster's lever arm only (the
 //!   first tilt angle within its error of 0) keeps the torque's direction and changes its
 //!   size: a rate sensor sees that thruster's `thrust_scale` (the force is not measured), as
@@ -27,7 +35,7 @@
 use massid_sim::effects as contract;
 use serde_json::Value;
 
-use crate::effects::{contract_json, Context, Kind};
+use crate::effects::{contract_json, Context, Describe, Kind};
 use crate::model::{Plant, NT};
 
 /// Chi-square quantile at 99 % for `k` degrees of freedom (Wilson-Hilferty).
@@ -56,6 +64,18 @@ const TILT_BREAKERS: [Kind; 5] = [
     Kind::ThrustScale,
     Kind::Inertia,
     Kind::PressureDrop,
+];
+
+/// Effects that act on the rate itself (damping, in proportion to it), move the inertia
+/// (a mass change, slosh) or stand for the same scaling (an inertia, a thrust scale, a gyro
+/// scale): with one of them named, a planar craft's gyro scale is no longer an inertia.
+const GYRO_SCALE_BREAKERS: [Kind; 6] = [
+    Kind::RateDamping,
+    Kind::MassPropertyChange,
+    Kind::FuelSlosh,
+    Kind::Inertia,
+    Kind::ThrustScale,
+    Kind::GyroScale,
 ];
 
 /// Effects with a time of their own on the body's clock (a change, a blowdown start): a
@@ -87,6 +107,7 @@ pub fn equivalents(
 ) -> Vec<Value> {
     let named = |k: Kind| others.contains(&k);
     let scale_breaks = SCALE_BREAKERS.iter().any(|&k| named(k));
+    let gyro_scale_holds = plant.planar && !GYRO_SCALE_BREAKERS.iter().any(|&k| named(k));
     let timing_breaks = TIMING_BREAKERS.iter().any(|&k| named(k));
     let fired_idx: Vec<usize> = (0..cx.n_thrusters.min(NT))
         .filter(|&i| cx.fired[i])
@@ -127,7 +148,7 @@ pub fn equivalents(
                 close_ms: theta[0],
             }),
         )],
-        Kind::Inertia if !scale_breaks && !named(Kind::ThrustScale) => {
+        Kind::Inertia if (!scale_breaks && !named(Kind::ThrustScale)) || gyro_scale_holds => {
             // the fitted inertia as r times the model's: identifiable terms only (yaw on a
             // planar craft)
             let i0 = cx.nominal_inertia;
@@ -151,19 +172,48 @@ pub fn equivalents(
                 .map(|&i| weight(se(i)) * (theta[i] - r * i0[i]).powi(2))
                 .sum();
             if r > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
-                // every thruster of the model at 1/r (one that never fired could be anything)
-                let s = vec![1.0 / r; cx.n_thrusters.min(NT)];
-                vec![contract_json(&contract::Effect::ThrustScale(
-                    contract::ThrustScale { scale: s },
-                ))]
+                let mut out = vec![];
+                if !scale_breaks && !named(Kind::ThrustScale) {
+                    // every thruster of the model at 1/r (one that never fired could be anything)
+                    let s = vec![1.0 / r; cx.n_thrusters.min(NT)];
+                    out.push(contract_json(&contract::Effect::ThrustScale(
+                        contract::ThrustScale { scale: s },
+                    )));
+                }
+                if gyro_scale_holds {
+                    out.extend(yaw_gyro_scale(1.0 / r, cx));
+                }
+                out
             } else {
                 vec![]
             }
         }
+        Kind::GyroScale if gyro_scale_holds && weight(se(2)) > 0.0 && theta[2] > 0.0 => {
+            let s = theta[2];
+            let mut inertia_kgm2 = cx.nominal_inertia;
+            inertia_kgm2[2] /= s;
+            let mut out = vec![contract_json(&contract::Effect::Inertia(
+                contract::Inertia { inertia_kgm2 },
+            ))];
+            if !scale_breaks {
+                out.push(contract_json(&contract::Effect::ThrustScale(
+                    contract::ThrustScale {
+                        scale: vec![s; cx.n_thrusters.min(NT)],
+                    },
+                )));
+            }
+            out
+        }
         Kind::ThrustScale => {
             let mut out = vec![];
             if !scale_breaks && !named(Kind::Inertia) {
-                out.extend(uniform_scale_as_inertia(theta, se, cx));
+                let inertia = uniform_scale_as_inertia(theta, se, cx);
+                if let (Some((_, mean)), true) = (&inertia, gyro_scale_holds) {
+                    out.extend(inertia.iter().map(|(v, _)| v.clone()));
+                    out.extend(yaw_gyro_scale(*mean, cx));
+                } else {
+                    out.extend(inertia.map(|(v, _)| v));
+                }
             }
             if plant.planar
                 && !named(Kind::ComOffset)
@@ -217,13 +267,24 @@ pub fn equivalents(
     }
 }
 
+/// A planar craft's yaw gyro scale `s` (x and y at the model's 1), if its own effect finds
+/// it plausible.
+fn yaw_gyro_scale(s: f64, cx: &Context) -> Option<Value> {
+    let scale = [1.0, 1.0, s];
+    Kind::GyroScale
+        .effect()
+        .implausible(&scale, &|_| false, cx)
+        .is_none()
+        .then(|| contract_json(&contract::Effect::GyroScale(contract::GyroScale { scale })))
+}
+
 /// A uniform thrust scale (the fired thrusters' scales equal within their errors) as the
-/// inertia divided by it.
+/// inertia divided by it, with the scale.
 fn uniform_scale_as_inertia(
     theta: &[f64],
     se: &dyn Fn(usize) -> f64,
     cx: &Context,
-) -> Option<Value> {
+) -> Option<(Value, f64)> {
     let live: Vec<usize> = (0..theta.len()).filter(|&j| weight(se(j)) > 0.0).collect();
     let den: f64 = live.iter().map(|&j| weight(se(j))).sum();
     if live.is_empty() || !den.is_finite() || den <= 0.0 {
@@ -236,9 +297,12 @@ fn uniform_scale_as_inertia(
         .sum();
     (mean > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1))).then(|| {
         let inertia_kgm2 = cx.nominal_inertia.map(|v| v / mean);
-        contract_json(&contract::Effect::Inertia(contract::Inertia {
-            inertia_kgm2,
-        }))
+        (
+            contract_json(&contract::Effect::Inertia(contract::Inertia {
+                inertia_kgm2,
+            })),
+            mean,
+        )
     })
 }
 
@@ -388,6 +452,77 @@ mod tests {
         assert_eq!(lat(&[40.0, 36.0], &cov)[0]["effect"], "measurement_delay");
         // planted fault: the errors alone call 40 / 20 ms a delay
         assert_eq!(lat(&[40.0, 20.0], &no_cov).len(), 1);
+    }
+
+    /// On the planar air-bearing craft a yaw gyro scale is the inertia with Izz / s and the
+    /// uniform thrust scale s, and each of those lists the gyro scale; not with damping named
+    /// (it acts on the rate itself), nor beyond the gyro scale's own 20 %, nor on a 3-D craft
+    /// (SPHERES), whose gyroscopic term tells them apart. Planted: the SPHERES case.
+    #[test]
+    fn a_planar_craft_s_gyro_scale_is_its_inertia_and_thrust_scale() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .unwrap();
+        let sat = massid_sim::model_file::ModelFile::read(
+            &root.join("examples/models/airbearing-mpc.toml"),
+        )
+        .unwrap()
+        .satellite;
+        let plant = Plant::new(&sat);
+        let n = sat.n_thrusters();
+        let mut fired = [false; NT];
+        fired[..n].iter_mut().for_each(|f| *f = true);
+        let c = cx(&fired, &sat, &plant);
+        let se = |_: usize| 0.002;
+        let names = |kind: Kind, theta: &[f64], others: &[Kind]| -> Vec<Value> {
+            equivalents(kind, theta, &se, &no_cov, others, &plant, &c)
+        };
+        let g = names(Kind::GyroScale, &[1.0, 1.0, 1.04], &[]);
+        assert_eq!(g.len(), 2, "{g:?}");
+        assert_eq!(g[0]["effect"], "inertia");
+        let izz = g[0]["params"]["inertia_kgm2"][2].as_f64().unwrap();
+        assert!((izz - sat.inertia_kgm2[2] / 1.04).abs() < 1e-12, "{izz}");
+        assert_eq!(g[1]["effect"], "thrust_scale");
+        assert_eq!(g[1]["params"]["scale"][0].as_f64(), Some(1.04));
+        // a disturbance breaks the thrust scale's equality, not the inertia's
+        let with_torque = names(
+            Kind::GyroScale,
+            &[1.0, 1.0, 1.04],
+            &[Kind::DisturbanceTorque],
+        );
+        assert_eq!(with_torque.len(), 1);
+        assert_eq!(with_torque[0]["effect"], "inertia");
+        assert!(names(Kind::GyroScale, &[1.0, 1.0, 1.04], &[Kind::RateDamping]).is_empty());
+        // the inertia 10 % up is a gyro scale of 1 / 1.1; 30 % up is past the scale's 20 %
+        let mut inertia = sat.inertia_kgm2;
+        inertia[2] *= 1.1;
+        let i = names(Kind::Inertia, &inertia, &[]);
+        let gyro: Vec<&Value> = i.iter().filter(|e| e["effect"] == "gyro_scale").collect();
+        assert_eq!(gyro.len(), 1, "{i:?}");
+        let s = gyro[0]["params"]["scale"][2].as_f64().unwrap();
+        assert!((s - 1.0 / 1.1).abs() < 1e-9, "{s}");
+        inertia[2] = sat.inertia_kgm2[2] * 1.3;
+        assert!(!names(Kind::Inertia, &inertia, &[])
+            .iter()
+            .any(|e| e["effect"] == "gyro_scale"));
+        let t = names(Kind::ThrustScale, &vec![0.95; n], &[]);
+        assert!(t.iter().any(|e| e["effect"] == "gyro_scale"
+            && (e["params"]["scale"][2].as_f64().unwrap() - 0.95).abs() < 1e-9));
+        // SPHERES: a gyro scale is not an inertia
+        let sph = Satellite::builtin("sph2").unwrap();
+        let sph_plant = Plant::new(&sph);
+        let all = [true; NT];
+        let sc = cx(&all, &sph, &sph_plant);
+        assert!(equivalents(
+            Kind::GyroScale,
+            &[1.04; 3],
+            &se,
+            &no_cov,
+            &[],
+            &sph_plant,
+            &sc
+        )
+        .is_empty());
     }
 
     /// On the planar air-bearing craft, the per-thruster scales a CoM offset makes are listed

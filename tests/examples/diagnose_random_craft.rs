@@ -5,15 +5,15 @@
 //! named exactly (the planted effect, or an effect that lists it under `equivalent_to`),
 //! nothing named, something else named, unexplained.
 //! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
-//! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure; the
-//! first five when left out). The disturbance and the pressure drop are sized to the craft
+//! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure rise
+//! damping inertia gyroscale; the first five when left out). The disturbance and the pressure drop are sized to the craft
 //! (5 % of its weakest thruster's torque at the craft's size on each turning axis; 10 % of
 //! its weakest thrust per extra open valve), so that a large craft's are as visible as
 //! SPHERES'.
 use massid_diagnose::{diagnose_rate_recording, Settings};
 use massid_sim::effects::{
-    ComOffset, DisturbanceTorque, Effect, MeasurementDelay, PressureDrop, ThrustScale,
-    ThrusterLatency,
+    ComOffset, DisturbanceTorque, Effect, GyroScale, Inertia, MeasurementDelay, PressureDrop,
+    RateDamping, ThrustRise, ThrustScale, ThrusterLatency,
 };
 use massid_sim::simulate::{simulate, Maneuver};
 use massid_tests::random_craft::{draw, CraftClass};
@@ -26,6 +26,7 @@ fn planted(
     n: usize,
     size_m: f64,
     min_thrust_n: f64,
+    inertia: [f64; 6],
     planar: bool,
 ) -> (Vec<Effect>, Vec<&'static str>) {
     match plant {
@@ -73,6 +74,45 @@ fn planted(
             })],
             vec!["pressure_drop"],
         ),
+        "rise" => (
+            vec![Effect::ThrustRise(ThrustRise { tau_ms: 20.0 })],
+            vec!["thrust_rise"],
+        ),
+        // rates decaying with a 20 s time constant on each turning axis
+        "damping" => {
+            let d = |a: usize| {
+                if planar && a < 2 {
+                    0.0
+                } else {
+                    inertia[a] / 20.0
+                }
+            };
+            (
+                vec![Effect::RateDamping(RateDamping {
+                    nms_per_rad: [d(0), d(1), d(2)],
+                })],
+                vec!["rate_damping"],
+            )
+        }
+        // the turning axes' moments 10 % above the model's
+        "inertia" => {
+            let mut inertia_kgm2 = inertia;
+            for (a, v) in inertia_kgm2.iter_mut().enumerate().take(3) {
+                if !planar || a == 2 {
+                    *v *= 1.1;
+                }
+            }
+            (
+                vec![Effect::Inertia(Inertia { inertia_kgm2 })],
+                vec!["inertia"],
+            )
+        }
+        "gyroscale" => (
+            vec![Effect::GyroScale(GyroScale {
+                scale: [1.03, 0.98, 1.03],
+            })],
+            vec!["gyro_scale"],
+        ),
         other => panic!("unknown plant {other}"),
     }
 }
@@ -107,7 +147,7 @@ fn main() {
                 .map(|p| p.iter().map(|v| v * v).sum::<f64>().sqrt())
                 .fold(0.0, f64::max);
             let min_thrust = d.model.thrust_n.iter().copied().fold(f64::MAX, f64::min);
-            let (effects, want) = planted(plant, n, size, min_thrust, planar);
+            let (effects, want) = planted(plant, n, size, min_thrust, d.model.inertia_kgm2, planar);
             let mut spec = d.spec.clone();
             spec.effects = effects;
             spec.maneuver = Maneuver::RandomPwm;

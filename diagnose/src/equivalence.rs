@@ -385,6 +385,24 @@ mod tests {
         }
     }
 
+    /// The planar air-bearing craft's model, its plant and every thruster fired.
+    fn airbearing() -> (Satellite, Plant, [bool; NT]) {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .unwrap();
+        let sat = massid_sim::model_file::ModelFile::read(
+            &root.join("examples/models/airbearing-mpc.toml"),
+        )
+        .unwrap()
+        .satellite;
+        let plant = Plant::new(&sat);
+        let mut fired = [false; NT];
+        fired[..sat.n_thrusters()]
+            .iter_mut()
+            .for_each(|f| *f = true);
+        (sat, plant, fired)
+    }
+
     #[test]
     fn equal_latencies_are_a_delay_and_unequal_ones_are_not() {
         let sat = Satellite::builtin("sph2").unwrap();
@@ -460,18 +478,8 @@ mod tests {
     /// (SPHERES), whose gyroscopic term tells them apart. Planted: the SPHERES case.
     #[test]
     fn a_planar_craft_s_gyro_scale_is_its_inertia_and_thrust_scale() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .parent()
-            .unwrap();
-        let sat = massid_sim::model_file::ModelFile::read(
-            &root.join("examples/models/airbearing-mpc.toml"),
-        )
-        .unwrap()
-        .satellite;
-        let plant = Plant::new(&sat);
+        let (sat, plant, fired) = airbearing();
         let n = sat.n_thrusters();
-        let mut fired = [false; NT];
-        fired[..n].iter_mut().for_each(|f| *f = true);
         let c = cx(&fired, &sat, &plant);
         let se = |_: usize| 0.002;
         let names = |kind: Kind, theta: &[f64], others: &[Kind]| -> Vec<Value> {
@@ -529,18 +537,8 @@ mod tests {
     /// as that offset, and the offset as those scales; scales no offset gives are not.
     #[test]
     fn a_planar_craft_s_scales_and_com_offset_are_listed_both_ways() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .parent()
-            .unwrap();
-        let sat = massid_sim::model_file::ModelFile::read(
-            &root.join("examples/models/airbearing-mpc.toml"),
-        )
-        .unwrap()
-        .satellite;
-        let plant = Plant::new(&sat);
+        let (sat, plant, fired) = airbearing();
         let n = sat.n_thrusters();
-        let mut fired = [false; NT];
-        fired[..n].iter_mut().for_each(|f| *f = true);
         let c = cx(&fired, &sat, &plant);
         let off = [12.0, -7.0, 0.0];
         let scales: Vec<f64> = (0..n)

@@ -6,7 +6,8 @@
 //! nothing named, something else named, unexplained.
 //! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
 //! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure rise
-//! damping inertia gyroscale; the first five when left out). The disturbance and the pressure drop are sized to the craft
+//! damping inertia gyroscale; the first five when left out). `DRC_HORIZON_S=5` runs the
+//! diagnosis with `--horizon 5`. The disturbance and the pressure drop are sized to the craft
 //! (5 % of its weakest thruster's torque at the craft's size on each turning axis; 10 % of
 //! its weakest thrust per extra open valve), so that a large craft's are as visible as
 //! SPHERES'.
@@ -117,6 +118,13 @@ fn planted(
     }
 }
 
+/// `--horizon` from the environment (`DRC_HORIZON_S`): none by default, as a new user runs it.
+fn horizon_s() -> Option<f64> {
+    std::env::var("DRC_HORIZON_S")
+        .ok()
+        .and_then(|v| v.parse().ok())
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let flights: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10);
@@ -156,7 +164,11 @@ fn main() {
             let start = Instant::now();
             let out = simulate(&spec).expect("simulate");
             let rec = out.rate_recording.expect("a v2 craft");
-            let result = diagnose_rate_recording(&rec, &d.model, &Settings::default());
+            let settings = Settings {
+                horizon_s: horizon_s(),
+                ..Settings::default()
+            };
+            let result = diagnose_rate_recording(&rec, &d.model, &settings);
             let secs = start.elapsed().as_secs_f64();
             let Ok(a) = result else {
                 println!("seed {seed} {plant}: error {:?}", result.err());

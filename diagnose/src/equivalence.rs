@@ -207,12 +207,11 @@ pub fn equivalents(
         Kind::ThrustScale => {
             let mut out = vec![];
             if !scale_breaks && !named(Kind::Inertia) {
-                let inertia = uniform_scale_as_inertia(theta, se, cx);
-                if let (Some((_, mean)), true) = (&inertia, gyro_scale_holds) {
-                    out.extend(inertia.iter().map(|(v, _)| v.clone()));
-                    out.extend(yaw_gyro_scale(*mean, cx));
-                } else {
-                    out.extend(inertia.map(|(v, _)| v));
+                if let Some((inertia, mean)) = uniform_scale_as_inertia(theta, se, cx) {
+                    out.push(inertia);
+                    if gyro_scale_holds {
+                        out.extend(yaw_gyro_scale(mean, cx));
+                    }
                 }
             }
             if plant.planar

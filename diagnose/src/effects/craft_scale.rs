@@ -1,10 +1,10 @@
 //! How large a craft is against SPHERES, for the search bounds and plausibility limits that
 //! were first set on SPHERES: each grows with the quantity it bounds (a length with the
 //! craft's size, a force with its weakest thrust, a torque with both) and never falls below
-//! SPHERES' own, so a craft up to SPHERES' size and thrust keeps them. Fixed SPHERES-sized
-//! bounds clamped a larger craft's effect at the bound or called it implausible, and the
-//! diagnosis named something else (`diagnose_random_craft`: a CoM offset, a disturbance
-//! torque).
+//! SPHERES' own, so a craft up to SPHERES' size, thrust and inertia keeps them. Fixed
+//! SPHERES-sized bounds clamped a larger craft's effect at the bound or called it
+//! implausible, and the diagnosis named something else (`diagnose_random_craft`: a CoM
+//! offset, a disturbance torque, an inertia whose products of inertia the box left out).
 
 use super::Context;
 use crate::model::Plant;
@@ -15,6 +15,15 @@ const SPHERES_SIZE_M: f64 = 0.11;
 
 /// SPHERES' thrust (its strongest thruster in the built-in models, 0.134 N, rounded up).
 const SPHERES_THRUST_N: f64 = 0.14;
+
+/// SPHERES' largest principal moment (0.0275 kg m^2 in the built-in models, rounded up).
+const SPHERES_MOMENT_KGM2: f64 = 0.03;
+
+/// An inertia bound's factor: the model's largest principal moment against SPHERES'.
+pub fn moment(nominal_inertia: &[f64; 6]) -> f64 {
+    let largest = nominal_inertia[..3].iter().copied().fold(0.0, f64::max);
+    (largest / SPHERES_MOMENT_KGM2).max(1.0)
+}
 
 /// A length bound's factor: the craft's size against SPHERES'.
 pub fn length(plant: &Plant) -> f64 {
@@ -36,7 +45,7 @@ mod tests {
     use super::*;
     use reference_f64::satellite::Satellite;
 
-    fn factors(sat: &Satellite) -> [f64; 3] {
+    fn factors(sat: &Satellite) -> [f64; 4] {
         let plant = Plant::new(sat);
         let fired = [true; crate::model::NT];
         let cx = Context {
@@ -50,21 +59,26 @@ mod tests {
             command_step_ms: 200.0,
             plant: &plant,
         };
-        [length(&plant), force(&cx), torque(&cx)]
+        [
+            length(&plant),
+            force(&cx),
+            torque(&cx),
+            moment(&sat.inertia_kgm2),
+        ]
     }
 
-    /// Every built-in SPHERES model keeps the force and torque bounds set on SPHERES (a
+    /// Every built-in SPHERES model keeps the force, torque and inertia bounds set on SPHERES (a
     /// factor of exactly 1) and its length bounds within 2 % (sph1's and sph3's CoMs are up to
     /// 1.2 mm farther from a thruster than the constant's 0.11 m). SPHERES grown four times in
-    /// size and given four times SPHERES' thrust gets each bound in proportion, the torque's
-    /// by both. Planted: a factor that is not floored at 1 shrinks SPHERES' own.
+    /// size and given four times SPHERES' thrust and moment gets each bound in proportion, the
+    /// torque's by both. Planted: a factor that is not floored at 1 shrinks SPHERES' own.
     #[test]
     fn spheres_keeps_its_bounds_and_a_larger_craft_scales_them() {
         for name in Satellite::BUILTIN_NAMES {
             let sat = Satellite::builtin(name).expect("built in");
-            let [l, f, t] = factors(&sat);
+            let [l, f, t, m] = factors(&sat);
             assert!((1.0..1.02).contains(&l), "{name}: {l}");
-            assert_eq!([f, t], [1.0; 2], "{name}");
+            assert_eq!([f, t, m], [1.0; 3], "{name}");
         }
         let sph2 = Satellite::builtin("sph2").expect("built in");
         let mut big = sph2.clone();
@@ -73,10 +87,12 @@ mod tests {
         }
         big.com_offset_mm = big.com_offset_mm.map(|v| 4.0 * v);
         big.thrust_n = vec![4.0 * SPHERES_THRUST_N; big.thrust_n.len()];
-        let [l, f, t] = factors(&big);
+        big.inertia_kgm2 = [4.0 * SPHERES_MOMENT_KGM2, 0.01, 0.01, 0.0, 0.0, 0.0];
+        let [l, f, t, m] = factors(&big);
         let size = 4.0 * Plant::new(&sph2).size_m();
         assert!((l - size / SPHERES_SIZE_M).abs() < 1e-12, "{l}");
         assert!((f - 4.0).abs() < 1e-12, "{f}");
         assert!((t - l * f).abs() < 1e-9, "{t} against {}", l * f);
+        assert!((m - 4.0).abs() < 1e-12, "{m}");
     }
 }

@@ -1,6 +1,6 @@
 //! An inertia tensor other than the model's.
 
-use super::{contract, Context, Effect, Reported, Spec};
+use super::{contract, craft_scale, Context, Effect, Reported, Spec};
 use crate::model::{Params, NT};
 
 pub struct Inertia;
@@ -21,15 +21,18 @@ pub fn not_a_body(i: &[f64]) -> Option<String> {
 }
 
 /// Inertia parameters' search space around the model's: principal 0.3..3x, products
-/// +-0.02 kg m^2.
+/// +-0.02 kg m^2 on SPHERES, in proportion to a craft's larger moments. A fixed +-0.02 left a
+/// 7 kg m^2 craft's own products of inertia out of the box: a moment 10 % up fitted with its
+/// products at the bound and lost to a thrust scale (`diagnose_random_craft`).
 pub fn inertia_bounds(nominal: &[f64; 6]) -> (Vec<f64>, Vec<f64>) {
+    let product = 0.02 * craft_scale::moment(nominal);
     let mut lo = vec![0.0; 6];
     let mut hi = vec![0.0; 6];
     for i in 0..3 {
         lo[i] = nominal[i] * 0.3;
         hi[i] = nominal[i] * 3.0;
-        lo[3 + i] = -0.02;
-        hi[3 + i] = 0.02;
+        lo[3 + i] = -product;
+        hi[3 + i] = product;
     }
     (lo, hi)
 }
@@ -71,5 +74,29 @@ impl Effect for Inertia {
             at(std::array::from_fn(|i| th[i])),
             at(std::array::from_fn(se)),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// SPHERES' products are searched within +-0.02 kg m^2 as before; a 7 kg m^2 craft's own
+    /// products (0.4, -0.3, 0.2) lie inside its box, and its principal moments 10 % up too.
+    /// Planted: the fixed +-0.02 leaves the model's own products out.
+    #[test]
+    fn the_box_holds_a_large_craft_s_own_products_of_inertia() {
+        let sph2 = [0.0242, 0.0214, 0.0194, 0.000108, 0.000157, 1.23e-05];
+        let (lo, hi) = inertia_bounds(&sph2);
+        assert_eq!((&lo[3..], &hi[3..]), (&[-0.02; 3][..], &[0.02; 3][..]));
+        let big = [7.0, 7.5, 4.0, 0.4, -0.3, 0.2];
+        let (lo, hi) = inertia_bounds(&big);
+        let inside = |v: &[f64; 6]| (0..6).all(|i| lo[i] < v[i] && v[i] < hi[i]);
+        assert!(inside(&big), "{lo:?} {hi:?}");
+        assert!(inside(&[7.7, 8.25, 4.4, 0.4, -0.3, 0.2]));
+        assert!(
+            !(-0.02..0.02).contains(&big[3]),
+            "the planted box would hold it"
+        );
     }
 }

@@ -30,7 +30,9 @@
 //!
 //! A member is listed only when the fitted values lie in the class within their errors (a
 //! latency with open and close equal, an inertia proportional to the model's, scales equal);
-//! the test is a chi-square at 1 % (Wilson-Hilferty quantile).
+//! the test is a chi-square at 1 % (Wilson-Hilferty quantile). Mechanisms the equations do
+//! not make equal but one recording cannot tell apart (a thrust rise and a latency in noisy
+//! rates) are listed from the data instead: `diagnosis/indistinct.rs`.
 
 use massid_sim::effects as contract;
 use serde_json::Value;

@@ -3,6 +3,7 @@
 //! is left unexplained, and everything the human report plots.
 
 use super::forward::Tone;
+use super::indistinct;
 use super::named::{Accepted, Named};
 use super::nominal::Nominal;
 use super::{Analysis, Log};
@@ -37,7 +38,7 @@ pub(super) fn conclude(
                 .map(|o| o.kind)
                 .filter(|&k| k != a.kind)
                 .collect();
-            report_effect(a, &others, &cx, n.plant)
+            report_effect(a, &others, &cx, n.plant, n.ln_n)
         })
         .collect();
     let ringing_windows = ringing_windows(&n, &named);
@@ -161,18 +162,37 @@ fn report_effect(
     others: &[Kind],
     cx: &effects::Context,
     plant: &Plant,
+    ln_n: f64,
 ) -> EffectReport {
     let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
     let cov = |i: usize, j: usize| a.cov.get((i, j)).copied().unwrap_or(f64::NAN);
     let (p, s) = a.kind.effect().report(&a.theta, &se, cx).maps();
+    let mut equivalent_to =
+        crate::equivalence::equivalents(a.kind, &a.theta, &se, &cov, others, plant, cx);
+    // then what this recording cannot tell it from, unless named or listed already
+    let mut alike = vec![];
+    for alt in &a.alike {
+        let listed = equivalent_to
+            .iter()
+            .any(|v| v["effect"].as_str() == Some(alt.kind.name()));
+        if !listed && !others.contains(&alt.kind) {
+            let unknown = |_: usize| f64::INFINITY;
+            let reported = alt.kind.effect().report(&alt.theta, &unknown, cx);
+            equivalent_to.push(effects::contract_json(&reported.params));
+            alike.push(alt.clone());
+        }
+    }
+    let evidence = if alike.is_empty() {
+        a.evidence.clone()
+    } else {
+        format!("{}; {}", a.evidence, indistinct::sentence(&alike, ln_n))
+    };
     EffectReport {
-        equivalent_to: crate::equivalence::equivalents(
-            a.kind, &a.theta, &se, &cov, others, plant, cx,
-        ),
+        equivalent_to,
         effect: a.kind.name().into(),
         params: p,
         stderr: s,
-        evidence: a.evidence.clone(),
+        evidence,
         windows_ms: a.windows.clone(),
         rms_after: a.rms_after,
         delta_bic: a.delta_bic,

@@ -151,6 +151,7 @@ fn swap_in(n: &Nominal, named: &mut Named, swap: Swap, out: Kind, k_rest: usize)
             out.name(),
             swap.delta_bic
         ),
+        alike: vec![],
     });
 }
 

@@ -5,6 +5,7 @@
 //! refitted jointly after every acceptance; ringing (additive, random phase per edge) lives
 //! on the residual.
 
+use super::indistinct::{self, Alternative, Indistinct};
 use super::named::{Accepted, Named, Taken};
 use super::nominal::Nominal;
 use super::{evidence, pairs, Log, Timing, MAX_TRIES};
@@ -13,6 +14,7 @@ use crate::effects::Describe;
 use crate::effects::{self, Kind};
 use crate::fit;
 use crate::locate;
+use crate::model::Params;
 use crate::ringing::{self, RingingFit};
 use crate::select::{self, combinable, wald, Settings};
 
@@ -42,6 +44,8 @@ pub(super) struct Candidate {
     pub ringing: Option<RingingFit>,
     /// Said before the evidence when it is named.
     pub note: String,
+    /// The whole model of its fit (none for the ringing tone).
+    pub fitted: Option<Params>,
 }
 
 /// Runs the forward selection from `named` (the nominal model) until no candidate passes
@@ -75,6 +79,19 @@ pub(super) fn select(n: &Nominal, named: &mut Named, log: &mut Log, settings: &S
             .take(pairs::PAIR_POOL)
             .map(|r| (r.delta_bic, r.kind, r.theta.clone()))
             .collect();
+        // the strong candidates as fitted, for what the named one cannot be told from
+        let alternatives: Vec<Alternative> = ranked
+            .iter()
+            .filter(|r| r.delta_bic <= -settings.accept_margin)
+            .filter_map(|r| {
+                Some(Alternative {
+                    kind: r.kind,
+                    theta: r.theta.clone(),
+                    fitted: r.fitted.clone()?,
+                })
+            })
+            .collect();
+        let mut alike: Vec<Indistinct> = vec![];
         // the strongest candidates by BIC, each tried against the checks that generalise
         // (acceptance.rs); the first that passes is named, the others say why not
         let mut taken: Option<Taken> = None;
@@ -84,6 +101,9 @@ pub(super) fn select(n: &Nominal, named: &mut Named, log: &mut Log, settings: &S
             }
             match trial.check(&[(c.kind, c.theta)], c.ringing) {
                 Ok(t) => {
+                    if let Some(f) = &c.fitted {
+                        alike = indistinct::within_noise(n, c.kind, f, &alternatives);
+                    }
                     taken = Some((vec![(c.delta_bic, c.kind, c.note)], t));
                     break;
                 }
@@ -97,7 +117,17 @@ pub(super) fn select(n: &Nominal, named: &mut Named, log: &mut Log, settings: &S
         let Some((new, t)) = taken else {
             break;
         };
-        accept(n, named, new, t, round, log, &mut ringing_cache, &mut tone);
+        accept(
+            n,
+            named,
+            new,
+            t,
+            alike,
+            round,
+            log,
+            &mut ringing_cache,
+            &mut tone,
+        );
     }
     tone
 }
@@ -164,6 +194,7 @@ fn rank(
                 chi2: chi2_cur - rf.gain,
                 note: rf.evidence.clone(),
                 ringing: Some(rf),
+                fitted: None,
             });
         } else {
             let Some((fr, sz)) = select::fit_joint(
@@ -189,6 +220,9 @@ fn rank(
                 chi2,
                 note: String::new(),
                 ringing: None,
+                fitted: Some(select::fitted_params(
+                    &n.fired, &acc_pairs, kind, &fr.theta, &sz,
+                )),
             });
         }
     }
@@ -232,6 +266,9 @@ fn rank(
                     c.theta = fr.theta[off..off + k_new].to_vec();
                     c.stderr = fr.stderr[off..off + k_new].to_vec();
                     c.cov = fit::cov_block(&fr.cov, off, k_new);
+                    c.fitted = Some(select::fitted_params(
+                        &n.fired, &acc_pairs, kind, &fr.theta, &sz,
+                    ));
                 }
             }
         }
@@ -340,6 +377,7 @@ fn accept(
     named: &mut Named,
     new: Vec<(f64, Kind, String)>,
     t: Tried,
+    alike: Vec<Indistinct>,
     round: usize,
     log: &Log,
     ringing_cache: &mut Option<Option<RingingFit>>,
@@ -400,6 +438,7 @@ fn accept(
             rms_after: named.rms(n),
             windows,
             evidence,
+            alike: alike.clone(),
         });
     }
 }

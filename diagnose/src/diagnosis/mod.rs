@@ -3,7 +3,8 @@
 //! 1. `nominal.rs`: the nominal prediction with the initial rate fitted; the noise model
 //!    from its residual.
 //! 2. `forward.rs`: forward selection of mechanisms by BIC, each put through the acceptance
-//!    checks; `pairs.rs` when no single one generalises.
+//!    checks; `pairs.rs` when no single one generalises; `indistinct.rs` keeps, for the one
+//!    named, the strong candidates whose fitted rates the recording cannot tell from its own.
 //! 3. `exchange.rs`: each named effect may be dropped (the others stand in for it) or
 //!    replaced by a mechanism that fits better in its place.
 //! 4. `conclusion.rs`: standard errors, the contract's reports, what is left unexplained.
@@ -16,6 +17,7 @@ mod conclusion;
 mod evidence;
 mod exchange;
 mod forward;
+mod indistinct;
 mod named;
 mod nominal;
 mod pairs;

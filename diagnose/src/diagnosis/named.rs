@@ -26,6 +26,8 @@ pub(super) struct Accepted {
     pub rms_after: [f64; 3],
     pub windows: Vec<[i64; 2]>,
     pub evidence: String,
+    /// What this recording cannot tell it from (`indistinct.rs`), listed as equivalent.
+    pub alike: Vec<super::indistinct::Indistinct>,
 }
 
 /// What one round of the selection names: `(delta BIC, effect, note)` per effect, and the

@@ -9,9 +9,8 @@
 //!
 //! So a strong candidate of the same round whose fitted prediction lies within one
 //! parameter's BIC penalty (`ln n`) of the named one's, in the whitened chi-square the
-//! selection scores by, is listed with it under `equivalent_to`. That is the evidence the
-//! recording could ever give for one over the other: below it no data-driven choice between
-//! them is worth making.
+//! selection scores by, is listed with it under `equivalent_to`. `ln n` is the price the
+//! selection itself puts on one parameter: a difference below it is not worth a choice.
 
 use super::nominal::Nominal;
 use crate::effects::Kind;

@@ -171,6 +171,25 @@ impl<'a> Problem<'a> {
         Some(s)
     }
 
+    /// Chi-square between the predictions of `p` and `q` at full resolution, over the
+    /// samples the fit may use, weighted as [`Problem::chi2`]: how far apart the recording
+    /// sees the two models.
+    pub fn chi2_between(&self, p: &Params, q: &Params) -> Option<f64> {
+        let (a, b) = (self.predict(p)?, self.predict(q)?);
+        let mut s = 0.0;
+        for (i, (ya, yb)) in a.iter().zip(b.iter()).enumerate() {
+            if !self.in_fit(i) {
+                continue;
+            }
+            for k in 0..3 {
+                if self.series.valid[i][k] {
+                    s += ((ya[k] - yb[k]) * self.weight[k]).powi(2);
+                }
+            }
+        }
+        Some(s)
+    }
+
     /// Number of usable scalar residuals at full resolution.
     pub fn n_obs(&self) -> usize {
         self.series

@@ -69,33 +69,6 @@ pub fn build(fired: &[bool; NT], accepted: &[(Kind, Vec<f64>)], nuis: &[f64]) ->
     p
 }
 
-/// The model of a joint fit's parameter vector `theta`: the effects `kinds` (`sizes`
-/// parameters each, in that order), then the nuisances.
-fn layout_params(fired: &[bool; NT], kinds: &[Kind], sizes: &[usize], theta: &[f64]) -> Params {
-    let mut acc: Vec<(Kind, Vec<f64>)> = vec![];
-    let mut off = 0;
-    for (k, &n) in kinds.iter().zip(sizes.iter()) {
-        acc.push((*k, theta[off..off + n].to_vec()));
-        off += n;
-    }
-    build(fired, &acc, &theta[off..])
-}
-
-/// The model a [`fit_joint`] or [`fit_from`] of `new` on top of `accepted` ended with (its
-/// `theta` and `sizes`): the prediction that fit makes.
-pub fn fitted_params(
-    fired: &[bool; NT],
-    accepted: &[(Kind, Vec<f64>)],
-    new: Kind,
-    theta: &[f64],
-    sizes: &[usize],
-) -> Params {
-    let mut kinds: Vec<Kind> = accepted.iter().map(|a| a.0).collect();
-    kinds.push(new);
-    kinds.retain(|k| !k.effect().on_residual());
-    layout_params(fired, &kinds, sizes, theta)
-}
-
 /// The nominal model with nuisances `nuis`: initial rate, then one rate jump per gap.
 pub fn nuisance_params(nuis: &[f64]) -> Params {
     Params {
@@ -236,7 +209,15 @@ fn fit_with_starts(
     let sizes2 = sizes.clone();
     let fired2 = *fired;
     let fam = Family {
-        apply: Box::new(move |th: &[f64]| Some(layout_params(&fired2, &kinds2, &sizes2, th))),
+        apply: Box::new(move |th: &[f64]| {
+            let mut acc: Vec<(Kind, Vec<f64>)> = vec![];
+            let mut off = 0;
+            for (k, &n) in kinds2.iter().zip(sizes2.iter()) {
+                acc.push((*k, th[off..off + n].to_vec()));
+                off += n;
+            }
+            Some(build(&fired2, &acc, &th[off..]))
+        }),
         step,
         lo,
         hi,

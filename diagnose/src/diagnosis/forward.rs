@@ -220,9 +220,7 @@ fn rank(
                 chi2,
                 note: String::new(),
                 ringing: None,
-                fitted: Some(select::fitted_params(
-                    &n.fired, &acc_pairs, kind, &fr.theta, &sz,
-                )),
+                fitted: Some(fr.params.clone()),
             });
         }
     }
@@ -266,9 +264,7 @@ fn rank(
                     c.theta = fr.theta[off..off + k_new].to_vec();
                     c.stderr = fr.stderr[off..off + k_new].to_vec();
                     c.cov = fit::cov_block(&fr.cov, off, k_new);
-                    c.fitted = Some(select::fitted_params(
-                        &n.fired, &acc_pairs, kind, &fr.theta, &sz,
-                    ));
+                    c.fitted = Some(fr.params.clone());
                 }
             }
         }

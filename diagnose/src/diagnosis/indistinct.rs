@@ -2,15 +2,19 @@
 //! (`equivalence.rs`) give the same rates on every recording; two other mechanisms can still
 //! give rates equal within the noise on a given one. A 20 ms first-order thrust rise and a
 //! 20 ms valve latency sampled at 100 Hz deliver the same impulse with the same centroid and
-//! differ only within a few ms of each edge; a gyro scale and an inertia on a slowly turning
-//! 3-D craft differ only in the gyroscopic term. On random 3-D craft a planted rise was named a
+//! differ only within a few ms of each edge. On random 3-D craft a planted rise was named a
 //! latency, the rise scoring better but missing the materiality check by 0.01 of the noise,
 //! with nothing listed (`diagnose_random_craft`): a confident answer the data do not back.
 //!
 //! So a strong candidate of the same round whose fitted prediction lies within one
-//! parameter's BIC penalty (`ln n`) of the named one's, in the whitened chi-square the
-//! selection scores by, is listed with it under `equivalent_to`. `ln n` is the price the
-//! selection itself puts on one parameter: a difference below it is not worth a choice.
+//! parameter's BIC penalty (`ln n`) of the named one's, in the chi-square the selection
+//! scores by (every sample, each axis weighted by its noise: `Problem::chi2_between`), is
+//! listed with it under `equivalent_to`. `ln n` is the price the selection itself puts on
+//! one parameter: a difference below it is not worth a choice.
+//!
+//! The judgement is made once, in the round the effect is named alone by the forward
+//! selection, against that round's model; effects named as a pair, or swapped in by the
+//! exchange, list none of their own.
 
 use super::nominal::Nominal;
 use crate::effects::Kind;
@@ -29,7 +33,7 @@ pub(super) struct Alternative {
 pub(super) struct Indistinct {
     pub kind: Kind,
     pub theta: Vec<f64>,
-    /// Whitened chi-square between the two fitted predictions.
+    /// Chi-square between the two fitted predictions.
     pub distance: f64,
 }
 
@@ -41,16 +45,11 @@ pub(super) fn within_noise(
     fitted: &Params,
     alternatives: &[Alternative],
 ) -> Vec<Indistinct> {
-    let Some(base) = n.prob.weighted(fitted) else {
-        return vec![];
-    };
     let mut out: Vec<Indistinct> = alternatives
         .iter()
         .filter(|a| a.kind != named)
         .filter_map(|a| {
-            let other = n.prob.weighted(&a.fitted)?;
-            (other.len() == base.len()).then_some(())?;
-            let distance = (&other - &base).norm_squared();
+            let distance = n.prob.chi2_between(fitted, &a.fitted)?;
             if std::env::var_os("MASSID_DIAG_PROFILE").is_some() {
                 eprintln!(
                     "  {} against {}: chi-square {distance:.1} (ln n {:.1})",

@@ -159,6 +159,9 @@ pub fn equivalents(
             } else {
                 (0..6).collect()
             };
+            // a term held at the model's (`effects::HELD`, NaN error) is left out too: the
+            // BIC found the rates do not need it moved, so r times the model's fits them as
+            // well, and a uniform thrust scale is not to be hidden behind it
             let live: Vec<usize> = terms.into_iter().filter(|&i| weight(se(i)) > 0.0).collect();
             let den: f64 = live.iter().map(|&i| weight(se(i)) * i0[i] * i0[i]).sum();
             if live.is_empty() || den <= 0.0 || !den.is_finite() {

@@ -30,7 +30,8 @@ pub struct Params {
     pub blowdown: Option<(f64, f64)>,
     /// True CoM minus the model's, mm.
     pub com_offset_mm: [f64; 3],
-    /// True inertia (replaces the model's), kg m^2, xx yy zz xy xz yz.
+    /// True inertia (replaces the model's), kg m^2, xx yy zz xy xz yz; a NaN entry keeps
+    /// the model's (`effects::HELD`).
     pub inertia: Option<[f64; 6]>,
     /// (at_s, CoM offset from the model's in mm, inertia after the change)
     pub mass_change: Option<(f64, [f64; 3], [f64; 6])>,
@@ -596,7 +597,16 @@ fn predict_with(
         return None;
     }
     PREDICTIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let inertia0 = p.inertia.unwrap_or(plant.inertia);
+    let inertia0 = match p.inertia {
+        Some(i) => std::array::from_fn(|k| {
+            if i[k].is_nan() {
+                plant.inertia[k]
+            } else {
+                i[k]
+            }
+        }),
+        None => plant.inertia,
+    };
     let props_a = MassProps::new(plant, p, &inertia0, &p.com_offset_mm)?;
     let props_b = match &p.mass_change {
         Some((_, off, inr)) => Some(MassProps::new(plant, p, inr, off)?),

@@ -6,7 +6,7 @@
 //! nothing named, something else named, unexplained.
 //! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
 //! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure rise
-//! damping inertia gyroscale; the first five when left out). `DRC_HORIZON_S=5` runs the
+//! damping inertia gyroscale uniformscale; the first five when left out). `DRC_HORIZON_S=5` runs the
 //! diagnosis with `--horizon 5`. The disturbance and the pressure drop are sized to the craft
 //! (5 % of its weakest thruster's torque at the craft's size on each turning axis; 10 % of
 //! its weakest thrust per extra open valve), so that a large craft's are as visible as
@@ -53,6 +53,13 @@ fn planted(
                 vec!["thrust_scale"],
             )
         }
+        // every thruster 10 % weak: on rates exactly the inertia 10 % up, products and all
+        "uniformscale" => (
+            vec![Effect::ThrustScale(ThrustScale {
+                scale: vec![0.9; n],
+            })],
+            vec!["thrust_scale", "inertia"],
+        ),
         "com" => {
             let d = 0.1 * size_m * 1e3;
             let offset_mm = if planar { [d, -d, 0.0] } else { [d, -d, d] };

@@ -314,3 +314,103 @@ fn a_thrust_rise_is_listed_with_a_latency_only_where_the_noise_hides_the_differe
         noisy.effects[0].evidence
     );
 }
+
+/// A random 3-D craft (15 canted thrusters, 44 kg m^2; `random_craft`, seed 81210) whose
+/// principal moments are 10 % above its model's, products unchanged: named an inertia with
+/// the products held at the model's and the moments near the truth. The selection used to
+/// price only the whole tensor (6 parameters), and the per-axis gyro scale (3), which fits
+/// worse, won by the three products' BIC price. Planted: without the moments-only form
+/// (`Effect::holdable` empty) this flight names `gyro_scale`.
+#[test]
+fn a_3d_craft_s_moments_alone_are_named_an_inertia_not_a_gyro_scale() {
+    use massid_sim::effects::Inertia;
+    use massid_tests::random_craft::{draw, CraftClass};
+    let class = CraftClass {
+        planar: false,
+        thrusters: (1, 16),
+        mocap: false,
+    };
+    let d = draw(&class, 81210);
+    let model = d.model.inertia_kgm2;
+    let mut truth = model;
+    for v in truth.iter_mut().take(3) {
+        *v *= 1.1;
+    }
+    let mut spec = d.spec.clone();
+    spec.effects = vec![Effect::Inertia(Inertia {
+        inertia_kgm2: truth,
+    })];
+    spec.maneuver = Maneuver::RandomPwm;
+    spec.seconds = Some(40.0);
+    spec.rate_hz = 100.0;
+    let rec = simulate(&spec)
+        .expect("simulate")
+        .rate_recording
+        .expect("a v2 craft");
+    let out = diagnose_rate_recording(&rec, &d.model, &Settings::default())
+        .expect("diagnosis")
+        .output;
+    assert_eq!(named(&out), vec!["inertia"]);
+    let e = &out.effects[0];
+    let got = |k: usize| e.params["inertia_kgm2"][k].as_f64().unwrap();
+    for k in 0..3 {
+        near(
+            "principal moment",
+            got(k),
+            e.stderr["inertia_kgm2"][k]
+                .as_f64()
+                .unwrap_or(f64::INFINITY),
+            truth[k],
+        );
+    }
+    for k in 3..6 {
+        assert_eq!(got(k), model[k], "product {k} held at the model's");
+    }
+}
+
+/// `open3/r05` (the independent simulator's ten-thruster cube, never used to develop the
+/// diagnosis until this check: moments changed, Ixy 0.0006 -> 0.001 kg m^2, the other two
+/// products as the model's, and a disturbance torque): the changed product is fitted, near
+/// its truth, and the unchanged ones are held or fitted near theirs. The products were
+/// first held in a round where a thrust scale, dropped later, stood in for Ixy; held
+/// parameters are decided again against the final set of effects (`diagnosis/held.rs`).
+/// Planted: without that second decision Ixy stays at the model's 0.0006.
+#[test]
+fn open3_r05_s_changed_product_of_inertia_is_fitted_and_its_unchanged_ones_held() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/open3");
+    let name = "r05_ft10_inertia_dist";
+    let rec = reference_f64::rate_recording::RateRecording::read(&dir.join(format!("{name}.csv")))
+        .expect("recording");
+    let sat = ModelFile::read(&dir.join(format!("{name}.model.toml")))
+        .expect("model")
+        .satellite;
+    let truth: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join(format!("{name}.truth.json"))).expect("truth"),
+    )
+    .expect("truth json");
+    let want = truth["effects"][0]["params"]["inertia_kgm2"].clone();
+    assert_eq!(truth["effects"][0]["effect"], "inertia");
+    let out = diagnose_rate_recording(&rec, &sat, &Settings::default())
+        .expect("diagnosis")
+        .output;
+    let e = out
+        .effects
+        .iter()
+        .find(|e| e.effect == "inertia")
+        .expect("inertia named");
+    for k in 3..6 {
+        let got = e.params["inertia_kgm2"][k].as_f64().unwrap();
+        let se = e.stderr["inertia_kgm2"][k].as_f64().unwrap();
+        let want = want[k].as_f64().unwrap();
+        let model = sat.inertia_kgm2[k];
+        if got == model && se >= 1e6 {
+            // held: only right where the truth is the model's
+            assert_eq!(want, model, "product {k} held at the model's, truth {want}");
+        } else {
+            assert!(
+                (got - want).abs() <= 3.0 * se,
+                "product {k}: {got} +- {se}, truth {want}"
+            );
+        }
+    }
+}

@@ -5,6 +5,7 @@
 //! refitted jointly after every acceptance; ringing (additive, random phase per edge) lives
 //! on the residual.
 
+use super::held;
 use super::indistinct::{self, Alternative, Indistinct};
 use super::named::{Accepted, Named, Taken};
 use super::nominal::Nominal;
@@ -197,7 +198,23 @@ fn rank(
                 fitted: None,
             });
         } else {
-            let Some((fr, sz)) = select::fit_joint(
+            let scored = |(fr, sz): (fit::FitResult, Vec<usize>)| {
+                let off: usize = sz[..sz.len() - 1].iter().sum();
+                let chi2 = fr.chi2 - ring_gain;
+                let k_live = fit::identifiable(&fr.stderr[off..off + k_new]);
+                Candidate {
+                    delta_bic: chi2 - chi2_cur + k_live as f64 * ln_n,
+                    kind,
+                    theta: fr.theta[off..off + k_new].to_vec(),
+                    stderr: fr.stderr[off..off + k_new].to_vec(),
+                    cov: fit::cov_block(&fr.cov, off, k_new),
+                    chi2,
+                    note: String::new(),
+                    ringing: None,
+                    fitted: Some(fr.params),
+                }
+            };
+            let whole = select::fit_joint(
                 &n.prob,
                 &n.fired,
                 &acc_pairs,
@@ -205,23 +222,30 @@ fn rank(
                 &named.nuis,
                 &n.slosh_hint,
                 screen_iter,
-            ) else {
-                continue;
+            )
+            .map(scored);
+            // the effect's smaller form, when it has one: the BIC picks between them
+            let held = whole
+                .as_ref()
+                .and_then(|w| held::form(w, n))
+                .and_then(|(start, note)| {
+                    let fitted = select::fit_from(
+                        &n.prob,
+                        &n.fired,
+                        &acc_pairs,
+                        kind,
+                        &start,
+                        &named.nuis,
+                        &n.slosh_hint,
+                        screen_iter,
+                    );
+                    fitted.map(scored).map(|c| Candidate { note, ..c })
+                });
+            let best = match (whole, held) {
+                (Some(w), Some(h)) => Some(if h.delta_bic < w.delta_bic { h } else { w }),
+                (w, h) => w.or(h),
             };
-            let off: usize = sz[..sz.len() - 1].iter().sum();
-            let chi2 = fr.chi2 - ring_gain;
-            let k_live = fit::identifiable(&fr.stderr[off..off + k_new]);
-            screened.push(Candidate {
-                delta_bic: chi2 - chi2_cur + k_live as f64 * ln_n,
-                kind,
-                theta: fr.theta[off..off + k_new].to_vec(),
-                stderr: fr.stderr[off..off + k_new].to_vec(),
-                cov: fit::cov_block(&fr.cov, off, k_new),
-                chi2,
-                note: String::new(),
-                ringing: None,
-                fitted: Some(fr.params.clone()),
-            });
+            screened.extend(best);
         }
     }
     // full fits for the best screened candidates

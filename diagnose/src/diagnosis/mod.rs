@@ -17,6 +17,7 @@ mod conclusion;
 mod evidence;
 mod exchange;
 mod forward;
+mod held;
 mod indistinct;
 mod named;
 mod nominal;
@@ -54,6 +55,7 @@ pub fn diagnose(
         forward::select(&nominal, &mut named, &mut log, settings)
     };
     exchange::run(&nominal, &mut named, &mut log, settings);
+    held::run(&nominal, &mut named, settings);
     let _timing = Timing::start("conclusion");
     Some(conclusion::conclude(
         nominal, named, log, tone, recording, model, issues,

@@ -218,7 +218,20 @@ pub trait Effect: Sync {
     }
     /// Parameters and standard errors as the contract names them.
     fn report(&self, theta: &[f64], stderr: &dyn Fn(usize) -> f64, cx: &Context) -> Reported;
+    /// Parameters that may be [`HELD`] at their "no effect" values, with their names (an
+    /// inertia's products). The selection holds those the whole fit does not move beyond
+    /// their BIC price and keeps the smaller form when the BIC prefers it, so a change the
+    /// data explain with fewer parameters is not charged for more.
+    fn holdable(&self, _cx: &Context) -> Vec<(usize, &'static str)> {
+        vec![]
+    }
 }
+
+/// A parameter held at the model's value: the effect's `apply` leaves the model's, so no
+/// sample depends on it and the fit neither moves it nor counts it in the BIC (its error is
+/// NaN, as for every parameter the recording cannot see: `fit::identifiable`). It stays held
+/// through every later fit, since it is carried in the effect's parameters.
+pub const HELD: f64 = f64::NAN;
 
 /// Which thrusters are ever commanded open (others cannot be fitted).
 pub fn fired_thrusters(series: &Series) -> [bool; NT] {

@@ -9,6 +9,7 @@ use super::named::Named;
 use super::nominal::Nominal;
 use super::Timing;
 use crate::effects::{self, Describe};
+use crate::fit;
 use crate::select::Settings;
 
 use super::forward::Candidate;
@@ -62,7 +63,8 @@ fn note(names: &[&str]) -> String {
 
 /// Decides each named effect's held parameters again against the final set of effects:
 /// the model as it is, refitted with them free, and refitted with the holdable parameters
-/// that free refit moves by less than their BIC price held; the lowest BIC is kept.
+/// that free refit moves by less than their BIC price held; the lowest BIC is kept, except
+/// that a free refit which is another effect's exact equal is kept whatever its BIC.
 pub(super) fn run(n: &Nominal, named: &mut Named, settings: &Settings) {
     let _timing = Timing::start("held parameters");
     for e in 0..named.accepted.len() {
@@ -71,20 +73,7 @@ pub(super) fn run(n: &Nominal, named: &mut Named, settings: &Settings) {
             continue;
         }
         let kind = a.kind;
-        // free: the held parameters start at their "no effect" values
-        let probe: Vec<f64> = a
-            .theta
-            .iter()
-            .map(|v| if v.is_nan() { 0.0 } else { *v })
-            .collect();
-        let null = kind.effect().no_effect(&probe, &n.context());
-        let freed: Option<Vec<f64>> = (0..a.theta.len())
-            .map(|i| match a.theta[i].is_nan() {
-                true => null.iter().find(|p| p.0 == i).map(|p| p.1),
-                false => Some(a.theta[i]),
-            })
-            .collect();
-        let Some(freed) = freed else {
+        let Some(freed) = released(kind, &a.theta, n) else {
             continue;
         };
         let with = |theta: &[f64]| {
@@ -112,17 +101,20 @@ pub(super) fn run(n: &Nominal, named: &mut Named, settings: &Settings) {
             .take_while(|(p, _)| p.0 != kind)
             .map(|(_, s)| s)
             .sum();
-        let theta = whole
+        let theta_whole = whole
             .pairs
             .iter()
             .find(|p| p.0 == kind)
             .map(|p| p.1.clone());
-        let again = theta.and_then(|th| {
+        let again = theta_whole.as_ref().and_then(|th| {
             let se = whole.stderr.get(off..off + th.len())?;
-            smaller(kind, &th, se, n)
+            smaller(kind, th, se, n)
         });
+        let exact = theta_whole
+            .as_ref()
+            .is_some_and(|th| exact_equal(kind, th, &whole, off, named, n));
         let mut trials = vec![(k_with(&whole), whole, None)];
-        if let Some((start, words)) = again {
+        if let (Some((start, words)), false) = (again, exact) {
             let pairs = with(&start);
             if let Ok(t) = named.trial(n, &pairs, &tests, settings).without() {
                 trials.push((k_with(&t), t, Some(words)));
@@ -132,7 +124,7 @@ pub(super) fn run(n: &Nominal, named: &mut Named, settings: &Settings) {
             t.chi2_rigid + *k as f64 * n.ln_n
         };
         let Some(i) = (0..trials.len())
-            .filter(|&i| bic(&trials[i]) < bic_now)
+            .filter(|&i| exact || bic(&trials[i]) < bic_now)
             .min_by(|&i, &j| bic(&trials[i]).total_cmp(&bic(&trials[j])))
         else {
             continue;
@@ -154,4 +146,45 @@ pub(super) fn run(n: &Nominal, named: &mut Named, settings: &Settings) {
             };
         }
     }
+}
+
+/// `theta` with its held parameters at their "no effect" values (where the fit starts them
+/// when they are free again).
+fn released(kind: effects::Kind, theta: &[f64], n: &Nominal) -> Option<Vec<f64>> {
+    let probe: Vec<f64> = theta
+        .iter()
+        .map(|v| if v.is_nan() { 0.0 } else { *v })
+        .collect();
+    let null = kind.effect().no_effect(&probe, &n.context());
+    (0..theta.len())
+        .map(|i| match theta[i].is_nan() {
+            true => null.iter().find(|p| p.0 == i).map(|p| p.1),
+            false => Some(theta[i]),
+        })
+        .collect()
+}
+
+/// Whether `kind` fitted whole at `theta` (its errors at `off` in `whole`'s) gives another
+/// effect's rates exactly (`equivalence.rs`): an inertia r times the model's, products too,
+/// is a uniform thrust scale. Holding its products would hide that alternative: a thrust
+/// error was named an inertia with nothing listed (`diagnose_random_craft`, seed 84001).
+fn exact_equal(
+    kind: effects::Kind,
+    theta: &[f64],
+    whole: &crate::candidate::Tried,
+    off: usize,
+    named: &Named,
+    n: &Nominal,
+) -> bool {
+    let others: Vec<effects::Kind> = named
+        .accepted
+        .iter()
+        .map(|a| a.kind)
+        .filter(|&o| o != kind)
+        .collect();
+    let se = |i: usize| whole.stderr.get(off + i).copied().unwrap_or(f64::INFINITY);
+    let cov = fit::cov_block(&whole.cov, off, theta.len());
+    let cov = |i: usize, j: usize| cov.get((i, j)).copied().unwrap_or(f64::NAN);
+    let cx = n.context();
+    !crate::equivalence::equivalents(kind, theta, &se, &cov, &others, n.plant, &cx).is_empty()
 }

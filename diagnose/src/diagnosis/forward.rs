@@ -227,7 +227,7 @@ fn rank(
             // the effect's smaller form, when it has one: the BIC picks between them
             let held = whole
                 .as_ref()
-                .and_then(|w| held::form(w, n))
+                .and_then(|w| held::form(w.kind, &w.theta, &w.stderr, n))
                 .and_then(|(start, note)| {
                     let fitted = select::fit_from(
                         &n.prob,

@@ -12,17 +12,11 @@ use crate::effects::{self, Describe};
 use crate::fit;
 use crate::select::Settings;
 
-use super::forward::Candidate;
-
-/// The start of `whole`'s smaller form and the words that say so, or `None`: its holdable
-/// parameters that its fit moved from "no effect" by less than one parameter's BIC price
-/// (z^2 < ln n), held, the others where `whole` put them.
-pub(super) fn form(whole: &Candidate, n: &Nominal) -> Option<(Vec<f64>, String)> {
-    smaller(whole.kind, &whole.theta, &whole.stderr, n)
-}
-
-/// [`form`] for `kind` fitted at `theta` with errors `stderr`.
-fn smaller(
+/// The start of the smaller form of `kind` fitted whole at `theta` (errors `stderr`) and
+/// the words that say so, or `None`: its holdable parameters that the fit moved from "no
+/// effect" by less than one parameter's BIC price (z^2 < ln n), held, the others where the
+/// fit put them.
+pub(super) fn form(
     kind: effects::Kind,
     theta: &[f64],
     stderr: &[f64],
@@ -108,7 +102,7 @@ pub(super) fn run(n: &Nominal, named: &mut Named, settings: &Settings) {
             .map(|p| p.1.clone());
         let again = theta_whole.as_ref().and_then(|th| {
             let se = whole.stderr.get(off..off + th.len())?;
-            smaller(kind, th, se, n)
+            form(kind, th, se, n)
         });
         let exact = theta_whole
             .as_ref()

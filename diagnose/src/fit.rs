@@ -70,7 +70,7 @@ impl<'a> Problem<'a> {
 
     /// Predicted gyro output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
-        if let Some((_, y)) = self.recent.borrow().iter().find(|(q, _)| q == p) {
+        if let Some((_, y)) = self.recent.borrow().iter().find(|(q, _)| q.same(p)) {
             REPEATS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             return Some(y.as_ref().clone());
         }

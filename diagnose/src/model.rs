@@ -62,6 +62,32 @@ pub struct Params {
     pub resets: Vec<[f64; 3]>,
 }
 
+impl Params {
+    /// Equal, counting a held inertia term (NaN, `effects::HELD`) equal to a held one: the
+    /// key test of `fit::Problem`'s recent predictions, which `==` would never match once
+    /// a term is held (NaN != NaN).
+    pub fn same(&self, o: &Params) -> bool {
+        let terms = |a: &[f64; 6], b: &[f64; 6]| {
+            a.iter()
+                .zip(b)
+                .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+        };
+        let inertia = match (&self.inertia, &o.inertia) {
+            (Some(a), Some(b)) => terms(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        inertia
+            && Params {
+                inertia: None,
+                ..self.clone()
+            } == Params {
+                inertia: None,
+                ..o.clone()
+            }
+    }
+}
+
 impl Default for Params {
     fn default() -> Self {
         Params {
@@ -793,6 +819,33 @@ fn predict_with(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    /// A model with held products is the same model as itself (the prediction cache
+    /// answers the repeat), and not the same as one with those products fitted at 0 or
+    /// with another moment. Planted: `==` never matches a held term, so the first fails.
+    #[test]
+    fn held_terms_are_the_same_as_held_terms_and_only_those() {
+        let held = Params {
+            inertia: Some([0.02, 0.03, 0.04, f64::NAN, f64::NAN, f64::NAN]),
+            ..Params::default()
+        };
+        assert!(held.same(&held.clone()));
+        let fitted = Params {
+            inertia: Some([0.02, 0.03, 0.04, 0.0, 0.0, 0.0]),
+            ..Params::default()
+        };
+        assert!(!held.same(&fitted) && !fitted.same(&held));
+        let other = Params {
+            inertia: Some([0.02, 0.03, 0.05, f64::NAN, f64::NAN, f64::NAN]),
+            ..Params::default()
+        };
+        assert!(!held.same(&other));
+        let shifted = Params {
+            open_ms: 1.0,
+            ..held.clone()
+        };
+        assert!(!held.same(&shifted) && !held.same(&Params::default()));
+    }
 
     /// A 1 kHz recording of `words` (one per ms) with the gyro at its bias: what a model
     /// test predicts from.

@@ -171,7 +171,8 @@ impl ParamText {
 }
 
 /// The parameters of a reported effect with their uncertainties, for text and HTML. A
-/// thruster that never fired prints as "not fired", any other placeholder uncertainty as
+/// thruster that never fired prints as "not fired", an entry held at the model's value
+/// (the extra key `held`) as "held at the model's", any other placeholder uncertainty as
 /// "unidentifiable".
 pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
     let thrust_scale = e.effect == "thrust_scale";
@@ -179,6 +180,12 @@ pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
         .iter()
         .map(|(k, v)| {
             let se = e.stderr.get(k);
+            let held = |i: usize| {
+                e.held
+                    .get(k)
+                    .and_then(Value::as_array)
+                    .is_some_and(|ix| ix.iter().any(|j| j.as_u64() == Some(i as u64)))
+            };
             let one = |v: Option<f64>, s: Option<f64>| -> String {
                 let v = v.unwrap_or(f64::NAN);
                 match s {
@@ -200,7 +207,15 @@ pub fn effect_params(e: &EffectReport) -> Vec<ParamText> {
                     element_labels(k, xs.len())
                         .into_iter()
                         .zip(xs.iter().zip(ses))
-                        .map(|(l, (x, s))| match x {
+                        .enumerate()
+                        .map(|(i, (l, (x, s)))| match x {
+                            _ if held(i) => (
+                                l,
+                                format!(
+                                    "{} (held at the model's)",
+                                    value(x.as_f64().unwrap_or(f64::NAN))
+                                ),
+                            ),
                             // a row of a matrix (a thruster's direction): its numbers
                             Value::Array(row) => (
                                 l,
@@ -267,7 +282,7 @@ pub fn window(w: [i64; 2]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
+    use serde_json::{json, Map};
 
     #[test]
     fn uncertainty_one_or_two_digits_value_to_the_same_place() {
@@ -332,6 +347,7 @@ mod tests {
             windows_ms: vec![],
             rms_after: [0.0; 3],
             equivalent_to: vec![],
+            held: Map::new(),
             delta_bic: 0.0,
         };
         let p = effect_params(&e);
@@ -339,6 +355,42 @@ mod tests {
         let line = p[0].line();
         assert_eq!(line, "scale: 1 0.980 ± 0.012, 2 not fired");
         assert!(!line.contains("1000000000"), "{line}");
+    }
+
+    /// An inertia whose products are held at the model's prints them as held, not as
+    /// "unidentifiable" (their JSON error is the same placeholder); the moments keep their
+    /// errors. Planted: the same report without the `held` key says "unidentifiable".
+    #[test]
+    fn held_entries_say_held_and_the_rest_keep_their_errors() {
+        let with = |held: Value| EffectReport {
+            effect: "inertia".into(),
+            params: json!({"inertia_kgm2": [0.0266, 0.0214, 0.0194, 0.000108, 0.000157, 1.23e-5]})
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
+            stderr: json!({"inertia_kgm2": [0.00012, 0.0001, 0.0001, 1e9, 1e9, 1e9]})
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
+            evidence: String::new(),
+            windows_ms: vec![],
+            rms_after: [0.0; 3],
+            equivalent_to: vec![],
+            held: held.as_object().cloned().unwrap_or_default(),
+            delta_bic: 0.0,
+        };
+        let line = effect_params(&with(json!({"inertia_kgm2": [3, 4, 5]})))[0].line();
+        assert_eq!(
+            line,
+            "inertia_kgm2 (kg m^2): xx 0.02660 ± 0.00012, yy 0.02140 ± 0.00010, \
+             zz 0.01940 ± 0.00010, xy 1.080e-4 (held at the model's), \
+             xz 1.570e-4 (held at the model's), yz 1.230e-5 (held at the model's)"
+        );
+        let planted = effect_params(&with(json!({})))[0].line();
+        assert!(
+            planted.contains("xy 1.080e-4 (unidentifiable)"),
+            "{planted}"
+        );
     }
 
     /// Planted fault: printing the stored f64 (what the summary did before) fails both the
@@ -381,6 +433,7 @@ mod tests {
             windows_ms: vec![],
             rms_after: [0.0; 3],
             equivalent_to: vec![],
+            held: Map::new(),
             delta_bic: 0.0,
         };
         let lines: Vec<String> = effect_params(&e).iter().map(ParamText::line).collect();

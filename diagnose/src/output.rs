@@ -20,6 +20,11 @@ pub struct EffectReport {
     /// the contract's extra key, absent when there are none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub equivalent_to: Vec<Value>,
+    /// Array entries held at the model's value rather than fitted, by parameter: 0-based
+    /// indices, e.g. `{"inertia_kgm2": [3, 4, 5]}` for an inertia whose products the data
+    /// do not move (`diagnosis/held.rs`; an extra key, absent when nothing is held).
+    #[serde(default, skip_serializing_if = "Map::is_empty")]
+    pub held: Map<String, Value>,
 }
 
 /// Data artefacts (never effects).

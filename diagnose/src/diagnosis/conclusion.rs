@@ -166,7 +166,8 @@ fn report_effect(
 ) -> EffectReport {
     let se = |i: usize| a.stderr.get(i).copied().unwrap_or(f64::INFINITY);
     let cov = |i: usize, j: usize| a.cov.get((i, j)).copied().unwrap_or(f64::NAN);
-    let (p, s) = a.kind.effect().report(&a.theta, &se, cx).maps();
+    let reported = a.kind.effect().report(&a.theta, &se, cx);
+    let (p, s) = reported.maps();
     let mut equivalent_to =
         crate::equivalence::equivalents(a.kind, &a.theta, &se, &cov, others, plant, cx);
     // then what this recording cannot tell it from, unless named or listed already
@@ -189,6 +190,7 @@ fn report_effect(
     };
     EffectReport {
         equivalent_to,
+        held: reported.held_json(),
         effect: a.kind.name().into(),
         params: p,
         stderr: s,

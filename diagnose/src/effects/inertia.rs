@@ -74,7 +74,9 @@ impl Effect for Inertia {
     }
     fn report(&self, th: &[f64], se: &dyn Fn(usize) -> f64, cx: &Context) -> Reported {
         let at = |inertia_kgm2| contract::Effect::Inertia(contract::Inertia { inertia_kgm2 });
+        let held = (0..6).filter(|&i| th[i].is_nan()).collect();
         Reported::new(at(with_model_s(th, cx)), at(std::array::from_fn(se)))
+            .held("inertia_kgm2", held)
     }
     /// The products, on a 3-D craft: a moment 10 % up on a random 3-D craft (products
     /// unchanged) was named a per-axis gyro scale (3 parameters), which fitted worse than

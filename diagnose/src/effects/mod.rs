@@ -110,6 +110,8 @@ pub struct Reported {
     pub extra: Vec<(&'static str, Value, Option<Value>)>,
     /// Parameters whose error is not estimated: left out of `stderr`.
     pub unestimated: Vec<&'static str>,
+    /// Array entries [`HELD`] at the model's value: (contract key, 0-based indices).
+    pub held: Vec<(&'static str, Vec<usize>)>,
 }
 
 impl Reported {
@@ -119,7 +121,27 @@ impl Reported {
             stderr,
             extra: vec![],
             unestimated: vec![],
+            held: vec![],
         }
+    }
+
+    /// With the entries `indices` of the array `key` held at the model's value (none: as
+    /// it was).
+    pub fn held(mut self, key: &'static str, indices: Vec<usize>) -> Self {
+        if !indices.is_empty() {
+            self.held.push((key, indices));
+        }
+        self
+    }
+
+    /// The extra key `held` of the contract's JSON: `{"inertia_kgm2": [3, 4, 5]}`, the
+    /// entries (0-based) not fitted but held at the model's value; their `stderr` is the
+    /// "not estimated" placeholder. Empty when nothing is held.
+    pub fn held_json(&self) -> Map<String, Value> {
+        self.held
+            .iter()
+            .map(|(k, ix)| ((*k).into(), ix.iter().map(|&i| Value::from(i)).collect()))
+            .collect()
     }
 
     /// With the error of `key` not estimated (no `stderr` entry).
@@ -227,7 +249,8 @@ pub trait Effect: Sync {
     }
 }
 
-/// A parameter held at the model's value: the effect's `apply` leaves the model's, so no
+/// A parameter held at the model's value: the effect's `apply` passes it on as NaN and the
+/// prediction puts the model's value in its place (`model.rs`, `Params::inertia`), so no
 /// sample depends on it and the fit neither moves it nor counts it in the BIC (its error is
 /// NaN, as for every parameter the recording cannot see: `fit::identifiable`). It stays held
 /// through every later fit, since it is carried in the effect's parameters.

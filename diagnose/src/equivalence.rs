@@ -35,7 +35,6 @@
 //! rates) are listed from the data instead: `diagnosis/indistinct.rs`.
 
 use massid_sim::effects as contract;
-use nalgebra::{DMatrix, DVector};
 use serde_json::Value;
 
 use crate::effects::{contract_json, Context, Describe, Kind};
@@ -93,50 +92,6 @@ fn weight(se: f64) -> f64 {
     } else {
         0.0
     }
-}
-
-/// The `r` that best gives `theta` as `r * basis` over the terms `live`, and the chi-square
-/// of what is left (`live.len() - 1` degrees of freedom): generalised least squares with the
-/// terms' joint covariance where it is known and positive definite, else with their errors
-/// alone. A fit's terms are correlated (an inertia's moments and products, thrust scales
-/// fired together): with the errors alone a uniform thrust scale of 0.9 named as an inertia
-/// on a 9-thruster craft (`diagnose_random_craft`, seed 83004) gave chi-square 17.9 against
-/// the 99 % limit 15.1 and no thrust scale was listed.
-fn proportional(
-    theta: &[f64],
-    basis: &[f64],
-    live: &[usize],
-    se: &dyn Fn(usize) -> f64,
-    cov: &dyn Fn(usize, usize) -> f64,
-) -> Option<(f64, f64)> {
-    let n = live.len();
-    if n == 0 {
-        return None;
-    }
-    let c = DMatrix::from_fn(n, n, |a, b| match a == b {
-        true => se(live[a]).powi(2),
-        false => cov(live[a], live[b]),
-    });
-    let joint = match c.iter().all(|v| v.is_finite()) {
-        true => c.cholesky().map(|ch| ch.inverse()),
-        false => None,
-    };
-    let w = joint.unwrap_or_else(|| {
-        DMatrix::from_diagonal(&DVector::from_iterator(
-            n,
-            live.iter().map(|&i| weight(se(i))),
-        ))
-    });
-    let x = DVector::from_iterator(n, live.iter().map(|&i| theta[i]));
-    let b = DVector::from_iterator(n, live.iter().map(|&i| basis[i]));
-    let den = b.dot(&(&w * &b));
-    if !(den.is_finite() && den > 0.0) {
-        return None;
-    }
-    let r = b.dot(&(&w * &x)) / den;
-    let d = x - b * r;
-    let chi2 = d.dot(&(&w * &d));
-    chi2.is_finite().then_some((r, chi2))
 }
 
 /// The other members of `kind`'s class that give the same rates as its fitted `theta`
@@ -208,9 +163,19 @@ pub fn equivalents(
             // BIC found the rates do not need it moved, so r times the model's fits them as
             // well, and a uniform thrust scale is not to be hidden behind it
             let live: Vec<usize> = terms.into_iter().filter(|&i| weight(se(i)) > 0.0).collect();
-            let Some((r, chi2)) = proportional(theta, &i0, &live, se, cov) else {
+            let den: f64 = live.iter().map(|&i| weight(se(i)) * i0[i] * i0[i]).sum();
+            if live.is_empty() || den <= 0.0 || !den.is_finite() {
                 return vec![];
-            };
+            }
+            let r = live
+                .iter()
+                .map(|&i| weight(se(i)) * theta[i] * i0[i])
+                .sum::<f64>()
+                / den;
+            let chi2: f64 = live
+                .iter()
+                .map(|&i| weight(se(i)) * (theta[i] - r * i0[i]).powi(2))
+                .sum();
             if r > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1)) {
                 let mut out = vec![];
                 if !scale_breaks && !named(Kind::ThrustScale) {
@@ -247,7 +212,7 @@ pub fn equivalents(
         Kind::ThrustScale => {
             let mut out = vec![];
             if !scale_breaks && !named(Kind::Inertia) {
-                if let Some((inertia, mean)) = uniform_scale_as_inertia(theta, se, cov, cx) {
+                if let Some((inertia, mean)) = uniform_scale_as_inertia(theta, se, cx) {
                     out.push(inertia);
                     if gyro_scale_holds {
                         out.extend(yaw_gyro_scale(mean, cx));
@@ -322,11 +287,18 @@ fn yaw_gyro_scale(s: f64, cx: &Context) -> Option<Value> {
 fn uniform_scale_as_inertia(
     theta: &[f64],
     se: &dyn Fn(usize) -> f64,
-    cov: &dyn Fn(usize, usize) -> f64,
     cx: &Context,
 ) -> Option<(Value, f64)> {
     let live: Vec<usize> = (0..theta.len()).filter(|&j| weight(se(j)) > 0.0).collect();
-    let (mean, chi2) = proportional(theta, &vec![1.0; theta.len()], &live, se, cov)?;
+    let den: f64 = live.iter().map(|&j| weight(se(j))).sum();
+    if live.is_empty() || !den.is_finite() || den <= 0.0 {
+        return None;
+    }
+    let mean = live.iter().map(|&j| weight(se(j)) * theta[j]).sum::<f64>() / den;
+    let chi2: f64 = live
+        .iter()
+        .map(|&j| weight(se(j)) * (theta[j] - mean).powi(2))
+        .sum();
     (mean > 0.0 && chi2 <= chi2_99(live.len().saturating_sub(1))).then(|| {
         let inertia_kgm2 = cx.nominal_inertia.map(|v| v / mean);
         (

@@ -385,6 +385,7 @@ mod tests {
             slosh_hint_hz: &[],
             sample_rate_hz: 1000.0,
             command_step_ms: 200.0,
+            inertia_start: None,
             plant,
         }
     }

@@ -27,6 +27,8 @@ pub struct Problem<'a> {
     /// rates more than once (a fit's end and the check after it), and a repeat costs a copy
     /// instead of a simulation. Bounded in bytes, so a long recording keeps none.
     recent: std::cell::RefCell<std::collections::VecDeque<(Params, std::rc::Rc<Vec<[f64; 3]>>)>>,
+    /// The recording's own inertia estimate (`equation_error.rs`), once computed.
+    inertia_start: std::cell::OnceCell<Option<[f64; 6]>>,
 }
 
 /// Bytes of predictions (and of duty grids) [`Problem`] keeps for repeats.
@@ -48,10 +50,11 @@ impl<'a> Problem<'a> {
             train: None,
             duty_cache: Default::default(),
             recent: Default::default(),
+            inertia_start: Default::default(),
         }
     }
 
-    fn duty(&self, open: f64, close: f64, rise: f64) -> std::rc::Rc<model::Duty> {
+    pub(crate) fn duty(&self, open: f64, close: f64, rise: f64) -> std::rc::Rc<model::Duty> {
         let key = (open, close, rise);
         let mut cache = self.duty_cache.borrow_mut();
         if let Some(at) = cache.iter().position(|(k, _)| *k == key) {
@@ -66,6 +69,14 @@ impl<'a> Problem<'a> {
         }
         cache.push_front((key, d.clone()));
         d
+    }
+
+    /// The inertia the recording's rate changes give (`equation_error::inertia`): a start
+    /// for an inertia fit besides the model's. Computed once per problem.
+    pub fn inertia_start(&self) -> Option<[f64; 6]> {
+        *self
+            .inertia_start
+            .get_or_init(|| crate::equation_error::inertia(self))
     }
 
     /// Predicted gyro output per sample.
@@ -114,10 +125,11 @@ impl<'a> Problem<'a> {
             train: Some(train),
             duty_cache: Default::default(),
             recent: Default::default(),
+            inertia_start: Default::default(),
         }
     }
 
-    fn in_fit(&self, i: usize) -> bool {
+    pub(crate) fn in_fit(&self, i: usize) -> bool {
         self.train.as_ref().map(|t| t[i]).unwrap_or(true)
     }
 

@@ -8,6 +8,7 @@ pub mod alias;
 mod candidate;
 pub mod diagnosis;
 pub mod effects;
+pub mod equation_error;
 pub mod equivalence;
 pub mod fit;
 pub mod holdout;

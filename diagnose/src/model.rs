@@ -414,6 +414,41 @@ impl Plant {
         self.force[i].norm()
     }
 
+    /// Adds to `tau` the torque of one duty row `d` (each thruster's mean open fraction
+    /// over a step), N m: thruster i's `torque[i]` at unit thrust times its duty, its
+    /// `thrust_scale` less the pressure drop `pd` (N) per other open valve, and the
+    /// blowdown's `scale_t`. The one home of the thrusters' torque on the 1 ms grid.
+    pub fn add_row_torque(
+        &self,
+        tau: &mut Vector3<f64>,
+        torque: &[Vector3<f64>; NT],
+        d: &[f32; NT],
+        thrust_scale: &[f64; NT],
+        pd: f64,
+        scale_t: f64,
+    ) {
+        let n_open: f64 = d.iter().map(|&x| x as f64).sum();
+        if n_open > 0.0 {
+            for i in 0..NT {
+                let di = d[i] as f64;
+                if di > 0.0 {
+                    let f = thrust_scale[i] - pd * (n_open - di) / self.thrust_n(i);
+                    *tau += torque[i] * (di * f.max(0.0) * scale_t);
+                }
+            }
+        }
+    }
+
+    /// Each thruster's torque at unit thrust about the model's CoM, with the model's own
+    /// pressure drop per other open valve, N: what [`Plant::add_row_torque`] takes for the
+    /// nominal model.
+    pub fn nominal_torques(&self) -> ([Vector3<f64>; NT], f64) {
+        (
+            std::array::from_fn(|i| self.torque(i, &self.com)),
+            self.base_pressure_drop,
+        )
+    }
+
     /// Torque of thruster i at unit scale about the model's CoM moved by `dcom_mm`, N m.
     pub fn torque_about(&self, i: usize, dcom_mm: &[f64; 3]) -> [f64; 3] {
         self.torque(i, &(self.com + Vector3::from(*dcom_mm) * 1e-3))
@@ -442,7 +477,8 @@ impl Plant {
     }
 }
 
-fn inertia_matrix(i: &[f64; 6]) -> Matrix3<f64> {
+/// The symmetric matrix of (xx, yy, zz, xy, xz, yz).
+pub(crate) fn inertia_matrix(i: &[f64; 6]) -> Matrix3<f64> {
     Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2])
 }
 
@@ -666,16 +702,7 @@ fn predict_with(
     // torque of one duty row (the disturbance included) at blowdown scale `scale_t`
     let torque = |props: &MassProps, d: &[f32; NT], scale_t: f64| {
         let mut tau_c = dist;
-        let n_open: f64 = d.iter().map(|&x| x as f64).sum();
-        if n_open > 0.0 {
-            for i in 0..NT {
-                let di = d[i] as f64;
-                if di > 0.0 {
-                    let f = p.thrust_scale[i] - pd * (n_open - di) / plant.thrust_n(i);
-                    tau_c += props.torque[i] * (di * f.max(0.0) * scale_t);
-                }
-            }
-        }
+        plant.add_row_torque(&mut tau_c, &props.torque, d, &p.thrust_scale, pd, scale_t);
         tau_c
     };
 

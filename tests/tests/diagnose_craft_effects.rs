@@ -325,6 +325,28 @@ fn a_thrust_rise_is_listed_with_a_latency_only_where_the_noise_hides_the_differe
 /// moments-only form (`Effect::holdable` empty) this flight names `gyro_scale`.
 #[test]
 fn a_3d_craft_s_moments_alone_are_named_an_inertia_not_a_gyro_scale() {
+    moments_up_are_named_near_their_truth(81210);
+}
+
+/// A random 3-D craft tumbling for 40 s (11 thrusters, rates up to 1 rad/s, a quiet gyro;
+/// `random_craft`, seed 86022) whose principal moments are 10 % above its model's: named an
+/// inertia near the truth, nothing left unexplained. A fit started at the model's inertia
+/// alone ended 30-90 standard errors from the truth with the residual 4 times the noise and
+/// "unexplained": over a long tumble the rates depend on the inertia too unevenly for the
+/// fit to walk there. The recording's own linear estimate (`equation_error.rs`) is a
+/// second start, fitted with nuisances of its own (`select.rs`). Planted: without that start
+/// (`Context::inertia_start` left `None`) a product of inertia ends more than 3 errors off.
+#[test]
+fn a_tumbling_3d_craft_s_inertia_is_found_from_the_recording_s_own_estimate() {
+    let out = moments_up_are_named_near_their_truth(86022);
+    assert!(out.unexplained.is_none(), "{:?}", out.unexplained);
+}
+
+/// Flies the random 3-D craft of `seed` for 40 s of random PWM at 100 Hz with its principal
+/// moments 10 % above its model's (products unchanged), and checks that the diagnosis
+/// names an inertia alone, its moments within 3 errors of the truth and its products held
+/// at the model's or near the truth.
+fn moments_up_are_named_near_their_truth(seed: u64) -> massid_diagnose::DiagnosisOutput {
     use massid_sim::effects::Inertia;
     use massid_tests::random_craft::{draw, CraftClass};
     let class = CraftClass {
@@ -332,7 +354,7 @@ fn a_3d_craft_s_moments_alone_are_named_an_inertia_not_a_gyro_scale() {
         thrusters: (1, 16),
         mocap: false,
     };
-    let d = draw(&class, 81210);
+    let d = draw(&class, seed);
     let model = d.model.inertia_kgm2;
     let mut truth = model;
     for v in truth.iter_mut().take(3) {
@@ -366,6 +388,7 @@ fn a_3d_craft_s_moments_alone_are_named_an_inertia_not_a_gyro_scale() {
         );
     }
     products_held_or_near(e, &model, &truth);
+    out
 }
 
 /// Each product of inertia of the named inertia `e` is either held at the `model`'s, where

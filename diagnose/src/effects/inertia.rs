@@ -44,13 +44,23 @@ impl Effect for Inertia {
     fn apply(&self, th: &[f64], _: &[bool; NT], p: &mut Params) {
         p.inertia = Some(std::array::from_fn(|i| th[i]));
     }
+    /// Starts at the model's and, on a 3-D craft, at the recording's own linear estimate
+    /// (`equation_error.rs`) when that is a plausible body inside the search box: a long
+    /// tumbling flight can hold the fit from the model's start in another minimum.
     fn spec(&self, cx: &Context) -> Spec {
         let (lo, hi) = inertia_bounds(&cx.nominal_inertia);
+        let mut starts = vec![cx.nominal_inertia.to_vec()];
+        if let Some(own) = cx.inertia_start {
+            let inside = (0..6).all(|i| own[i] >= lo[i] && own[i] <= hi[i]);
+            if inside && self.implausible(&own, &|_| true, cx).is_none() {
+                starts.push(own.to_vec());
+            }
+        }
         Spec {
             lo,
             hi,
             step: vec![2e-5; 6],
-            starts: vec![cx.nominal_inertia.to_vec()],
+            starts,
         }
     }
     fn no_effect(&self, th: &[f64], cx: &Context) -> Vec<(usize, f64)> {

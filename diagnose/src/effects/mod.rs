@@ -96,6 +96,9 @@ pub struct Context<'a> {
     /// The typical time a thruster command holds (median run of one thruster word), ms:
     /// delay searches place their starts a few per step.
     pub command_step_ms: f64,
+    /// The inertia the recording's own rate changes give (`equation_error.rs`; 3-D craft):
+    /// an inertia fit's second start.
+    pub inertia_start: Option<[f64; 6]>,
 }
 
 /// A fitted effect's parameters and standard errors in the contract's form: the
@@ -320,6 +323,7 @@ mod tests {
             slosh_hint_hz: hint,
             sample_rate_hz: 1000.0,
             command_step_ms: 200.0,
+            inertia_start: None,
             plant,
         }
     }

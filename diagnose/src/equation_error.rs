@@ -106,14 +106,7 @@ pub fn inertia(prob: &Problem) -> Option<[f64; 6]> {
     }
     let th = normal.cholesky()?.solve(&rhs);
     let inertia = inertia_matrix(&[th[0], th[1], th[2], th[3], th[4], th[5]]);
-    let terms = [
-        inertia[(0, 0)],
-        inertia[(1, 1)],
-        inertia[(2, 2)],
-        inertia[(0, 1)],
-        inertia[(0, 2)],
-        inertia[(1, 2)],
-    ];
+    let terms: [f64; 6] = reference_f64::mass_id::sym_to_vec6(&inertia).into();
     let body = terms.iter().all(|v| v.is_finite())
         && inertia
             .symmetric_eigen()

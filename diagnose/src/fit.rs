@@ -27,8 +27,9 @@ pub struct Problem<'a> {
     /// rates more than once (a fit's end and the check after it), and a repeat costs a copy
     /// instead of a simulation. Bounded in bytes, so a long recording keeps none.
     recent: std::cell::RefCell<std::collections::VecDeque<(Params, std::rc::Rc<Vec<[f64; 3]>>)>>,
-    /// The recording's own inertia estimate (`equation_error.rs`), once computed.
-    inertia_start: std::cell::OnceCell<Option<[f64; 6]>>,
+    /// The recording's own inertia estimate, once computed (`select::context` fills it
+    /// from `equation_error.rs`, which reads this problem: kept here, computed there).
+    pub(crate) inertia_start: std::cell::OnceCell<Option<[f64; 6]>>,
 }
 
 /// Bytes of predictions (and of duty grids) [`Problem`] keeps for repeats.
@@ -69,14 +70,6 @@ impl<'a> Problem<'a> {
         }
         cache.push_front((key, d.clone()));
         d
-    }
-
-    /// The inertia the recording's rate changes give (`equation_error::inertia`): a start
-    /// for an inertia fit besides the model's. Computed once per problem.
-    pub fn inertia_start(&self) -> Option<[f64; 6]> {
-        *self
-            .inertia_start
-            .get_or_init(|| crate::equation_error::inertia(self))
     }
 
     /// Predicted gyro output per sample.

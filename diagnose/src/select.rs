@@ -99,7 +99,9 @@ pub fn context<'a>(
         sample_rate_hz: prob.series.sample_rate_hz,
         command_step_ms: command_step_ms(&prob.series.word_ms),
         plant: prob.plant,
-        inertia_start: prob.inertia_start(),
+        inertia_start: *prob
+            .inertia_start
+            .get_or_init(|| crate::equation_error::inertia(prob)),
     }
 }
 

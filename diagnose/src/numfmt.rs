@@ -282,7 +282,7 @@ pub fn window(w: [i64; 2]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::{json, Map};
+    use serde_json::json;
 
     #[test]
     fn uncertainty_one_or_two_digits_value_to_the_same_place() {
@@ -329,27 +329,33 @@ mod tests {
         assert_eq!(value_pm(0.00033, 0.00013), "0.00033 ± 0.00013");
     }
 
-    #[test]
-    fn placeholders_are_words_not_numbers() {
-        assert_eq!(value_pm(1.0, 1e9), "1.000 (unidentifiable)");
-        assert_eq!(value_pm(1.0, f64::INFINITY), "1.000 (unidentifiable)");
-        let e = EffectReport {
-            effect: "thrust_scale".into(),
-            params: json!({"scale": [0.98, 1.0]})
-                .as_object()
-                .cloned()
-                .unwrap_or_default(),
-            stderr: json!({"scale": [0.0123, 1e9]})
-                .as_object()
-                .cloned()
-                .unwrap_or_default(),
+    /// A report of `effect` with these `params`, `stderr` and `held` objects (JSON), the
+    /// rest empty: what the printing tests read.
+    fn report(effect: &str, params: Value, stderr: Value, held: Value) -> EffectReport {
+        let object = |v: Value| v.as_object().cloned().unwrap_or_default();
+        EffectReport {
+            effect: effect.into(),
+            params: object(params),
+            stderr: object(stderr),
             evidence: String::new(),
             windows_ms: vec![],
             rms_after: [0.0; 3],
             equivalent_to: vec![],
-            held: Map::new(),
+            held: object(held),
             delta_bic: 0.0,
-        };
+        }
+    }
+
+    #[test]
+    fn placeholders_are_words_not_numbers() {
+        assert_eq!(value_pm(1.0, 1e9), "1.000 (unidentifiable)");
+        assert_eq!(value_pm(1.0, f64::INFINITY), "1.000 (unidentifiable)");
+        let e = report(
+            "thrust_scale",
+            json!({"scale": [0.98, 1.0]}),
+            json!({"scale": [0.0123, 1e9]}),
+            json!({}),
+        );
         let p = effect_params(&e);
         assert_eq!(p[0].entries[1].1, "not fired");
         let line = p[0].line();
@@ -362,22 +368,13 @@ mod tests {
     /// errors. Planted: the same report without the `held` key says "unidentifiable".
     #[test]
     fn held_entries_say_held_and_the_rest_keep_their_errors() {
-        let with = |held: Value| EffectReport {
-            effect: "inertia".into(),
-            params: json!({"inertia_kgm2": [0.0266, 0.0214, 0.0194, 0.000108, 0.000157, 1.23e-5]})
-                .as_object()
-                .cloned()
-                .unwrap_or_default(),
-            stderr: json!({"inertia_kgm2": [0.00012, 0.0001, 0.0001, 1e9, 1e9, 1e9]})
-                .as_object()
-                .cloned()
-                .unwrap_or_default(),
-            evidence: String::new(),
-            windows_ms: vec![],
-            rms_after: [0.0; 3],
-            equivalent_to: vec![],
-            held: held.as_object().cloned().unwrap_or_default(),
-            delta_bic: 0.0,
+        let with = |held: Value| {
+            report(
+                "inertia",
+                json!({"inertia_kgm2": [0.0266, 0.0214, 0.0194, 0.000108, 0.000157, 1.23e-5]}),
+                json!({"inertia_kgm2": [0.00012, 0.0001, 0.0001, 1e9, 1e9, 1e9]}),
+                held,
+            )
         };
         let line = effect_params(&with(json!({"inertia_kgm2": [3, 4, 5]})))[0].line();
         assert_eq!(
@@ -419,23 +416,12 @@ mod tests {
         assert_eq!(unit("amplitude_rad_s"), "rad/s");
         assert_eq!(unit("newton_per_extra_thruster"), "N");
         assert_eq!(unit("scale"), "");
-        let e = EffectReport {
-            effect: "thruster_latency".into(),
-            params: json!({"open_ms": 6.0712, "close_ms": 5.8})
-                .as_object()
-                .cloned()
-                .unwrap_or_default(),
-            stderr: json!({"open_ms": 0.0312, "close_ms": 0.4})
-                .as_object()
-                .cloned()
-                .unwrap_or_default(),
-            evidence: String::new(),
-            windows_ms: vec![],
-            rms_after: [0.0; 3],
-            equivalent_to: vec![],
-            held: Map::new(),
-            delta_bic: 0.0,
-        };
+        let e = report(
+            "thruster_latency",
+            json!({"open_ms": 6.0712, "close_ms": 5.8}),
+            json!({"open_ms": 0.0312, "close_ms": 0.4}),
+            json!({}),
+        );
         let lines: Vec<String> = effect_params(&e).iter().map(ParamText::line).collect();
         assert!(
             lines.contains(&"open_ms = 6.07 ± 0.03 ms".to_string()),

@@ -263,17 +263,18 @@ fn fit_with_starts(
         new_starts = scored.into_iter().take(2).map(|s| s.1).collect();
     }
     let mut best: Option<FitResult> = None;
+    // the model without the new effect, the yardstick of its starts (once per call)
+    let without = new.and_then(|_| prob.chi2(&build(fired, accepted, nuis)));
     for st in &new_starts {
         let mut th0 = base.clone();
         th0.extend(st.iter().cloned());
         th0.extend_from_slice(nuis);
         // a start that fits far worse than the model without the new effect, at the
         // nuisances that model was fitted with, has moved the whole trajectory: it gets
-        // nuisances of its own first (the prediction at `th0` is the fit's first, so the
-        // test costs the model's, usually a repeat)
+        // nuisances of its own first (the prediction at `th0` is the fit's first, so it
+        // is a repeat the cache answers while the recording fits in it)
         if let Some(k) = new {
             let at_start = (fam.apply)(&th0).and_then(|p| prob.chi2(&p));
-            let without = prob.chi2(&build(fired, accepted, nuis));
             if let (Some(a), Some(w)) = (at_start, without) {
                 if a > OWN_NUISANCE_ABOVE * w {
                     let mut with = accepted.to_vec();
@@ -285,8 +286,7 @@ fn fit_with_starts(
                 }
             }
         }
-        let rr = fit::fit(prob, &fam, &th0, max_iter);
-        if let Some(r) = rr {
+        if let Some(r) = fit::fit(prob, &fam, &th0, max_iter) {
             if best.as_ref().map(|b| r.chi2 < b.chi2).unwrap_or(true) {
                 best = Some(r);
             }

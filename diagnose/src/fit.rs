@@ -222,6 +222,15 @@ pub struct Family<'f> {
     pub nuisance_from: usize,
 }
 
+impl Family<'_> {
+    /// Moves `theta` inside the bounds: where every fit starts and steps.
+    pub fn clamp(&self, theta: &mut [f64]) {
+        for (j, t) in theta.iter_mut().enumerate() {
+            *t = t.clamp(self.lo[j], self.hi[j]);
+        }
+    }
+}
+
 /// Result of a fit.
 #[derive(Clone, Debug)]
 pub struct FitResult {
@@ -239,13 +248,8 @@ pub struct FitResult {
 /// Levenberg-Marquardt from `theta0`. Returns None when the start is not predictable.
 pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Option<FitResult> {
     let k = theta0.len();
-    let clamp = |t: &mut Vec<f64>| {
-        for j in 0..k {
-            t[j] = t[j].clamp(fam.lo[j], fam.hi[j]);
-        }
-    };
     let mut theta = theta0.to_vec();
-    clamp(&mut theta);
+    fam.clamp(&mut theta);
     let mut r = prob.weighted(&(fam.apply)(&theta)?)?;
     let mut cost = r.norm_squared();
     let mut lambda = 1e-3;
@@ -295,7 +299,7 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
                 continue;
             };
             let mut cand: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
-            clamp(&mut cand);
+            fam.clamp(&mut cand);
             let rc = (fam.apply)(&cand).and_then(|p| prob.weighted(&p));
             if let Some(rc) = rc {
                 let c = rc.norm_squared();

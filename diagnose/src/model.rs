@@ -77,14 +77,46 @@ impl Params {
             (None, None) => true,
             _ => false,
         };
+        // every other field by `==`, without copying `resets`; the exhaustive pattern makes
+        // a new field a compile error here until it is compared
+        let Params {
+            thrust_scale,
+            open_ms,
+            close_ms,
+            pressure_drop,
+            blowdown,
+            com_offset_mm,
+            inertia: _,
+            mass_change,
+            slosh,
+            gyro_bias_counts,
+            gyro_scale,
+            disturbance_nm,
+            damping_nms,
+            rise_ms,
+            delay_ms,
+            tilt,
+            omega0,
+            resets,
+        } = self;
         inertia
-            && Params {
-                inertia: None,
-                ..self.clone()
-            } == Params {
-                inertia: None,
-                ..o.clone()
-            }
+            && *thrust_scale == o.thrust_scale
+            && *open_ms == o.open_ms
+            && *close_ms == o.close_ms
+            && *pressure_drop == o.pressure_drop
+            && *blowdown == o.blowdown
+            && *com_offset_mm == o.com_offset_mm
+            && *mass_change == o.mass_change
+            && *slosh == o.slosh
+            && *gyro_bias_counts == o.gyro_bias_counts
+            && *gyro_scale == o.gyro_scale
+            && *disturbance_nm == o.disturbance_nm
+            && *damping_nms == o.damping_nms
+            && *rise_ms == o.rise_ms
+            && *delay_ms == o.delay_ms
+            && *tilt == o.tilt
+            && *omega0 == o.omega0
+            && *resets == o.resets
     }
 }
 
@@ -415,7 +447,7 @@ impl Plant {
     }
 
     /// Adds to `tau` the torque of one duty row `d` (each thruster's mean open fraction
-    /// over a step), N m: thruster i's `torque[i]` at unit thrust times its duty, its
+    /// over a step), N m: thruster i's `torque[i]` at unit scale times its duty, its
     /// `thrust_scale` less the pressure drop `pd` (N) per other open valve, and the
     /// blowdown's `scale_t`. The one home of the thrusters' torque on the 1 ms grid.
     pub fn add_row_torque(
@@ -439,7 +471,7 @@ impl Plant {
         }
     }
 
-    /// Each thruster's torque at unit thrust about the model's CoM, with the model's own
+    /// Each thruster's torque at unit scale about the model's CoM, with the model's own
     /// pressure drop per other open valve, N: what [`Plant::add_row_torque`] takes for the
     /// nominal model.
     pub fn nominal_torques(&self) -> ([Vector3<f64>; NT], f64) {

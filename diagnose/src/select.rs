@@ -269,6 +269,8 @@ fn fit_with_starts(
         let mut th0 = base.clone();
         th0.extend(st.iter().cloned());
         th0.extend_from_slice(nuis);
+        // scored where the fit will start
+        fam.clamp(&mut th0);
         // a start that fits far worse than the model without the new effect, at the
         // nuisances that model was fitted with, has moved the whole trajectory: it gets
         // nuisances of its own first (the prediction at `th0` is the fit's first, so it

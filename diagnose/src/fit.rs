@@ -220,6 +220,9 @@ pub struct Family<'f> {
     /// rate). On a planar craft the x and y ones move nothing (the bearing holds those
     /// axes), so their columns are known to be zero without a prediction.
     pub nuisance_from: usize,
+    /// Parameters whose Jacobian column is taken by central differences (an effect whose
+    /// rates have kinks in them, `Effect::kinked`); the others by forward differences.
+    pub two_sided: Vec<bool>,
 }
 
 impl Family<'_> {
@@ -401,7 +404,9 @@ fn pin_dead(mut jtj: DMatrix<f64>, dead: &[bool]) -> DMatrix<f64> {
     jtj
 }
 
-/// Forward-difference Jacobian of the columns before `upto` (others left zero).
+/// Finite-difference Jacobian of the columns before `upto` (others left zero): forward
+/// differences, central ones for the [`Family::two_sided`] parameters whose step fits
+/// inside the bounds both ways.
 fn jacobian(
     prob: &Problem,
     fam: &Family,
@@ -417,6 +422,9 @@ fn jacobian(
         }
         let mut t = theta.to_vec();
         let mut h = fam.step[j];
+        let central = fam.two_sided.get(j).copied().unwrap_or(false)
+            && t[j] - h >= fam.lo[j]
+            && t[j] + h <= fam.hi[j];
         if t[j] + h > fam.hi[j] {
             h = -h;
         }
@@ -425,7 +433,16 @@ fn jacobian(
         if rj.len() != r0.len() {
             return None;
         }
-        let col = (rj - r0) / h;
+        let col = if central {
+            t[j] = theta[j] - h;
+            let rm = prob.weighted(&(fam.apply)(&t)?)?;
+            if rm.len() != r0.len() {
+                return None;
+            }
+            (rj - rm) / (2.0 * h)
+        } else {
+            (rj - r0) / h
+        };
         jac.set_column(j, &col);
     }
     Some(jac)

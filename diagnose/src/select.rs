@@ -188,9 +188,11 @@ fn fit_with_starts(
     let mut step = vec![];
     let mut base = vec![];
     let mut sizes = vec![];
+    let mut two_sided = vec![];
     let mut new_starts = vec![vec![]];
     for (idx, k) in kinds.iter().enumerate() {
         let s = spec(*k, prob, fired, slosh_hint);
+        two_sided.extend(std::iter::repeat_n(k.effect().kinked(), s.lo.len()));
         lo.extend(s.lo);
         hi.extend(s.hi);
         step.extend(s.step);
@@ -226,6 +228,7 @@ fn fit_with_starts(
         hi,
         frozen_from,
         nuisance_from: frozen_from,
+        two_sided,
     };
     // many starts: keep the two with the lowest chi-square before iterating; when every
     // start predicts the same (the new effect starts at "no effect"), after a short fit
@@ -346,6 +349,7 @@ pub(crate) fn fit_nuisance_with(
         hi: vec![3.0; n],
         frozen_from: n,
         nuisance_from: 0,
+        two_sided: vec![],
     };
     fit::fit(prob, &fam, nuis, 10)
 }

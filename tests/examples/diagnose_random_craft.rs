@@ -3,7 +3,12 @@
 //! 100 Hz with nothing wrong or with one planted effect, and `diagnose_rate_recording` is run
 //! against the craft's own model. One line per flight, then per planted effect: flights,
 //! named exactly (the planted effect, or an effect that lists it under `equivalent_to`),
-//! nothing named, something else named, unexplained.
+//! nothing named, something else named, unexplained. Then how well the named parameters'
+//! standard errors cover the truth, over the flights that named the planted effect or its
+//! exact equal (a uniform thrust scale named as an inertia scored against the model's
+//! inertia over the scale, a delay named as a latency against equal open and close
+//! latencies): z = (named - truth) / error per entry, its mean, RMS and 1- and 2-sigma
+//! coverage.
 //! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
 //! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure rise
 //! damping inertia gyroscale uniformscale; the first five when left out). `DRC_HORIZON_S=5` runs the
@@ -11,6 +16,7 @@
 //! (5 % of its weakest thruster's torque at the craft's size on each turning axis; 10 % of
 //! its weakest thrust per extra open valve), so that a large craft's are as visible as
 //! SPHERES'.
+use massid_diagnose::numfmt::unidentifiable;
 use massid_diagnose::{diagnose_rate_recording, Settings};
 use massid_sim::effects::{
     ComOffset, DisturbanceTorque, Effect, GyroScale, Inertia, MeasurementDelay, PressureDrop,
@@ -20,9 +26,65 @@ use massid_sim::simulate::{simulate, Maneuver};
 use massid_tests::random_craft::{draw, CraftClass};
 use std::time::Instant;
 
+/// What a named effect's parameter should be: (effect, parameter, true value per entry).
+type Truth = Vec<(&'static str, &'static str, Vec<f64>)>;
+
 /// The planted effect of `plant` on a craft of `n` thrusters, size `size_m` and weakest
-/// thrust `min_thrust_n`, and the names that count as found.
+/// thrust `min_thrust_n`, the names that count as found, and the parameters' truth.
 fn planted(
+    plant: &str,
+    n: usize,
+    size_m: f64,
+    min_thrust_n: f64,
+    inertia: [f64; 6],
+    planar: bool,
+) -> (Vec<Effect>, Vec<&'static str>, Truth) {
+    let (effects, want) = planted_effects(plant, n, size_m, min_thrust_n, inertia, planar);
+    let truth = effects
+        .iter()
+        .flat_map(|e| match e {
+            Effect::ThrusterLatency(l) => vec![
+                ("thruster_latency", "open_ms", vec![l.open_ms]),
+                ("thruster_latency", "close_ms", vec![l.close_ms]),
+            ],
+            // a delay is on rates an equal latency on every edge
+            Effect::MeasurementDelay(d) => vec![
+                ("measurement_delay", "delay_ms", vec![d.delay_ms]),
+                ("thruster_latency", "open_ms", vec![d.delay_ms]),
+                ("thruster_latency", "close_ms", vec![d.delay_ms]),
+            ],
+            // a uniform scale is on rates an inertia divided by it
+            Effect::ThrustScale(t) => {
+                let mut truth = vec![("thrust_scale", "scale", t.scale.clone())];
+                if t.scale.iter().all(|&v| v == t.scale[0]) {
+                    let scaled = inertia.iter().map(|v| v / t.scale[0]).collect();
+                    truth.push(("inertia", "inertia_kgm2", scaled));
+                }
+                truth
+            }
+            Effect::ComOffset(c) => vec![("com_offset", "offset_mm", c.offset_mm.to_vec())],
+            Effect::DisturbanceTorque(d) => {
+                vec![("disturbance_torque", "torque_nm", d.torque_nm.to_vec())]
+            }
+            Effect::PressureDrop(d) => vec![(
+                "pressure_drop",
+                "newton_per_extra_thruster",
+                vec![d.newton_per_extra_thruster],
+            )],
+            Effect::ThrustRise(r) => vec![("thrust_rise", "tau_ms", vec![r.tau_ms])],
+            Effect::RateDamping(d) => {
+                vec![("rate_damping", "nms_per_rad", d.nms_per_rad.to_vec())]
+            }
+            Effect::Inertia(i) => vec![("inertia", "inertia_kgm2", i.inertia_kgm2.to_vec())],
+            Effect::GyroScale(g) => vec![("gyro_scale", "scale", g.scale.to_vec())],
+            _ => vec![],
+        })
+        .collect();
+    (effects, want, truth)
+}
+
+/// The effect planted by `plant` and the names that count as found.
+fn planted_effects(
     plant: &str,
     n: usize,
     size_m: f64,
@@ -149,9 +211,12 @@ fn main() {
         thrusters: (1, 16),
         mocap: false,
     };
-    let mut table = Vec::new();
+    let (mut table, mut calibration) = (Vec::new(), Vec::new());
     for plant in &plants {
         let (mut exact, mut nothing, mut other, mut unexplained) = (0, 0, 0, 0);
+        // (named parameter - truth) / its standard error, over the flights that named the
+        // planted effect or its exact equal, and how many such flights
+        let (mut zs, mut scored): (Vec<f64>, usize) = (vec![], 0);
         for seed in seed0..seed0 + flights {
             let d = draw(&class, seed);
             let n = d.model.n_thrusters();
@@ -162,7 +227,8 @@ fn main() {
                 .map(|p| p.iter().map(|v| v * v).sum::<f64>().sqrt())
                 .fold(0.0, f64::max);
             let min_thrust = d.model.thrust_n.iter().copied().fold(f64::MAX, f64::min);
-            let (effects, want) = planted(plant, n, size, min_thrust, d.model.inertia_kgm2, planar);
+            let (effects, want, truth) =
+                planted(plant, n, size, min_thrust, d.model.inertia_kgm2, planar);
             let mut spec = d.spec.clone();
             spec.effects = effects;
             spec.maneuver = Maneuver::RandomPwm;
@@ -200,6 +266,16 @@ fn main() {
                     && (want.contains(&names[0].as_str())
                         || listed.iter().any(|l| want.contains(&l.as_str())))
             };
+            let z = if names.len() == 1 {
+                z_scores(&o.effects[0], &truth)
+            } else {
+                vec![]
+            };
+            if !z.is_empty() {
+                scored += 1;
+            }
+            let worst_z = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            zs.extend(z);
             if found {
                 exact += 1;
             } else if names.is_empty() {
@@ -211,16 +287,19 @@ fn main() {
                 unexplained += 1;
             }
             println!(
-                "seed {seed} {plant}: {n} thr, noise {:.1e}, named {names:?} (equivalent {listed:?}){}{} {secs:.1} s",
+                "seed {seed} {plant}: {n} thr, noise {:.1e} through {:.0} Hz, named {names:?} (equivalent {listed:?}){}{}{} {secs:.1} s",
                 spec.sensors.gyro_noise_rad_s[0],
+                spec.sensors.gyro_bandwidth_hz,
+                if worst_z > 0.0 { format!(", worst |z| {worst_z:.1}") } else { String::new() },
                 if found { "" } else { "  MISS" },
                 if o.unexplained.is_some() { ", unexplained" } else { "" },
             );
         }
+        let craft = if planar { "planar" } else { "3-D" };
         table.push(format!(
-            "| {} | {plant} | {flights} | {exact} | {nothing} | {other} | {unexplained} |",
-            if planar { "planar" } else { "3-D" }
+            "| {craft} | {plant} | {flights} | {exact} | {nothing} | {other} | {unexplained} |"
         ));
+        calibration.push(calibration_row(craft, plant, scored, &zs));
     }
     println!(
         "| craft | planted | flights | named exactly | nothing named | other named | unexplained |"
@@ -229,4 +308,65 @@ fn main() {
     for row in table {
         println!("{row}");
     }
+    println!();
+    println!("| craft | planted | flights scored | entries | mean z | RMS z | within 1 sigma | within 2 sigma | worst abs z |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for row in calibration {
+        println!("{row}");
+    }
+}
+
+/// `(named - truth) / standard error` for each entry of the named effect's parameters that
+/// has a truth and an error: not held at the model's, not unidentifiable (a planar craft's
+/// x and y terms, a thruster that never fired).
+fn z_scores(named: &massid_diagnose::output::EffectReport, truth: &Truth) -> Vec<f64> {
+    let entries = |v: Option<&serde_json::Value>| -> Vec<Option<f64>> {
+        match v {
+            Some(serde_json::Value::Array(a)) => a.iter().map(|x| x.as_f64()).collect(),
+            Some(x) => vec![x.as_f64()],
+            None => vec![],
+        }
+    };
+    truth
+        .iter()
+        .filter(|(effect, _, _)| *effect == named.effect)
+        .flat_map(|(_, param, want)| {
+            let got = entries(named.params.get(*param));
+            let err = entries(named.stderr.get(*param));
+            let held: Vec<usize> = named
+                .held
+                .get(*param)
+                .and_then(|h| serde_json::from_value(h.clone()).ok())
+                .unwrap_or_default();
+            want.iter()
+                .zip(got)
+                .zip(err)
+                .enumerate()
+                .filter_map(|(j, ((w, g), e))| match (g, e) {
+                    (Some(g), Some(e)) if e > 0.0 && !unidentifiable(e) && !held.contains(&j) => {
+                        Some((g - w) / e)
+                    }
+                    _ => None,
+                })
+                .collect::<Vec<f64>>()
+        })
+        .collect()
+}
+
+/// One row of the calibration table: how the named parameters' errors cover the truth.
+fn calibration_row(craft: &str, plant: &str, flights: usize, zs: &[f64]) -> String {
+    if zs.is_empty() {
+        return format!("| {craft} | {plant} | {flights} | 0 | | | | | |");
+    }
+    let n = zs.len() as f64;
+    let mean = zs.iter().sum::<f64>() / n;
+    let rms = (zs.iter().map(|z| z * z).sum::<f64>() / n).sqrt();
+    let within = |k: f64| 100.0 * zs.iter().filter(|z| z.abs() <= k).count() as f64 / n;
+    let worst = zs.iter().fold(0.0f64, |m, z| m.max(z.abs()));
+    format!(
+        "| {craft} | {plant} | {flights} | {} | {mean:+.2} | {rms:.2} | {:.0} % | {:.0} % | {worst:.1} |",
+        zs.len(),
+        within(1.0),
+        within(2.0)
+    )
 }

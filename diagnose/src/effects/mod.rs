@@ -235,6 +235,12 @@ pub trait Effect: Sync {
     fn on_residual(&self) -> bool {
         false
     }
+    /// The rates have kinks in these parameters, where a forward difference is one side's
+    /// slope: the fit's Jacobian takes their columns by central differences
+    /// (`fit::Family::two_sided`).
+    fn kinked(&self) -> bool {
+        false
+    }
     /// The effect's signature in the residual, in words (the evidence's first clause).
     fn signature(&self) -> &'static str;
     /// Width of the windows that locate it, ms.

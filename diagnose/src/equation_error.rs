@@ -31,7 +31,7 @@ const MIN_WINDOWS: usize = 3;
 
 /// The inertia (xx, yy, zz, xy, xz, yz, kg m^2) the recording's rate changes give with the
 /// model's thrusters, or `None` for a planar craft (its one term is fitted from the model's
-/// start without trouble), fewer than [`MIN_WINDOWS`] usable windows or a result that is
+/// start without trouble), fewer than three usable windows or a result that is
 /// not positive definite. Only pairs of consecutive valid samples the fit may use, with no
 /// gap between them, count.
 pub fn inertia(prob: &Problem) -> Option<[f64; 6]> {
@@ -169,16 +169,20 @@ mod tests {
         series
     }
 
+    /// The estimate from `series` with SPHERES' model and white noise.
+    fn estimate(series: &Series) -> Option<[f64; 6]> {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = crate::model::Plant::new(&sat);
+        inertia(&Problem::new(&plant, series, &NoiseModel::white([1e-4; 3])))
+    }
+
     /// Each of the six terms within 1e-6 of the largest moment (the trapezoid rule's error at
     /// 1 kHz is 4e-9 here). Summed without the gyroscopic term the terms come out up to 60 %
     /// off, and this fails.
     #[test]
     fn a_noiseless_tumble_gives_the_true_inertia() {
         let sat = Satellite::builtin("sph2").unwrap();
-        let plant = crate::model::Plant::new(&sat);
-        let series = tumbling(&sat, 8000);
-        let prob = Problem::new(&plant, &series, &NoiseModel::white([1e-4; 3]));
-        let got = inertia(&prob).expect("eight full windows");
+        let got = estimate(&tumbling(&sat, 8000)).expect("eight full windows");
         let want = truth(&sat);
         let scale = want[..3].iter().cloned().fold(0.0, f64::max);
         for (g, w) in got.iter().zip(&want) {
@@ -191,12 +195,8 @@ mod tests {
     #[test]
     fn fewer_than_three_windows_give_no_estimate() {
         let sat = Satellite::builtin("sph2").unwrap();
-        let plant = crate::model::Plant::new(&sat);
-        let noise = NoiseModel::white([1e-4; 3]);
-        let short = tumbling(&sat, 2400);
-        assert!(inertia(&Problem::new(&plant, &short, &noise)).is_none());
-        let longer = tumbling(&sat, 3000);
-        assert!(inertia(&Problem::new(&plant, &longer, &noise)).is_some());
+        assert!(estimate(&tumbling(&sat, 2400)).is_none());
+        assert!(estimate(&tumbling(&sat, 3000)).is_some());
     }
 
     /// Windows cut short everywhere (an invalid sample every 0.4 s) do not count: the same
@@ -204,14 +204,12 @@ mod tests {
     #[test]
     fn windows_cut_short_do_not_count() {
         let sat = Satellite::builtin("sph2").unwrap();
-        let plant = crate::model::Plant::new(&sat);
-        let noise = NoiseModel::white([1e-4; 3]);
         let whole = tumbling(&sat, 8000);
-        assert!(inertia(&Problem::new(&plant, &whole, &noise)).is_some());
+        assert!(estimate(&whole).is_some());
         let mut cut = whole.clone();
         for i in (400..cut.len()).step_by(400) {
             cut.valid[i][1] = false;
         }
-        assert!(inertia(&Problem::new(&plant, &cut, &noise)).is_none());
+        assert!(estimate(&cut).is_none());
     }
 }

@@ -29,18 +29,10 @@ use std::time::Instant;
 /// What a named effect's parameter should be: (effect, parameter, true value per entry).
 type Truth = Vec<(&'static str, &'static str, Vec<f64>)>;
 
-/// The planted effect of `plant` on a craft of `n` thrusters, size `size_m` and weakest
-/// thrust `min_thrust_n`, the names that count as found, and the parameters' truth.
-fn planted(
-    plant: &str,
-    n: usize,
-    size_m: f64,
-    min_thrust_n: f64,
-    inertia: [f64; 6],
-    planar: bool,
-) -> (Vec<Effect>, Vec<&'static str>, Truth) {
-    let (effects, want) = planted_effects(plant, n, size_m, min_thrust_n, inertia, planar);
-    let truth = effects
+/// The named parameters' truth for the planted `effects` on a craft whose model's inertia
+/// is `inertia`.
+fn truth_of(effects: &[Effect], inertia: [f64; 6]) -> Truth {
+    effects
         .iter()
         .flat_map(|e| match e {
             Effect::ThrusterLatency(l) => vec![
@@ -79,12 +71,12 @@ fn planted(
             Effect::GyroScale(g) => vec![("gyro_scale", "scale", g.scale.to_vec())],
             _ => vec![],
         })
-        .collect();
-    (effects, want, truth)
+        .collect()
 }
 
-/// The effect planted by `plant` and the names that count as found.
-fn planted_effects(
+/// The effect planted by `plant` on a craft of `n` thrusters, size `size_m` and weakest
+/// thrust `min_thrust_n`, and the names that count as found.
+fn planted(
     plant: &str,
     n: usize,
     size_m: f64,
@@ -227,8 +219,8 @@ fn main() {
                 .map(|p| p.iter().map(|v| v * v).sum::<f64>().sqrt())
                 .fold(0.0, f64::max);
             let min_thrust = d.model.thrust_n.iter().copied().fold(f64::MAX, f64::min);
-            let (effects, want, truth) =
-                planted(plant, n, size, min_thrust, d.model.inertia_kgm2, planar);
+            let (effects, want) = planted(plant, n, size, min_thrust, d.model.inertia_kgm2, planar);
+            let truth = truth_of(&effects, d.model.inertia_kgm2);
             let mut spec = d.spec.clone();
             spec.effects = effects;
             spec.maneuver = Maneuver::RandomPwm;

@@ -342,28 +342,23 @@ fn a_tumbling_3d_craft_s_inertia_is_found_from_the_recording_s_own_estimate() {
     assert!(out.unexplained.is_none(), "{:?}", out.unexplained);
 }
 
-/// Flies the random 3-D craft of `seed` for 40 s of random PWM at 100 Hz with its principal
-/// moments 10 % above its model's (products unchanged), and checks that the diagnosis
-/// names an inertia alone, its moments within 3 errors of the truth and its products held
-/// at the model's or near the truth.
-fn moments_up_are_named_near_their_truth(seed: u64) -> massid_diagnose::DiagnosisOutput {
-    use massid_sim::effects::Inertia;
+/// The random craft of `seed` (3-D or `planar`, 1-16 thrusters: `massid_tests::random_craft`)
+/// flown for 40 s of random PWM at 100 Hz with `effects(model)` planted, and its diagnosis
+/// against the craft's own model: (the model, the diagnosis).
+fn random_craft_diagnosis(
+    seed: u64,
+    planar: bool,
+    effects: impl Fn(&reference_f64::satellite::Satellite) -> Vec<Effect>,
+) -> (reference_f64::satellite::Satellite, DiagnosisOutput) {
     use massid_tests::random_craft::{draw, CraftClass};
     let class = CraftClass {
-        planar: false,
+        planar,
         thrusters: (1, 16),
         mocap: false,
     };
     let d = draw(&class, seed);
-    let model = d.model.inertia_kgm2;
-    let mut truth = model;
-    for v in truth.iter_mut().take(3) {
-        *v *= 1.1;
-    }
     let mut spec = d.spec.clone();
-    spec.effects = vec![Effect::Inertia(Inertia {
-        inertia_kgm2: truth,
-    })];
+    spec.effects = effects(&d.model);
     spec.maneuver = Maneuver::RandomPwm;
     spec.seconds = Some(40.0);
     spec.rate_hz = 100.0;
@@ -374,6 +369,29 @@ fn moments_up_are_named_near_their_truth(seed: u64) -> massid_diagnose::Diagnosi
     let out = diagnose_rate_recording(&rec, &d.model, &Settings::default())
         .expect("diagnosis")
         .output;
+    (d.model, out)
+}
+
+/// Flies the random 3-D craft of `seed` for 40 s of random PWM at 100 Hz with its principal
+/// moments 10 % above its model's (products unchanged), and checks that the diagnosis
+/// names an inertia alone, its moments within 3 errors of the truth and its products held
+/// at the model's or near the truth.
+fn moments_up_are_named_near_their_truth(seed: u64) -> massid_diagnose::DiagnosisOutput {
+    use massid_sim::effects::Inertia;
+    let moments_up = |m: &[f64; 6]| {
+        let mut t = *m;
+        for v in t.iter_mut().take(3) {
+            *v *= 1.1;
+        }
+        t
+    };
+    let (sat, out) = random_craft_diagnosis(seed, false, |sat| {
+        vec![Effect::Inertia(Inertia {
+            inertia_kgm2: moments_up(&sat.inertia_kgm2),
+        })]
+    });
+    let model = sat.inertia_kgm2;
+    let truth = moments_up(&model);
     assert_eq!(named(&out), vec!["inertia"]);
     let e = &out.effects[0];
     let got = |k: usize| e.params["inertia_kgm2"][k].as_f64().unwrap();
@@ -460,28 +478,12 @@ fn open3_r05_s_changed_product_of_inertia_is_fitted_and_its_unchanged_ones_held(
 /// at 40.52/20.52 ms, 37 errors off, and the residual was left unexplained.
 #[test]
 fn a_latency_whose_difference_is_a_pulse_width_is_named_within_its_errors() {
-    use massid_tests::random_craft::{draw, CraftClass};
-    let class = CraftClass {
-        planar: true,
-        thrusters: (1, 16),
-        mocap: false,
-    };
-    let d = draw(&class, 88118);
-    let mut spec = d.spec.clone();
-    spec.effects = vec![Effect::ThrusterLatency(ThrusterLatency {
-        open_ms: 40.0,
-        close_ms: 20.0,
-    })];
-    spec.maneuver = Maneuver::RandomPwm;
-    spec.seconds = Some(40.0);
-    spec.rate_hz = 100.0;
-    let rec = simulate(&spec)
-        .expect("simulate")
-        .rate_recording
-        .expect("a v2 craft");
-    let out = diagnose_rate_recording(&rec, &d.model, &Settings::default())
-        .expect("diagnosis")
-        .output;
+    let (_, out) = random_craft_diagnosis(88118, true, |_| {
+        vec![Effect::ThrusterLatency(ThrusterLatency {
+            open_ms: 40.0,
+            close_ms: 20.0,
+        })]
+    });
     assert_eq!(named(&out), vec!["thruster_latency"]);
     let e = &out.effects[0];
     for (key, want) in [("open_ms", 40.0), ("close_ms", 20.0)] {
@@ -503,36 +505,20 @@ fn a_latency_whose_difference_is_a_pulse_width_is_named_within_its_errors() {
 /// whatever it moves, `MAX_HELD_SHIFT` infinite).
 #[test]
 fn a_hold_that_would_move_the_other_terms_past_their_errors_is_not_kept() {
-    use massid_tests::random_craft::{draw, CraftClass};
-    let class = CraftClass {
-        planar: false,
-        thrusters: (1, 16),
-        mocap: false,
-    };
-    let d = draw(&class, 88017);
-    let mut spec = d.spec.clone();
-    spec.effects = vec![Effect::ThrustScale(ThrustScale {
-        scale: vec![0.9; d.model.n_thrusters()],
-    })];
-    spec.maneuver = Maneuver::RandomPwm;
-    spec.seconds = Some(40.0);
-    spec.rate_hz = 100.0;
-    let rec = simulate(&spec)
-        .expect("simulate")
-        .rate_recording
-        .expect("a v2 craft");
-    let out = diagnose_rate_recording(&rec, &d.model, &Settings::default())
-        .expect("diagnosis")
-        .output;
+    let (model, out) = random_craft_diagnosis(88017, false, |sat| {
+        vec![Effect::ThrustScale(ThrustScale {
+            scale: vec![0.9; sat.n_thrusters()],
+        })]
+    });
     let names = named(&out);
     assert_eq!(names.len(), 1, "{names:?}");
     let e = &out.effects[0];
     let (key, truth): (&str, Vec<f64>) = match names[0] {
         "inertia" => (
             "inertia_kgm2",
-            d.model.inertia_kgm2.iter().map(|v| v / 0.9).collect(),
+            model.inertia_kgm2.iter().map(|v| v / 0.9).collect(),
         ),
-        "thrust_scale" => ("scale", vec![0.9; d.model.n_thrusters()]),
+        "thrust_scale" => ("scale", vec![0.9; model.n_thrusters()]),
         other => panic!("named {other}"),
     };
     let held = e.held.get(key).cloned().unwrap_or_default();

@@ -233,10 +233,12 @@ fn fit_with_starts(
     // many starts: keep the two with the lowest chi-square before iterating; when every
     // start predicts the same (the new effect starts at "no effect"), after a short fit
     if new_starts.len() > 2 {
+        // each start where the fit would start it
         let start_of = |st: &Vec<f64>| {
             let mut th0 = base.clone();
             th0.extend(st.iter().cloned());
             th0.extend_from_slice(nuis);
+            fam.clamp(&mut th0);
             th0
         };
         let mut scored: Vec<(f64, Vec<f64>)> = new_starts
@@ -283,7 +285,7 @@ fn fit_with_starts(
             if let (Some(a), Some(w)) = (at_start, without) {
                 if a > OWN_NUISANCE_ABOVE * w {
                     let mut with = accepted.to_vec();
-                    with.push((k, st.clone()));
+                    with.push((k, th0[base.len()..base.len() + st.len()].to_vec()));
                     if let Some(f) = fit_nuisance_with(prob, &with, nuis) {
                         th0.truncate(th0.len() - nuis.len());
                         th0.extend_from_slice(&f.theta);

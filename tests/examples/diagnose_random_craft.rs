@@ -4,11 +4,11 @@
 //! against the craft's own model. One line per flight, then per planted effect: flights,
 //! named exactly (the planted effect, or an effect that lists it under `equivalent_to`),
 //! nothing named, something else named, unexplained. Then how well the named parameters'
-//! standard errors cover the truth, over the flights that named the planted effect or its
-//! exact equal (a uniform thrust scale named as an inertia scored against the model's
-//! inertia over the scale, a delay named as a latency against equal open and close
-//! latencies): z = (named - truth) / error per entry, its mean, RMS and 1- and 2-sigma
-//! coverage.
+//! standard errors cover the truth, over the flights that named one effect with a truth,
+//! the planted effect or its exact equal, listed or not (a uniform thrust scale named as an
+//! inertia scored against the model's inertia over the scale, a delay named as a latency
+//! against equal open and close latencies): z = (named - truth) / error per entry, its
+//! mean, RMS and 1- and 2-sigma coverage.
 //! `cargo run --release -p massid-tests --example diagnose_random_craft -- FLIGHTS SEED0
 //! [3d|planar] [PLANT...]` (PLANT: none latency delay scale com disturbance pressure rise
 //! damping inertia gyroscale uniformscale; the first five when left out). `DRC_HORIZON_S=5` runs the

@@ -501,7 +501,7 @@ fn a_latency_whose_difference_is_a_pulse_width_is_named_within_its_errors() {
 /// inertia over 0.9, products too. Whichever of the two is named, every term it fits is
 /// within 3 of its errors of that truth. The screen's fit had held Ixy at the model's,
 /// within its BIC price, which moved the moments by 5 of their errors: named with Ixy held,
-/// a moment was 13.9 errors off and nothing was unexplained (the planted fault: a hold
+/// Ixx was 12.5 errors off and nothing was unexplained (the planted fault: a hold
 /// whatever it moves, `MAX_HELD_SHIFT` infinite).
 #[test]
 fn a_hold_that_would_move_the_other_terms_past_their_errors_is_not_kept() {

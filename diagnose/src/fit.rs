@@ -26,7 +26,10 @@ pub struct Problem<'a> {
     /// The last few predictions and their parameters: the stages ask for the same model's
     /// rates more than once (a fit's end and the check after it), and a repeat costs a copy
     /// instead of a simulation. Bounded in bytes, so a long recording keeps none.
-    recent: std::cell::RefCell<std::collections::VecDeque<(Params, std::rc::Rc<Vec<[f64; 3]>>)>>,
+    /// Each kept with the stride it was predicted at (1: every sample).
+    #[allow(clippy::type_complexity)]
+    recent:
+        std::cell::RefCell<std::collections::VecDeque<(Params, usize, std::rc::Rc<Vec<[f64; 3]>>)>>,
     /// The recording's own inertia estimate, once computed (`select::context` fills it
     /// from `equation_error.rs`, which reads this problem: kept here, computed there).
     pub(crate) inertia_start: std::cell::OnceCell<Option<[f64; 6]>>,
@@ -74,12 +77,24 @@ impl<'a> Problem<'a> {
 
     /// Predicted gyro output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
-        if let Some((_, y)) = self.recent.borrow().iter().find(|(q, _)| q.same(p)) {
+        self.predict_every(p, 1)
+    }
+
+    /// Predicted gyro output at every `every`-th sample (and each rate reset), NaN at the
+    /// others ([`model::predict_every`]); a kept prediction of every sample answers too.
+    fn predict_every(&self, p: &Params, every: usize) -> Option<Vec<[f64; 3]>> {
+        let kept = self
+            .recent
+            .borrow()
+            .iter()
+            .find(|(q, e, _)| (*e == 1 || *e == every) && q.same(p))
+            .map(|(_, _, y)| y.clone());
+        if let Some(y) = kept {
             REPEATS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             return Some(y.as_ref().clone());
         }
         let d = self.duty(p.open_ms + p.delay_ms, p.close_ms + p.delay_ms, p.rise_ms);
-        let y = model::predict(self.plant, self.series, &d, p)?;
+        let y = model::predict_every(self.plant, self.series, &d, p, every)?;
         let keep =
             (RECENT_BYTES / (y.len() * std::mem::size_of::<[f64; 3]>()).max(1)).min(RECENT_MAX);
         if keep > 0 {
@@ -87,7 +102,7 @@ impl<'a> Problem<'a> {
             if recent.len() >= keep {
                 recent.pop_back();
             }
-            recent.push_front((p.clone(), std::rc::Rc::new(y.clone())));
+            recent.push_front((p.clone(), every, std::rc::Rc::new(y.clone())));
         }
         Some(y)
     }
@@ -127,16 +142,18 @@ impl<'a> Problem<'a> {
     }
 
     /// Weighted residual vector over the usable samples (stride applied).
+    /// Only the samples it reads are predicted ([`model::predict_every`]).
     pub fn weighted(&self, p: &Params) -> Option<DVector<f64>> {
-        let r = self.residual(p)?;
-        let mut v = Vec::with_capacity(r.len() * 3 / self.stride + 3);
-        for (i, ri) in r.iter().enumerate().step_by(self.stride) {
+        let y = self.predict_every(p, self.stride)?;
+        let s = self.series;
+        let mut v = Vec::with_capacity(y.len() * 3 / self.stride + 3);
+        for (i, yi) in y.iter().enumerate().step_by(self.stride) {
             if !self.in_fit(i) {
                 continue;
             }
             for a in 0..3 {
-                if self.series.valid[i][a] {
-                    v.push(ri[a] * self.weight[a]);
+                if s.valid[i][a] {
+                    v.push((s.rate[i][a] - yi[a]) * self.weight[a]);
                 }
             }
         }
@@ -223,9 +240,20 @@ pub struct Family<'f> {
     /// Parameters whose Jacobian column is taken by central differences (an effect whose
     /// rates have kinks in them, `Effect::kinked`); the others by forward differences.
     pub two_sided: Vec<bool>,
+    /// Parameters the fit never steps: held where they start, their Jacobian columns
+    /// taken once, at the end, for the errors. A mass-property change's time is searched
+    /// outside the fit (`select::fit_with_starts`): its column is a difference across
+    /// whatever firing the step happens to cross, so a fit that stepped it moved it by
+    /// as much as a second on a change of rounding.
+    pub held: Vec<bool>,
 }
 
 impl Family<'_> {
+    /// Whether parameter `j` is held where it starts ([`Family::held`]).
+    pub fn held(&self, j: usize) -> bool {
+        self.held.get(j).copied().unwrap_or(false)
+    }
+
     /// Moves `theta` inside the bounds: where every fit starts and steps.
     pub fn clamp(&self, theta: &mut [f64]) {
         for (j, t) in theta.iter_mut().enumerate() {
@@ -262,6 +290,9 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
     // Parameters no usable sample depends on (an axis the craft cannot turn about, a
     // masked gyro): held where they start and reported with an unknown (NaN) error.
     let mut dead = vec![false; k];
+    // what the steps leave where it is: the dead and the held parameters
+    let held: Vec<bool> = (0..k).map(|j| fam.held(j)).collect();
+    let mut pinned = held.clone();
     while it < max_iter {
         it += 1;
         if !have_jac {
@@ -276,7 +307,8 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
             if first {
                 jac = new;
                 for (j, d) in dead.iter_mut().enumerate() {
-                    *d = jac.column(j).iter().all(|&v| v == 0.0);
+                    *d = !held[j] && jac.column(j).iter().all(|&v| v == 0.0);
+                    pinned[j] |= *d;
                 }
             } else {
                 let cols = fam.frozen_from.min(k);
@@ -286,9 +318,9 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
             }
             have_jac = true;
         }
-        let jtj = pin_dead(jac.transpose() * &jac, &dead);
+        let jtj = pin_dead(jac.transpose() * &jac, &pinned);
         let mut jtr = jac.transpose() * &r;
-        for (j, _) in dead.iter().enumerate().filter(|d| *d.1) {
+        for (j, _) in pinned.iter().enumerate().filter(|d| *d.1) {
             jtr[j] = 0.0;
         }
         let mut improved = false;
@@ -331,6 +363,12 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         for j in 0..fam.frozen_from.min(k) {
             jac.set_column(j, &new.column(j));
         }
+    }
+    // the held parameters' columns, for the errors only; one no sample depends on is dead
+    for j in (0..k).filter(|&j| held[j]) {
+        let col = column(prob, fam, &theta, &r, j)?;
+        dead[j] = col.iter().all(|&v| v == 0.0);
+        jac.set_column(j, &col);
     }
     let jtj = pin_dead(jac.transpose() * &jac, &dead);
     let cov = jtj
@@ -404,9 +442,8 @@ fn pin_dead(mut jtj: DMatrix<f64>, dead: &[bool]) -> DMatrix<f64> {
     jtj
 }
 
-/// Finite-difference Jacobian of the columns before `upto` (others left zero): forward
-/// differences, central ones for the [`Family::two_sided`] parameters whose step fits
-/// inside the bounds both ways.
+/// Finite-difference Jacobian of the columns before `upto` (others left zero, and the
+/// held ones: [`Family::held`]); see [`column`].
 fn jacobian(
     prob: &Problem,
     fam: &Family,
@@ -416,34 +453,47 @@ fn jacobian(
 ) -> Option<DMatrix<f64>> {
     let k = theta.len();
     let mut jac = DMatrix::zeros(r0.len(), k);
-    for j in 0..k.min(upto) {
-        if prob.plant.planar && j >= fam.nuisance_from && (j - fam.nuisance_from) % 3 != 2 {
-            continue;
-        }
-        let mut t = theta.to_vec();
-        let mut h = fam.step[j];
-        let central = fam.two_sided.get(j).copied().unwrap_or(false)
-            && t[j] - h >= fam.lo[j]
-            && t[j] + h <= fam.hi[j];
-        if t[j] + h > fam.hi[j] {
-            h = -h;
-        }
-        t[j] += h;
-        let rj = prob.weighted(&(fam.apply)(&t)?)?;
-        if rj.len() != r0.len() {
-            return None;
-        }
-        let col = if central {
-            t[j] = theta[j] - h;
-            let rm = prob.weighted(&(fam.apply)(&t)?)?;
-            if rm.len() != r0.len() {
-                return None;
-            }
-            (rj - rm) / (2.0 * h)
-        } else {
-            (rj - r0) / h
-        };
-        jac.set_column(j, &col);
+    for j in (0..k.min(upto)).filter(|&j| !fam.held(j)) {
+        jac.set_column(j, &column(prob, fam, theta, r0, j)?);
     }
     Some(jac)
+}
+
+/// Finite-difference column `j` of the Jacobian at `theta` (weighted residuals `r0`):
+/// forward differences, central ones for the [`Family::two_sided`] parameters whose step
+/// fits inside the bounds both ways; zero without a prediction for a planar craft's x
+/// and y rate nuisances.
+fn column(
+    prob: &Problem,
+    fam: &Family,
+    theta: &[f64],
+    r0: &DVector<f64>,
+    j: usize,
+) -> Option<DVector<f64>> {
+    if prob.plant.planar && j >= fam.nuisance_from && (j - fam.nuisance_from) % 3 != 2 {
+        return Some(DVector::zeros(r0.len()));
+    }
+    let mut t = theta.to_vec();
+    let mut h = fam.step[j];
+    let central = fam.two_sided.get(j).copied().unwrap_or(false)
+        && t[j] - h >= fam.lo[j]
+        && t[j] + h <= fam.hi[j];
+    if t[j] + h > fam.hi[j] {
+        h = -h;
+    }
+    t[j] += h;
+    let rj = prob.weighted(&(fam.apply)(&t)?)?;
+    if rj.len() != r0.len() {
+        return None;
+    }
+    Some(if central {
+        t[j] = theta[j] - h;
+        let rm = prob.weighted(&(fam.apply)(&t)?)?;
+        if rm.len() != r0.len() {
+            return None;
+        }
+        (rj - rm) / (2.0 * h)
+    } else {
+        (rj - r0) / h
+    })
 }

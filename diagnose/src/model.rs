@@ -579,7 +579,22 @@ impl MassProps {
 /// craft takes RK4 steps of up to `LONG_STEP_MS` (10 ms) where the torque holds between
 /// samples more than 1 ms apart (below 1 kHz, and across a 1 kHz recording's gaps).
 pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Option<Vec<[f64; 3]>> {
-    predict_with(plant, series, duty, p, true)
+    predict_with(plant, series, duty, p, true, 1)
+}
+
+/// [`predict`] at every `every`-th sample only (and at each rate reset), the others NaN:
+/// what a fit that uses every `every`-th sample needs. Between the samples it needs, a
+/// rigid 3-D craft takes RK4 steps of up to `LONG_STEP_MS` where the torque holds, as it
+/// does below 1 kHz, so a fit of a 1 kHz recording at a stride of 5 no longer pays for
+/// the four samples in five it does not read.
+pub fn predict_every(
+    plant: &Plant,
+    series: &Series,
+    duty: &Duty,
+    p: &Params,
+    every: usize,
+) -> Option<Vec<[f64; 3]>> {
+    predict_with(plant, series, duty, p, true, every.max(1))
 }
 
 /// The body's equations over one 1 ms step with the torque held: which of the three
@@ -686,6 +701,7 @@ fn predict_with(
     grid: &Duty,
     p: &Params,
     jumps: bool,
+    every: usize,
 ) -> Option<Vec<[f64; 3]>> {
     if grid.is_empty() {
         return None;
@@ -779,6 +795,11 @@ fn predict_with(
         }
     };
     while si < series.len() {
+        if si % every != 0 && series.gap_resets.binary_search(&si).is_err() {
+            out.push([f64::NAN; 3]);
+            si += 1;
+            continue;
+        }
         let ts = series.t_ms[si] as usize;
         while jump && k < ts {
             // a run of equal duty rows from k, ending at the sample, a change of duty or
@@ -995,8 +1016,8 @@ pub(crate) mod tests {
             resets: vec![[0.0, 0.0, -0.01], [0.0, 0.0, 0.02]],
             ..Params::default()
         };
-        let jumped = predict_with(&plant, &series, &duty, &p, true).unwrap();
-        let stepped = predict_with(&plant, &series, &duty, &p, false).unwrap();
+        let jumped = predict_with(&plant, &series, &duty, &p, true, 1).unwrap();
+        let stepped = predict_with(&plant, &series, &duty, &p, false, 1).unwrap();
         let worst = jumped
             .iter()
             .zip(&stepped)
@@ -1012,7 +1033,7 @@ pub(crate) mod tests {
         // change would make) is caught by it many times over
         let mut later = p.clone();
         later.mass_change = Some((12.3466, [4.0, -3.0, 0.0], inertia));
-        let moved = predict_with(&plant, &series, &duty, &later, false).unwrap();
+        let moved = predict_with(&plant, &series, &duty, &later, false, 1).unwrap();
         let shift = moved
             .iter()
             .zip(&stepped)
@@ -1103,8 +1124,8 @@ pub(crate) mod tests {
             damping_nms: [1e-4, 0.0, 2e-4],
             ..Params::default()
         };
-        let long = predict_with(&plant, &series, &duty, &p, true).unwrap();
-        let short = predict_with(&plant, &series, &duty, &p, false).unwrap();
+        let long = predict_with(&plant, &series, &duty, &p, true, 1).unwrap();
+        let short = predict_with(&plant, &series, &duty, &p, false, 1).unwrap();
         let gap = |a: &[[f64; 3]], b: &[[f64; 3]]| {
             a.iter()
                 .zip(b)
@@ -1117,8 +1138,83 @@ pub(crate) mod tests {
         assert!(err < 1e-11, "long steps differ by {err:e}");
         let mut stronger = p.clone();
         stronger.thrust_scale = [1.0 + 1e-8; NT];
-        let moved = predict_with(&plant, &series, &duty, &stronger, false).unwrap();
+        let moved = predict_with(&plant, &series, &duty, &stronger, false, 1).unwrap();
         assert!(gap(&moved, &short) > 1e-11);
+    }
+
+    /// A fit at a stride of 5 on a 1 kHz recording reads every fifth sample: predicted at
+    /// those alone (long steps over the four between where the torque holds), they agree
+    /// with the every-sample prediction within 1e-11 rad/s; the samples not read are NaN,
+    /// and a rate reset on a sample off the stride still acts (its sample is predicted).
+    /// Power: a thrust 1e-8 higher moves the rates past the bound.
+    #[test]
+    fn every_fifth_sample_agrees_with_every_sample() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = Plant::new(&sat);
+        let mut state = 4242u64;
+        let mut rnd = |m: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        };
+        // 1 kHz, the word held for 20-60 ms at a time (pulses and coasts)
+        let t: Vec<i64> = (0..20_000).collect();
+        let mut words = Vec::with_capacity(t.len());
+        while words.len() < t.len() {
+            let w = (rnd(4096) & rnd(4096) & rnd(4096)) as u16;
+            let hold = 20 + rnd(40) as usize;
+            words.extend(std::iter::repeat_n(w, hold));
+        }
+        words.truncate(t.len());
+        let counts = vec![[2048, 2048, 2048]; t.len()];
+        let bias = sat.gyro_bias_counts;
+        let scale = sat.gyro_counts_per_rad_s;
+        let mut series = Series::from_counts(&t, &counts, &words, bias, scale, None).unwrap();
+        // a reset on a sample the stride does not read
+        series.gap_resets = vec![7_003];
+        let duty = duty_grid(&series, 3.3, 5.1, 0.0);
+        let p = Params {
+            omega0: [0.5, -0.4, 0.8],
+            damping_nms: [1e-4, 0.0, 2e-4],
+            resets: vec![[0.01, -0.02, 0.03]],
+            ..Params::default()
+        };
+        let every = predict(&plant, &series, &duty, &p).unwrap();
+        let fifth = predict_every(&plant, &series, &duty, &p, 5).unwrap();
+        assert_eq!(every.len(), fifth.len());
+        let read = |i: usize| i % 5 == 0 || i == 7_003;
+        let mut err: f64 = 0.0;
+        for (i, (a, b)) in every.iter().zip(&fifth).enumerate() {
+            if read(i) {
+                for k in 0..3 {
+                    assert!(b[k].is_finite(), "sample {i} read but not predicted");
+                    err = err.max((a[k] - b[k]).abs());
+                }
+            } else {
+                assert!(
+                    b.iter().all(|v| v.is_nan()),
+                    "sample {i} not read but predicted"
+                );
+            }
+        }
+        let peak = every.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
+        assert!(peak > 0.5, "the test flight must turn fast ({peak})");
+        assert!(err < 1e-11, "every fifth sample differs by {err:e}");
+        let mut stronger = p.clone();
+        stronger.thrust_scale = [1.0 + 1e-8; NT];
+        let moved = predict_every(&plant, &series, &duty, &stronger, 5).unwrap();
+        let moved_by = (0..t.len())
+            .filter(|&i| read(i))
+            .flat_map(|i| (0..3).map(move |k| (i, k)))
+            .map(|(i, k)| (moved[i][k] - fifth[i][k]).abs())
+            .fold(0.0, f64::max);
+        assert!(moved_by > 1e-11, "{moved_by:e}");
+        // without the reset the samples after it differ: the reset's sample was predicted
+        let mut no_reset = p.clone();
+        no_reset.resets = vec![[0.0; 3]];
+        let without = predict_every(&plant, &series, &duty, &no_reset, 5).unwrap();
+        assert!((without[7_005][2] - fifth[7_005][2]).abs() > 0.02);
     }
 
     /// A recording whose first step comes inside a firing (here through a negative open

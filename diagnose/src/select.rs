@@ -213,6 +213,17 @@ fn fit_with_starts(
     let kinds2 = kinds.clone();
     let sizes2 = sizes.clone();
     let fired2 = *fired;
+    // a mass-property change's time is searched, never stepped ([`Family::held`]): a new
+    // one's by its starts and the scan at the end, a named one's stays where that put it
+    let mut held = vec![false; lo.len()];
+    let mut off = 0;
+    for (k, n) in kinds.iter().zip(&sizes) {
+        if *k == Kind::MassPropertyChange {
+            held[off] = true;
+        }
+        off += n;
+    }
+    let change_at = (new == Some(Kind::MassPropertyChange)).then_some(base.len());
     let fam = Family {
         apply: Box::new(move |th: &[f64]| {
             let mut acc: Vec<(Kind, Vec<f64>)> = vec![];
@@ -229,6 +240,7 @@ fn fit_with_starts(
         frozen_from,
         nuisance_from: frozen_from,
         two_sided,
+        held,
     };
     // many starts: keep the two with the lowest chi-square before iterating; when every
     // start predicts the same (the new effect starts at "no effect"), after a short fit
@@ -300,9 +312,8 @@ fn fit_with_starts(
         }
     }
     // a change time only moves the prediction when it crosses a firing, so LM cannot walk
-    // it: scan it around the fitted value, then let LM settle the rest there
-    if let (Some(Kind::MassPropertyChange), Some(b)) = (new, best.as_ref()) {
-        let i = base.len();
+    // it: scan it around the best start's, then let LM settle everything there
+    if let (Some(i), Some(b)) = (change_at, best.as_ref()) {
         let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
         let half = dur / effects::MASS_CHANGE_STARTS as f64;
         let mut top = (b.chi2, b.theta.clone());
@@ -352,6 +363,7 @@ pub(crate) fn fit_nuisance_with(
         frozen_from: n,
         nuisance_from: 0,
         two_sided: vec![],
+        held: vec![],
     };
     fit::fit(prob, &fam, nuis, 10)
 }
@@ -475,5 +487,52 @@ mod tests {
         let independent = nalgebra::DMatrix::from_row_slice(2, 2, &[v, 0.0, 0.0, v]);
         let w = wald(Kind::ThrusterLatency, &theta, &se, &independent, &prob);
         assert!((w - diagonal).abs() < 1e-9 * diagonal);
+    }
+
+    /// A mass-property change's time is searched, never stepped: a named change refitted
+    /// with the others stays at its time (with an error), and a new one is found in the
+    /// coast that holds the true change. Noiseless rates of a spinning SPHERES whose Ixx
+    /// grows 40 % and whose CoM moves 3 mm at 1.70 s, between the firings of 1.50-1.58
+    /// and 1.80-1.88 s. The planted fault, the time stepped by the fit like the other
+    /// parameters (`held` all false), moves the named change's time off 1.2 s.
+    #[test]
+    fn a_change_time_is_searched_not_stepped() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = crate::model::Plant::new(&sat);
+        let words: Vec<u16> = (0..3000)
+            .map(|k| if k % 300 < 80 { 0b101 } else { 0 })
+            .collect();
+        let mut series = crate::model::tests::commanded(&sat, &words);
+        let mut after = sat.inertia_kgm2;
+        after[0] *= 1.4;
+        let truth = Params {
+            omega0: [0.3, -0.2, 0.4],
+            mass_change: Some((1.7, [3.0, 0.0, 0.0], after)),
+            ..Params::default()
+        };
+        let noise = crate::noise::NoiseModel::white([1e-6; 3]);
+        series.rate = Problem::new(&plant, &series, &noise).predict(&truth).unwrap();
+        let prob = Problem::new(&plant, &series, &noise);
+        let fired = effects::fired_thrusters(&series);
+        let nuis = [0.3, -0.2, 0.4];
+        // named at a wrong time: refitted, the time stays and has an error
+        let mut named = vec![1.2, 3.0, 0.0, 0.0];
+        named.extend_from_slice(&after);
+        let accepted = [(Kind::MassPropertyChange, named)];
+        let (refit, _) = fit_joint(&prob, &fired, &accepted, None, &nuis, &[], 6).unwrap();
+        assert_eq!(refit.theta[0], 1.2, "the named change's time was stepped");
+        assert!(refit.stderr[0].is_finite() && refit.stderr[0] > 0.0);
+        // new: the search finds the coast of the true change
+        let (new, _) = fit_joint(
+            &prob,
+            &fired,
+            &[],
+            Some(Kind::MassPropertyChange),
+            &nuis,
+            &[],
+            12,
+        )
+        .unwrap();
+        assert!(new.theta[0] > 1.58 && new.theta[0] < 1.8, "{:?}", new.theta);
     }
 }

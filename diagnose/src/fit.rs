@@ -160,6 +160,14 @@ impl<'a> Problem<'a> {
         Some(DVector::from_vec(v))
     }
 
+    /// The fit's own cost at `p`: the weighted squares of the samples it reads (every
+    /// `stride`-th of those it may use), a strided prediction. What ranks starts and
+    /// scans a change time, where the full-resolution [`Problem::chi2`] would cost a
+    /// prediction of every sample for the same comparison.
+    pub fn cost(&self, p: &Params) -> Option<f64> {
+        Some(self.weighted(p)?.norm_squared())
+    }
+
     /// Chi-square per block of samples (`block[i]`, blocks numbered from 0 up to
     /// `blocks`), all samples, full resolution: the held-out score.
     pub fn chi2_by_block(&self, p: &Params, block: &[usize], blocks: usize) -> Option<Vec<f64>> {

@@ -257,7 +257,7 @@ fn fit_with_starts(
             .iter()
             .filter_map(|st| {
                 Some((
-                    (fam.apply)(&start_of(st)).and_then(|p| prob.chi2(&p))?,
+                    (fam.apply)(&start_of(st)).and_then(|p| prob.cost(&p))?,
                     st.clone(),
                 ))
             })
@@ -281,7 +281,7 @@ fn fit_with_starts(
     }
     let mut best: Option<FitResult> = None;
     // the model without the new effect, the yardstick of its starts (once per call)
-    let without = new.and_then(|_| prob.chi2(&build(fired, accepted, nuis)));
+    let without = new.and_then(|_| prob.cost(&build(fired, accepted, nuis)));
     for st in &new_starts {
         let mut th0 = base.clone();
         th0.extend(st.iter().cloned());
@@ -293,7 +293,7 @@ fn fit_with_starts(
         // nuisances of its own first (the prediction at `th0` is the fit's first, so it
         // is a repeat the cache answers while the recording fits in it)
         if let Some(k) = new {
-            let at_start = (fam.apply)(&th0).and_then(|p| prob.chi2(&p));
+            let at_start = (fam.apply)(&th0).and_then(|p| prob.cost(&p));
             if let (Some(a), Some(w)) = (at_start, without) {
                 if a > OWN_NUISANCE_ABOVE * w {
                     let mut with = accepted.to_vec();
@@ -316,18 +316,19 @@ fn fit_with_starts(
     if let (Some(i), Some(b)) = (change_at, best.as_ref()) {
         let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
         let half = dur / effects::MASS_CHANGE_STARTS as f64;
-        let mut top = (b.chi2, b.theta.clone());
+        let at_best = prob.cost(&b.params).unwrap_or(f64::INFINITY);
+        let mut top = (at_best, b.theta.clone());
         for k in 0..=CHANGE_SCAN_POINTS {
             let mut th = b.theta.clone();
             th[i] = (b.theta[i] - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64)
                 .clamp(0.0, dur);
-            if let Some(c) = (fam.apply)(&th).and_then(|p| prob.chi2(&p)) {
+            if let Some(c) = (fam.apply)(&th).and_then(|p| prob.cost(&p)) {
                 if c < top.0 {
                     top = (c, th);
                 }
             }
         }
-        if top.0 < b.chi2 {
+        if top.0 < at_best {
             if let Some(r) = fit::fit(prob, &fam, &top.1, max_iter) {
                 if r.chi2 < b.chi2 {
                     best = Some(r);

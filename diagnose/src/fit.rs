@@ -39,6 +39,9 @@ pub struct Problem<'a> {
 const RECENT_BYTES: usize = 64 << 20;
 /// Predictions [`Problem`] keeps for repeats, at most.
 const RECENT_MAX: usize = 4;
+/// Duty grids [`Problem`] keeps, at most: a fit with a latency (two, and central
+/// differences) alternates between five, and a grid is a few kilobytes per thousand edges.
+const DUTY_MAX: usize = 8;
 
 /// How many predictions were answered from [`Problem`]'s recent ones (for profiling).
 pub static REPEATS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
@@ -67,7 +70,7 @@ impl<'a> Problem<'a> {
             return hit.1;
         }
         let d = std::rc::Rc::new(model::duty_grid(self.series, open, close, rise));
-        let keep = (RECENT_BYTES / d.bytes().max(1)).clamp(1, RECENT_MAX);
+        let keep = (RECENT_BYTES / d.bytes().max(1)).clamp(1, DUTY_MAX);
         while cache.len() >= keep {
             cache.pop_back();
         }
@@ -77,12 +80,13 @@ impl<'a> Problem<'a> {
 
     /// Predicted gyro output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
-        self.predict_every(p, 1)
+        Some(self.predict_every(p, 1)?.as_ref().clone())
     }
 
     /// Predicted gyro output at every `every`-th sample (and each rate reset), NaN at the
     /// others ([`model::predict_every`]); a kept prediction of every sample answers too.
-    fn predict_every(&self, p: &Params, every: usize) -> Option<Vec<[f64; 3]>> {
+    /// Shared with the kept ones, so that a repeat (or a reader) copies nothing.
+    fn predict_every(&self, p: &Params, every: usize) -> Option<std::rc::Rc<Vec<[f64; 3]>>> {
         let kept = self
             .recent
             .borrow()
@@ -91,10 +95,10 @@ impl<'a> Problem<'a> {
             .map(|(_, _, y)| y.clone());
         if let Some(y) = kept {
             REPEATS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            return Some(y.as_ref().clone());
+            return Some(y);
         }
         let d = self.duty(p.open_ms + p.delay_ms, p.close_ms + p.delay_ms, p.rise_ms);
-        let y = model::predict_every(self.plant, self.series, &d, p, every)?;
+        let y = std::rc::Rc::new(model::predict_every(self.plant, self.series, &d, p, every)?);
         let keep =
             (RECENT_BYTES / (y.len() * std::mem::size_of::<[f64; 3]>()).max(1)).min(RECENT_MAX);
         if keep > 0 {
@@ -102,7 +106,7 @@ impl<'a> Problem<'a> {
             if recent.len() >= keep {
                 recent.pop_back();
             }
-            recent.push_front((p.clone(), every, std::rc::Rc::new(y.clone())));
+            recent.push_front((p.clone(), every, y.clone()));
         }
         Some(y)
     }
@@ -111,7 +115,7 @@ impl<'a> Problem<'a> {
     /// is not a measurement (railed or stuck gyro), so nothing downstream can mistake a
     /// rail for a rate.
     pub fn residual(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
-        let y = self.predict(p)?;
+        let y = self.predict_every(p, 1)?;
         let s = self.series;
         Some(
             s.rate
@@ -205,7 +209,7 @@ impl<'a> Problem<'a> {
     /// samples the fit may use, weighted as [`Problem::chi2`]: how far apart the recording
     /// sees the two models.
     pub fn chi2_between(&self, p: &Params, q: &Params) -> Option<f64> {
-        let (a, b) = (self.predict(p)?, self.predict(q)?);
+        let (a, b) = (self.predict_every(p, 1)?, self.predict_every(q, 1)?);
         let mut s = 0.0;
         for (i, (ya, yb)) in a.iter().zip(b.iter()).enumerate() {
             if !self.in_fit(i) {
@@ -238,9 +242,10 @@ pub struct Family<'f> {
     /// Lower and upper bounds per parameter (the fit is clamped inside them).
     pub lo: Vec<f64>,
     pub hi: Vec<f64>,
-    /// Parameters from this index on are nuisances whose Jacobian columns are computed
-    /// once per fit (their effect hardly depends on the others): saves predictions.
-    pub frozen_from: usize,
+    /// Parameters whose Jacobian columns are computed once per fit, at its start: the
+    /// nuisances (their effect hardly depends on the others), and in a screening fit the
+    /// effects already named, which sit at their optimum while the new one moves.
+    pub frozen: Vec<bool>,
     /// Parameters from this index on are the state nuisances, three per reset (x, y, z
     /// rate). On a planar craft the x and y ones move nothing (the bearing holds those
     /// axes), so their columns are known to be zero without a prediction.
@@ -257,6 +262,11 @@ pub struct Family<'f> {
 }
 
 impl Family<'_> {
+    /// Whether parameter `j`'s column is computed once per fit ([`Family::frozen`]).
+    pub fn frozen(&self, j: usize) -> bool {
+        self.frozen.get(j).copied().unwrap_or(false)
+    }
+
     /// Whether parameter `j` is held where it starts ([`Family::held`]).
     pub fn held(&self, j: usize) -> bool {
         self.held.get(j).copied().unwrap_or(false)
@@ -305,13 +315,7 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         it += 1;
         if !have_jac {
             let first = it == 1;
-            let new = jacobian(
-                prob,
-                fam,
-                &theta,
-                &r,
-                if first { usize::MAX } else { fam.frozen_from },
-            )?;
+            let new = jacobian(prob, fam, &theta, &r, first)?;
             if first {
                 jac = new;
                 for (j, d) in dead.iter_mut().enumerate() {
@@ -319,8 +323,7 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
                     pinned[j] |= *d;
                 }
             } else {
-                let cols = fam.frozen_from.min(k);
-                for j in 0..cols {
+                for j in (0..k).filter(|&j| !fam.frozen(j)) {
                     jac.set_column(j, &new.column(j));
                 }
             }
@@ -367,8 +370,8 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         }
     }
     if !have_jac {
-        let new = jacobian(prob, fam, &theta, &r, fam.frozen_from)?;
-        for j in 0..fam.frozen_from.min(k) {
+        let new = jacobian(prob, fam, &theta, &r, false)?;
+        for j in (0..k).filter(|&j| !fam.frozen(j)) {
             jac.set_column(j, &new.column(j));
         }
     }
@@ -450,18 +453,18 @@ fn pin_dead(mut jtj: DMatrix<f64>, dead: &[bool]) -> DMatrix<f64> {
     jtj
 }
 
-/// Finite-difference Jacobian of the columns before `upto` (others left zero, and the
-/// held ones: [`Family::held`]); see [`column`].
+/// Finite-difference Jacobian, every column (`all`) or those not [`Family::frozen`]; the
+/// others and the [`Family::held`] ones are left zero. See [`column`].
 fn jacobian(
     prob: &Problem,
     fam: &Family,
     theta: &[f64],
     r0: &DVector<f64>,
-    upto: usize,
+    all: bool,
 ) -> Option<DMatrix<f64>> {
     let k = theta.len();
     let mut jac = DMatrix::zeros(r0.len(), k);
-    for j in (0..k.min(upto)).filter(|&j| !fam.held(j)) {
+    for j in (0..k).filter(|&j| !fam.held(j) && (all || !fam.frozen(j))) {
         jac.set_column(j, &column(prob, fam, theta, r0, j)?);
     }
     Some(jac)

@@ -139,7 +139,34 @@ pub fn fit_joint(
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
-    fit_with_starts(prob, fired, accepted, new, None, nuis, slosh_hint, max_iter)
+    fit_with_starts(
+        prob, fired, accepted, new, None, nuis, slosh_hint, max_iter, false,
+    )
+}
+
+/// [`fit_joint`] as a screen of the new effect: the named effects' Jacobian columns are
+/// taken once, at their optimum, while the new one moves (a screen only ranks; the
+/// strongest are then fitted with every column fresh).
+pub fn screen_joint(
+    prob: &Problem,
+    fired: &[bool; NT],
+    accepted: &[(Kind, Vec<f64>)],
+    new: Kind,
+    nuis: &[f64],
+    slosh_hint: &[f64],
+    max_iter: usize,
+) -> Option<(FitResult, Vec<usize>)> {
+    fit_with_starts(
+        prob,
+        fired,
+        accepted,
+        Some(new),
+        None,
+        nuis,
+        slosh_hint,
+        max_iter,
+        true,
+    )
 }
 
 /// Continues the fit of `new` from `theta_new` (e.g. after a short screening fit).
@@ -163,6 +190,32 @@ pub fn fit_from(
         nuis,
         slosh_hint,
         max_iter,
+        false,
+    )
+}
+
+/// [`fit_from`] as a screen ([`screen_joint`]).
+#[allow(clippy::too_many_arguments)]
+pub fn screen_from(
+    prob: &Problem,
+    fired: &[bool; NT],
+    accepted: &[(Kind, Vec<f64>)],
+    new: Kind,
+    theta_new: &[f64],
+    nuis: &[f64],
+    slosh_hint: &[f64],
+    max_iter: usize,
+) -> Option<(FitResult, Vec<usize>)> {
+    fit_with_starts(
+        prob,
+        fired,
+        accepted,
+        Some(new),
+        Some(vec![theta_new.to_vec()]),
+        nuis,
+        slosh_hint,
+        max_iter,
+        true,
     )
 }
 
@@ -176,6 +229,7 @@ fn fit_with_starts(
     nuis: &[f64],
     slosh_hint: &[f64],
     max_iter: usize,
+    screen: bool,
 ) -> Option<(FitResult, Vec<usize>)> {
     // assemble the parameter layout: each accepted effect, then the new one, then omega0
     let mut kinds: Vec<Kind> = accepted.iter().map(|a| a.0).collect();
@@ -224,6 +278,11 @@ fn fit_with_starts(
         off += n;
     }
     let change_at = (new == Some(Kind::MassPropertyChange)).then_some(base.len());
+    // a screen moves the new effect from the named ones' optimum: their columns and the
+    // nuisances' are taken once
+    let frozen: Vec<bool> = (0..lo.len())
+        .map(|j| j >= frozen_from || (screen && new.is_some() && j < base.len()))
+        .collect();
     let fam = Family {
         apply: Box::new(move |th: &[f64]| {
             let mut acc: Vec<(Kind, Vec<f64>)> = vec![];
@@ -237,7 +296,7 @@ fn fit_with_starts(
         step,
         lo,
         hi,
-        frozen_from,
+        frozen,
         nuisance_from: frozen_from,
         two_sided,
         held,
@@ -361,7 +420,7 @@ pub(crate) fn fit_nuisance_with(
         step: vec![1e-5; n],
         lo: vec![-3.0; n],
         hi: vec![3.0; n],
-        frozen_from: n,
+        frozen: vec![false; n],
         nuisance_from: 0,
         two_sided: vec![],
         held: vec![],
@@ -512,7 +571,9 @@ mod tests {
             ..Params::default()
         };
         let noise = crate::noise::NoiseModel::white([1e-6; 3]);
-        series.rate = Problem::new(&plant, &series, &noise).predict(&truth).unwrap();
+        series.rate = Problem::new(&plant, &series, &noise)
+            .predict(&truth)
+            .unwrap();
         let prob = Problem::new(&plant, &series, &noise);
         let fired = effects::fired_thrusters(&series);
         let nuis = [0.3, -0.2, 0.4];

@@ -191,11 +191,11 @@ fn replacement(
         {
             continue;
         }
-        let Some((fr, sz)) = select::fit_joint(
+        let Some((fr, sz)) = select::screen_joint(
             trial.prob,
             trial.fired,
             trial.rigid_acc,
-            Some(kind),
+            kind,
             trial.nuis,
             trial.hint,
             settings.max_iter.min(3),

@@ -214,11 +214,11 @@ fn rank(
                     fitted: Some(fr.params),
                 }
             };
-            let whole = select::fit_joint(
+            let whole = select::screen_joint(
                 &n.prob,
                 &n.fired,
                 &acc_pairs,
-                Some(kind),
+                kind,
                 &named.nuis,
                 &n.slosh_hint,
                 screen_iter,
@@ -229,7 +229,7 @@ fn rank(
                 .as_ref()
                 .and_then(|w| held::form(w.kind, &w.theta, &w.stderr, n))
                 .and_then(|(start, note)| {
-                    let fitted = select::fit_from(
+                    let fitted = select::screen_from(
                         &n.prob,
                         &n.fired,
                         &acc_pairs,

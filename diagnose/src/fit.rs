@@ -15,7 +15,8 @@ pub struct Problem<'a> {
     pub series: &'a Series,
     /// Per-axis weight 1/sqrt(long-run variance).
     pub weight: [f64; 3],
-    /// Use every `stride`-th sample in the fit (speed); the prediction still runs at 1 ms.
+    /// Use every `stride`-th sample in the fit (speed); the fit's predictions stop only at
+    /// those ([`model::predict_every`]), still on the 1 ms command grid.
     pub stride: usize,
     /// Samples the fit may use (None: all): the training blocks of an out-of-sample check.
     pub train: Option<std::rc::Rc<Vec<bool>>>,
@@ -242,9 +243,9 @@ pub struct Family<'f> {
     /// Lower and upper bounds per parameter (the fit is clamped inside them).
     pub lo: Vec<f64>,
     pub hi: Vec<f64>,
-    /// Parameters whose Jacobian columns are computed once per fit, at its start: the
-    /// nuisances (their effect hardly depends on the others), and in a screening fit the
-    /// effects already named, which sit at their optimum while the new one moves.
+    /// Parameters whose Jacobian columns are computed once per fit, at its start: a joint
+    /// fit's nuisances (their effect hardly depends on the others), and in a screening fit
+    /// the effects already named, which sit at their optimum while the new one moves.
     pub frozen: Vec<bool>,
     /// Parameters from this index on are the state nuisances, three per reset (x, y, z
     /// rate). On a planar craft the x and y ones move nothing (the bearing holds those

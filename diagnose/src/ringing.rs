@@ -86,106 +86,182 @@ pub fn edge_windows(series: &Series, latency: (f64, f64)) -> Vec<(f64, Vec<usize
     out
 }
 
-/// Per edge and axis, the 2x2 Gram matrix of the decaying cosine/sine and the residual's
-/// projection on them, after prewhitening with `wh` (when given) and removing mean and
-/// slope within the window.
-fn projections(
-    series: &Series,
-    r: &[[f64; 3]],
-    windows: &[(f64, Vec<usize>)],
-    f: f64,
-    tau: f64,
-    wh: Option<&Whitening>,
-) -> Vec<[(Matrix2<f64>, Vector2<f64>); 3]> {
-    let w = 2.0 * std::f64::consts::PI * f * 1e-3;
-    let basis = |dt: f64| -> (f64, f64) {
-        if dt < 0.0 {
-            return (0.0, 0.0);
-        }
-        let env = (-dt / tau).exp();
-        let (s, c) = (w * dt).sin_cos();
-        (env * c, env * s)
-    };
-    // the longest whitening filter of the three axes: how far a window reaches back
-    let reach_back = wh
-        .map(|w| w.iter().map(|x| x.0.len()).max().unwrap_or(0))
-        .unwrap_or(0);
-    windows
-        .iter()
-        .map(|(te, idx)| {
-            // the basis at every sample the window and its whitening reach, computed once
-            // for the three axes and every filter tap (the exp and sin/cos are most of a scan)
-            let first = idx
-                .iter()
-                .copied()
-                .min()
-                .unwrap_or(0)
-                .saturating_sub(reach_back);
-            let last = idx.iter().copied().max().unwrap_or(0);
-            let cached: Vec<(f64, f64)> = (first..=last.max(first))
-                .map(|j| basis(series.t_ms[j] as f64 - te))
-                .collect();
-            let at = |j: usize| {
-                cached
-                    .get(j.wrapping_sub(first))
+/// The edge windows as every tone reads them: per window and axis, the samples kept (a
+/// sample, or one the whitening filter reaches back to, that is not a measurement on the
+/// axis is left out), their times after the shock, and the residual prewhitened with
+/// mean and slope removed. None of it depends on the tone, so a scan of a few hundred
+/// (frequency, decay) pairs whitens and detrends the residual once.
+struct Prepared<'w> {
+    windows: Vec<PreparedWindow>,
+    whitening: Option<&'w Whitening>,
+}
+
+struct PreparedWindow {
+    /// Shock time, ms.
+    te: f64,
+    /// First sample the window and its whitening reach, and the last.
+    first: usize,
+    last: usize,
+    axes: [Rows; 3],
+}
+
+/// One axis of a window: kept samples, their times (ms after the shock) less their mean,
+/// the times' sum of squares, and the detrended whitened residual.
+#[derive(Default)]
+struct Rows {
+    idx: Vec<usize>,
+    t: Vec<f64>,
+    stt: f64,
+    r: Vec<f64>,
+}
+
+impl<'w> Prepared<'w> {
+    fn new(
+        series: &Series,
+        r: &[[f64; 3]],
+        windows: &[(f64, Vec<usize>)],
+        wh: Option<&'w Whitening>,
+    ) -> Prepared<'w> {
+        // the longest whitening filter of the three axes: how far a window reaches back
+        let reach_back = wh
+            .map(|w| w.iter().map(|x| x.0.len()).max().unwrap_or(0))
+            .unwrap_or(0);
+        let windows = windows
+            .iter()
+            .map(|(te, idx)| {
+                let first = idx
+                    .iter()
                     .copied()
-                    .unwrap_or((0.0, 0.0))
-            };
-            std::array::from_fn(|a| {
-                let phi: &[f64] = wh.map(|w| w[a].0.as_slice()).unwrap_or(&[]);
-                let n = idx.len();
-                let mut rows: Vec<[f64; 4]> = Vec::with_capacity(n); // t, c, s, r
-                for &i in idx {
-                    // a sample (or one the whitening filter reaches back to) that is not a
-                    // measurement on this axis is left out of the window
-                    let reach = i.saturating_sub(phi.len());
-                    if !(reach..=i).all(|j| series.valid[j][a]) {
-                        continue;
-                    }
-                    let dt = series.t_ms[i] as f64 - te;
-                    let (mut c, mut sn) = at(i);
-                    let mut rv = r[i][a];
-                    for (k, ph) in phi.iter().enumerate() {
-                        let j = i as i64 - 1 - k as i64;
-                        if j < 0 {
-                            break;
+                    .min()
+                    .unwrap_or(0)
+                    .saturating_sub(reach_back);
+                let last = idx.iter().copied().max().unwrap_or(0).max(first);
+                let axes = std::array::from_fn(|a| {
+                    let phi: &[f64] = wh.map(|w| w[a].0.as_slice()).unwrap_or(&[]);
+                    let mut rows = Rows::default();
+                    for &i in idx {
+                        let reach = i.saturating_sub(phi.len());
+                        if !(reach..=i).all(|j| series.valid[j][a]) {
+                            continue;
                         }
-                        let j = j as usize;
-                        let (cj, sj) = at(j);
-                        c -= ph * cj;
-                        sn -= ph * sj;
-                        rv -= ph * r[j][a];
+                        let mut rv = r[i][a];
+                        for (k, ph) in phi.iter().enumerate() {
+                            let Some(j) = i.checked_sub(1 + k) else { break };
+                            rv -= ph * r[j][a];
+                        }
+                        rows.idx.push(i);
+                        rows.t.push(series.t_ms[i] as f64 - te);
+                        rows.r.push(rv);
                     }
-                    rows.push([dt, c, sn, rv]);
-                }
-                let nt = rows.len() as f64;
-                if rows.len() < 4 {
-                    return (Matrix2::zeros(), Vector2::zeros());
-                }
-                let mt = rows.iter().map(|x| x[0]).sum::<f64>() / nt;
-                let stt: f64 = rows.iter().map(|x| (x[0] - mt).powi(2)).sum();
-                for col in 1..4 {
-                    let m = rows.iter().map(|x| x[col]).sum::<f64>() / nt;
-                    let b = if stt > 0.0 {
-                        rows.iter().map(|x| (x[0] - mt) * (x[col] - m)).sum::<f64>() / stt
-                    } else {
-                        0.0
-                    };
-                    for x in rows.iter_mut() {
-                        x[col] -= m + b * (x[0] - mt);
+                    if rows.idx.len() >= 4 {
+                        let n = rows.t.len() as f64;
+                        let mt = rows.t.iter().sum::<f64>() / n;
+                        rows.t.iter_mut().for_each(|t| *t -= mt);
+                        rows.stt = rows.t.iter().map(|t| t * t).sum();
+                        detrend(&rows.t, rows.stt, &mut rows.r);
                     }
+                    rows
+                });
+                PreparedWindow {
+                    te: *te,
+                    first,
+                    last,
+                    axes,
                 }
-                let mut g = Matrix2::zeros();
-                let mut p = Vector2::zeros();
-                for x in &rows {
-                    let v = Vector2::new(x[1], x[2]);
-                    g += v * v.transpose();
-                    p += v * x[3];
-                }
-                (g, p)
             })
-        })
-        .collect()
+            .collect();
+        Prepared {
+            windows,
+            whitening: wh,
+        }
+    }
+
+    /// Per edge and axis, the 2x2 Gram matrix of the decaying cosine/sine and the
+    /// residual's projection on them, both prewhitened (when the whitening is given) and
+    /// with mean and slope removed within the window.
+    fn projections(
+        &self,
+        series: &Series,
+        f: f64,
+        tau: f64,
+    ) -> Vec<[(Matrix2<f64>, Vector2<f64>); 3]> {
+        let w = 2.0 * std::f64::consts::PI * f * 1e-3;
+        let basis = |dt: f64| -> (f64, f64) {
+            if dt < 0.0 {
+                return (0.0, 0.0);
+            }
+            let env = (-dt / tau).exp();
+            let (s, c) = (w * dt).sin_cos();
+            (env * c, env * s)
+        };
+        let mut cached: Vec<(f64, f64)> = vec![];
+        let mut c: Vec<f64> = vec![];
+        let mut sn: Vec<f64> = vec![];
+        self.windows
+            .iter()
+            .map(|win| {
+                // the basis at every sample the window and its whitening reach, computed
+                // once for the three axes and every filter tap (the exp and sin/cos)
+                cached.clear();
+                cached
+                    .extend((win.first..=win.last).map(|j| basis(series.t_ms[j] as f64 - win.te)));
+                let at = |j: usize| {
+                    cached
+                        .get(j.wrapping_sub(win.first))
+                        .copied()
+                        .unwrap_or((0.0, 0.0))
+                };
+                std::array::from_fn(|a| {
+                    let rows = &win.axes[a];
+                    if rows.idx.len() < 4 {
+                        return (Matrix2::zeros(), Vector2::zeros());
+                    }
+                    let phi: &[f64] = self.whitening.map(|w| w[a].0.as_slice()).unwrap_or(&[]);
+                    c.clear();
+                    sn.clear();
+                    for &i in &rows.idx {
+                        let (mut ci, mut si) = at(i);
+                        for (k, ph) in phi.iter().enumerate() {
+                            let Some(j) = i.checked_sub(1 + k) else { break };
+                            let (cj, sj) = at(j);
+                            ci -= ph * cj;
+                            si -= ph * sj;
+                        }
+                        c.push(ci);
+                        sn.push(si);
+                    }
+                    detrend(&rows.t, rows.stt, &mut c);
+                    detrend(&rows.t, rows.stt, &mut sn);
+                    let mut g = Matrix2::zeros();
+                    let mut p = Vector2::zeros();
+                    for ((ci, si), ri) in c.iter().zip(&sn).zip(&rows.r) {
+                        let v = Vector2::new(*ci, *si);
+                        g += v * v.transpose();
+                        p += v * *ri;
+                    }
+                    (g, p)
+                })
+            })
+            .collect()
+    }
+}
+
+/// Removes mean and slope (against the centred times `t`, sum of squares `stt`) from `x`.
+fn detrend(t: &[f64], stt: f64, x: &mut [f64]) {
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let b = if stt > 0.0 {
+        t.iter()
+            .zip(x.iter())
+            .map(|(t, x)| t * (x - m))
+            .sum::<f64>()
+            / stt
+    } else {
+        0.0
+    };
+    for (x, t) in x.iter_mut().zip(t) {
+        *x -= m + b * t;
+    }
 }
 
 /// 2 ln LR for the per-axis coefficient variance, maximised over it; returns (stat, s).
@@ -213,18 +289,9 @@ fn lr_axis(proj: &[[(Matrix2<f64>, Vector2<f64>); 3]], axis: usize, sigma2: f64)
             .sum()
     };
     let l0 = ll(0.0);
-    // golden-section search over log s
-    let (mut a, mut b) = ((sigma2 * 1e-4).ln(), (sigma2 * 1e5).ln());
-    let gr = 0.618_033_988_75;
-    for _ in 0..40 {
-        let x1 = b - gr * (b - a);
-        let x2 = a + gr * (b - a);
-        if ll(x1.exp()) > ll(x2.exp()) {
-            b = x2;
-        } else {
-            a = x1;
-        }
-    }
+    let (a, b) = golden_max((sigma2 * 1e-4).ln(), (sigma2 * 1e5).ln(), 40, |x| {
+        ll(x.exp())
+    });
     let s = (0.5 * (a + b)).exp();
     let stat = 2.0 * (ll(s) - l0);
     if stat > 0.0 {
@@ -234,15 +301,32 @@ fn lr_axis(proj: &[[(Matrix2<f64>, Vector2<f64>); 3]], axis: usize, sigma2: f64)
     }
 }
 
-fn statistic(
-    series: &Series,
-    r: &[[f64; 3]],
-    win: &[(f64, Vec<usize>)],
-    wh: &Whitening,
-    f: f64,
-    tau: f64,
-) -> (f64, [f64; 3]) {
-    let proj = projections(series, r, win, f, tau, Some(wh));
+/// Golden-section search for the maximum of `f` on `[a, b]`: the bracket after `steps`
+/// steps, each reusing one of the previous step's two evaluations (one new evaluation a
+/// step, where evaluating both points afresh cost two).
+fn golden_max(mut a: f64, mut b: f64, steps: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let g = 0.618_033_988_75;
+    let mut x1 = b - g * (b - a);
+    let mut x2 = a + g * (b - a);
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..steps {
+        if f1 > f2 {
+            b = x2;
+            (x2, f2) = (x1, f1);
+            x1 = b - g * (b - a);
+            f1 = f(x1);
+        } else {
+            a = x1;
+            (x1, f1) = (x2, f2);
+            x2 = a + g * (b - a);
+            f2 = f(x2);
+        }
+    }
+    (a, b)
+}
+
+fn statistic(series: &Series, win: &Prepared, wh: &Whitening, f: f64, tau: f64) -> (f64, [f64; 3]) {
+    let proj = win.projections(series, f, tau);
     let mut tot = 0.0;
     let mut s = [0.0; 3];
     for a in 0..3 {
@@ -253,14 +337,7 @@ fn statistic(
     (tot, s)
 }
 
-fn best_decay(
-    series: &Series,
-    r: &[[f64; 3]],
-    win: &[(f64, Vec<usize>)],
-    wh: &Whitening,
-    f: f64,
-    coarse: bool,
-) -> (f64, f64) {
+fn best_decay(series: &Series, win: &Prepared, wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
     let grid: &[f64] = if coarse {
         &[20.0]
     } else {
@@ -268,7 +345,7 @@ fn best_decay(
     };
     let mut best = (f64::MIN, 8.0);
     for &tau in grid {
-        let d = statistic(series, r, win, wh, f, tau).0;
+        let d = statistic(series, win, wh, f, tau).0;
         if d > best.0 {
             best = (d, tau);
         }
@@ -276,21 +353,11 @@ fn best_decay(
     if coarse {
         return best;
     }
-    let (mut a, mut b) = ((best.1 / 2.0f64).ln(), (best.1 * 2.0f64).ln());
-    let g = 0.618_033_988_75;
-    for _ in 0..12 {
-        let x1 = b - g * (b - a);
-        let x2 = a + g * (b - a);
-        if statistic(series, r, win, wh, f, x1.exp()).0
-            > statistic(series, r, win, wh, f, x2.exp()).0
-        {
-            b = x2;
-        } else {
-            a = x1;
-        }
-    }
+    let (a, b) = golden_max((best.1 / 2.0f64).ln(), (best.1 * 2.0f64).ln(), 12, |x| {
+        statistic(series, win, wh, f, x.exp()).0
+    });
     let tau = (0.5 * (a + b)).exp();
-    let d = statistic(series, r, win, wh, f, tau).0;
+    let d = statistic(series, win, wh, f, tau).0;
     if d > best.0 {
         (d, tau)
     } else {
@@ -306,10 +373,11 @@ pub fn fit(
     prior_hz: f64,
     latency: (f64, f64),
 ) -> Option<RingingFit> {
-    let win = edge_windows(series, latency);
-    if win.len() < 3 {
+    let edges = edge_windows(series, latency);
+    if edges.len() < 3 {
         return None;
     }
+    let win = Prepared::new(series, r, &edges, Some(wh));
     let fs = series.sample_rate_hz;
     let nyq = fs / 2.0;
     // coarse scan of the apparent frequency
@@ -317,7 +385,7 @@ pub fn fit(
     let mut scan = vec![];
     let mut f = 2.0;
     while f < nyq {
-        scan.push((f, best_decay(series, r, &win, wh, f, true).0));
+        scan.push((f, best_decay(series, &win, wh, f, true).0));
         f += step;
     }
     let (f_app0, _) = scan
@@ -326,12 +394,12 @@ pub fn fit(
         .fold((0.0, f64::MIN), |acc, x| if x.1 > acc.1 { x } else { acc });
     // refine the apparent frequency
     let mut f_app = f_app0;
-    let mut best = best_decay(series, r, &win, wh, f_app, true).0;
+    let mut best = best_decay(series, &win, wh, f_app, true).0;
     let mut h = step / 2.0;
     for _ in 0..6 {
         for cand in [f_app - h, f_app + h] {
             if cand > 0.5 && cand < nyq {
-                let d = best_decay(series, r, &win, wh, cand, true).0;
+                let d = best_decay(series, &win, wh, cand, true).0;
                 if d > best {
                     best = d;
                     f_app = cand;
@@ -345,7 +413,7 @@ pub fn fit(
     let mut scored: Vec<(f64, f64, f64)> = cands
         .iter()
         .map(|&f| {
-            let (d, tau) = best_decay(series, r, &win, wh, f, false);
+            let (d, tau) = best_decay(series, &win, wh, f, false);
             (f, d, tau)
         })
         .collect();
@@ -373,17 +441,17 @@ pub fn fit(
         .collect();
     ambiguous.sort_by(|a, b| a.total_cmp(b));
     let (f, gain, tau) = chosen;
-    let (_, s) = statistic(series, r, &win, wh, f, tau);
+    let (_, s) = statistic(series, &win, wh, f, tau);
     // standard errors from the curvature of the statistic (a chi-square): var = 2 / d2
     let hf = 0.2;
     let d2f = (2.0 * gain
-        - statistic(series, r, &win, wh, f + hf, tau).0
-        - statistic(series, r, &win, wh, f - hf, tau).0)
+        - statistic(series, &win, wh, f + hf, tau).0
+        - statistic(series, &win, wh, f - hf, tau).0)
         / (hf * hf);
     let ht = 0.05 * tau;
     let d2t = (2.0 * gain
-        - statistic(series, r, &win, wh, f, tau + ht).0
-        - statistic(series, r, &win, wh, f, tau - ht).0)
+        - statistic(series, &win, wh, f, tau + ht).0
+        - statistic(series, &win, wh, f, tau - ht).0)
         / (ht * ht);
     let freq_stderr = if d2f > 0.0 {
         (2.0 / d2f).sqrt()
@@ -397,7 +465,7 @@ pub fn fit(
     };
     let apparent_hz = alias::apparent(f, fs);
     let evidence = if ambiguous.is_empty() {
-        format!("decaying {f:.1} Hz tone after {} valve edges with a random phase per edge; at {fs} Hz sampling it shows at {apparent_hz:.1} Hz and no other alias fits as well", win.len())
+        format!("decaying {f:.1} Hz tone after {} valve edges with a random phase per edge; at {fs} Hz sampling it shows at {apparent_hz:.1} Hz and no other alias fits as well", edges.len())
     } else {
         let mut a: Vec<String> = ambiguous.iter().map(|x| format!("{x:.1}")).collect();
         a.truncate(10);
@@ -405,7 +473,7 @@ pub fn fit(
             "decaying tone after {} valve edges with a random phase per edge, seen at {apparent_hz:.1} Hz at {fs} Hz sampling; \
              the true frequency is ambiguous among the aliases {} and {f:.1} Hz, which fit equally well: picked {f:.1} Hz by \
              the seed's prior (tuning-fork gyro ringing at ~{prior_hz:.0} Hz, App. A)",
-            win.len(),
+            edges.len(),
             a.join(", ")
         )
     };
@@ -433,7 +501,7 @@ pub fn remove(
     latency: (f64, f64),
 ) -> Vec<[f64; 3]> {
     let win = edge_windows(series, latency);
-    let proj = projections(series, r, &win, rf.freq_hz, rf.decay_ms, None);
+    let proj = Prepared::new(series, r, &win, None).projections(series, rf.freq_hz, rf.decay_ms);
     let mut out = r.to_vec();
     let w = 2.0 * std::f64::consts::PI * rf.freq_hz * 1e-3;
     for ((te, idx), pa) in win.iter().zip(proj.iter()) {
@@ -453,4 +521,25 @@ pub fn remove(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The golden-section search brackets the maximum of a smooth peak within its
+    /// contraction (0.618 per step), evaluating once a step. Planted: keeping the wrong
+    /// point when the bracket shrinks loses the peak.
+    #[test]
+    fn the_golden_search_brackets_the_maximum_with_one_evaluation_a_step() {
+        let calls = std::cell::Cell::new(0);
+        let peak = |x: f64| {
+            calls.set(calls.get() + 1);
+            -(x - 0.3f64).powi(2)
+        };
+        let (a, b) = golden_max(-2.0, 5.0, 30, peak);
+        assert!(a <= 0.3 && 0.3 <= b, "[{a}, {b}]");
+        assert!(b - a < 7.0 * 0.6181f64.powi(30), "{}", b - a);
+        assert_eq!(calls.get(), 32);
+    }
 }

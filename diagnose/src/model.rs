@@ -585,7 +585,7 @@ pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Optio
 /// [`predict`] at every `every`-th sample only (and at each rate reset), the others NaN:
 /// what a fit that uses every `every`-th sample needs. A rigid 3-D craft takes RK4 steps
 /// of up to `LONG_STEP_MS` wherever the torque holds, across the samples it needs too
-/// (those inside a step come from the cubic through the step's ends, [`Span`]); only a
+/// (those inside a step come from the cubic through the step's ends, `Span`); only a
 /// rate reset ends a step. So a fit of a 1 kHz recording at a stride of 5 no longer pays
 /// for the four samples in five it does not read.
 pub fn predict_every(

@@ -366,6 +366,9 @@ fn add_interval(duty: &mut [[f32; NT]], th: usize, a: f64, b: f64) {
 pub struct Plant {
     pos: [Vector3<f64>; NT],
     force: [Vector3<f64>; NT],
+    /// Each force's magnitude, N: the pressure drop's divisor, read at every change of
+    /// duty, so taken once.
+    thrust: [f64; NT],
     com: Vector3<f64>,
     inertia: [f64; 6],
     base_pressure_drop: f64,
@@ -404,6 +407,13 @@ impl Plant {
             });
             [along.cross(&second), second]
         });
+        let force: [Vector3<f64>; NT] = std::array::from_fn(|i| {
+            if i < n {
+                sat.force_n(i)
+            } else {
+                Vector3::zeros()
+            }
+        });
         Plant {
             tilt_axes,
             pos: std::array::from_fn(|i| {
@@ -413,13 +423,8 @@ impl Plant {
                     Vector3::zeros()
                 }
             }),
-            force: std::array::from_fn(|i| {
-                if i < n {
-                    sat.force_n(i)
-                } else {
-                    Vector3::zeros()
-                }
-            }),
+            thrust: force.map(|f| f.norm()),
+            force,
             com: sat.com_m(),
             inertia: sat.inertia_kgm2,
             base_pressure_drop: sat.pressure_drop_n_per_extra,
@@ -443,7 +448,7 @@ impl Plant {
 
     /// Nominal force magnitude of thruster i, N.
     pub fn thrust_n(&self, i: usize) -> f64 {
-        self.force[i].norm()
+        self.thrust[i]
     }
 
     /// Adds to `tau` the torque of one duty row `d` (each thruster's mean open fraction

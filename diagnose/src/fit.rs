@@ -493,18 +493,16 @@ fn column(
     if t[j] + h > fam.hi[j] {
         h = -h;
     }
+    // the weighted residuals at `t`, None unless they are `r0`'s samples
+    let at = |t: &[f64]| {
+        prob.weighted(&(fam.apply)(t)?)
+            .filter(|r| r.len() == r0.len())
+    };
     t[j] += h;
-    let rj = prob.weighted(&(fam.apply)(&t)?)?;
-    if rj.len() != r0.len() {
-        return None;
-    }
+    let rj = at(&t)?;
     Some(if central {
         t[j] = theta[j] - h;
-        let rm = prob.weighted(&(fam.apply)(&t)?)?;
-        if rm.len() != r0.len() {
-            return None;
-        }
-        (rj - rm) / (2.0 * h)
+        (rj - at(&t)?) / (2.0 * h)
     } else {
         (rj - r0) / h
     })

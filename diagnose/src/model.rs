@@ -976,6 +976,17 @@ impl Span {
 pub(crate) mod tests {
     use super::*;
 
+    /// A small reproducible generator for test flights: `rnd(m)` is in `0..m`.
+    fn lcg(seed: u64) -> impl FnMut(u64) -> u64 {
+        let mut state = seed;
+        move |m| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % m
+        }
+    }
+
     /// A model with held products is the same model as itself (the prediction cache
     /// answers the repeat), and not the same as one with those products fitted at 0 or
     /// with another moment. Planted: `==` never matches a held term, so the first fails.
@@ -1132,13 +1143,7 @@ pub(crate) mod tests {
         let sat = Satellite::builtin("sph2").unwrap();
         let n = 5_000usize;
         // a pseudo-random pulse train per thruster, pulses and gaps 1-40 ms
-        let mut state = 12345u64;
-        let mut rnd = |m: u64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) % m
-        };
+        let mut rnd = lcg(12345);
         let mut words = vec![0u16; n];
         for th in 0..12 {
             let mut k = rnd(50) as usize;
@@ -1181,13 +1186,7 @@ pub(crate) mod tests {
     fn long_steps_agree_with_millisecond_steps() {
         let sat = Satellite::builtin("sph2").unwrap();
         let plant = Plant::new(&sat);
-        let mut state = 777u64;
-        let mut rnd = |m: u64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) % m
-        };
+        let mut rnd = lcg(777);
         let t: Vec<i64> = (0..3000).map(|i| i * 10).collect();
         let words: Vec<u16> = t.iter().map(|_| (rnd(4096) & rnd(4096)) as u16).collect();
         let counts = vec![[2048, 2048, 2048]; t.len()];
@@ -1229,13 +1228,7 @@ pub(crate) mod tests {
     fn every_fifth_sample_agrees_with_every_sample() {
         let sat = Satellite::builtin("sph2").unwrap();
         let plant = Plant::new(&sat);
-        let mut state = 4242u64;
-        let mut rnd = |m: u64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) % m
-        };
+        let mut rnd = lcg(4242);
         // 1 kHz, the word held for 20-60 ms at a time (pulses and coasts)
         let t: Vec<i64> = (0..20_000).collect();
         let mut words = Vec::with_capacity(t.len());

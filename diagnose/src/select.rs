@@ -144,31 +144,6 @@ pub fn fit_joint(
     )
 }
 
-/// [`fit_joint`] as a screen of the new effect: the named effects' Jacobian columns are
-/// taken once, at their optimum, while the new one moves (a screen only ranks; the
-/// strongest are then fitted with every column fresh).
-pub fn screen_joint(
-    prob: &Problem,
-    fired: &[bool; NT],
-    accepted: &[(Kind, Vec<f64>)],
-    new: Kind,
-    nuis: &[f64],
-    slosh_hint: &[f64],
-    max_iter: usize,
-) -> Option<(FitResult, Vec<usize>)> {
-    fit_with_starts(
-        prob,
-        fired,
-        accepted,
-        Some(new),
-        None,
-        nuis,
-        slosh_hint,
-        max_iter,
-        true,
-    )
-}
-
 /// Continues the fit of `new` from `theta_new` (e.g. after a short screening fit).
 #[allow(clippy::too_many_arguments)]
 pub fn fit_from(
@@ -194,24 +169,28 @@ pub fn fit_from(
     )
 }
 
-/// [`fit_from`] as a screen ([`screen_joint`]).
+/// A screen of the new effect `new`, from its own starts or from `start`: as
+/// [`fit_joint`] / [`fit_from`], but the named effects' Jacobian columns are taken once, at
+/// their optimum, while the new one moves (a screen only ranks; the strongest are then
+/// fitted with every column fresh).
 #[allow(clippy::too_many_arguments)]
-pub fn screen_from(
+pub fn screen(
     prob: &Problem,
     fired: &[bool; NT],
     accepted: &[(Kind, Vec<f64>)],
     new: Kind,
-    theta_new: &[f64],
+    start: Option<&[f64]>,
     nuis: &[f64],
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
+    let starts = start.map(|s| vec![s.to_vec()]);
     fit_with_starts(
         prob,
         fired,
         accepted,
         Some(new),
-        Some(vec![theta_new.to_vec()]),
+        starts,
         nuis,
         slosh_hint,
         max_iter,

@@ -191,11 +191,12 @@ fn replacement(
         {
             continue;
         }
-        let Some((fr, sz)) = select::screen_joint(
+        let Some((fr, sz)) = select::screen(
             trial.prob,
             trial.fired,
             trial.rigid_acc,
             kind,
+            None,
             trial.nuis,
             trial.hint,
             settings.max_iter.min(3),

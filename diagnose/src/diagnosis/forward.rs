@@ -214,11 +214,12 @@ fn rank(
                     fitted: Some(fr.params),
                 }
             };
-            let whole = select::screen_joint(
+            let whole = select::screen(
                 &n.prob,
                 &n.fired,
                 &acc_pairs,
                 kind,
+                None,
                 &named.nuis,
                 &n.slosh_hint,
                 screen_iter,
@@ -229,12 +230,12 @@ fn rank(
                 .as_ref()
                 .and_then(|w| held::form(w.kind, &w.theta, &w.stderr, n))
                 .and_then(|(start, note)| {
-                    let fitted = select::screen_from(
+                    let fitted = select::screen(
                         &n.prob,
                         &n.fired,
                         &acc_pairs,
                         kind,
-                        &start,
+                        Some(&start),
                         &named.nuis,
                         &n.slosh_hint,
                         screen_iter,

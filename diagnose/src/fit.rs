@@ -15,7 +15,7 @@ pub struct Problem<'a> {
     pub series: &'a Series,
     /// Per-axis weight 1/sqrt(long-run variance).
     pub weight: [f64; 3],
-    /// Use every `stride`-th sample in the fit (speed); the fit's predictions stop only at
+    /// Use every `stride`-th sample in the fit (speed); the fit's predictions give only
     /// those ([`model::predict_every`]), still on the 1 ms command grid.
     pub stride: usize,
     /// Samples the fit may use (None: all): the training blocks of an out-of-sample check.
@@ -25,9 +25,12 @@ pub struct Problem<'a> {
     duty_cache:
         std::cell::RefCell<std::collections::VecDeque<((f64, f64, f64), std::rc::Rc<model::Duty>)>>,
     /// The last few predictions and their parameters: the stages ask for the same model's
-    /// rates more than once (a fit's end and the check after it), and a repeat costs a copy
-    /// instead of a simulation. Bounded in bytes, so a long recording keeps none.
-    /// Each kept with the stride it was predicted at (1: every sample).
+    /// rates more than once (a fit's end and the check after it), and a repeat is shared
+    /// instead of simulated again. Bounded in bytes, so a long recording keeps none.
+    /// Each kept with the stride it was predicted at (1: every sample), and answers only
+    /// requests at that stride: a fit must not difference a strided prediction against one
+    /// of every sample (they differ in rounding, and a parameter nothing depends on would
+    /// get a column of rounding instead of an exact zero).
     #[allow(clippy::type_complexity)]
     recent:
         std::cell::RefCell<std::collections::VecDeque<(Params, usize, std::rc::Rc<Vec<[f64; 3]>>)>>,
@@ -85,14 +88,14 @@ impl<'a> Problem<'a> {
     }
 
     /// Predicted gyro output at every `every`-th sample (and each rate reset), NaN at the
-    /// others ([`model::predict_every`]); a kept prediction of every sample answers too.
-    /// Shared with the kept ones, so that a repeat (or a reader) copies nothing.
+    /// others ([`model::predict_every`]), shared with the kept ones, so that a repeat (or a
+    /// reader) copies nothing.
     fn predict_every(&self, p: &Params, every: usize) -> Option<std::rc::Rc<Vec<[f64; 3]>>> {
         let kept = self
             .recent
             .borrow()
             .iter()
-            .find(|(q, e, _)| (*e == 1 || *e == every) && q.same(p))
+            .find(|(q, e, _)| *e == every && q.same(p))
             .map(|(_, _, y)| y.clone());
         if let Some(y) = kept {
             REPEATS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -165,8 +168,8 @@ impl<'a> Problem<'a> {
         Some(DVector::from_vec(v))
     }
 
-    /// The fit's own cost at `p`: the weighted squares of the samples it reads (every
-    /// `stride`-th of those it may use), a strided prediction. What ranks starts and
+    /// The fit's own cost at `p`: the weighted squares of the samples it reads (of every
+    /// `stride`-th sample, those it may use), a strided prediction. What scores starts and
     /// scans a change time, where the full-resolution [`Problem::chi2`] would cost a
     /// prediction of every sample for the same comparison.
     pub fn cost(&self, p: &Params) -> Option<f64> {

@@ -97,11 +97,10 @@ struct Prepared<'w> {
 }
 
 struct PreparedWindow {
-    /// Shock time, ms.
-    te: f64,
-    /// First sample the window and its whitening reach, and the last.
+    /// First sample the window and its whitening reach, and each such sample's time after
+    /// the shock, ms (where the tone's basis is evaluated).
     first: usize,
-    last: usize,
+    times: Vec<f64>,
     axes: [Rows; 3],
 }
 
@@ -163,9 +162,8 @@ impl<'w> Prepared<'w> {
                     rows
                 });
                 PreparedWindow {
-                    te: *te,
                     first,
-                    last,
+                    times: (first..=last).map(|j| series.t_ms[j] as f64 - te).collect(),
                     axes,
                 }
             })
@@ -179,12 +177,7 @@ impl<'w> Prepared<'w> {
     /// Per edge and axis, the 2x2 Gram matrix of the decaying cosine/sine and the
     /// residual's projection on them, both prewhitened (when the whitening is given) and
     /// with mean and slope removed within the window.
-    fn projections(
-        &self,
-        series: &Series,
-        f: f64,
-        tau: f64,
-    ) -> Vec<[(Matrix2<f64>, Vector2<f64>); 3]> {
+    fn projections(&self, f: f64, tau: f64) -> Vec<[(Matrix2<f64>, Vector2<f64>); 3]> {
         let w = 2.0 * std::f64::consts::PI * f * 1e-3;
         let basis = |dt: f64| -> (f64, f64) {
             if dt < 0.0 {
@@ -203,8 +196,7 @@ impl<'w> Prepared<'w> {
                 // the basis at every sample the window and its whitening reach, computed
                 // once for the three axes and every filter tap (the exp and sin/cos)
                 cached.clear();
-                cached
-                    .extend((win.first..=win.last).map(|j| basis(series.t_ms[j] as f64 - win.te)));
+                cached.extend(win.times.iter().map(|&dt| basis(dt)));
                 let at = |j: usize| {
                     cached
                         .get(j.wrapping_sub(win.first))
@@ -325,8 +317,11 @@ fn golden_max(mut a: f64, mut b: f64, steps: usize, f: impl Fn(f64) -> f64) -> (
     (a, b)
 }
 
-fn statistic(series: &Series, win: &Prepared, wh: &Whitening, f: f64, tau: f64) -> (f64, [f64; 3]) {
-    let proj = win.projections(series, f, tau);
+fn statistic(win: &Prepared, f: f64, tau: f64) -> (f64, [f64; 3]) {
+    let Some(wh) = win.whitening else {
+        return (0.0, [0.0; 3]);
+    };
+    let proj = win.projections(f, tau);
     let mut tot = 0.0;
     let mut s = [0.0; 3];
     for a in 0..3 {
@@ -337,7 +332,7 @@ fn statistic(series: &Series, win: &Prepared, wh: &Whitening, f: f64, tau: f64) 
     (tot, s)
 }
 
-fn best_decay(series: &Series, win: &Prepared, wh: &Whitening, f: f64, coarse: bool) -> (f64, f64) {
+fn best_decay(win: &Prepared, f: f64, coarse: bool) -> (f64, f64) {
     let grid: &[f64] = if coarse {
         &[20.0]
     } else {
@@ -345,7 +340,7 @@ fn best_decay(series: &Series, win: &Prepared, wh: &Whitening, f: f64, coarse: b
     };
     let mut best = (f64::MIN, 8.0);
     for &tau in grid {
-        let d = statistic(series, win, wh, f, tau).0;
+        let d = statistic(win, f, tau).0;
         if d > best.0 {
             best = (d, tau);
         }
@@ -354,10 +349,10 @@ fn best_decay(series: &Series, win: &Prepared, wh: &Whitening, f: f64, coarse: b
         return best;
     }
     let (a, b) = golden_max((best.1 / 2.0f64).ln(), (best.1 * 2.0f64).ln(), 12, |x| {
-        statistic(series, win, wh, f, x.exp()).0
+        statistic(win, f, x.exp()).0
     });
     let tau = (0.5 * (a + b)).exp();
-    let d = statistic(series, win, wh, f, tau).0;
+    let d = statistic(win, f, tau).0;
     if d > best.0 {
         (d, tau)
     } else {
@@ -385,7 +380,7 @@ pub fn fit(
     let mut scan = vec![];
     let mut f = 2.0;
     while f < nyq {
-        scan.push((f, best_decay(series, &win, wh, f, true).0));
+        scan.push((f, best_decay(&win, f, true).0));
         f += step;
     }
     let (f_app0, _) = scan
@@ -394,12 +389,12 @@ pub fn fit(
         .fold((0.0, f64::MIN), |acc, x| if x.1 > acc.1 { x } else { acc });
     // refine the apparent frequency
     let mut f_app = f_app0;
-    let mut best = best_decay(series, &win, wh, f_app, true).0;
+    let mut best = best_decay(&win, f_app, true).0;
     let mut h = step / 2.0;
     for _ in 0..6 {
         for cand in [f_app - h, f_app + h] {
             if cand > 0.5 && cand < nyq {
-                let d = best_decay(series, &win, wh, cand, true).0;
+                let d = best_decay(&win, cand, true).0;
                 if d > best {
                     best = d;
                     f_app = cand;
@@ -413,7 +408,7 @@ pub fn fit(
     let mut scored: Vec<(f64, f64, f64)> = cands
         .iter()
         .map(|&f| {
-            let (d, tau) = best_decay(series, &win, wh, f, false);
+            let (d, tau) = best_decay(&win, f, false);
             (f, d, tau)
         })
         .collect();
@@ -441,18 +436,14 @@ pub fn fit(
         .collect();
     ambiguous.sort_by(|a, b| a.total_cmp(b));
     let (f, gain, tau) = chosen;
-    let (_, s) = statistic(series, &win, wh, f, tau);
+    let (_, s) = statistic(&win, f, tau);
     // standard errors from the curvature of the statistic (a chi-square): var = 2 / d2
     let hf = 0.2;
-    let d2f = (2.0 * gain
-        - statistic(series, &win, wh, f + hf, tau).0
-        - statistic(series, &win, wh, f - hf, tau).0)
-        / (hf * hf);
+    let d2f =
+        (2.0 * gain - statistic(&win, f + hf, tau).0 - statistic(&win, f - hf, tau).0) / (hf * hf);
     let ht = 0.05 * tau;
-    let d2t = (2.0 * gain
-        - statistic(series, &win, wh, f, tau + ht).0
-        - statistic(series, &win, wh, f, tau - ht).0)
-        / (ht * ht);
+    let d2t =
+        (2.0 * gain - statistic(&win, f, tau + ht).0 - statistic(&win, f, tau - ht).0) / (ht * ht);
     let freq_stderr = if d2f > 0.0 {
         (2.0 / d2f).sqrt()
     } else {
@@ -501,7 +492,7 @@ pub fn remove(
     latency: (f64, f64),
 ) -> Vec<[f64; 3]> {
     let win = edge_windows(series, latency);
-    let proj = Prepared::new(series, r, &win, None).projections(series, rf.freq_hz, rf.decay_ms);
+    let proj = Prepared::new(series, r, &win, None).projections(rf.freq_hz, rf.decay_ms);
     let mut out = r.to_vec();
     let w = 2.0 * std::f64::consts::PI * rf.freq_hz * 1e-3;
     for ((te, idx), pa) in win.iter().zip(proj.iter()) {

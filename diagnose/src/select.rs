@@ -246,13 +246,13 @@ fn fit_with_starts(
     let kinds2 = kinds.clone();
     let sizes2 = sizes.clone();
     let fired2 = *fired;
-    // a mass-property change's time is searched, never stepped ([`Family::held`]): a new
-    // one's by its starts and the scan at the end, a named one's stays where that put it
+    // what no fit steps (a mass-property change's time): a new effect's is searched by its
+    // starts (and the change time's scan at the end), a named one's stays where that put it
     let mut held = vec![false; lo.len()];
     let mut off = 0;
     for (k, n) in kinds.iter().zip(&sizes) {
-        if *k == Kind::MassPropertyChange {
-            held[off] = true;
+        for &j in k.effect().held() {
+            held[off + j] = true;
         }
         off += n;
     }
@@ -280,7 +280,7 @@ fn fit_with_starts(
         two_sided,
         held,
     };
-    // many starts: keep the two with the lowest chi-square before iterating; when every
+    // many starts: keep the two with the lowest cost before iterating; when every
     // start predicts the same (the new effect starts at "no effect"), after a short fit
     if new_starts.len() > 2 {
         // each start where the fit would start it
@@ -350,7 +350,7 @@ fn fit_with_starts(
         }
     }
     // a change time only moves the prediction when it crosses a firing, so LM cannot walk
-    // it: scan it around the best start's, then let LM settle everything there
+    // it: scan it around the best start's, then let LM settle the rest there
     if let (Some(i), Some(b)) = (change_at, best.as_ref()) {
         let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
         let half = dur / effects::MASS_CHANGE_STARTS as f64;

@@ -52,6 +52,10 @@ impl Effect for MassPropertyChange {
             starts,
         }
     }
+    // the change time: started on a grid and scanned (`select::fit_with_starts`)
+    fn held(&self) -> &'static [usize] {
+        &[0]
+    }
     fn no_effect(&self, _: &[f64], cx: &Context) -> Vec<(usize, f64)> {
         let mut v: Vec<(usize, f64)> = (1..4).map(|i| (i, 0.0)).collect();
         v.extend((0..6).map(|i| (4 + i, cx.nominal_inertia[i])));

@@ -241,6 +241,12 @@ pub trait Effect: Sync {
     fn kinked(&self) -> bool {
         false
     }
+    /// Parameters no fit steps (`fit::Family::held`): searched by the effect's starts and
+    /// a scan instead, because their Jacobian column is a difference across whatever
+    /// firing the step happens to cross.
+    fn held(&self) -> &'static [usize] {
+        &[]
+    }
     /// The effect's signature in the residual, in words (the evidence's first clause).
     fn signature(&self) -> &'static str;
     /// Width of the windows that locate it, ms.

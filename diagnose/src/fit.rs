@@ -247,8 +247,7 @@ pub struct Family<'f> {
     pub lo: Vec<f64>,
     pub hi: Vec<f64>,
     /// Parameters whose Jacobian columns are computed once per fit, at its start: a joint
-    /// fit's nuisances (their effect hardly depends on the others), and in a screening fit
-    /// the effects already named, which sit at their optimum while the new one moves.
+    /// fit's nuisances (their effect hardly depends on the others).
     pub frozen: Vec<bool>,
     /// Parameters from this index on are the state nuisances, three per reset (x, y, z
     /// rate). On a planar craft the x and y ones move nothing (the bearing holds those

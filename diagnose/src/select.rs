@@ -139,9 +139,7 @@ pub fn fit_joint(
     slosh_hint: &[f64],
     max_iter: usize,
 ) -> Option<(FitResult, Vec<usize>)> {
-    fit_with_starts(
-        prob, fired, accepted, new, None, nuis, slosh_hint, max_iter, false,
-    )
+    fit_with_starts(prob, fired, accepted, new, None, nuis, slosh_hint, max_iter)
 }
 
 /// Continues the fit of `new` from `theta_new` (e.g. after a short screening fit).
@@ -165,36 +163,6 @@ pub fn fit_from(
         nuis,
         slosh_hint,
         max_iter,
-        false,
-    )
-}
-
-/// A screen of the new effect `new`, from its own starts or from `start`: as
-/// [`fit_joint`] / [`fit_from`], but the named effects' Jacobian columns are taken once, at
-/// their optimum, while the new one moves (a screen only ranks; the strongest are then
-/// fitted with every column fresh).
-#[allow(clippy::too_many_arguments)]
-pub fn screen(
-    prob: &Problem,
-    fired: &[bool; NT],
-    accepted: &[(Kind, Vec<f64>)],
-    new: Kind,
-    start: Option<&[f64]>,
-    nuis: &[f64],
-    slosh_hint: &[f64],
-    max_iter: usize,
-) -> Option<(FitResult, Vec<usize>)> {
-    let starts = start.map(|s| vec![s.to_vec()]);
-    fit_with_starts(
-        prob,
-        fired,
-        accepted,
-        Some(new),
-        starts,
-        nuis,
-        slosh_hint,
-        max_iter,
-        true,
     )
 }
 
@@ -208,7 +176,6 @@ fn fit_with_starts(
     nuis: &[f64],
     slosh_hint: &[f64],
     max_iter: usize,
-    screen: bool,
 ) -> Option<(FitResult, Vec<usize>)> {
     // assemble the parameter layout: each accepted effect, then the new one, then omega0
     let mut kinds: Vec<Kind> = accepted.iter().map(|a| a.0).collect();
@@ -257,11 +224,8 @@ fn fit_with_starts(
         off += n;
     }
     let change_at = (new == Some(Kind::MassPropertyChange)).then_some(base.len());
-    // a screen moves the new effect from the named ones' optimum: their columns and the
-    // nuisances' are taken once
-    let frozen: Vec<bool> = (0..lo.len())
-        .map(|j| j >= frozen_from || (screen && new.is_some() && j < base.len()))
-        .collect();
+    // the nuisances' columns are taken once per fit
+    let frozen: Vec<bool> = (0..lo.len()).map(|j| j >= frozen_from).collect();
     let fam = Family {
         apply: Box::new(move |th: &[f64]| {
             let mut acc: Vec<(Kind, Vec<f64>)> = vec![];

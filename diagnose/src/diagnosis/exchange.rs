@@ -191,12 +191,11 @@ fn replacement(
         {
             continue;
         }
-        let Some((fr, sz)) = select::screen(
+        let Some((fr, sz)) = select::fit_joint(
             trial.prob,
             trial.fired,
             trial.rigid_acc,
-            kind,
-            None,
+            Some(kind),
             trial.nuis,
             trial.hint,
             settings.max_iter.min(3),

@@ -214,12 +214,11 @@ fn rank(
                     fitted: Some(fr.params),
                 }
             };
-            let whole = select::screen(
+            let whole = select::fit_joint(
                 &n.prob,
                 &n.fired,
                 &acc_pairs,
-                kind,
-                None,
+                Some(kind),
                 &named.nuis,
                 &n.slosh_hint,
                 screen_iter,
@@ -230,12 +229,12 @@ fn rank(
                 .as_ref()
                 .and_then(|w| held::form(w.kind, &w.theta, &w.stderr, n))
                 .and_then(|(start, note)| {
-                    let fitted = select::screen(
+                    let fitted = select::fit_from(
                         &n.prob,
                         &n.fired,
                         &acc_pairs,
                         kind,
-                        Some(&start),
+                        &start,
                         &named.nuis,
                         &n.slosh_hint,
                         screen_iter,

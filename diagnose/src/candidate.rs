@@ -8,11 +8,13 @@ use crate::effects::{self, Kind};
 use crate::fit::{self, Problem};
 use crate::locate;
 use crate::model::NT;
+use crate::profile::Linearised;
 use crate::ringing::{self, RingingFit};
 use crate::select::latency_of;
 use crate::select::{self, Settings};
 use crate::series::Series;
 use crate::stats::{self, ResidualTests};
+use std::rc::Rc;
 
 /// What a round knows before it tries a candidate: the named rigid effects, the state
 /// nuisances, the residual and its tests.
@@ -119,6 +121,8 @@ pub(crate) struct Tried {
     pub stderr: Vec<f64>,
     /// The joint fit's covariance (for the Wald test of one effect's parameters together).
     pub cov: nalgebra::DMatrix<f64>,
+    /// The same fit linearised, when it holds a parameter ([`crate::fit::FitResult::linearised`]).
+    pub linearised: Option<Rc<Linearised>>,
     pub sizes: Vec<usize>,
     pub rigid_residual: Vec<[f64; 3]>,
     pub latency: (f64, f64),
@@ -176,7 +180,7 @@ fn try_candidate(
     }
     let mut pairs = rigid_acc.to_vec();
     pairs.extend_from_slice(new);
-    let (pairs, chi2_rigid, w, (stderr, cov), sizes) =
+    let (pairs, chi2_rigid, w, (stderr, cov, linearised), sizes) =
         refit_all(prob, fired, &pairs, nuis, hint, settings);
     let with = select::build(fired, &pairs, &w);
     let y1 = prob
@@ -237,6 +241,7 @@ fn try_candidate(
         chi2_rigid,
         stderr,
         cov,
+        linearised,
         sizes,
         rigid_residual,
         latency,
@@ -271,6 +276,7 @@ fn try_ringing(
         chi2_rigid: f64::NAN,
         stderr: vec![],
         cov: nalgebra::DMatrix::zeros(0, 0),
+        linearised: None,
         sizes: vec![],
         rigid_residual: rigid_residual.to_vec(),
         latency,
@@ -281,12 +287,13 @@ fn try_ringing(
     })
 }
 
-/// The refitted effects, chi-square, nuisances, (standard errors, covariance) and sizes.
+/// The refitted effects, chi-square, nuisances, (standard errors, covariance, the fit
+/// linearised) and sizes.
 type Refit = (
     Vec<(Kind, Vec<f64>)>,
     f64,
     Vec<f64>,
-    (Vec<f64>, nalgebra::DMatrix<f64>),
+    (Vec<f64>, nalgebra::DMatrix<f64>, Option<Rc<Linearised>>),
     Vec<usize>,
 );
 
@@ -306,7 +313,7 @@ fn refit_all(
             pairs.to_vec(),
             prob.chi2(&p).unwrap_or(f64::INFINITY),
             nuis.to_vec(),
-            (vec![], nalgebra::DMatrix::zeros(0, 0)),
+            (vec![], nalgebra::DMatrix::zeros(0, 0), None),
             vec![],
         );
     };
@@ -319,5 +326,5 @@ fn refit_all(
     let w = fr.theta[off..].to_vec();
     let p = select::build(fired, &out, &w);
     let chi2 = prob.chi2(&p).unwrap_or(fr.chi2);
-    (out, chi2, w, (fr.stderr, fr.cov), sizes)
+    (out, chi2, w, (fr.stderr, fr.cov, fr.linearised), sizes)
 }

@@ -295,6 +295,9 @@ pub struct FitResult {
     /// Chi-square at full resolution.
     pub chi2: f64,
     pub iterations: usize,
+    /// The fit at its end, linear in the parameters it stepped, when it held some
+    /// ([`Family::held`]): what a scan of a held parameter profiles the others with.
+    pub linearised: Option<std::rc::Rc<crate::profile::Linearised>>,
 }
 
 /// Levenberg-Marquardt from `theta0`. Returns None when the start is not predictable.
@@ -423,6 +426,15 @@ pub fn fit(prob: &Problem, fam: &Family, theta0: &[f64], max_iter: usize) -> Opt
         params,
         chi2,
         iterations: it,
+        linearised: held
+            .iter()
+            .any(|&h| h)
+            .then(|| {
+                let stepped: Vec<usize> = (0..k).filter(|&j| !held[j] && !dead[j]).collect();
+                crate::profile::Linearised::new(&jac, &stepped, scale)
+            })
+            .flatten()
+            .map(std::rc::Rc::new),
     })
 }
 

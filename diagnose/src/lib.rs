@@ -18,6 +18,7 @@ pub mod model;
 pub mod noise;
 pub mod numfmt;
 pub mod output;
+pub mod profile;
 pub mod report;
 pub mod ringing;
 pub mod rows;

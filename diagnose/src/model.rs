@@ -981,7 +981,7 @@ pub(crate) mod tests {
     use super::*;
 
     /// A small reproducible generator for test flights: `rnd(m)` is in `0..m`.
-    fn lcg(seed: u64) -> impl FnMut(u64) -> u64 {
+    pub(crate) fn lcg(seed: u64) -> impl FnMut(u64) -> u64 {
         let mut state = seed;
         move |m| {
             state = state

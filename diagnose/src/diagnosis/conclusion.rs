@@ -26,6 +26,7 @@ pub(super) fn conclude(
 ) -> Analysis {
     let series = n.series;
     attach_stderr(&mut named);
+    held_errors(&n, &mut named);
     name_thrust_scale(&mut named.accepted, &n.fired);
     let cx = crate::select::context(&n.prob, &n.fired, &[]);
     let effects_out: Vec<EffectReport> = named
@@ -108,6 +109,55 @@ fn attach_stderr(named: &mut Named) {
                 rf.amplitude[2],
             ];
             a.stderr = vec![rf.freq_stderr, rf.decay_stderr];
+        }
+    }
+}
+
+/// The errors of the parameters no fit steps (a mass-property change's time) from the
+/// final model's profile ([`crate::profile::held_error`]) instead of the covariance's
+/// difference column; that parameter's covariance row and column are rescaled to the new
+/// error (its correlations kept).
+fn held_errors(n: &Nominal, named: &mut Named) {
+    let Some(lin) = named.linearised.clone() else {
+        return;
+    };
+    let rigid = named.rigid_except(None);
+    let mut errors = vec![];
+    for (r, (kind, theta)) in rigid.iter().enumerate() {
+        let spec = crate::select::spec(*kind, &n.prob, &n.fired, &n.slosh_hint);
+        for &j in kind.effect().held() {
+            let (Some(&at), Some(&lo), Some(&hi), Some(&step)) = (
+                theta.get(j),
+                spec.lo.get(j),
+                spec.hi.get(j),
+                spec.step.get(j),
+            ) else {
+                continue;
+            };
+            let cost = |x: f64| {
+                let mut pairs = rigid.clone();
+                pairs[r].1[j] = x;
+                let w = n
+                    .prob
+                    .weighted(&crate::select::build(&n.fired, &pairs, &named.nuis))?;
+                Some(lin.refit(&w)?.0)
+            };
+            let se = crate::profile::held_error(&cost, at, (lo, hi), step, lin.rise);
+            errors.push((*kind, j, se));
+        }
+    }
+    for (kind, j, se) in errors {
+        let Some(a) = named.accepted.iter_mut().find(|a| a.kind == kind) else {
+            continue;
+        };
+        let Some(old) = a.stderr.get_mut(j) else {
+            continue;
+        };
+        let ratio = se / *old;
+        *old = se;
+        if j < a.cov.nrows() && ratio.is_finite() {
+            a.cov.row_mut(j).scale_mut(ratio);
+            a.cov.column_mut(j).scale_mut(ratio);
         }
     }
 }

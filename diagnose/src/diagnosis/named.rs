@@ -46,6 +46,9 @@ pub(super) struct Named {
     pub stderr: Vec<f64>,
     /// The covariance of the same fit.
     pub cov: nalgebra::DMatrix<f64>,
+    /// The same fit linearised, when it holds a parameter (a change time's profile,
+    /// `conclusion.rs`).
+    pub linearised: Option<std::rc::Rc<crate::profile::Linearised>>,
     /// Parameters per named rigid effect in `stderr`.
     pub sizes: Vec<usize>,
     /// Valve latency of the named effects (ringing is excited at the actual valve motion).
@@ -67,6 +70,7 @@ impl Named {
             rigid_residual: n.residual.clone(),
             stderr: vec![],
             cov: nalgebra::DMatrix::zeros(0, 0),
+            linearised: None,
             sizes: vec![],
             latency: (0.0, 0.0),
             ringing: None,
@@ -173,6 +177,7 @@ impl Named {
             self.rigid_residual = t.rigid_residual.clone();
             self.stderr = t.stderr.clone();
             self.cov = t.cov.clone();
+            self.linearised = t.linearised.clone();
             self.sizes = t.sizes.clone();
             self.latency = t.latency;
         }

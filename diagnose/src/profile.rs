@@ -41,6 +41,17 @@ impl Linearised {
         })
     }
 
+    /// The stepped parameters' places in the fit's parameter vector.
+    pub fn stepped(&self) -> &[usize] {
+        &self.stepped
+    }
+
+    /// Their covariance with the held parameters where they are (in the order of
+    /// [`Linearised::stepped`]), scaled like the fit's.
+    pub fn covariance(&self) -> DMatrix<f64> {
+        self.normal.inverse() * self.rise
+    }
+
     /// For the weighted residual `r` of the model with the held parameter moved: the cost
     /// with the stepped parameters re-fitted to first order, and their Gauss-Newton step
     /// (place in the parameter vector, change). None when `r` is not of the fit's samples.

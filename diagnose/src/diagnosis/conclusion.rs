@@ -25,8 +25,8 @@ pub(super) fn conclude(
     issues: DataIssues,
 ) -> Analysis {
     let series = n.series;
-    attach_stderr(&mut named);
     held_errors(&n, &mut named);
+    attach_stderr(&mut named);
     name_thrust_scale(&mut named.accepted, &n.fired);
     let cx = crate::select::context(&n.prob, &n.fired, &[]);
     let effects_out: Vec<EffectReport> = named
@@ -113,17 +113,37 @@ fn attach_stderr(named: &mut Named) {
     }
 }
 
-/// The errors of the parameters no fit steps (a mass-property change's time) from the
-/// final model's profile ([`crate::profile::held_error`]) instead of the covariance's
-/// difference column; that parameter's covariance row and column are rescaled to the new
-/// error (its correlations kept).
+/// The named effects' errors when the last joint fit held a parameter (a mass-property
+/// change's time), instead of the covariance of the fit's difference columns, whose column
+/// for a change time is steep or zero depending on whether 10 ms crosses a firing edge:
+/// - the held parameter's error from its profile ([`crate::profile::held_error`]);
+/// - the others' covariance with it where it is (the stepped parameters' own normal
+///   matrix), plus what moving it by its error moves them by (the profile's re-fit at
+///   `at +- error`, the delta method), so their errors include the change time's.
 fn held_errors(n: &Nominal, named: &mut Named) {
     let Some(lin) = named.linearised.clone() else {
         return;
     };
     let rigid = named.rigid_except(None);
-    let mut errors = vec![];
-    for (r, (kind, theta)) in rigid.iter().enumerate() {
+    let total: usize = named.sizes.iter().sum();
+    // (the fit's errors and covariance go on with the nuisances, which are left as they are)
+    if named.sizes.len() != rigid.len()
+        || named.stderr.len() < total
+        || named.cov.nrows() < total
+        || named.cov.ncols() < total
+    {
+        return;
+    }
+    let stepped = lin.stepped();
+    let cond = lin.covariance();
+    let mut cov = nalgebra::DMatrix::from_element(total, total, f64::NAN);
+    for (a, &i) in stepped.iter().enumerate().filter(|x| *x.1 < total) {
+        for (b, &j) in stepped.iter().enumerate().filter(|x| *x.1 < total) {
+            cov[(i, j)] = cond[(a, b)];
+        }
+    }
+    let mut off = 0;
+    for (r, ((kind, theta), &size)) in rigid.iter().zip(&named.sizes).enumerate() {
         let spec = crate::select::spec(*kind, &n.prob, &n.fired, &n.slosh_hint);
         for &j in kind.effect().held() {
             let (Some(&at), Some(&lo), Some(&hi), Some(&step)) = (
@@ -134,32 +154,45 @@ fn held_errors(n: &Nominal, named: &mut Named) {
             ) else {
                 continue;
             };
-            let cost = |x: f64| {
+            let refit = |x: f64| {
                 let mut pairs = rigid.clone();
                 pairs[r].1[j] = x;
                 let w = n
                     .prob
                     .weighted(&crate::select::build(&n.fired, &pairs, &named.nuis))?;
-                Some(lin.refit(&w)?.0)
+                lin.refit(&w)
             };
+            let cost = |x: f64| Some(refit(x)?.0);
             let se = crate::profile::held_error(&cost, at, (lo, hi), step, lin.rise);
-            errors.push((*kind, j, se));
+            let held = off + j;
+            cov[(held, held)] = se * se;
+            // the re-fitted parameters' change over one error of the held one
+            let (Some(up), Some(down)) = (
+                refit((at + se).min(hi)).filter(|_| se.is_finite()),
+                refit((at - se).max(lo)),
+            ) else {
+                continue;
+            };
+            let moved: Vec<(usize, f64)> =
+                up.1.iter()
+                    .zip(&down.1)
+                    .filter(|(u, _)| u.0 < total)
+                    .map(|(u, d)| (u.0, 0.5 * (u.1 - d.1)))
+                    .collect();
+            for &(i, gi) in &moved {
+                cov[(held, i)] = gi * se;
+                cov[(i, held)] = gi * se;
+                for &(k, gk) in &moved {
+                    cov[(i, k)] += gi * gk;
+                }
+            }
         }
+        off += size;
     }
-    for (kind, j, se) in errors {
-        let Some(a) = named.accepted.iter_mut().find(|a| a.kind == kind) else {
-            continue;
-        };
-        let Some(old) = a.stderr.get_mut(j) else {
-            continue;
-        };
-        let ratio = se / *old;
-        *old = se;
-        if j < a.cov.nrows() && ratio.is_finite() {
-            a.cov.row_mut(j).scale_mut(ratio);
-            a.cov.column_mut(j).scale_mut(ratio);
-        }
+    for (i, se) in named.stderr.iter_mut().take(total).enumerate() {
+        *se = cov[(i, i)].sqrt();
     }
+    named.cov.view_mut((0, 0), (total, total)).copy_from(&cov);
 }
 
 /// A thrust scale's evidence starts with the thruster most off nominal, as finally fitted,

@@ -71,16 +71,19 @@ impl Linearised {
 /// parameters re-fitted, [`Linearised::refit`]): the larger distance from `at` to where the
 /// cost first rises by more than `rise` above its value at `at`, found to `resolution` by
 /// doubling and then bisection within `[lo, hi]` (an interval that reaches `lo` or `hi`
-/// gives the distance to it). Why not the covariance's difference column: a 10 ms difference
-/// of a change time that crosses a firing edge is steep, one that does not is zero, and
-/// neither says how far the time can move with the fit as good (p04: a change at 14.61 s
-/// given +-0.004 s, the truth 0.39 s away). NaN when the cost at `at` is unknown.
+/// gives the distance to it), or to the farthest of `probes` within that rise (the profile
+/// of a change time has a minimum at every firing: one as good a firing away is as likely).
+/// Why not the covariance's difference column: a 10 ms difference of a change time that
+/// crosses a firing edge is steep, one that does not is zero, and neither says how far the
+/// time can move with the fit as good (p04: a change at 14.61 s given +-0.004 s, the truth
+/// 0.39 s away). NaN when the cost at `at` is unknown.
 pub fn held_error(
     cost: &dyn Fn(f64) -> Option<f64>,
     at: f64,
     (lo, hi): (f64, f64),
     resolution: f64,
     rise: f64,
+    probes: &[f64],
 ) -> f64 {
     let Some(base) = cost(at).filter(|_| rise >= 0.0) else {
         return f64::NAN;
@@ -116,7 +119,13 @@ pub fn held_error(
         }
         0.5 * (inside + outside)
     };
-    side(lo).max(side(hi))
+    let near = side(lo).max(side(hi));
+    probes
+        .iter()
+        .filter(|&&x| (lo..=hi).contains(&x) && (x - at).abs() > near)
+        .filter(|&&x| within(x))
+        .map(|&x| (x - at).abs())
+        .fold(near, f64::max)
 }
 
 #[cfg(test)]
@@ -151,12 +160,13 @@ mod tests {
     /// on a quadratic cost `((x - 2) / 0.5)^2` with rise 1, 0.5 (the standard error); on a
     /// cost flat over the coast 1.58-1.80 s around 1.70 s (a change time between firings),
     /// the larger distance to its ends, 0.12 s, whatever the rise below the step; against a
-    /// bound, the distance to the bound. Planted fault checked by hand: the smaller side
+    /// bound, the distance to the bound; a stretch as good (within the rise) elsewhere, at a
+    /// probe, the distance to that probe. Planted fault checked by hand: the smaller side
     /// taken (0.10 s).
     #[test]
     fn a_held_parameter_is_as_uncertain_as_its_flat_stretch() {
         let quadratic = |x: f64| Some(((x - 2.0) / 0.5).powi(2));
-        let se = held_error(&quadratic, 2.0, (0.0, 10.0), 1e-6, 1.0);
+        let se = held_error(&quadratic, 2.0, (0.0, 10.0), 1e-6, 1.0, &[]);
         assert!((se - 0.5).abs() < 1e-5, "{se}");
         let coast = |x: f64| {
             Some(if (1.58..=1.80).contains(&x) {
@@ -165,15 +175,28 @@ mod tests {
                 50.0
             })
         };
-        let se = held_error(&coast, 1.70, (0.0, 3.0), 0.001, 1.0);
+        let se = held_error(&coast, 1.70, (0.0, 3.0), 0.001, 1.0, &[]);
         assert!(
             (se - 0.10).abs() > 0.01 && (se - 0.12).abs() < 0.001,
             "{se}"
         );
-        let se = held_error(&coast, 1.70, (1.65, 1.75), 0.001, 1.0);
+        let se = held_error(&coast, 1.70, (1.65, 1.75), 0.001, 1.0, &[]);
         assert!((se - 0.05).abs() < 1e-12, "{se}");
+        // a second stretch as good two firings away, seen by a probe there (not by the
+        // local search, which stops where the cost first rises)
+        let two = |x: f64| {
+            Some(if (2.50..=2.60).contains(&x) {
+                10.5
+            } else {
+                coast(x)?
+            })
+        };
+        let se = held_error(&two, 1.70, (0.0, 3.0), 0.001, 1.0, &[0.5, 2.55]);
+        assert!((se - 0.85).abs() < 1e-12, "{se}");
+        let se = held_error(&two, 1.70, (0.0, 3.0), 0.001, 0.2, &[0.5, 2.55]);
+        assert!((se - 0.12).abs() < 0.001, "{se}");
         // an unknown cost where it stands, or a negative rise: no error
-        assert!(held_error(&|_| None, 1.0, (0.0, 2.0), 0.01, 1.0).is_nan());
-        assert!(held_error(&coast, 1.7, (0.0, 2.0), 0.01, -1.0).is_nan());
+        assert!(held_error(&|_| None, 1.0, (0.0, 2.0), 0.01, 1.0, &[]).is_nan());
+        assert!(held_error(&coast, 1.7, (0.0, 2.0), 0.01, -1.0, &[]).is_nan());
     }
 }

@@ -54,8 +54,38 @@ impl Default for Settings {
 /// Points of the change-time scan around a fitted mass-property change.
 const CHANGE_SCAN_POINTS: usize = 40;
 /// Scans of the change time, each on a grid 10 times finer than the one before (a 30 s
-/// flight: 94 ms, then 9.4 ms).
+/// flight: 94 ms, then 9.4 ms); the first also tries every command edge ([`change_probes`]).
 const CHANGE_SCAN_PASSES: usize = 2;
+/// Command edges a change-time scan tries, at most (evenly thinned beyond).
+const MAX_EDGE_PROBES: usize = 256;
+
+/// The change times the first scan tries within `at +- half` s (the recording's clock,
+/// within `0..=dur`): an even grid of `CHANGE_SCAN_POINTS + 1`, and the command edges, at most
+/// [`MAX_EDGE_PROBES`]. Why the edges: a change during a firing is a minimum as narrow as
+/// the firing, which a grid steps over (the random flight 90150 of `mass_change_mc`: the
+/// truth 17 ms into a firing, the grid's best a coast away), and the cost of a change in a
+/// coast turns at the coast's ends.
+pub(crate) fn change_probes(
+    series: &crate::series::Series,
+    at: f64,
+    half: f64,
+    dur: f64,
+) -> Vec<f64> {
+    let grid = (0..=CHANGE_SCAN_POINTS)
+        .map(|k| (at - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64).clamp(0.0, dur));
+    let from = series.model_ms((at - half) * 1e3).max(1.0) as usize;
+    let to = (series.model_ms((at + half) * 1e3).max(0.0) as usize).min(series.word_ms.len());
+    let edges: Vec<f64> = (from..to)
+        .filter(|&k| series.word_ms[k] != series.word_ms[k - 1])
+        .map(|k| series.real_ms(k as f64) * 1e-3)
+        .filter(|t| (at - half..=at + half).contains(t))
+        .collect();
+    let every = edges.len().div_ceil(MAX_EDGE_PROBES).max(1);
+    let mut probes: Vec<f64> = grid.chain(edges.into_iter().step_by(every)).collect();
+    probes.sort_by(f64::total_cmp);
+    probes.dedup();
+    probes
+}
 /// LM iterations that rank starts which all predict the same (a new effect at "no effect").
 const RANKING_ITERATIONS: usize = 2;
 
@@ -324,7 +354,7 @@ fn fit_with_starts(
     if let Some(i) = change_at {
         let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
         let mut half = dur / effects::MASS_CHANGE_STARTS as f64;
-        for _ in 0..CHANGE_SCAN_PASSES {
+        for pass in 0..CHANGE_SCAN_PASSES {
             let Some(b) = best.as_ref() else {
                 break;
             };
@@ -343,10 +373,19 @@ fn fit_with_starts(
             };
             let at_best = profiled(&b.theta).map(|p| p.0).unwrap_or(f64::INFINITY);
             let mut top = (at_best, b.theta.clone());
-            for k in 0..=CHANGE_SCAN_POINTS {
+            let probes = if pass == 0 {
+                change_probes(prob.series, b.theta[i], half, dur)
+            } else {
+                (0..=CHANGE_SCAN_POINTS)
+                    .map(|k| {
+                        (b.theta[i] - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64)
+                            .clamp(0.0, dur)
+                    })
+                    .collect()
+            };
+            for at in probes {
                 let mut th = b.theta.clone();
-                th[i] = (b.theta[i] - half + 2.0 * half * k as f64 / CHANGE_SCAN_POINTS as f64)
-                    .clamp(0.0, dur);
+                th[i] = at;
                 if let Some((c, start)) = profiled(&th) {
                     if c < top.0 {
                         top = (c, start);

@@ -163,7 +163,11 @@ fn held_errors(n: &Nominal, named: &mut Named) {
                 lin.refit(&w)
             };
             let cost = |x: f64| Some(refit(x)?.0);
-            let se = crate::profile::held_error(&cost, at, (lo, hi), step, lin.rise);
+            // the first scan's probes around the change (`select::change_probes`)
+            let dur = n.series.duration_s();
+            let half = dur / crate::effects::MASS_CHANGE_STARTS as f64;
+            let probes = crate::select::change_probes(n.series, at, half, dur);
+            let se = crate::profile::held_error(&cost, at, (lo, hi), step, lin.rise, &probes);
             let held = off + j;
             cov[(held, held)] = se * se;
             // the re-fitted parameters' change over one error of the held one

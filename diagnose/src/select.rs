@@ -557,6 +557,35 @@ mod tests {
         assert!((w - diagonal).abs() < 1e-9 * diagonal);
     }
 
+    /// Noiseless rates of a SPHERES spinning at (0.3, -0.2, 0.4) rad/s, commanded `words`
+    /// (one a ms), whose Ixx grows 40 % and whose CoM moves 3 mm along x at `at_s`: its
+    /// plant, the recording, a white noise model, and the inertia after the change.
+    fn changed_flight(
+        words: &[u16],
+        at_s: f64,
+    ) -> (
+        crate::model::Plant,
+        crate::series::Series,
+        crate::noise::NoiseModel,
+        [f64; 6],
+    ) {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let plant = crate::model::Plant::new(&sat);
+        let mut series = crate::model::tests::commanded(&sat, words);
+        let mut after = sat.inertia_kgm2;
+        after[0] *= 1.4;
+        let truth = Params {
+            omega0: [0.3, -0.2, 0.4],
+            mass_change: Some((at_s, [3.0, 0.0, 0.0], after)),
+            ..Params::default()
+        };
+        let noise = crate::noise::NoiseModel::white([1e-6; 3]);
+        series.rate = Problem::new(&plant, &series, &noise)
+            .predict(&truth)
+            .unwrap();
+        (plant, series, noise, after)
+    }
+
     /// A mass-property change's time is searched, never stepped: a named change refitted
     /// with the others stays at its time (with an error), and a new one is found in the
     /// coast that holds the true change. Noiseless rates of a spinning SPHERES whose Ixx
@@ -565,23 +594,10 @@ mod tests {
     /// parameters (`held` all false), moves the named change's time off 1.2 s.
     #[test]
     fn a_change_time_is_searched_not_stepped() {
-        let sat = Satellite::builtin("sph2").unwrap();
-        let plant = crate::model::Plant::new(&sat);
         let words: Vec<u16> = (0..3000)
             .map(|k| if k % 300 < 80 { 0b101 } else { 0 })
             .collect();
-        let mut series = crate::model::tests::commanded(&sat, &words);
-        let mut after = sat.inertia_kgm2;
-        after[0] *= 1.4;
-        let truth = Params {
-            omega0: [0.3, -0.2, 0.4],
-            mass_change: Some((1.7, [3.0, 0.0, 0.0], after)),
-            ..Params::default()
-        };
-        let noise = crate::noise::NoiseModel::white([1e-6; 3]);
-        series.rate = Problem::new(&plant, &series, &noise)
-            .predict(&truth)
-            .unwrap();
+        let (plant, series, noise, after) = changed_flight(&words, 1.7);
         let prob = Problem::new(&plant, &series, &noise);
         let fired = effects::fired_thrusters(&series);
         let nuis = [0.3, -0.2, 0.4];
@@ -616,7 +632,6 @@ mod tests {
     #[test]
     fn a_change_time_is_scanned_with_the_rest_refitted() {
         let sat = Satellite::builtin("sph2").unwrap();
-        let plant = crate::model::Plant::new(&sat);
         let pattern = [
             0b1,
             0b100_0000,
@@ -634,18 +649,7 @@ mod tests {
                 }
             })
             .collect();
-        let mut series = crate::model::tests::commanded(&sat, &words);
-        let mut after = sat.inertia_kgm2;
-        after[0] *= 1.4;
-        let truth = Params {
-            omega0: [0.3, -0.2, 0.4],
-            mass_change: Some((1.75, [3.0, 0.0, 0.0], after)),
-            ..Params::default()
-        };
-        let noise = crate::noise::NoiseModel::white([1e-6; 3]);
-        series.rate = Problem::new(&plant, &series, &noise)
-            .predict(&truth)
-            .unwrap();
+        let (plant, series, noise, _) = changed_flight(&words, 1.75);
         let prob = Problem::new(&plant, &series, &noise);
         let fired = effects::fired_thrusters(&series);
         let nuis = [0.3, -0.2, 0.4];

@@ -6,7 +6,8 @@
 //!
 //!     cargo run --release -p massid-diagnose --example mass_change_mc -- FLIGHTS SEED0
 //!
-//! The diagnosis was never tuned on these flights: they are drawn here from `SEED0`.
+//! The flights are drawn here from `SEED0`; which seeds were looked at while developing
+//! the change-time search is in the README ("A mass-property change found where it happened").
 use massid_diagnose::synth::{self, Maneuver};
 use massid_diagnose::{diagnose_recording, Settings};
 use rand::{Rng, SeedableRng};

@@ -257,7 +257,9 @@ pub struct Family<'f> {
     /// rates have kinks in them, `Effect::kinked`); the others by forward differences.
     pub two_sided: Vec<bool>,
     /// Parameters the fit never steps: held where they start, their Jacobian columns
-    /// taken once, at the end, for the errors. A mass-property change's time is searched
+    /// taken once, at the end, for the errors (the checks' Wald tests read those; the
+    /// report's errors of a held change time and of the effects named with it come from
+    /// its profile instead, `crate::profile`). A mass-property change's time is searched
     /// outside the fit (`select::fit_with_starts`): its column is a difference across
     /// whatever firing the step happens to cross, so a fit that stepped it moved it by
     /// as much as a second on a change of rounding.

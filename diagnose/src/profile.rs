@@ -54,14 +54,22 @@ impl Linearised {
 
     /// For the weighted residual `r` of the model with the held parameter moved: the cost
     /// with the stepped parameters re-fitted to first order, and their Gauss-Newton step
-    /// (place in the parameter vector, change). None when `r` is not of the fit's samples.
+    /// (place in the parameter vector, change). None when `r` is not of the fit's samples or
+    /// not finite. The Jacobian is the fit's, at the held parameter's fitted value: between
+    /// that and the new value the columns of what the change moves are those of the old
+    /// time, so the re-fit is a first-order guess that LM then settles.
     pub fn refit(&self, r: &DVector<f64>) -> Option<(f64, Vec<(usize, f64)>)> {
         if r.len() != self.jac.nrows() {
             return None;
         }
         let g = self.jac.transpose() * r;
         let back = self.normal.solve(&g);
-        let cost = (r.norm_squared() - g.dot(&back)).max(0.0);
+        // a non-finite residual is no cost at all (NaN would pass `max` as 0)
+        let cost = r.norm_squared() - g.dot(&back);
+        if !cost.is_finite() {
+            return None;
+        }
+        let cost = cost.max(0.0);
         let step = self.stepped.iter().copied().zip(back.iter().map(|b| -b));
         Some((cost, step.collect()))
     }
@@ -76,7 +84,8 @@ impl Linearised {
 /// Why not the covariance's difference column: a 10 ms difference of a change time that
 /// crosses a firing edge is steep, one that does not is zero, and neither says how far the
 /// time can move with the fit as good (p04: a change at 14.61 s given +-0.004 s, the truth
-/// 0.39 s away). NaN when the cost at `at` is unknown.
+/// 0.39 s away). NaN when the cost at `at` is unknown or not finite, `rise` is negative or
+/// NaN, or a bound is not finite.
 pub fn held_error(
     cost: &dyn Fn(f64) -> Option<f64>,
     at: f64,
@@ -85,9 +94,12 @@ pub fn held_error(
     rise: f64,
     probes: &[f64],
 ) -> f64 {
-    let Some(base) = cost(at).filter(|_| rise >= 0.0) else {
+    let Some(base) = cost(at).filter(|c| c.is_finite() && rise >= 0.0) else {
         return f64::NAN;
     };
+    if !(lo.is_finite() && hi.is_finite() && at.is_finite()) {
+        return f64::NAN;
+    }
     let within = |x: f64| cost(x).is_some_and(|c| c <= base + rise);
     let resolution = resolution.max(f64::EPSILON * at.abs().max(1.0));
     let side = |bound: f64| {
@@ -111,6 +123,9 @@ pub fn held_error(
         };
         while outside - inside > resolution {
             let mid = 0.5 * (inside + outside);
+            if mid <= inside || mid >= outside {
+                break;
+            }
             if within(at + dir * mid) {
                 inside = mid;
             } else {

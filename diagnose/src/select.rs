@@ -54,12 +54,19 @@ impl Default for Settings {
 /// Points of the change-time scan around a fitted mass-property change.
 const CHANGE_SCAN_POINTS: usize = 40;
 /// Scans of the change time, each on a grid 10 times finer than the one before (a 30 s
-/// flight: 94 ms, then 9.4 ms); the first also tries every command edge ([`change_probes`]).
+/// flight: 94 ms, then 9.4 ms); the first also tries the command edges ([`change_probes`]).
 const CHANGE_SCAN_PASSES: usize = 2;
 /// Command edges a change-time scan tries, at most (evenly thinned beyond): 256 (about
 /// 190 a scan on the 60 s, 1 kHz random-PWM bench) gave the same open-set answers and
 /// `mass_change_mc` figures on seeds 90400-90459 as 64, for 10-20 % more predictions.
 const MAX_EDGE_PROBES: usize = 64;
+
+/// The recording's length on its own clock (s) and the half-width of a first change-time
+/// scan: the spacing of the starts ([`effects::MASS_CHANGE_STARTS`] over the run).
+pub(crate) fn change_window(series: &crate::series::Series) -> (f64, f64) {
+    let dur = series.real_ms(series.duration_s() * 1e3) * 1e-3;
+    (dur, dur / effects::MASS_CHANGE_STARTS as f64)
+}
 
 /// The change times the first scan tries within `at +- half` s (the recording's clock,
 /// within `0..=dur`): an even grid of `CHANGE_SCAN_POINTS + 1`, and the command edges, at most
@@ -354,8 +361,7 @@ fn fit_with_starts(
     // again around that point on a grid 10 times finer (a change during a firing moves the
     // fit continuously)
     if let Some(i) = change_at {
-        let dur = prob.series.real_ms(prob.series.duration_s() * 1e3) * 1e-3;
-        let mut half = dur / effects::MASS_CHANGE_STARTS as f64;
+        let (dur, mut half) = change_window(prob.series);
         for pass in 0..CHANGE_SCAN_PASSES {
             let Some(b) = best.as_ref() else {
                 break;
@@ -675,5 +681,39 @@ mod tests {
                 fr.theta
             );
         }
+    }
+
+    /// The first scan's probes: the 41-point grid and the command edges within the window
+    /// (and the run), sorted, at most [`MAX_EDGE_PROBES`] edges (thinned evenly). A flight
+    /// with an edge every 10 ms: 200 edges in a +-1 s window, 50 kept; near the start the
+    /// window is clipped to the run. Planted fault: no thinning (all 200 kept).
+    #[test]
+    fn change_probes_are_the_grid_and_the_edges_in_the_window() {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let words: Vec<u16> = (0..3000)
+            .map(|k| if k % 20 < 10 { 0b101 } else { 0 })
+            .collect();
+        let series = crate::model::tests::commanded(&sat, &words);
+        let (dur, _) = change_window(&series);
+        let probes = change_probes(&series, 1.5, 1.0, dur);
+        assert!(probes.windows(2).all(|p| p[0] < p[1]), "sorted, no repeats");
+        assert!(
+            probes.iter().all(|&t| (0.5..=2.5).contains(&t)),
+            "{probes:?}"
+        );
+        // every 4th of the 200 edges (50), less those on the 50 ms grid
+        let edges = probes.len() - (CHANGE_SCAN_POINTS + 1);
+        assert!((30..=MAX_EDGE_PROBES).contains(&edges), "{edges}");
+        // the grid's ends are there
+        assert!(probes.contains(&0.5) && probes.contains(&2.5));
+        // clipped to the run
+        let near = change_probes(&series, 0.2, 1.0, dur);
+        assert!(near.iter().all(|&t| (0.0..=1.2).contains(&t)) && near.contains(&0.0));
+        // a window with no edge: the grid alone
+        let quiet = crate::model::tests::commanded(&sat, &vec![0u16; 3000]);
+        assert_eq!(
+            change_probes(&quiet, 1.5, 1.0, dur).len(),
+            CHANGE_SCAN_POINTS + 1
+        );
     }
 }

@@ -1,4 +1,5 @@
-//! Stage 4, the conclusion: standard errors of the named effects from the last joint fit,
+//! Stage 4, the conclusion: standard errors of the named effects from the last joint fit
+//! (with a held change time, from its profile: `crate::profile`),
 //! each effect's report in the contract's names (with its equivalents), the verdict on what
 //! is left unexplained, and everything the human report plots.
 
@@ -76,7 +77,8 @@ pub(super) fn conclude(
     }
 }
 
-/// Standard errors of the rigid effects from the last joint fit; the ringing tone's
+/// Standard errors of the rigid effects from the last joint fit (as [`held_errors`] left
+/// them); the ringing tone's
 /// parameters and errors from its own fit.
 fn attach_stderr(named: &mut Named) {
     let mut off = 0;
@@ -112,6 +114,10 @@ fn attach_stderr(named: &mut Named) {
         }
     }
 }
+
+/// How finely a held change time's error is found: the model's step (a change takes effect
+/// at a 1 ms step).
+const CHANGE_RESOLUTION_S: f64 = 1e-3;
 
 /// The named effects' errors when the last joint fit held a parameter (a mass-property
 /// change's time), instead of the covariance of the fit's difference columns, whose column
@@ -163,25 +169,30 @@ fn held_errors(n: &Nominal, named: &mut Named) {
                 lin.refit(&w)
             };
             let cost = |x: f64| Some(refit(x)?.0);
-            // the first scan's probes around the change (`select::change_probes`)
-            let dur = n.series.duration_s();
-            let half = dur / crate::effects::MASS_CHANGE_STARTS as f64;
+            // the probes of a first scan centred here (`select::change_probes`), on the
+            // recording's clock as the scan's; the time to the model's 1 ms steps (a change
+            // takes effect at a step), not to the 10 ms of its difference column
+            let (dur, half) = crate::select::change_window(n.series);
             let probes = crate::select::change_probes(n.series, at, half, dur);
-            let se = crate::profile::held_error(&cost, at, (lo, hi), step, lin.rise, &probes);
+            let resolution = step.min(CHANGE_RESOLUTION_S);
+            let se = crate::profile::held_error(&cost, at, (lo, hi), resolution, lin.rise, &probes);
             let held = off + j;
             cov[(held, held)] = se * se;
-            // the re-fitted parameters' change over one error of the held one
-            let (Some(up), Some(down)) = (
-                refit((at + se).min(hi)).filter(|_| se.is_finite()),
-                refit((at - se).max(lo)),
-            ) else {
+            if !se.is_finite() {
+                continue;
+            }
+            // the re-fitted parameters' change over one error of the held one (the span
+            // shorter where a bound clips it)
+            let (x_up, x_down) = ((at + se).min(hi), (at - se).max(lo));
+            let (Some(up), Some(down)) = (refit(x_up), refit(x_down)) else {
                 continue;
             };
+            let per_error = se / (x_up - x_down).max(f64::MIN_POSITIVE);
             let moved: Vec<(usize, f64)> =
                 up.1.iter()
                     .zip(&down.1)
                     .filter(|(u, _)| u.0 < total)
-                    .map(|(u, d)| (u.0, 0.5 * (u.1 - d.1)))
+                    .map(|(u, d)| (u.0, (u.1 - d.1) * per_error))
                     .collect();
             for &(i, gi) in &moved {
                 cov[(held, i)] = gi * se;

@@ -55,14 +55,15 @@ impl<S: Scalar> CommandDelay<S> {
         let at = |i: usize| {
             let k = self.head.saturating_add(i);
             let k = if k >= RING { k.saturating_sub(RING) } else { k };
-            self.ring.get(k).copied().unwrap_or([S::ZERO; COMMAND_LEN])
+            self.ring.get(k)
         };
-        let late = at(self.whole);
+        let zero = [S::ZERO; COMMAND_LEN];
+        let late = at(self.whole).unwrap_or(&zero);
         if !S::ZERO.lt(self.fraction) {
             // A whole number of periods: the early command never acts.
-            return late;
+            return *late;
         }
-        let early = at(self.whole.saturating_add(1));
+        let early = at(self.whole.saturating_add(1)).unwrap_or(&zero);
         core::array::from_fn(|c| {
             let (l, e) = (
                 late.get(c).copied().unwrap_or(S::ZERO),

@@ -3,6 +3,7 @@
 //! ([`Compensated`]); in the fixed kernel exact integers ([`super::exact::ExactDrive`]), an
 //! integer add per increment instead of four rounded integer-float sums.
 use super::components::NZ;
+use super::solve::PRODUCTS;
 use crate::scalar::Scalar;
 
 /// A window's drive components, `z` of [`super::sums::Sample`].
@@ -28,6 +29,30 @@ pub trait DriveSum<S>: Copy + core::fmt::Debug {
     fn values_of(&self, snapshot: &Self::Snapshot) -> [S; NZ];
     /// All zero (a new window).
     fn clear(&mut self);
+
+    /// The rate products `omega_b omega_d` of one sample (order of [`PRODUCTS`]) as this drive
+    /// integrates them: the values in floating point; in the fixed kernel exact integer
+    /// products of the rates rounded once ([`super::exact::ExactDrive`]).
+    type Products: Copy + core::fmt::Debug;
+    /// The products of a zero rate.
+    const ZERO_PRODUCTS: Self::Products;
+    /// The products of `rate`.
+    fn products(&self, rate: &[S; 3]) -> Self::Products;
+    /// The squared rates (the products' first three), for the window's noise walk.
+    fn squares(&self, products: &Self::Products) -> [S; 3];
+    /// Adds the products' integral over a step of `dt_s` to components `first..first + 6`,
+    /// from the products at the step's end (`now`), start (`then`) and the sample before
+    /// (`before`): Adams-Moulton's third-order rule `dt (5 now + 8 then - before) / 12` if
+    /// `third_order`, else the trapezoid `dt (then + now) / 2`.
+    fn add_products(
+        &mut self,
+        first: usize,
+        now: &Self::Products,
+        then: &Self::Products,
+        before: &Self::Products,
+        dt_s: S,
+        third_order: bool,
+    );
 }
 
 fn at<S: Scalar>(v: &[S; NZ], i: usize) -> S {
@@ -84,5 +109,38 @@ impl<S: Scalar + core::fmt::Debug> DriveSum<S> for Compensated<S> {
     }
     fn clear(&mut self) {
         *self = Self::default();
+    }
+    type Products = [S; 6];
+    const ZERO_PRODUCTS: [S; 6] = [S::ZERO; 6];
+    fn products(&self, rate: &[S; 3]) -> [S; 6] {
+        let get = |i: usize| rate.get(i).copied().unwrap_or(S::ZERO);
+        PRODUCTS.map(|(b, d)| get(b).times(get(d)))
+    }
+    fn squares(&self, products: &[S; 6]) -> [S; 3] {
+        core::array::from_fn(|a| products.get(a).copied().unwrap_or(S::ZERO))
+    }
+    fn add_products(
+        &mut self,
+        first: usize,
+        now: &[S; 6],
+        then: &[S; 6],
+        before: &[S; 6],
+        dt_s: S,
+        third_order: bool,
+    ) {
+        let h = S::from_int_pow2(1, -1).times(dt_s);
+        let twelfth = dt_s.times(S::from_f32(1.0 / 12.0));
+        for (p, ((then, now), before)) in then.iter().zip(now).zip(before).enumerate() {
+            let step = if third_order {
+                twelfth.times(
+                    now.times(S::from_int_pow2(5, 0))
+                        .plus(then.mul_pow2(3))
+                        .minus(*before),
+                )
+            } else {
+                h.times(then.plus(*now))
+            };
+            self.add(first.saturating_add(p), step);
+        }
     }
 }

@@ -27,7 +27,7 @@ use super::sums::{
     DEFAULT_PIVOT_EXP, ENTRIES, NZ,
 };
 use crate::in_place::{assume_all_written, field};
-use crate::int::mul::{mul_acc, round_product};
+use crate::int::mul::{mul_acc, round_product, widening_mul};
 use crate::int::shift::shift_nearest;
 use crate::int::Native;
 use crate::scalar::{max_abs, Scalar};
@@ -394,6 +394,94 @@ pub struct ExactDrive {
     exp: [i32; NZ],
     /// Per component, the drive's resolution below the sums' ([`drive_extra_bits`]).
     extra: [i32; NZ],
+    /// The rate products' integers ([`RateProducts`]).
+    products: RateProducts,
+}
+
+/// Bits of a rate rounded for its products: `|r| < 2^RATE_BITS`, so a product is below
+/// `2^(2 RATE_BITS)` and Adams-Moulton's combination of three (`5 + 8 + 1` of them) below
+/// `2^60`, within [`round_product`]'s `2^62`.
+pub const RATE_BITS: u32 = 28;
+/// Bits dropped from that combination before it multiplies the step's coefficient: it then fits
+/// 31 bits. A shift `round_product` is proved for ([`response_frac`]'s range, 4..=29).
+pub const COMBINATION_SHIFT: u32 = 29;
+/// Bits of the step's coefficient (`dt / 12` or `dt / 2`): `|c| < 2^31`.
+pub const COEFFICIENT_BITS: u32 = 31;
+// The combination (below 14 products: 2^4) is within round_product's 2^62, and after the
+// shift it fits the 31 bits its product with the coefficient takes (below 2^62 again).
+const _: () = assert!(2 * RATE_BITS + 4 <= 62);
+const _: () = assert!(2 * RATE_BITS + 4 - COMBINATION_SHIFT <= 31);
+const _: () = assert!(COEFFICIENT_BITS + 31 <= 62);
+
+/// The fixed kernel's rate products in integers: each rate rounded once to a multiple of
+/// `2^rate_exp` (`|r| < 2^RATE_BITS`, [`Envelope::rate`] four times over), the products exact,
+/// and a step's integral `c (5 p_k + 8 p_(k-1) - p_(k-2))` (or `c (p_(k-1) + p_k)`) rounded to
+/// the drive's resolution: the combination by [`COMBINATION_SHIFT`] bits, the coefficient
+/// `c` at `2^coef_exp`, their product by `frac` bits. In the integer float each product and
+/// each term of the rule was a rounded operation: the six cost the 3-D craft's push 1,700-2,200
+/// instructions more on the M4F (`scripts/kernel-report.sh`). Here the step errs by at most
+/// about 2^-31 of the largest step (the drive's resolution is 2^-28 to 2^-30 of it).
+#[derive(Clone, Copy, Debug)]
+pub struct RateProducts {
+    rate_exp: i32,
+    coef_exp: i32,
+    frac: u32,
+}
+
+impl RateProducts {
+    /// The scales for rates below `4 rate` (up to `8 rate`: a power of two), steps up to
+    /// `max_step_s` and a products' drive at
+    /// `2^drive_exp`; None if the drive is too coarse for a proved final shift (below 4 bits).
+    fn new(rate: IntFloat, max_step_s: IntFloat, drive_exp: i32) -> Option<Self> {
+        let bits = exponent_of_width;
+        let rate_exp = bits(rate.mul_pow2(2), RATE_BITS)?;
+        // The coefficient is at most half the longest step.
+        let mut coef_exp = bits(max_step_s.mul_pow2(-1), COEFFICIENT_BITS)?;
+        let shift = i32::try_from(COMBINATION_SHIFT).ok()?;
+        let product_exp = rate_exp
+            .checked_mul(2)?
+            .checked_add(shift)?
+            .checked_add(coef_exp)?;
+        let (frac, coarser) = final_shift(drive_exp, product_exp)?;
+        // A coarser coefficient where the drive needs fewer bits.
+        coef_exp = coef_exp.checked_add(coarser)?;
+        Some(RateProducts {
+            rate_exp,
+            coef_exp,
+            frac,
+        })
+    }
+}
+
+/// The power of two at which values below `|v|` are integers below `2^width`; None for zero or
+/// an invalid `v`.
+fn exponent_of_width(v: IntFloat, width: u32) -> Option<i32> {
+    // |v| < 2^(MANT_BITS + e): as a multiple of 2^(e + MANT_BITS - width) it is below 2^width.
+    let (m, e) = v.abs().parts();
+    if m == 0 || !v.is_valid() {
+        return None;
+    }
+    let mant = i32::try_from(crate::int::float::MANT_BITS).ok()?;
+    e.checked_add(mant)?.checked_sub(i32::try_from(width).ok()?)
+}
+
+/// The final shift of a product at `2^product_exp` rounded to a drive at `2^drive_exp`,
+/// within [`proved_fracs`]: the shift, and how much coarser one factor must be taken so that
+/// it is not beyond the proved shifts; None if it is below them (the drive too coarse).
+fn final_shift(drive_exp: i32, product_exp: i32) -> Option<(u32, i32)> {
+    let frac = drive_exp.checked_sub(product_exp)?;
+    let (lo, hi) = (*proved_fracs().start(), *proved_fracs().end());
+    if frac < lo {
+        return None;
+    }
+    let coarser = frac.saturating_sub(hi).max(0);
+    Some((u32::try_from(frac.min(hi)).ok()?, coarser))
+}
+
+/// The final shifts [`round_product`] is proved for from a drive's response and here:
+/// [`response_frac`] of the shortest and longest window.
+pub const fn proved_fracs() -> core::ops::RangeInclusive<i32> {
+    (response_frac(1, 0) as i32)..=(response_frac(MAX_WINDOW_SAMPLES, RESPONSE_BITS) as i32)
 }
 
 impl ExactDrive {
@@ -410,6 +498,29 @@ impl ExactDrive {
             i64::from(q)
         }
     }
+}
+
+/// Adds `a b`, two integers of at most 32 bits, rounded by `frac` bits, to the drive component
+/// `z`: the product is exact and below `2^62` ([`round_product`]'s domain), the rounded step
+/// must fit 32 bits. Any of them the sentinel, or a step beyond 32 bits: the component becomes
+/// the sentinel (refused, as [`ExactDrive::rounded`]'s saturation).
+fn add_rounded_product(z: &mut i64, a: i64, b: i64, frac: u32) {
+    if a == i64::MAX || b == i64::MAX || *z == i64::MAX {
+        *z = i64::MAX;
+        return;
+    }
+    let (Ok(a), Ok(b)) = (i32::try_from(a), i32::try_from(b)) else {
+        *z = i64::MAX;
+        return;
+    };
+    let product = widening_mul(&Native, &(a as u32), &(b as u32));
+    let q = round_product(&Native, &product, frac) as i32;
+    *z = if q == i32::MAX || q == i32::MIN {
+        i64::MAX
+    } else {
+        // |z| <= 2^(VALUE_BITS + extra) <= 2^62 and |q| < 2^31 (see the type's doc).
+        z.saturating_add(i64::from(q))
+    };
 }
 
 /// The most bits below the drive's resolution a sensor's response takes: two, the central
@@ -536,6 +647,80 @@ impl DriveSum<IntFloat> for ExactDrive {
     fn clear(&mut self) {
         self.z = [0; NZ];
     }
+    /// Exact integer products of the rates rounded once ([`RateProducts`]); `i64::MAX` for a
+    /// rate beyond the bound (the sentinel: the step's components saturate and the sample is
+    /// refused).
+    type Products = [i64; 6];
+    const ZERO_PRODUCTS: [i64; 6] = [0; 6];
+    fn products(&self, rate: &[IntFloat; 3]) -> [i64; 6] {
+        let r: [i64; 3] = core::array::from_fn(|a| {
+            let q = Self::rounded(
+                rate.get(a).copied().unwrap_or(IntFloat::ZERO),
+                self.products.rate_exp,
+            );
+            if q.unsigned_abs() < 1u64 << RATE_BITS {
+                q
+            } else {
+                i64::MAX
+            }
+        });
+        super::solve::PRODUCTS.map(|(b, d)| {
+            let (x, y) = (
+                r.get(b).copied().unwrap_or(0),
+                r.get(d).copied().unwrap_or(0),
+            );
+            if x == i64::MAX || y == i64::MAX {
+                i64::MAX
+            } else {
+                // |x|, |y| < 2^RATE_BITS: the widening product is exact.
+                widening_mul(&Native, &(x as u32), &(y as u32)) as i64
+            }
+        })
+    }
+    fn squares(&self, products: &[i64; 6]) -> [IntFloat; 3] {
+        let e = self.products.rate_exp.saturating_mul(2);
+        core::array::from_fn(|a| match products.get(a).copied().unwrap_or(0) {
+            i64::MAX => IntFloat::from_i64_pow2(i64::MAX, crate::int_float::EXP_LIMIT),
+            p => IntFloat::from_i64_pow2(p, e),
+        })
+    }
+    fn add_products(
+        &mut self,
+        first: usize,
+        now: &[i64; 6],
+        then: &[i64; 6],
+        before: &[i64; 6],
+        dt_s: IntFloat,
+        third_order: bool,
+    ) {
+        let scales = self.products;
+        let coefficient = if third_order {
+            dt_s.times(IntFloat::from_f32(1.0 / 12.0))
+        } else {
+            dt_s.mul_pow2(-1)
+        };
+        let c = Self::rounded(coefficient, scales.coef_exp);
+        for (p, ((n, t), b)) in now.iter().zip(then).zip(before).enumerate() {
+            let Some(z) = self.z.get_mut(first.saturating_add(p)) else {
+                continue;
+            };
+            if [*n, *t, *b, c, *z].contains(&i64::MAX) {
+                *z = i64::MAX;
+                continue;
+            }
+            // |products| < 2^(2 RATE_BITS): the combination is below 2^(2 RATE_BITS + 4).
+            let combination = if third_order {
+                n.wrapping_mul(5)
+                    .wrapping_add(t.wrapping_mul(8))
+                    .wrapping_sub(*b)
+            } else {
+                n.wrapping_add(*t)
+            };
+            let shifted = round_product(&Native, &(combination as u64), COMBINATION_SHIFT);
+            // |shifted| < 2^31 and |c| < 2^31.
+            add_rounded_product(z, i64::from(shifted as i32), c, scales.frac);
+        }
+    }
 }
 
 /// The integer float's scales: each component's power of two, the quantized nominal matrix,
@@ -547,6 +732,7 @@ pub struct ExactScales {
     nominal: [[i32; NZ]; 3],
     drive_exp: [i32; NZ],
     extra: [i32; NZ],
+    products: RateProducts,
 }
 
 impl SumScalar for IntFloat {
@@ -559,6 +745,8 @@ impl SumScalar for IntFloat {
         max_window: u32,
         products_window: u32,
         window_s: IntFloat,
+        rate: IntFloat,
+        max_step_s: IntFloat,
     ) -> Option<ExactScales> {
         if IntFloat::from_f32(MAX_REACH_S).lt(window_s) || max_window > MAX_WINDOW_SAMPLES {
             return None;
@@ -595,11 +783,13 @@ impl SumScalar for IntFloat {
         for ((d, e), x) in drive_exp.iter_mut().zip(ez).zip(extra) {
             *d = e.checked_sub(x)?;
         }
+        let products = RateProducts::new(rate, max_step_s, *drive_exp.get(6)?)?;
         Some(ExactScales {
             exp,
             nominal: nominal_q,
             drive_exp,
             extra,
+            products,
         })
     }
     fn init_recent<'a>(
@@ -617,6 +807,7 @@ impl SumScalar for IntFloat {
             z: [0; NZ],
             exp: scales.drive_exp,
             extra: scales.extra,
+            products: scales.products,
         }
     }
     fn drive_item(
@@ -636,9 +827,17 @@ mod tests {
         clippy::unwrap_used,
         clippy::expect_used,
         clippy::panic,
-        clippy::indexing_slicing
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects
     )]
     use super::*;
+
+    /// The envelope's rate of the tests' scales.
+    const ONE_RAD_S: IntFloat = IntFloat::ONE;
+    /// Their longest step, s (1.5 ms).
+    fn step_s() -> IntFloat {
+        IntFloat::from_f32(1.5e-3)
+    }
 
     #[test]
     fn components_round_to_nearest_within_their_bound_and_refuse_beyond_it() {
@@ -666,6 +865,8 @@ mod tests {
                 1000,
                 1000,
                 IntFloat::ONE,
+                ONE_RAD_S,
+                step_s(),
             )
             .unwrap(),
         );
@@ -696,11 +897,124 @@ mod tests {
         assert!(r.item(&big.z, &big.y, &[[IntFloat::ZERO; NZ]; 3]).is_none());
     }
 
+    /// The products' drive (components 6..12) after `n` samples of a smooth turn at 1 kHz,
+    /// the integer path against the rule in f64 on the unrounded rates: the largest error over
+    /// the six, and the bound it must stay within (each step: the rates' rounding through the
+    /// products, and one unit of the drive's resolution for the two roundings).
+    fn products_error(swapped: bool) -> (f64, f64) {
+        let bounds = [IntFloat::from_f32(60.0); NZ + 3];
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let scales = IntFloat::scales(
+            &bounds,
+            &none,
+            20_000,
+            20_000,
+            IntFloat::from_f32(30.0),
+            ONE_RAD_S,
+            step_s(),
+        )
+        .unwrap();
+        let mut d = IntFloat::drive(&scales);
+        // The step as the kernel is told it (f32's 1 ms).
+        let dt = f64::from(1e-3f32);
+        let rate = |k: usize| {
+            let t = k as f64 * dt;
+            [
+                0.6 * (2.0 * core::f64::consts::PI * 0.3 * t).sin(),
+                0.4 * (2.0 * core::f64::consts::PI * 0.7 * t).cos(),
+                -0.2 + 0.1 * t,
+            ]
+        };
+        let exact = |k: usize| {
+            let w = rate(k);
+            super::super::solve::PRODUCTS.map(|(b, c)| w[b] * w[c])
+        };
+        let measured = |k: usize| rate(k).map(|w| IntFloat::from_f32(w as f32));
+        let n = 2_000;
+        let mut reference = [0.0f64; 6];
+        let (mut before, mut then) = (d.products(&measured(0)), d.products(&measured(0)));
+        for k in 1..n {
+            let now = d.products(&measured(k));
+            let (a, b) = if swapped {
+                (&then, &now)
+            } else {
+                (&now, &then)
+            };
+            d.add_products(6, a, b, &before, IntFloat::from_f32(dt as f32), k >= 2);
+            let (p, q, r) = (exact(k), exact(k - 1), exact(k.saturating_sub(2)));
+            for c in 0..6 {
+                reference[c] += if k >= 2 {
+                    dt * (5.0 * p[c] + 8.0 * q[c] - r[c]) / 12.0
+                } else {
+                    dt * (p[c] + q[c]) / 2.0
+                };
+            }
+            (before, then) = (then, now);
+        }
+        let unit = 2f64.powi(d.exp[6]);
+        let values = d.values_of(&d.snapshot());
+        let f64_of = |v: IntFloat| {
+            let (m, e) = v.parts();
+            f64::from(m) * 2f64.powi(e)
+        };
+        let error = (0..6)
+            .map(|c| (f64_of(values[6 + c]) - reference[c]).abs())
+            .fold(0.0, f64::max);
+        // |omega| < 0.8, each rate rounded within half of 2^rate_exp, and f32's own rounding of
+        // the rate (2^-24 of it) besides; the rule's weights sum to 14/12 in magnitude.
+        let dr = 2f64.powi(d.products.rate_exp - 1) + 0.8 * 2f64.powi(-24);
+        let per_step = (2.0 * 0.8 * dr + dr * dr) * dt * 14.0 / 12.0 + unit;
+        (error, per_step * n as f64)
+    }
+
+    #[test]
+    fn rate_products_integrate_by_the_rule_within_their_rounding() {
+        let (error, bound) = products_error(false);
+        assert!(error <= bound, "error {error:e} beyond {bound:e}");
+        // Planted: the step's start and end products swapped (weights 8 and 5 exchanged).
+        let (error, bound) = products_error(true);
+        assert!(error > bound, "the swap passed: {error:e} within {bound:e}");
+    }
+
+    #[test]
+    fn a_rate_beyond_the_products_bound_is_refused() {
+        let bounds = [IntFloat::from_f32(60.0); NZ + 3];
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let scales = IntFloat::scales(
+            &bounds,
+            &none,
+            1000,
+            1000,
+            IntFloat::ONE,
+            ONE_RAD_S,
+            step_s(),
+        )
+        .unwrap();
+        let mut d = IntFloat::drive(&scales);
+        // The rate's integer holds 4 to 8 times the envelope's rate (a power of two): twenty
+        // times does not fit.
+        let fast = d.products(&[IntFloat::from_f32(20.0), IntFloat::ZERO, IntFloat::ZERO]);
+        assert_eq!(fast[0], i64::MAX);
+        let zero = d.products(&[IntFloat::ZERO; 3]);
+        d.add_products(6, &fast, &zero, &zero, step_s().mul_pow2(-1), false);
+        assert_eq!(d.z[6], i64::MAX);
+        assert_eq!(d.z[7], 0);
+    }
+
     #[test]
     fn the_drive_sums_increments_exactly_and_holds_values_as_large_as_their_bound() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap();
+        let scales = IntFloat::scales(
+            &bounds,
+            &none,
+            20_000,
+            20_000,
+            IntFloat::ONE,
+            ONE_RAD_S,
+            step_s(),
+        )
+        .unwrap();
         let mut d = IntFloat::drive(&scales);
         assert_eq!(d.extra, [4 + 14; NZ]);
         // 10,000 increments of 1e-4: exactly their rounded sum, close to 1.
@@ -738,7 +1052,16 @@ mod tests {
     fn the_drive_s_item_is_its_exact_mean_rounded_once() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap();
+        let scales = IntFloat::scales(
+            &bounds,
+            &none,
+            20_000,
+            20_000,
+            IntFloat::ONE,
+            ONE_RAD_S,
+            step_s(),
+        )
+        .unwrap();
         let r = IntFloat::recent(&scales);
         let mut drives = [IntFloat::drive(&scales); 3];
         for (k, d) in drives.iter_mut().enumerate() {
@@ -793,7 +1116,7 @@ mod tests {
     fn windows_beyond_the_proved_shifts_are_refused() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let at = |n| IntFloat::scales(&bounds, &none, n, n, IntFloat::ONE);
+        let at = |n| IntFloat::scales(&bounds, &none, n, n, IntFloat::ONE, ONE_RAD_S, step_s());
         assert!(at(MAX_WINDOW_SAMPLES).is_some());
         assert!(at(MAX_WINDOW_SAMPLES + 1).is_none());
     }
@@ -808,7 +1131,16 @@ mod tests {
         let reach = env.rate * env.rate * window_s;
         let bounds = env.component_bounds(window_s, reach, &nominal);
         let r = IntFloat::recent(
-            &IntFloat::scales(&bounds, &nominal, 20_000, 20_000, IntFloat::ONE).unwrap(),
+            &IntFloat::scales(
+                &bounds,
+                &nominal,
+                20_000,
+                20_000,
+                IntFloat::ONE,
+                ONE_RAD_S,
+                step_s(),
+            )
+            .unwrap(),
         );
         // Each component at a third of its bound or less.
         let z: [IntFloat; NZ] =
@@ -834,7 +1166,16 @@ mod tests {
         // A planted fault: the prediction left out is seen.
         let none = [[IntFloat::ZERO; NZ]; 3];
         let r0 = IntFloat::recent(
-            &IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap(),
+            &IntFloat::scales(
+                &bounds,
+                &none,
+                20_000,
+                20_000,
+                IntFloat::ONE,
+                ONE_RAD_S,
+                step_s(),
+            )
+            .unwrap(),
         );
         let raw = r0.item(&z, &y_raw, &none).unwrap();
         assert!((0..3).any(|a| (raw.y[a] - item.y[a]).abs() > 1000));
@@ -849,7 +1190,16 @@ mod tests {
         let bounds: [IntFloat; NZ + 3] =
             core::array::from_fn(|c| IntFloat::from_f32(2.0 + (c % 5) as f32));
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(&bounds, &none, 1000, 1000, IntFloat::ONE).unwrap();
+        let scales = IntFloat::scales(
+            &bounds,
+            &none,
+            1000,
+            1000,
+            IntFloat::ONE,
+            ONE_RAD_S,
+            step_s(),
+        )
+        .unwrap();
         let mut recent = RecentSums::new(IntFloat::recent(&scales));
         // The form the fixed kernel's flight keeps (the fold turns the levels into it).
         let mut flight = FlightSums::<IntFloat> {
@@ -940,7 +1290,16 @@ mod tests {
         bounds[2] = IntFloat::from_f32(4.0);
         bounds[NZ + 2] = IntFloat::from_f32(1.0);
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(&bounds, &none, 20_000, 20_000, IntFloat::ONE).unwrap();
+        let scales = IntFloat::scales(
+            &bounds,
+            &none,
+            20_000,
+            20_000,
+            IntFloat::ONE,
+            ONE_RAD_S,
+            step_s(),
+        )
+        .unwrap();
         let exact = IntFloat::recent(&scales);
         let differences = coloured_cost::<IntFloat>(exact, LagForm::Differences);
         assert!(

@@ -124,9 +124,9 @@ pub struct FlightId<S: SumScalar> {
     /// Drive accumulated since the window's first sample ([`drive`]).
     drive: S::Drive,
     /// The previous sample's rate products (order of [`solve::PRODUCTS`]).
-    products: [S; 6],
+    products: <S::Drive as DriveSum<S>>::Products,
     /// The rate products of the sample before that (valid from a window's third sample).
-    products_before: [S; 6],
+    products_before: <S::Drive as DriveSum<S>>::Products,
     /// The previous step's length, s (Adams-Moulton's equal-step weights need it).
     dt_before: S,
     /// A step longer than this starts a new window (1.5 periods).
@@ -224,7 +224,15 @@ impl<S: SumScalar> FlightId<S> {
             cfg.max_window,
         );
         let bounds = cfg.envelope.component_bounds(window_s, reach, &nominal);
-        let scales = S::scales(&bounds, &nominal, cfg.max_window, products_window, window_s)?;
+        let scales = S::scales(
+            &bounds,
+            &nominal,
+            cfg.max_window,
+            products_window,
+            window_s,
+            cfg.envelope.rate,
+            S::from_f32(1.5).times(cfg.period_s),
+        )?;
         field!(slot, Self, cfg).write(cfg);
         let sums = FlightSums::init_in_place(field!(slot, Self, sums));
         sums.lag_form = <S::Recent as Recent<S>>::LAG_FORM;
@@ -233,8 +241,8 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, window).write(WindowSums::default());
         field!(slot, Self, pending).write(close::PendingCloses::default());
         field!(slot, Self, drive).write(S::drive(&scales));
-        field!(slot, Self, products).write([S::ZERO; 6]);
-        field!(slot, Self, products_before).write([S::ZERO; 6]);
+        field!(slot, Self, products).write(<S::Drive as DriveSum<S>>::ZERO_PRODUCTS);
+        field!(slot, Self, products_before).write(<S::Drive as DriveSum<S>>::ZERO_PRODUCTS);
         field!(slot, Self, dt_before).write(S::ZERO);
         field!(slot, Self, gap).write(S::from_f32(1.5).times(cfg.period_s));
         field!(slot, Self, last).write([(S::Drive::ZERO_SNAPSHOT, [S::ZERO; 3]); 3]);
@@ -301,7 +309,7 @@ impl<S: SumScalar> FlightId<S> {
             return;
         }
         let gap = self.gap;
-        let joins = match self.previous {
+        let joins = match &self.previous {
             Some((w_prev, _)) => {
                 !gap.lt(dt_s)
                     && S::ZERO.lt(dt_s)
@@ -309,7 +317,7 @@ impl<S: SumScalar> FlightId<S> {
                     && (self.filled < self.cfg.turn_window
                         || self.turned.lt(self.cfg.max_window_turn_rad))
                     && self.walked.lt(self.cfg.max_window_walk)
-                    && !(self.cfg.cut_at_changes && differs(&w_prev, &wrench))
+                    && !(self.cfg.cut_at_changes && differs(w_prev, &wrench))
             }
             None => false,
         };
@@ -319,16 +327,14 @@ impl<S: SumScalar> FlightId<S> {
         let gyro = self.cfg.solve.gyroscopic;
         // The rate products (the gyroscopic term `omega x I omega` is linear in them).
         let products = if gyro {
-            solve::PRODUCTS.map(|(b, d)| get(&rate, b).times(get(&rate, d)))
+            self.drive.products(&rate)
         } else {
-            [S::ZERO; 6]
+            <S::Drive as DriveSum<S>>::ZERO_PRODUCTS
         };
-        if let (true, Some((w_prev, _))) = (joins, self.previous) {
-            let h = S::from_int_pow2(1, -1).times(dt_s);
+        if let (true, Some((w_prev, _))) = (joins, &self.previous) {
             // Torque and force held over the interval.
-            let impulse: [S; 6] = core::array::from_fn(|c| get(&w_prev, c).times(dt_s));
-            for (i, v) in impulse.iter().enumerate() {
-                self.drive.add(i, *v);
+            for i in 0..6 {
+                self.drive.add(i, get(w_prev, i).times(dt_s));
             }
             if gyro {
                 // The integral of the measured rate products over the step (unbiased: the
@@ -344,33 +350,22 @@ impl<S: SumScalar> FlightId<S> {
                 // linear product.)
                 let jitter = dt_s.minus(self.dt_before).abs();
                 let third_order = self.filled >= 2 && !dt_s.mul_pow2(-6).lt(jitter);
-                let twelfth = dt_s.times(S::from_f32(1.0 / 12.0));
-                for (p, ((then, now), before)) in self
-                    .products
-                    .iter()
-                    .zip(products)
-                    .zip(self.products_before)
-                    .enumerate()
-                {
-                    let step = if third_order {
-                        twelfth.times(
-                            now.times(S::from_int_pow2(5, 0))
-                                .plus(then.mul_pow2(3))
-                                .minus(before),
-                        )
-                    } else {
-                        h.times(then.plus(now))
-                    };
-                    self.drive.add(6usize.saturating_add(p), step);
-                }
+                self.drive.add_products(
+                    6,
+                    &products,
+                    &self.products,
+                    &self.products_before,
+                    dt_s,
+                    third_order,
+                );
             }
             for b in 0..3 {
                 // The held torque itself (the timing test's direction), not summed.
-                self.drive.set(N_MODEL.saturating_add(b), get(&w_prev, b));
+                self.drive.set(N_MODEL.saturating_add(b), get(w_prev, b));
                 // The open thrusters' positive torques about axis b, accumulated (the
                 // thrust-symmetry test's direction, [`consistency`], and what tells thrusters
                 // apart in the thrust-uncertainty recovery, [`consider`]).
-                let positive = get(&w_prev, 6usize.saturating_add(b));
+                let positive = get(w_prev, 6usize.saturating_add(b));
                 if S::ZERO.lt(positive) {
                     self.drive
                         .add(sums::SPLIT_TORQUE.saturating_add(b), positive.times(dt_s));
@@ -386,7 +381,9 @@ impl<S: SumScalar> FlightId<S> {
             }
             // The squared rates are the products' first three; a planar craft has none.
             if gyro {
-                let walk = products
+                let walk = self
+                    .drive
+                    .squares(&products)
                     .iter()
                     .zip(self.walk_weight)
                     .fold(S::ZERO, |acc, (p, k)| acc.mul_add(*p, k));
@@ -404,7 +401,14 @@ impl<S: SumScalar> FlightId<S> {
         }
         self.filled = self.filled.saturating_add(1);
         self.emit();
-        self.previous = Some((wrench, rate));
+        // In place: the command is copied once, not built into a new value and moved.
+        match &mut self.previous {
+            Some((w, r)) => {
+                *w = wrench;
+                *r = rate;
+            }
+            None => self.previous = Some((wrench, rate)),
+        }
     }
 
     /// The measurement the newest sample completes, through the sensor's response.

@@ -633,12 +633,15 @@ pub trait SumScalar: Scalar {
     /// magnitude, `y` taken from the prediction of `nominal`, in windows of at most
     /// `max_window` samples and `window_s` seconds, whose rate products reach their bound in
     /// no fewer than `products_window` of their largest steps; None if they are not usable.
+    /// `rate`: the envelope's rate (rad/s); `max_step_s`: the longest step a window takes.
     fn scales(
         bounds: &[Self; NZ + 3],
         nominal: &[[Self; NZ]; 3],
         max_window: u32,
         products_window: u32,
         window_s: Self,
+        rate: Self,
+        max_step_s: Self,
     ) -> Option<Self::Scales>;
     /// Writes empty recent sums to `slot` (in place: they are the state's largest part) and
     /// returns it.
@@ -738,7 +741,15 @@ macro_rules! float_sums {
             type Recent = LagMoments<$t>;
             type Drive = Compensated<$t>;
             type Scales = ();
-            fn scales(_: &[$t; NZ + 3], _: &[[$t; NZ]; 3], _: u32, _: u32, _: $t) -> Option<()> {
+            fn scales(
+                _: &[$t; NZ + 3],
+                _: &[[$t; NZ]; 3],
+                _: u32,
+                _: u32,
+                _: $t,
+                _: $t,
+                _: $t,
+            ) -> Option<()> {
                 Some(())
             }
             fn init_recent<'a>(
@@ -1082,7 +1093,16 @@ pub(crate) mod tests {
     ) -> u64 {
         let bounds: [S; NZ + 3] = core::array::from_fn(|_| S::from_f32(4.0));
         let none = [[S::ZERO; NZ]; 3];
-        let scales = S::scales(&bounds, &none, 1000, 1000, S::ONE).unwrap();
+        let scales = S::scales(
+            &bounds,
+            &none,
+            1000,
+            1000,
+            S::ONE,
+            S::ONE,
+            S::from_f32(1.5e-3),
+        )
+        .unwrap();
         let mut recent = RecentSums::new(S::recent(&scales));
         recent.active = start;
         let mut flight = FlightSums::<S>::default();

@@ -3,7 +3,7 @@
 //! ```text
 //! massid-qemu-host run                      # the sequence on the host build, to stdout
 //! massid-qemu-host compare HOST.txt QEMU.txt [MAX_ULP]
-//! massid-qemu-host count FIRMWARE.elf < trace   # per-kind instruction counts from a QEMU exec trace
+//! massid-qemu-host count FIRMWARE.elf [PROFILE.tsv [PCS.tsv]] < trace   # per-kind instruction counts from a QEMU exec trace (per function, per PC)
 //! massid-qemu-host stack FIRMWARE.elf OBJDUMP.txt SYMBOL...   # worst-case stack per entry point
 //! ```
 use std::process::ExitCode;
@@ -30,7 +30,7 @@ fn main() -> ExitCode {
         Some("compare") => compare::main(args.get(1..).unwrap_or(&[])),
         Some("count") => trace::main(args.get(1..).unwrap_or(&[])),
         Some("stack") => stack::main(args.get(1..).unwrap_or(&[])),
-        _ => Err("usage: massid-qemu-host run [--no-identification] | compare HOST QEMU [MAX_ULP] | count ELF < TRACE | stack ELF OBJDUMP SYMBOL...".to_string()),
+        _ => Err("usage: massid-qemu-host run [--no-identification] | compare HOST QEMU [MAX_ULP] | count ELF [PROFILE [PCS]] < TRACE | stack ELF OBJDUMP SYMBOL...".to_string()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -74,7 +74,23 @@ pub fn count_lines<R: BufRead>(markers: &Markers, input: R) -> Result<BTreeMap<S
 }
 
 /// [`count_lines`] plus, per kind, the instructions executed in each function.
+#[cfg(test)]
 pub fn count_and_profile<R: BufRead>(markers: &Markers, input: R) -> Result<(BTreeMap<String, Vec<u64>>, Profile), String> {
+    count_and_profile_pcs(markers, input, None)
+}
+
+/// Instructions per guest PC, per kind (the finer profile: map the PCs to source lines with
+/// `llvm-addr2line -i`).
+pub type PcProfile = BTreeMap<String, BTreeMap<u64, u64>>;
+
+/// [`count_and_profile`]; with `pcs`, also the instructions at each PC per kind into it.
+pub fn count_and_profile_pcs<R: BufRead>(
+    markers: &Markers,
+    input: R,
+    mut pcs: Option<&mut PcProfile>,
+) -> Result<(BTreeMap<String, Vec<u64>>, Profile), String> {
+    let mut pc_window: BTreeMap<u64, u64> = BTreeMap::new();
+    let mut pending_pcs: BTreeMap<u64, u64> = BTreeMap::new();
     let mut per_kind: BTreeMap<String, Vec<u64>> = BTreeMap::new();
     let mut profile: Profile = BTreeMap::new();
     let mut window: BTreeMap<usize, u64> = BTreeMap::new();
@@ -90,16 +106,24 @@ pub fn count_and_profile<R: BufRead>(markers: &Markers, input: R) -> Result<(BTr
             counting = true;
             n = 0;
             window.clear();
+            pc_window.clear();
         } else if pc == markers.end && counting {
             counting = false;
             pending = Some(n);
             pending_window = std::mem::take(&mut window);
+            pending_pcs = std::mem::take(&mut pc_window);
         } else if let Some(kind) = markers.kinds.get(&pc) {
             if let Some(c) = pending.take() {
                 let key = if kind == "calibration" || flavour.is_empty() { kind.clone() } else { format!("{flavour}/{kind}") };
                 let prof = profile.entry(key.clone()).or_default();
                 for (f, k) in std::mem::take(&mut pending_window) {
                     *prof.entry(f).or_default() += k;
+                }
+                if let Some(pcs) = pcs.as_deref_mut() {
+                    let at = pcs.entry(key.clone()).or_default();
+                    for (p, k) in std::mem::take(&mut pending_pcs) {
+                        *at.entry(p).or_default() += k;
+                    }
                 }
                 per_kind.entry(key).or_default().push(c);
             }
@@ -109,6 +133,9 @@ pub fn count_and_profile<R: BufRead>(markers: &Markers, input: R) -> Result<(BTr
         if counting {
             n += 1;
             *window.entry(markers.function_of(pc)).or_default() += 1;
+            if pcs.is_some() {
+                *pc_window.entry(pc).or_default() += 1;
+            }
         }
     }
     Ok((per_kind, profile))
@@ -168,14 +195,34 @@ pub fn summarise(per_kind: &BTreeMap<String, Vec<u64>>) -> Result<Vec<(String, u
 
 pub fn main(args: &[String]) -> Result<(), String> {
     let Some(elf) = args.first() else {
-        return Err("usage: count FIRMWARE.elf [PROFILE.tsv] < TRACE".into());
+        return Err("usage: count FIRMWARE.elf [PROFILE.tsv [PCS.tsv]] < TRACE".into());
     };
     let data = std::fs::read(elf).map_err(|e| format!("{elf}: {e}"))?;
     let markers = Markers::from_elf(&data).map_err(|e| format!("{elf}: {e}"))?;
     let stdin = std::io::stdin();
-    let (per_kind, profile) = count_and_profile(&markers, BufReader::with_capacity(1 << 20, stdin.lock()))?;
+    let mut pcs = args.get(2).map(|_| PcProfile::new());
+    let (per_kind, profile) =
+        count_and_profile_pcs(&markers, BufReader::with_capacity(1 << 20, stdin.lock()), pcs.as_mut())?;
     if let Some(path) = args.get(1) {
         std::fs::write(path, format_profile(&markers, &profile, 12)).map_err(|e| format!("{path}: {e}"))?;
+    }
+    if let (Some(path), Some(pcs)) = (args.get(2), pcs) {
+        let mut text = String::from("kind\tpc\tinstructions\n");
+        for (kind, at) in pcs {
+            for (pc, k) in at {
+                text.push_str(&format!("{kind}\t{pc:#x}\t{k}\n"));
+            }
+        }
+        std::fs::write(path, text).map_err(|e| format!("{path}: {e}"))?;
+    }
+    if let Ok(path) = std::env::var("MASSID_COUNT_CALLS") {
+        let mut text = String::new();
+        for (kind, counts) in &per_kind {
+            for (i, c) in counts.iter().enumerate() {
+                text.push_str(&format!("{kind}\t{i}\t{c}\n"));
+            }
+        }
+        std::fs::write(&path, text).map_err(|e| format!("{path}: {e}"))?;
     }
     let rows = summarise(&per_kind)?;
     let mut out = std::io::stdout().lock();

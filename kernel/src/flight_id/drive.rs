@@ -31,15 +31,13 @@ pub trait DriveSum<S>: Copy + core::fmt::Debug {
     fn clear(&mut self);
 
     /// The rate products `omega_b omega_d` of one sample (order of [`PRODUCTS`]) as this drive
-    /// integrates them: the values in floating point; in the fixed kernel exact integer
-    /// products of the rates rounded once ([`super::exact::ExactDrive`]).
+    /// integrates them, first: the values in floating point; in the fixed kernel exact integer
+    /// products of the rates rounded once, then those rates ([`super::exact::ExactDrive`]).
     type Products: Copy + core::fmt::Debug;
     /// The products of a zero rate.
     const ZERO_PRODUCTS: Self::Products;
     /// The products of `rate`.
     fn products(&self, rate: &[S; 3]) -> Self::Products;
-    /// The squared rates (the products' first three), for the window's noise walk.
-    fn squares(&self, products: &Self::Products) -> [S; 3];
     /// Adds the products' integral over a step of `dt_s` to components `first..first + 6`,
     /// from the products at the step's end (`now`), start (`then`) and the sample before
     /// (`before`): Adams-Moulton's third-order rule `dt (5 now + 8 then - before) / 12` if
@@ -115,9 +113,6 @@ impl<S: Scalar + core::fmt::Debug> DriveSum<S> for Compensated<S> {
     fn products(&self, rate: &[S; 3]) -> [S; 6] {
         let get = |i: usize| rate.get(i).copied().unwrap_or(S::ZERO);
         PRODUCTS.map(|(b, d)| get(b).times(get(d)))
-    }
-    fn squares(&self, products: &[S; 6]) -> [S; 3] {
-        core::array::from_fn(|a| products.get(a).copied().unwrap_or(S::ZERO))
     }
     fn add_products(
         &mut self,

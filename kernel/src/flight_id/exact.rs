@@ -453,6 +453,166 @@ impl RateProducts {
     }
 }
 
+/// Bits of a turn or walk weight in [`ExactReach`]: `|k| < 2^REACH_WEIGHT_BITS`.
+pub const REACH_WEIGHT_BITS: u32 = 28;
+// A rate times a weight is below 2^56, three of them below 2^58: within round_product's 2^62;
+// after its shift the sum fits 31 bits, and its product with a 31-bit step is below 2^62.
+const _: () = assert!(RATE_BITS + REACH_WEIGHT_BITS + 2 <= 62);
+const _: () = assert!(RATE_BITS + REACH_WEIGHT_BITS + 2 - COMBINATION_SHIFT <= 31);
+const _: () = assert!(2 * RATE_BITS - COMBINATION_SHIFT + REACH_WEIGHT_BITS + 2 <= 62);
+
+/// The fixed kernel's window reach ([`super::window::Reach`]) in integers: the turn
+/// `sum_a k_a |r_a|` of the rounded rates ([`RateProducts`]) and the walk `sum_a w_a p_aa` of
+/// their exact squares, each times the step, every product exact and each rounding a proved
+/// shift of [`COMBINATION_SHIFT`] bits; the limits in the same units, rounded up, so that
+/// `turned < limit` holds where the values' comparison does. A step adds at most `2^31`
+/// units and a window has at most [`MAX_WINDOW_SAMPLES`] (`2^24`), so the sums stay below
+/// `2^55` (and saturate, never wrap). In the integer float the twelve multiply-adds cost
+/// the 3-D push about 1,500 instructions on the M4F.
+#[derive(Clone, Copy, Debug)]
+pub struct ExactReach {
+    turned: i64,
+    walked: i64,
+    turn_weight: [i32; 3],
+    walk_weight: [i32; 3],
+    max_turn: i64,
+    max_walk: i64,
+    dt_exp: i32,
+}
+
+/// `v` in units of `2^unit`, rounded up (`x < v` for an integer `x` of those units exactly
+/// where `x < result`); 0 for `v <= 0`, `i64::MAX` beyond `i64` or for an invalid `v`.
+fn ceil_in_units(v: IntFloat, unit: i32) -> i64 {
+    if !v.is_valid() {
+        return i64::MAX;
+    }
+    let (m, e) = v.parts();
+    if m <= 0 {
+        return 0;
+    }
+    let m = i64::from(m);
+    match e.checked_sub(unit) {
+        Some(up) if up >= 0 => u32::try_from(up)
+            .ok()
+            .filter(|s| *s < 38)
+            .map_or(i64::MAX, |s| m << s),
+        Some(down) => {
+            let s = down.unsigned_abs();
+            if s >= 40 {
+                1
+            } else {
+                // 0 < m < 2^25 and s < 40: no overflow.
+                m.wrapping_add((1i64 << s).wrapping_sub(1)) >> s
+            }
+        }
+        None => i64::MAX,
+    }
+}
+
+/// Integer weights below `2^REACH_WEIGHT_BITS` at one power of two, and that power; zeros at
+/// 0 where every weight is zero.
+fn weights_in_integers(w: &[IntFloat; 3]) -> Option<([i32; 3], i32)> {
+    let largest = w.iter().fold(IntFloat::ZERO, |m, v| max_abs(m, *v));
+    if largest == IntFloat::ZERO {
+        return Some(([0; 3], 0));
+    }
+    let e = exponent_of_width(largest, REACH_WEIGHT_BITS)?;
+    let mut out = [0i32; 3];
+    for (o, v) in out.iter_mut().zip(w) {
+        *o = i32::try_from(ExactDrive::rounded(*v, e)).ok()?;
+    }
+    Some((out, e))
+}
+
+impl ExactReach {
+    /// Nothing turned or walked: rates at `2^rate_exp` ([`RateProducts`]), these weights and
+    /// limits, steps up to `max_step_s`.
+    fn new(
+        rate_exp: i32,
+        turn_weight: &[IntFloat; 3],
+        walk_weight: &[IntFloat; 3],
+        max_turn: IntFloat,
+        max_walk: IntFloat,
+        max_step_s: IntFloat,
+    ) -> Option<Self> {
+        let (turn_q, turn_exp) = weights_in_integers(turn_weight)?;
+        let (walk_q, walk_exp) = weights_in_integers(walk_weight)?;
+        let dt_exp = exponent_of_width(max_step_s, COEFFICIENT_BITS)?;
+        let shift = i32::try_from(COMBINATION_SHIFT).ok()?;
+        // The step's units: rate x weight, shifted, x step, shifted; the walk's square too.
+        let turn_unit = rate_exp
+            .checked_add(turn_exp)?
+            .checked_add(dt_exp)?
+            .checked_add(shift.checked_mul(2)?)?;
+        let walk_unit = rate_exp
+            .checked_mul(2)?
+            .checked_add(walk_exp)?
+            .checked_add(dt_exp)?
+            .checked_add(shift.checked_mul(3)?)?;
+        Some(ExactReach {
+            turned: 0,
+            walked: 0,
+            turn_weight: turn_q,
+            walk_weight: walk_q,
+            max_turn: ceil_in_units(max_turn, turn_unit),
+            max_walk: ceil_in_units(max_walk, walk_unit),
+            dt_exp,
+        })
+    }
+}
+
+/// `a b` of two words rounded by [`COMBINATION_SHIFT`] bits (`|a b| <= 2^62`).
+fn product_shifted(a: i64, b: i64) -> i64 {
+    let product = widening_mul(&Native, &(a as u32), &(b as u32));
+    i64::from(round_product(&Native, &product, COMBINATION_SHIFT) as i32)
+}
+
+impl super::window::Reach<IntFloat, [i64; 9]> for ExactReach {
+    fn add(&mut self, _: &[IntFloat; 3], products: &[i64; 9], dt_s: IntFloat, gyro: bool) {
+        let dt = ExactDrive::rounded(dt_s, self.dt_exp);
+        if dt == i64::MAX || products.contains(&i64::MAX) {
+            // A rate beyond its bound (the sample is refused): the window ends.
+            self.turned = i64::MAX;
+            self.walked = i64::MAX;
+            return;
+        }
+        let rates = products.get(6..).unwrap_or(&[]);
+        // |r| < 2^RATE_BITS and |k| < 2^REACH_WEIGHT_BITS (assertions above).
+        let turn = rates
+            .iter()
+            .zip(self.turn_weight)
+            .fold(0i64, |acc, (r, k)| {
+                acc.wrapping_add(
+                    widening_mul(&Native, &(r.unsigned_abs() as u32), &(k as u32)) as i64,
+                )
+            });
+        let turn = i64::from(round_product(&Native, &(turn as u64), COMBINATION_SHIFT) as i32);
+        self.turned = self.turned.saturating_add(product_shifted(turn, dt));
+        if gyro {
+            let walk = products
+                .iter()
+                .zip(self.walk_weight)
+                .fold(0i64, |acc, (p, w)| {
+                    let square =
+                        i64::from(round_product(&Native, &(*p as u64), COMBINATION_SHIFT) as i32);
+                    acc.wrapping_add(widening_mul(&Native, &(square as u32), &(w as u32)) as i64)
+                });
+            let walk = i64::from(round_product(&Native, &(walk as u64), COMBINATION_SHIFT) as i32);
+            self.walked = self.walked.saturating_add(product_shifted(walk, dt));
+        }
+    }
+    fn turn_within(&self) -> bool {
+        self.turned < self.max_turn
+    }
+    fn walk_within(&self) -> bool {
+        self.walked < self.max_walk
+    }
+    fn clear(&mut self) {
+        self.turned = 0;
+        self.walked = 0;
+    }
+}
+
 /// The power of two at which values below `|v|` are integers below `2^width`; None for zero or
 /// an invalid `v`.
 fn exponent_of_width(v: IntFloat, width: u32) -> Option<i32> {
@@ -647,12 +807,12 @@ impl DriveSum<IntFloat> for ExactDrive {
     fn clear(&mut self) {
         self.z = [0; NZ];
     }
-    /// Exact integer products of the rates rounded once ([`RateProducts`]); `i64::MAX` for a
-    /// rate beyond the bound (the sentinel: the step's components saturate and the sample is
-    /// refused).
-    type Products = [i64; 6];
-    const ZERO_PRODUCTS: [i64; 6] = [0; 6];
-    fn products(&self, rate: &[IntFloat; 3]) -> [i64; 6] {
+    /// Exact integer products of the rates rounded once ([`RateProducts`]), then the rounded
+    /// rates themselves (the window's turn, [`ExactReach`]); `i64::MAX` for a rate beyond the
+    /// bound (the sentinel: the step's components saturate and the sample is refused).
+    type Products = [i64; 9];
+    const ZERO_PRODUCTS: [i64; 9] = [0; 9];
+    fn products(&self, rate: &[IntFloat; 3]) -> [i64; 9] {
         let r: [i64; 3] = core::array::from_fn(|a| {
             let q = Self::rounded(
                 rate.get(a).copied().unwrap_or(IntFloat::ZERO),
@@ -664,32 +824,30 @@ impl DriveSum<IntFloat> for ExactDrive {
                 i64::MAX
             }
         });
-        super::solve::PRODUCTS.map(|(b, d)| {
+        let mut out = [0i64; 9];
+        for (o, (b, d)) in out.iter_mut().zip(super::solve::PRODUCTS) {
             let (x, y) = (
                 r.get(b).copied().unwrap_or(0),
                 r.get(d).copied().unwrap_or(0),
             );
-            if x == i64::MAX || y == i64::MAX {
+            *o = if x == i64::MAX || y == i64::MAX {
                 i64::MAX
             } else {
                 // |x|, |y| < 2^RATE_BITS: the widening product is exact.
                 widening_mul(&Native, &(x as u32), &(y as u32)) as i64
-            }
-        })
-    }
-    fn squares(&self, products: &[i64; 6]) -> [IntFloat; 3] {
-        let e = self.products.rate_exp.saturating_mul(2);
-        core::array::from_fn(|a| match products.get(a).copied().unwrap_or(0) {
-            i64::MAX => IntFloat::from_i64_pow2(i64::MAX, crate::int_float::EXP_LIMIT),
-            p => IntFloat::from_i64_pow2(p, e),
-        })
+            };
+        }
+        if let Some(rates) = out.get_mut(6..) {
+            rates.copy_from_slice(&r);
+        }
+        out
     }
     fn add_products(
         &mut self,
         first: usize,
-        now: &[i64; 6],
-        then: &[i64; 6],
-        before: &[i64; 6],
+        now: &[i64; 9],
+        then: &[i64; 9],
+        before: &[i64; 9],
         dt_s: IntFloat,
         third_order: bool,
     ) {
@@ -700,7 +858,7 @@ impl DriveSum<IntFloat> for ExactDrive {
             dt_s.mul_pow2(-1)
         };
         let c = Self::rounded(coefficient, scales.coef_exp);
-        for (p, ((n, t), b)) in now.iter().zip(then).zip(before).enumerate() {
+        for (p, ((n, t), b)) in now.iter().zip(then).zip(before).take(6).enumerate() {
             let Some(z) = self.z.get_mut(first.saturating_add(p)) else {
                 continue;
             };
@@ -738,6 +896,7 @@ pub struct ExactScales {
 impl SumScalar for IntFloat {
     type Recent = ExactMoments;
     type Drive = ExactDrive;
+    type Reach = ExactReach;
     type Scales = ExactScales;
     fn scales(
         bounds: &[IntFloat; NZ + 3],
@@ -802,6 +961,23 @@ impl SumScalar for IntFloat {
         // SAFETY: every field was written just above.
         unsafe { assume_all_written!(slot, ExactMoments { sums, exp, nominal }) }
     }
+    fn reach(
+        scales: &ExactScales,
+        turn_weight: [IntFloat; 3],
+        walk_weight: [IntFloat; 3],
+        max_turn: IntFloat,
+        max_walk: IntFloat,
+        max_step_s: IntFloat,
+    ) -> Option<ExactReach> {
+        ExactReach::new(
+            scales.products.rate_exp,
+            &turn_weight,
+            &walk_weight,
+            max_turn,
+            max_walk,
+            max_step_s,
+        )
+    }
     fn drive(scales: &ExactScales) -> ExactDrive {
         ExactDrive {
             z: [0; NZ],
@@ -839,6 +1015,17 @@ mod tests {
         IntFloat::from_f32(1.5e-3)
     }
 
+    /// [`SumScalar::scales`] for windows of `n` samples and `window_s` seconds (their rate
+    /// products reaching their bound in as many steps), the tests' rate and step.
+    fn scales_for(
+        bounds: &[IntFloat; NZ + 3],
+        nominal: &[[IntFloat; NZ]; 3],
+        n: u32,
+        window_s: IntFloat,
+    ) -> Option<ExactScales> {
+        IntFloat::scales(bounds, nominal, n, n, window_s, ONE_RAD_S, step_s())
+    }
+
     #[test]
     fn components_round_to_nearest_within_their_bound_and_refuse_beyond_it() {
         let bound = IntFloat::from_f32(3.0);
@@ -859,16 +1046,7 @@ mod tests {
     fn exact_sums_equal_the_integer_products_and_fold_to_their_value() {
         let bounds = [IntFloat::from_f32(2.0); NZ + 3];
         let mut r = IntFloat::recent(
-            &IntFloat::scales(
-                &bounds,
-                &[[IntFloat::ZERO; NZ]; 3],
-                1000,
-                1000,
-                IntFloat::ONE,
-                ONE_RAD_S,
-                step_s(),
-            )
-            .unwrap(),
+            &scales_for(&bounds, &[[IntFloat::ZERO; NZ]; 3], 1000, IntFloat::ONE).unwrap(),
         );
         let v = Sample {
             z: core::array::from_fn(|i| IntFloat::from_f32(0.1 * i as f32 - 0.7)),
@@ -904,16 +1082,7 @@ mod tests {
     fn products_error(swapped: bool) -> (f64, f64) {
         let bounds = [IntFloat::from_f32(60.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(
-            &bounds,
-            &none,
-            20_000,
-            20_000,
-            IntFloat::from_f32(30.0),
-            ONE_RAD_S,
-            step_s(),
-        )
-        .unwrap();
+        let scales = scales_for(&bounds, &none, 20_000, IntFloat::from_f32(30.0)).unwrap();
         let mut d = IntFloat::drive(&scales);
         // The step as the kernel is told it (f32's 1 ms).
         let dt = f64::from(1e-3f32);
@@ -976,20 +1145,84 @@ mod tests {
         assert!(error > bound, "the swap passed: {error:e} within {bound:e}");
     }
 
+    /// The samples (1 kHz, a turn about every axis) at which the integer reach and the
+    /// integer float's own leave their turn and walk limits; the integer one's walk weights
+    /// scaled by `walk_scale` (1: as configured).
+    fn reach_crossings(walk_scale: f32) -> ([Option<usize>; 2], [Option<usize>; 2]) {
+        use super::super::window::{FloatReach, Reach};
+        let bounds = [IntFloat::from_f32(60.0); NZ + 3];
+        let none = [[IntFloat::ZERO; NZ]; 3];
+        let scales = scales_for(&bounds, &none, 20_000, IntFloat::from_f32(30.0)).unwrap();
+        let d = IntFloat::drive(&scales);
+        let turn = [1.0, 1.0, 3.56].map(IntFloat::from_f32);
+        let walk = [0.5, 0.5, 2.0].map(IntFloat::from_f32);
+        let (max_turn, max_walk) = (IntFloat::from_f32(4.0), IntFloat::from_f32(0.5));
+        let planted = walk.map(|w| w.times(IntFloat::from_f32(walk_scale)));
+        let mut exact =
+            IntFloat::reach(&scales, turn, planted, max_turn, max_walk, step_s()).unwrap();
+        let mut float = FloatReach::new(turn, walk, max_turn, max_walk);
+        let dt = IntFloat::from_f32(1e-3);
+        let (mut e, mut f) = ([None; 2], [None; 2]);
+        for k in 0..3_000 {
+            let t = k as f32 * 1e-3;
+            let rate = [
+                0.6 * (2.0 * core::f32::consts::PI * 0.3 * t).sin(),
+                0.4 * (2.0 * core::f32::consts::PI * 0.7 * t).cos(),
+                0.5,
+            ]
+            .map(IntFloat::from_f32);
+            let p = super::super::solve::PRODUCTS.map(|(b, c)| rate[b].times(rate[c]));
+            exact.add(&rate, &d.products(&rate), dt, true);
+            float.add(&rate, &p, dt, true);
+            for (i, (x, y)) in [
+                (exact.turn_within(), float.turn_within()),
+                (exact.walk_within(), float.walk_within()),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if !x && e[i].is_none() {
+                    e[i] = Some(k);
+                }
+                if !y && f[i].is_none() {
+                    f[i] = Some(k);
+                }
+            }
+        }
+        (e, f)
+    }
+
+    #[test]
+    fn the_integer_reach_leaves_its_limits_where_the_values_do() {
+        let (exact, float) = reach_crossings(1.0);
+        // Both limits are crossed within the run (turn about 1.6 s, walk about 0.8 s) ...
+        assert!(
+            float
+                .iter()
+                .all(|c| c.is_some_and(|k| k > 100 && k < 2_900)),
+            "{float:?}"
+        );
+        // ... at the same sample, or the next (the roundings near the limit).
+        for (x, y) in exact.iter().zip(&float) {
+            let (x, y) = (x.unwrap(), y.unwrap());
+            assert!(
+                x.abs_diff(y) <= 1,
+                "integer {exact:?}, integer float {float:?}"
+            );
+        }
+        // Planted: walk weights a twentieth off cross elsewhere.
+        let (exact, float) = reach_crossings(1.05);
+        assert!(
+            exact[1].unwrap().abs_diff(float[1].unwrap()) > 1,
+            "{exact:?} {float:?}"
+        );
+    }
+
     #[test]
     fn a_rate_beyond_the_products_bound_is_refused() {
         let bounds = [IntFloat::from_f32(60.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(
-            &bounds,
-            &none,
-            1000,
-            1000,
-            IntFloat::ONE,
-            ONE_RAD_S,
-            step_s(),
-        )
-        .unwrap();
+        let scales = scales_for(&bounds, &none, 1000, IntFloat::ONE).unwrap();
         let mut d = IntFloat::drive(&scales);
         // The rate's integer holds 4 to 8 times the envelope's rate (a power of two): twenty
         // times does not fit.
@@ -1005,16 +1238,7 @@ mod tests {
     fn the_drive_sums_increments_exactly_and_holds_values_as_large_as_their_bound() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(
-            &bounds,
-            &none,
-            20_000,
-            20_000,
-            IntFloat::ONE,
-            ONE_RAD_S,
-            step_s(),
-        )
-        .unwrap();
+        let scales = scales_for(&bounds, &none, 20_000, IntFloat::ONE).unwrap();
         let mut d = IntFloat::drive(&scales);
         assert_eq!(d.extra, [4 + 14; NZ]);
         // 10,000 increments of 1e-4: exactly their rounded sum, close to 1.
@@ -1052,16 +1276,7 @@ mod tests {
     fn the_drive_s_item_is_its_exact_mean_rounded_once() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(
-            &bounds,
-            &none,
-            20_000,
-            20_000,
-            IntFloat::ONE,
-            ONE_RAD_S,
-            step_s(),
-        )
-        .unwrap();
+        let scales = scales_for(&bounds, &none, 20_000, IntFloat::ONE).unwrap();
         let r = IntFloat::recent(&scales);
         let mut drives = [IntFloat::drive(&scales); 3];
         for (k, d) in drives.iter_mut().enumerate() {
@@ -1116,7 +1331,7 @@ mod tests {
     fn windows_beyond_the_proved_shifts_are_refused() {
         let bounds = [IntFloat::from_f32(3.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let at = |n| IntFloat::scales(&bounds, &none, n, n, IntFloat::ONE, ONE_RAD_S, step_s());
+        let at = |n| scales_for(&bounds, &none, n, IntFloat::ONE);
         assert!(at(MAX_WINDOW_SAMPLES).is_some());
         assert!(at(MAX_WINDOW_SAMPLES + 1).is_none());
     }
@@ -1130,18 +1345,7 @@ mod tests {
         let window_s = IntFloat::from_f32(90.0);
         let reach = env.rate * env.rate * window_s;
         let bounds = env.component_bounds(window_s, reach, &nominal);
-        let r = IntFloat::recent(
-            &IntFloat::scales(
-                &bounds,
-                &nominal,
-                20_000,
-                20_000,
-                IntFloat::ONE,
-                ONE_RAD_S,
-                step_s(),
-            )
-            .unwrap(),
-        );
+        let r = IntFloat::recent(&scales_for(&bounds, &nominal, 20_000, IntFloat::ONE).unwrap());
         // Each component at a third of its bound or less.
         let z: [IntFloat; NZ] =
             core::array::from_fn(|i| bounds[i] * IntFloat::from_f32(0.15 * (i as f32 + 1.0).sin()));
@@ -1165,18 +1369,7 @@ mod tests {
         }
         // A planted fault: the prediction left out is seen.
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let r0 = IntFloat::recent(
-            &IntFloat::scales(
-                &bounds,
-                &none,
-                20_000,
-                20_000,
-                IntFloat::ONE,
-                ONE_RAD_S,
-                step_s(),
-            )
-            .unwrap(),
-        );
+        let r0 = IntFloat::recent(&scales_for(&bounds, &none, 20_000, IntFloat::ONE).unwrap());
         let raw = r0.item(&z, &y_raw, &none).unwrap();
         assert!((0..3).any(|a| (raw.y[a] - item.y[a]).abs() > 1000));
     }
@@ -1190,16 +1383,7 @@ mod tests {
         let bounds: [IntFloat; NZ + 3] =
             core::array::from_fn(|c| IntFloat::from_f32(2.0 + (c % 5) as f32));
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(
-            &bounds,
-            &none,
-            1000,
-            1000,
-            IntFloat::ONE,
-            ONE_RAD_S,
-            step_s(),
-        )
-        .unwrap();
+        let scales = scales_for(&bounds, &none, 1000, IntFloat::ONE).unwrap();
         let mut recent = RecentSums::new(IntFloat::recent(&scales));
         // The form the fixed kernel's flight keeps (the fold turns the levels into it).
         let mut flight = FlightSums::<IntFloat> {
@@ -1290,16 +1474,7 @@ mod tests {
         bounds[2] = IntFloat::from_f32(4.0);
         bounds[NZ + 2] = IntFloat::from_f32(1.0);
         let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = IntFloat::scales(
-            &bounds,
-            &none,
-            20_000,
-            20_000,
-            IntFloat::ONE,
-            ONE_RAD_S,
-            step_s(),
-        )
-        .unwrap();
+        let scales = scales_for(&bounds, &none, 20_000, IntFloat::ONE).unwrap();
         let exact = IntFloat::recent(&scales);
         let differences = coloured_cost::<IntFloat>(exact, LagForm::Differences);
         assert!(

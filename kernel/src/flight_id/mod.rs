@@ -48,6 +48,7 @@ use crate::scalar::Scalar;
 use drive::DriveSum;
 use solve::{Solution, SolveConfig, SolveError, NP};
 use sums::{DriveSnapshot, FlightSums, Recent, RecentSums, SumScalar, WindowSums, NZ, N_MODEL};
+use window::Reach;
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -136,13 +137,10 @@ pub struct FlightId<S: SumScalar> {
     last: [(DriveSnapshot<S>, [S; 3]); 3],
     newest: usize,
     filled: u32,
-    /// Weighted rotation in the window so far, rad (sum over the axes of `w_a |omega_a| dt`).
-    turned: S,
-    /// Per axis, the weight of `omega_a^2 dt` in the coupled noise walk (zero for a planar
-    /// craft, which has no gyroscopic products).
-    walk_weight: [S; 3],
-    /// The window's coupled noise walk so far ([`window`]).
-    walked: S,
+    /// The window's weighted rotation (sum over the axes of `w_a |omega_a| dt`, rad) and
+    /// coupled noise walk so far, against their limits ([`window::Reach`]; the walk's weights
+    /// are zero for a planar craft, which has no gyroscopic products).
+    reach: S::Reach,
     /// The window's first measured rate (the sums hold rates relative to it; the model they
     /// are relative to is the sums' [`FlightSums::anchor`]).
     first_rate: Option<[S; 3]>,
@@ -233,6 +231,14 @@ impl<S: SumScalar> FlightId<S> {
             cfg.envelope.rate,
             S::from_f32(1.5).times(cfg.period_s),
         )?;
+        let reach = S::reach(
+            &scales,
+            cfg.turn_weight,
+            walk_weight,
+            cfg.max_window_turn_rad,
+            cfg.max_window_walk,
+            S::from_f32(1.5).times(cfg.period_s),
+        )?;
         field!(slot, Self, cfg).write(cfg);
         let sums = FlightSums::init_in_place(field!(slot, Self, sums));
         sums.lag_form = <S::Recent as Recent<S>>::LAG_FORM;
@@ -248,9 +254,7 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, last).write([(S::Drive::ZERO_SNAPSHOT, [S::ZERO; 3]); 3]);
         field!(slot, Self, newest).write(0);
         field!(slot, Self, filled).write(0);
-        field!(slot, Self, turned).write(S::ZERO);
-        field!(slot, Self, walk_weight).write(walk_weight);
-        field!(slot, Self, walked).write(S::ZERO);
+        field!(slot, Self, reach).write(reach);
         field!(slot, Self, first_rate).write(None);
         field!(slot, Self, previous).write(None);
         field!(slot, Self, delay).write(delay);
@@ -274,9 +278,7 @@ impl<S: SumScalar> FlightId<S> {
                     last,
                     newest,
                     filled,
-                    turned,
-                    walk_weight,
-                    walked,
+                    reach,
                     first_rate,
                     delay,
                     prefilter,
@@ -314,9 +316,8 @@ impl<S: SumScalar> FlightId<S> {
                 !gap.lt(dt_s)
                     && S::ZERO.lt(dt_s)
                     && self.filled < self.cfg.max_window
-                    && (self.filled < self.cfg.turn_window
-                        || self.turned.lt(self.cfg.max_window_turn_rad))
-                    && self.walked.lt(self.cfg.max_window_walk)
+                    && (self.filled < self.cfg.turn_window || self.reach.turn_within())
+                    && self.reach.walk_within()
                     && !(self.cfg.cut_at_changes && differs(w_prev, &wrench))
             }
             None => false,
@@ -376,19 +377,7 @@ impl<S: SumScalar> FlightId<S> {
         self.dt_before = dt_s;
         self.products = products;
         if joins {
-            for (w, k) in rate.iter().zip(self.cfg.turn_weight) {
-                self.turned = self.turned.plus(w.abs().times(k).times(dt_s));
-            }
-            // The squared rates are the products' first three; a planar craft has none.
-            if gyro {
-                let walk = self
-                    .drive
-                    .squares(&products)
-                    .iter()
-                    .zip(self.walk_weight)
-                    .fold(S::ZERO, |acc, (p, k)| acc.mul_add(*p, k));
-                self.walked = self.walked.mul_add(walk, dt_s);
-            }
+            self.reach.add(&rate, &products, dt_s, gyro);
         }
         // A ring, not a rotation: no copying of the older entries per sample.
         self.newest = if self.newest == 0 {
@@ -462,8 +451,7 @@ impl<S: SumScalar> FlightId<S> {
         self.drive.clear();
         self.prefilter.reset();
         self.filled = 0;
-        self.turned = S::ZERO;
-        self.walked = S::ZERO;
+        self.reach.clear();
         self.first_rate = None;
     }
 

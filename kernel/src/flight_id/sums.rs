@@ -22,6 +22,7 @@ use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::active::Active as ActiveOf;
 use super::drive::{Compensated, DriveSum};
+use super::window::{FloatReach, Reach};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
@@ -625,6 +626,8 @@ pub trait SumScalar: Scalar {
     type Recent: Recent<Self>;
     /// Its window's drive.
     type Drive: DriveSum<Self>;
+    /// How far its window turned and walked ([`super::window::Reach`]).
+    type Reach: Reach<Self, <Self::Drive as DriveSum<Self>>::Products>;
     /// What the sums' representation needs to know of the flight: nothing in floating point;
     /// the fixed kernel's powers of two and quantized nominal matrix. Small, so that the large
     /// sums are built in place.
@@ -655,6 +658,17 @@ pub trait SumScalar: Scalar {
     }
     /// A zero drive.
     fn drive(scales: &Self::Scales) -> Self::Drive;
+    /// Nothing turned or walked, against the limits `max_turn` and `max_walk` with the weights
+    /// `turn_weight` and `walk_weight`, for steps up to `max_step_s`; None if the fixed kernel
+    /// cannot hold them.
+    fn reach(
+        scales: &Self::Scales,
+        turn_weight: [Self; 3],
+        walk_weight: [Self; 3],
+        max_turn: Self,
+        max_walk: Self,
+        max_step_s: Self,
+    ) -> Option<Self::Reach>;
     /// The item of the drive snapshot `z` (the sensor's response of `drive`'s snapshots) and
     /// the rate `y_raw` relative to the window's first: [`Recent::item`] of its values in floating point; the fixed
     /// kernel rounds its exact drive once, in integers.
@@ -740,6 +754,7 @@ macro_rules! float_sums {
         impl SumScalar for $t {
             type Recent = LagMoments<$t>;
             type Drive = Compensated<$t>;
+            type Reach = FloatReach<$t>;
             type Scales = ();
             fn scales(
                 _: &[$t; NZ + 3],
@@ -757,6 +772,16 @@ macro_rules! float_sums {
                 _: &(),
             ) -> &'a mut Self::Recent {
                 LagMoments::fill_in_place(slot, <$t as Scalar>::ZERO)
+            }
+            fn reach(
+                _: &(),
+                turn_weight: [$t; 3],
+                walk_weight: [$t; 3],
+                max_turn: $t,
+                max_walk: $t,
+                _: $t,
+            ) -> Option<FloatReach<$t>> {
+                Some(FloatReach::new(turn_weight, walk_weight, max_turn, max_walk))
             }
             fn drive(_: &()) -> Self::Drive {
                 Compensated::default()

@@ -24,7 +24,7 @@ use core::mem::MaybeUninit;
 use super::drive::DriveSum;
 use super::sums::{
     entry_components, fold_period, Active, LagForm, LagMoments, Recent, Sample, SumScalar,
-    DEFAULT_PIVOT_EXP, ENTRIES, NZ,
+    DEFAULT_PIVOT_EXP, ENTRIES, NZ, N_MODEL,
 };
 use crate::in_place::{assume_all_written, field};
 use crate::int::mul::{mul_acc, round_product, widening_mul};
@@ -418,33 +418,51 @@ const _: () = assert!(COEFFICIENT_BITS + 31 <= 62);
 /// and a step's integral `c (5 p_k + 8 p_(k-1) - p_(k-2))` (or `c (p_(k-1) + p_k)`) rounded to
 /// the drive's resolution: the combination by [`COMBINATION_SHIFT`] bits, the coefficient
 /// `c` at `2^coef_exp`, their product by `frac` bits. In the integer float each product and
-/// each term of the rule was a rounded operation: the six cost the 3-D craft's push 1,700-2,200
-/// instructions more on the M4F (`scripts/kernel-report.sh`). Here the step errs by at most
-/// about 2^-31 of the largest step (the drive's resolution is 2^-28 to 2^-30 of it).
+/// each term of the rule was a rounded operation: the six cost the 3-D craft's push about 1,950
+/// instructions more on the M4F on average and 2,400 at worst (`scripts/kernel-report.sh`).
+/// What a step errs by, in units of the drive's resolution: the combination's shift up to
+/// `c / 2^(frac + 1)` of them (about 3 at 1 kHz with 60 s windows and the rate limit of
+/// [`Envelope::of_craft`]), the final rounding half of one, and the rates' rounding about as
+/// much as the shift; the integer float's step erred by `2^-25` of itself (up to about 30 of
+/// them for the largest steps).
 #[derive(Clone, Copy, Debug)]
 pub struct RateProducts {
     rate_exp: i32,
     coef_exp: i32,
-    frac: u32,
+    frac: [u32; 6],
 }
 
 impl RateProducts {
     /// The scales for rates below `4 rate` (up to `8 rate`: a power of two), steps up to
-    /// `max_step_s` and a products' drive at
-    /// `2^drive_exp`; None if the drive is too coarse for a proved final shift (below 4 bits).
-    fn new(rate: IntFloat, max_step_s: IntFloat, drive_exp: i32) -> Option<Self> {
+    /// `max_step_s` and the six products' drives at `2^drive_exp[p]`; None if a drive is too
+    /// coarse for a proved final shift (below 4 bits).
+    fn new(rate: IntFloat, max_step_s: IntFloat, drive_exp: &[i32; 6]) -> Option<Self> {
         let bits = exponent_of_width;
         let rate_exp = bits(rate.mul_pow2(2), RATE_BITS)?;
         // The coefficient is at most half the longest step.
         let mut coef_exp = bits(max_step_s.mul_pow2(-1), COEFFICIENT_BITS)?;
         let shift = i32::try_from(COMBINATION_SHIFT).ok()?;
-        let product_exp = rate_exp
-            .checked_mul(2)?
-            .checked_add(shift)?
-            .checked_add(coef_exp)?;
-        let (frac, coarser) = final_shift(drive_exp, product_exp)?;
-        // A coarser coefficient where the drive needs fewer bits.
+        let product_exp = |coef_exp: i32| {
+            rate_exp
+                .checked_mul(2)?
+                .checked_add(shift)?
+                .checked_add(coef_exp)
+        };
+        // A coarser coefficient where a drive needs fewer bits than the proved shifts drop
+        // (the one coefficient serves the six: the most any of them needs).
+        let mut coarser = 0;
+        for e in drive_exp {
+            coarser = coarser.max(final_shift(*e, product_exp(coef_exp)?)?.1);
+        }
         coef_exp = coef_exp.checked_add(coarser)?;
+        let mut frac = [0u32; 6];
+        for (f, e) in frac.iter_mut().zip(drive_exp) {
+            let (shift, more) = final_shift(*e, product_exp(coef_exp)?)?;
+            if more > 0 {
+                return None;
+            }
+            *f = shift;
+        }
         Some(RateProducts {
             rate_exp,
             coef_exp,
@@ -463,9 +481,11 @@ const _: () = assert!(2 * RATE_BITS - COMBINATION_SHIFT + REACH_WEIGHT_BITS + 2 
 
 /// The fixed kernel's window reach ([`super::window::Reach`]) in integers: the turn
 /// `sum_a k_a |r_a|` of the rounded rates ([`RateProducts`]) and the walk `sum_a w_a p_aa` of
-/// their exact squares, each times the step, every product exact and each rounding a proved
-/// shift of [`COMBINATION_SHIFT`] bits; the limits in the same units, rounded up, so that
-/// `turned < limit` holds where the values' comparison does. A step adds at most `2^31`
+/// their exact squares (each rounded by [`COMBINATION_SHIFT`] bits first: to `2^-27` of the
+/// largest square, so a rate below about `2^-13.5` of the rate bound adds nothing to the walk,
+/// which acts only on craft spinning far faster), each times the step, every product exact and
+/// each rounding a proved shift of [`COMBINATION_SHIFT`] bits; the limits in the same units,
+/// rounded up, so that `turned < limit` holds where the values' comparison does. A step adds at most `2^31`
 /// units and a window has at most [`MAX_WINDOW_SAMPLES`] (`2^24`), so the sums stay below
 /// `2^55` (and saturate, never wrap). In the integer float the twelve multiply-adds cost
 /// the 3-D push about 1,500 instructions on the M4F.
@@ -478,6 +498,9 @@ pub struct ExactReach {
     max_turn: i64,
     max_walk: i64,
     dt_exp: i32,
+    /// The rates' power of two ([`RateProducts`]): where the drive has no products (a planar
+    /// craft), the turn rounds the rates itself.
+    rate_exp: i32,
 }
 
 /// `v` in units of `2^unit`, rounded up (`x < v` for an integer `x` of those units exactly
@@ -557,8 +580,22 @@ impl ExactReach {
             max_turn: ceil_in_units(max_turn, turn_unit),
             max_walk: ceil_in_units(max_walk, walk_unit),
             dt_exp,
+            rate_exp,
         })
     }
+}
+
+/// The rates as integers at `2^rate_exp` ([`RateProducts`]), the sentinel `i64::MAX` for one
+/// beyond `2^RATE_BITS` of them.
+fn rounded_rates(rate: &[IntFloat; 3], rate_exp: i32) -> [i64; 3] {
+    core::array::from_fn(|a| {
+        let q = ExactDrive::rounded(rate.get(a).copied().unwrap_or(IntFloat::ZERO), rate_exp);
+        if q.unsigned_abs() < 1u64 << RATE_BITS {
+            q
+        } else {
+            i64::MAX
+        }
+    })
 }
 
 /// `a b` of two words rounded by [`COMBINATION_SHIFT`] bits (`|a b| <= 2^62`).
@@ -568,15 +605,26 @@ fn product_shifted(a: i64, b: i64) -> i64 {
 }
 
 impl super::window::Reach<IntFloat, [i64; 9]> for ExactReach {
-    fn add(&mut self, _: &[IntFloat; 3], products: &[i64; 9], dt_s: IntFloat, gyro: bool) {
+    fn add(&mut self, rate: &[IntFloat; 3], products: &[i64; 9], dt_s: IntFloat, gyro: bool) {
         let dt = ExactDrive::rounded(dt_s, self.dt_exp);
-        if dt == i64::MAX || products.contains(&i64::MAX) {
+        // With products the drive has rounded the rates already; without (a planar craft), the
+        // turn rounds them here.
+        let own = if gyro {
+            [0; 3]
+        } else {
+            rounded_rates(rate, self.rate_exp)
+        };
+        let rates = if gyro {
+            products.get(6..).unwrap_or(&[])
+        } else {
+            &own
+        };
+        if dt == i64::MAX || rates.contains(&i64::MAX) || (gyro && products.contains(&i64::MAX)) {
             // A rate beyond its bound (the sample is refused): the window ends.
             self.turned = i64::MAX;
             self.walked = i64::MAX;
             return;
         }
-        let rates = products.get(6..).unwrap_or(&[]);
         // |r| < 2^RATE_BITS and |k| < 2^REACH_WEIGHT_BITS (assertions above).
         let turn = rates
             .iter()
@@ -813,17 +861,7 @@ impl DriveSum<IntFloat> for ExactDrive {
     type Products = [i64; 9];
     const ZERO_PRODUCTS: [i64; 9] = [0; 9];
     fn products(&self, rate: &[IntFloat; 3]) -> [i64; 9] {
-        let r: [i64; 3] = core::array::from_fn(|a| {
-            let q = Self::rounded(
-                rate.get(a).copied().unwrap_or(IntFloat::ZERO),
-                self.products.rate_exp,
-            );
-            if q.unsigned_abs() < 1u64 << RATE_BITS {
-                q
-            } else {
-                i64::MAX
-            }
-        });
+        let r = rounded_rates(rate, self.products.rate_exp);
         let mut out = [0i64; 9];
         for (o, (b, d)) in out.iter_mut().zip(super::solve::PRODUCTS) {
             let (x, y) = (
@@ -862,7 +900,9 @@ impl DriveSum<IntFloat> for ExactDrive {
             let Some(z) = self.z.get_mut(first.saturating_add(p)) else {
                 continue;
             };
-            if [*n, *t, *b, c, *z].contains(&i64::MAX) {
+            // `before` counts only in the third-order rule (in the trapezoid it may be a sample
+            // before the window).
+            if [*n, *t, c, *z].contains(&i64::MAX) || (third_order && *b == i64::MAX) {
                 *z = i64::MAX;
                 continue;
             }
@@ -876,7 +916,8 @@ impl DriveSum<IntFloat> for ExactDrive {
             };
             let shifted = round_product(&Native, &(combination as u64), COMBINATION_SHIFT);
             // |shifted| < 2^31 and |c| < 2^31.
-            add_rounded_product(z, i64::from(shifted as i32), c, scales.frac);
+            let frac = scales.frac.get(p).copied().unwrap_or(0);
+            add_rounded_product(z, i64::from(shifted as i32), c, frac);
         }
     }
 }
@@ -942,7 +983,8 @@ impl SumScalar for IntFloat {
         for ((d, e), x) in drive_exp.iter_mut().zip(ez).zip(extra) {
             *d = e.checked_sub(x)?;
         }
-        let products = RateProducts::new(rate, max_step_s, *drive_exp.get(6)?)?;
+        let products_exp: &[i32; 6] = drive_exp.get(6..N_MODEL)?.try_into().ok()?;
+        let products = RateProducts::new(rate, max_step_s, products_exp)?;
         Some(ExactScales {
             exp,
             nominal: nominal_q,
@@ -1075,10 +1117,10 @@ mod tests {
         assert!(r.item(&big.z, &big.y, &[[IntFloat::ZERO; NZ]; 3]).is_none());
     }
 
-    /// The products' drive (components 6..12) after `n` samples of a smooth turn at 1 kHz,
-    /// the integer path against the rule in f64 on the unrounded rates: the largest error over
-    /// the six, and the bound it must stay within (each step: the rates' rounding through the
-    /// products, and one unit of the drive's resolution for the two roundings).
+    /// The products' drive (components 6..12) after 2,000 samples of a smooth turn at 1 kHz,
+    /// the integer path against the rule in f64 on the rates and coefficient it rounded, in
+    /// units of the drive's resolution: the largest error over the six, and the bound it must
+    /// stay within (per step: the combination's shift and the final rounding).
     fn products_error(swapped: bool) -> (f64, f64) {
         let bounds = [IntFloat::from_f32(60.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
@@ -1086,60 +1128,80 @@ mod tests {
         let mut d = IntFloat::drive(&scales);
         // The step as the kernel is told it (f32's 1 ms).
         let dt = f64::from(1e-3f32);
-        let rate = |k: usize| {
+        let measured = |k: usize| {
             let t = k as f64 * dt;
             [
                 0.6 * (2.0 * core::f64::consts::PI * 0.3 * t).sin(),
                 0.4 * (2.0 * core::f64::consts::PI * 0.7 * t).cos(),
                 -0.2 + 0.1 * t,
             ]
+            .map(|w| IntFloat::from_f32(w as f32))
         };
-        let exact = |k: usize| {
-            let w = rate(k);
-            super::super::solve::PRODUCTS.map(|(b, c)| w[b] * w[c])
+        let rate_unit = 2f64.powi(d.products.rate_exp);
+        // The products of the rates the kernel rounded (its products' last three).
+        let exact = |p: &[i64; 9]| {
+            super::super::solve::PRODUCTS
+                .map(|(b, c)| p[6 + b] as f64 * rate_unit * p[6 + c] as f64 * rate_unit)
         };
-        let measured = |k: usize| rate(k).map(|w| IntFloat::from_f32(w as f32));
-        let n = 2_000;
+        let unit = 2f64.powi(d.exp[6]);
+        // The coefficient as the kernel rounds it (`dt / 12` in the integer float, then to 31 bits).
+        let (dt_int, coef_exp) = (IntFloat::from_f32(dt as f32), d.products.coef_exp);
+        let coefficient = |third: bool| {
+            let c = if third {
+                dt_int.times(IntFloat::from_f32(1.0 / 12.0))
+            } else {
+                dt_int.mul_pow2(-1)
+            };
+            ExactDrive::rounded(c, coef_exp) as f64 * 2f64.powi(coef_exp)
+        };
+        // The largest of the six final shifts' units (all equal here).
+        let frac = d.products.frac.iter().copied().min().unwrap() as i32;
+        let shift_units =
+            |third: bool| coefficient(third) / 2f64.powi(coef_exp) / 2f64.powi(frac + 1);
         let mut reference = [0.0f64; 6];
+        let mut bound = 0.0;
         let (mut before, mut then) = (d.products(&measured(0)), d.products(&measured(0)));
-        for k in 1..n {
+        for k in 1..2_000 {
             let now = d.products(&measured(k));
+            let third = k >= 2;
             let (a, b) = if swapped {
                 (&then, &now)
             } else {
                 (&now, &then)
             };
-            d.add_products(6, a, b, &before, IntFloat::from_f32(dt as f32), k >= 2);
-            let (p, q, r) = (exact(k), exact(k - 1), exact(k.saturating_sub(2)));
+            d.add_products(6, a, b, &before, IntFloat::from_f32(dt as f32), third);
+            let (p, q, r) = (exact(&now), exact(&then), exact(&before));
+            let mut largest: f64 = 0.0;
             for c in 0..6 {
-                reference[c] += if k >= 2 {
-                    dt * (5.0 * p[c] + 8.0 * q[c] - r[c]) / 12.0
+                let step = if third {
+                    coefficient(true) * (5.0 * p[c] + 8.0 * q[c] - r[c])
                 } else {
-                    dt * (p[c] + q[c]) / 2.0
+                    coefficient(false) * (p[c] + q[c])
                 };
+                reference[c] += step;
+                largest = largest.max(step.abs());
             }
+            // The rates' products in f64 (2^-52 of them) and the two integer roundings.
+            bound += largest * 2f64.powi(-50) / unit + shift_units(third) + 0.5;
             (before, then) = (then, now);
         }
-        let unit = 2f64.powi(d.exp[6]);
         let values = d.values_of(&d.snapshot());
         let f64_of = |v: IntFloat| {
             let (m, e) = v.parts();
             f64::from(m) * 2f64.powi(e)
         };
         let error = (0..6)
-            .map(|c| (f64_of(values[6 + c]) - reference[c]).abs())
+            .map(|c| (f64_of(values[6 + c]) - reference[c]).abs() / unit)
             .fold(0.0, f64::max);
-        // |omega| < 0.8, each rate rounded within half of 2^rate_exp, and f32's own rounding of
-        // the rate (2^-24 of it) besides; the rule's weights sum to 14/12 in magnitude.
-        let dr = 2f64.powi(d.products.rate_exp - 1) + 0.8 * 2f64.powi(-24);
-        let per_step = (2.0 * 0.8 * dr + dr * dr) * dt * 14.0 / 12.0 + unit;
-        (error, per_step * n as f64)
+        (error, bound)
     }
 
     #[test]
     fn rate_products_integrate_by_the_rule_within_their_rounding() {
         let (error, bound) = products_error(false);
         assert!(error <= bound, "error {error:e} beyond {bound:e}");
+        // Not vacuous: the roundings show (about 3,200 of a 22,900-unit bound here).
+        assert!(error > 0.0, "no rounding at all: {error}");
         // Planted: the step's start and end products swapped (weights 8 and 5 exchanged).
         let (error, bound) = products_error(true);
         assert!(error > bound, "the swap passed: {error:e} within {bound:e}");
@@ -1147,8 +1209,9 @@ mod tests {
 
     /// The samples (1 kHz, a turn about every axis) at which the integer reach and the
     /// integer float's own leave their turn and walk limits; the integer one's walk weights
-    /// scaled by `walk_scale` (1: as configured).
-    fn reach_crossings(walk_scale: f32) -> ([Option<usize>; 2], [Option<usize>; 2]) {
+    /// scaled by `walk_scale` (1: as configured); `gyro` false: a craft without products (the
+    /// drive's products are zero, the walk is not counted).
+    fn reach_crossings(walk_scale: f32, gyro: bool) -> ([Option<usize>; 2], [Option<usize>; 2]) {
         use super::super::window::{FloatReach, Reach};
         let bounds = [IntFloat::from_f32(60.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
@@ -1172,8 +1235,9 @@ mod tests {
             ]
             .map(IntFloat::from_f32);
             let p = super::super::solve::PRODUCTS.map(|(b, c)| rate[b].times(rate[c]));
-            exact.add(&rate, &d.products(&rate), dt, true);
-            float.add(&rate, &p, dt, true);
+            let products = if gyro { d.products(&rate) } else { [0; 9] };
+            exact.add(&rate, &products, dt, gyro);
+            float.add(&rate, &p, dt, gyro);
             for (i, (x, y)) in [
                 (exact.turn_within(), float.turn_within()),
                 (exact.walk_within(), float.walk_within()),
@@ -1194,7 +1258,7 @@ mod tests {
 
     #[test]
     fn the_integer_reach_leaves_its_limits_where_the_values_do() {
-        let (exact, float) = reach_crossings(1.0);
+        let (exact, float) = reach_crossings(1.0, true);
         // Both limits are crossed within the run (turn about 1.6 s, walk about 0.8 s) ...
         assert!(
             float
@@ -1211,10 +1275,18 @@ mod tests {
             );
         }
         // Planted: walk weights a twentieth off cross elsewhere.
-        let (exact, float) = reach_crossings(1.05);
+        let (exact, float) = reach_crossings(1.05, true);
         assert!(
             exact[1].unwrap().abs_diff(float[1].unwrap()) > 1,
             "{exact:?} {float:?}"
+        );
+        // Without products (a planar craft) the turn still counts, the walk does not.
+        let (exact, float) = reach_crossings(1.0, false);
+        assert_eq!((exact[1], float[1]), (None, None));
+        let (x, y) = (exact[0].unwrap(), float[0].unwrap());
+        assert!(
+            x.abs_diff(y) <= 1,
+            "integer {exact:?}, integer float {float:?}"
         );
     }
 
@@ -1231,7 +1303,9 @@ mod tests {
         let zero = d.products(&[IntFloat::ZERO; 3]);
         d.add_products(6, &fast, &zero, &zero, step_s().mul_pow2(-1), false);
         assert_eq!(d.z[6], i64::MAX);
-        assert_eq!(d.z[7], 0);
+        // xy and xz carry the sentinel too; yy, zz and yz do not.
+        assert_eq!((d.z[9], d.z[10]), (i64::MAX, i64::MAX));
+        assert_eq!((d.z[7], d.z[8], d.z[11]), (0, 0, 0));
     }
 
     #[test]

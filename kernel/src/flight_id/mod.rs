@@ -124,10 +124,11 @@ pub struct FlightId<S: SumScalar> {
     pending: close::PendingCloses<S>,
     /// Drive accumulated since the window's first sample ([`drive`]).
     drive: S::Drive,
-    /// The previous sample's rate products (order of [`solve::PRODUCTS`]).
-    products: <S::Drive as DriveSum<S>>::Products,
-    /// The rate products of the sample before that (valid from a window's third sample).
-    products_before: <S::Drive as DriveSum<S>>::Products,
+    /// The last three samples' rate products (order of [`solve::PRODUCTS`]): a ring, the
+    /// newest at `products_newest` (the sample before it valid from a window's second sample,
+    /// the one before that from its third: where the rule reads them).
+    products: [<S::Drive as DriveSum<S>>::Products; 3],
+    products_newest: usize,
     /// The previous step's length, s (Adams-Moulton's equal-step weights need it).
     dt_before: S,
     /// A step longer than this starts a new window (1.5 periods).
@@ -247,8 +248,8 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, window).write(WindowSums::default());
         field!(slot, Self, pending).write(close::PendingCloses::default());
         field!(slot, Self, drive).write(S::drive(&scales));
-        field!(slot, Self, products).write(<S::Drive as DriveSum<S>>::ZERO_PRODUCTS);
-        field!(slot, Self, products_before).write(<S::Drive as DriveSum<S>>::ZERO_PRODUCTS);
+        field!(slot, Self, products).write([<S::Drive as DriveSum<S>>::ZERO_PRODUCTS; 3]);
+        field!(slot, Self, products_newest).write(0);
         field!(slot, Self, dt_before).write(S::ZERO);
         field!(slot, Self, gap).write(S::from_f32(1.5).times(cfg.period_s));
         field!(slot, Self, last).write([(S::Drive::ZERO_SNAPSHOT, [S::ZERO; 3]); 3]);
@@ -272,7 +273,7 @@ impl<S: SumScalar> FlightId<S> {
                     pending,
                     drive,
                     products,
-                    products_before,
+                    products_newest,
                     dt_before,
                     gap,
                     last,
@@ -327,11 +328,23 @@ impl<S: SumScalar> FlightId<S> {
         }
         let gyro = self.cfg.solve.gyroscopic;
         // The rate products (the gyroscopic term `omega x I omega` is linear in them).
-        let products = if gyro {
-            self.drive.products(&rate)
-        } else {
-            <S::Drive as DriveSum<S>>::ZERO_PRODUCTS
+        // Into the ring's next slot (no copy of the older ones).
+        let (now, then, before) = match self.products_newest {
+            0 => (1, 0, 2),
+            1 => (2, 1, 0),
+            _ => (0, 2, 1),
         };
+        self.products_newest = now;
+        if let Some(p) = self.products.get_mut(now) {
+            *p = if gyro {
+                self.drive.products(&rate)
+            } else {
+                <S::Drive as DriveSum<S>>::ZERO_PRODUCTS
+            };
+        }
+        let zero = <S::Drive as DriveSum<S>>::ZERO_PRODUCTS;
+        let at = |k: usize| self.products.get(k).unwrap_or(&zero);
+        let (products, then, before) = (at(now), at(then), at(before));
         if let (true, Some((w_prev, _))) = (joins, &self.previous) {
             // Torque and force held over the interval.
             for i in 0..6 {
@@ -351,14 +364,8 @@ impl<S: SumScalar> FlightId<S> {
                 // linear product.)
                 let jitter = dt_s.minus(self.dt_before).abs();
                 let third_order = self.filled >= 2 && !dt_s.mul_pow2(-6).lt(jitter);
-                self.drive.add_products(
-                    6,
-                    &products,
-                    &self.products,
-                    &self.products_before,
-                    dt_s,
-                    third_order,
-                );
+                self.drive
+                    .add_products(6, products, then, before, dt_s, third_order);
             }
             for b in 0..3 {
                 // The held torque itself (the timing test's direction), not summed.
@@ -373,11 +380,9 @@ impl<S: SumScalar> FlightId<S> {
                 }
             }
         }
-        self.products_before = if joins { self.products } else { products };
         self.dt_before = dt_s;
-        self.products = products;
         if joins {
-            self.reach.add(&rate, &products, dt_s, gyro);
+            self.reach.add(&rate, products, dt_s, gyro);
         }
         // A ring, not a rotation: no copying of the older entries per sample.
         self.newest = if self.newest == 0 {

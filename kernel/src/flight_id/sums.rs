@@ -636,7 +636,9 @@ pub trait SumScalar: Scalar {
     /// magnitude, `y` taken from the prediction of `nominal`, in windows of at most
     /// `max_window` samples and `window_s` seconds, whose rate products reach their bound in
     /// no fewer than `products_window` of their largest steps; None if they are not usable.
-    /// `rate`: the envelope's rate (rad/s); `max_step_s`: the longest step a window takes.
+    /// `rate`: the envelope's rate (rad/s); `max_step_s`: the longest step a window takes. The
+    /// fixed kernel also refuses a zero or invalid rate or step (its rate products' scales,
+    /// whether or not the craft has products).
     fn scales(
         bounds: &[Self; NZ + 3],
         nominal: &[[Self; NZ]; 3],
@@ -660,7 +662,7 @@ pub trait SumScalar: Scalar {
     fn drive(scales: &Self::Scales) -> Self::Drive;
     /// Nothing turned or walked, against the limits `max_turn` and `max_walk` with the weights
     /// `turn_weight` and `walk_weight`, for steps up to `max_step_s`; None if the fixed kernel
-    /// cannot hold them.
+    /// cannot hold them (an invalid weight, a zero or invalid longest step).
     fn reach(
         scales: &Self::Scales,
         turn_weight: [Self; 3],

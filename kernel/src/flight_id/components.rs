@@ -15,3 +15,6 @@ pub const NZ: usize = 18;
 pub const N_MODEL: usize = 12;
 /// First of the accumulated positive torques (after the held torque, `N_MODEL..SPLIT_TORQUE`).
 pub const SPLIT_TORQUE: usize = N_MODEL + 3;
+/// Rate products of the drive's gyroscopic part (components 6..12), in the order xx yy zz
+/// xy xz yz.
+pub const PRODUCTS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];

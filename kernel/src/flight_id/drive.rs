@@ -2,8 +2,7 @@
 //! increments per window, summed without drift. In floating point a Kahan-compensated sum
 //! ([`Compensated`]); in the fixed kernel exact integers ([`super::exact::ExactDrive`]), an
 //! integer add per increment instead of four rounded integer-float sums.
-use super::components::NZ;
-use super::solve::PRODUCTS;
+use super::components::{NZ, PRODUCTS};
 use crate::scalar::Scalar;
 
 /// A window's drive components, `z` of [`super::sums::Sample`].

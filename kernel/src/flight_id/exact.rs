@@ -479,7 +479,7 @@ const _: () = assert!(RATE_BITS + REACH_WEIGHT_BITS + 2 <= 62);
 const _: () = assert!(RATE_BITS + REACH_WEIGHT_BITS + 2 - COMBINATION_SHIFT <= 31);
 const _: () = assert!(2 * RATE_BITS - COMBINATION_SHIFT + REACH_WEIGHT_BITS + 2 <= 62);
 
-/// The fixed kernel's window reach ([`super::window::Reach`]) in integers: the turn
+/// The fixed kernel's window reach ([`super::reach::Reach`]) in integers: the turn
 /// `sum_a k_a |r_a|` of the rounded rates ([`RateProducts`]) and the walk `sum_a w_a p_aa` of
 /// their exact squares (each rounded by [`COMBINATION_SHIFT`] bits first: to `2^-27` of the
 /// largest square, so a rate below about `2^-13.5` of the rate bound adds nothing to the walk,
@@ -604,7 +604,7 @@ fn product_shifted(a: i64, b: i64) -> i64 {
     i64::from(round_product(&Native, &product, COMBINATION_SHIFT) as i32)
 }
 
-impl super::window::Reach<IntFloat, [i64; 9]> for ExactReach {
+impl super::reach::Reach<IntFloat, [i64; 9]> for ExactReach {
     fn add(&mut self, rate: &[IntFloat; 3], products: &[i64; 9], dt_s: IntFloat, gyro: bool) {
         let dt = ExactDrive::rounded(dt_s, self.dt_exp);
         // With products the drive has rounded the rates already; without (a planar craft), the
@@ -1212,7 +1212,7 @@ mod tests {
     /// scaled by `walk_scale` (1: as configured); `gyro` false: a craft without products (the
     /// drive's products are zero, the walk is not counted).
     fn reach_crossings(walk_scale: f32, gyro: bool) -> ([Option<usize>; 2], [Option<usize>; 2]) {
-        use super::super::window::{FloatReach, Reach};
+        use super::super::reach::{FloatReach, Reach};
         let bounds = [IntFloat::from_f32(60.0); NZ + 3];
         let none = [[IntFloat::ZERO; NZ]; 3];
         let scales = scales_for(&bounds, &none, 20_000, IntFloat::from_f32(30.0)).unwrap();

@@ -34,6 +34,7 @@ pub mod delay;
 pub mod drive;
 pub mod exact;
 pub mod ma_prefilter;
+pub mod reach;
 pub mod solve;
 pub mod sums;
 #[cfg(test)]
@@ -46,9 +47,9 @@ use crate::craft::COMMAND_LEN;
 use crate::in_place::{assume_all_written, field};
 use crate::scalar::Scalar;
 use drive::DriveSum;
+use reach::Reach;
 use solve::{Solution, SolveConfig, SolveError, NP};
 use sums::{DriveSnapshot, FlightSums, Recent, RecentSums, SumScalar, WindowSums, NZ, N_MODEL};
-use window::Reach;
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,7 +140,7 @@ pub struct FlightId<S: SumScalar> {
     newest: usize,
     filled: u32,
     /// The window's weighted rotation (sum over the axes of `w_a |omega_a| dt`, rad) and
-    /// coupled noise walk so far, against their limits ([`window::Reach`]; the walk's weights
+    /// coupled noise walk so far, against their limits ([`reach::Reach`]; the walk's weights
     /// are zero for a planar craft, which has no gyroscopic products).
     reach: S::Reach,
     /// The window's first measured rate (the sums hold rates relative to it; the model they

@@ -164,8 +164,7 @@ fn levi<S: Scalar>(a: usize, b: usize, c: usize) -> S {
     }
 }
 
-/// Rate products of the drive's gyroscopic part, in the order xx yy zz xy xz yz.
-pub const PRODUCTS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+pub use super::components::PRODUCTS;
 
 /// `G(I)`: `omega x I omega = G(I) p` with `p` the rate products ([`PRODUCTS`]).
 fn gyro_map<S: Scalar>(i: &M3<S>) -> [[S; 6]; 3] {

@@ -22,7 +22,7 @@ use core::sync::atomic::{compiler_fence, Ordering};
 
 use super::active::Active as ActiveOf;
 use super::drive::{Compensated, DriveSum};
-use super::window::{FloatReach, Reach};
+use super::reach::{FloatReach, Reach};
 use crate::in_place::{assume_all_written, field, fill, fill2, fill3};
 use crate::scalar::Scalar;
 
@@ -626,7 +626,7 @@ pub trait SumScalar: Scalar {
     type Recent: Recent<Self>;
     /// Its window's drive.
     type Drive: DriveSum<Self>;
-    /// How far its window turned and walked ([`super::window::Reach`]).
+    /// How far its window turned and walked ([`super::reach::Reach`]).
     type Reach: Reach<Self, <Self::Drive as DriveSum<Self>>::Products>;
     /// What the sums' representation needs to know of the flight: nothing in floating point;
     /// the fixed kernel's powers of two and quantized nominal matrix. Small, so that the large

@@ -186,6 +186,14 @@ impl<S: Scalar> Craft<S> {
     /// [`crate::flight_id::consider`], and the thrust-symmetry test).
     pub fn command(&self, word: u16) -> [S; COMMAND_LEN] {
         let mut out = [S::ZERO; COMMAND_LEN];
+        self.command_into(word, &mut out);
+        out
+    }
+
+    /// [`Craft::command`] written into `out` (every entry), in place: the tick's
+    /// [`crate::flight_id::FlightId::push_with`] has it written straight into its delay line.
+    pub fn command_into(&self, word: u16, out: &mut [S; COMMAND_LEN]) {
+        out.fill(S::ZERO);
         self.each_open(word, |w, u, drop| {
             let (wrench, positive) = out.split_at_mut(6);
             for ((o, wv), uv) in wrench.iter_mut().zip(w).zip(u) {
@@ -199,7 +207,6 @@ impl<S: Scalar> Craft<S> {
                 }
             }
         });
-        out
     }
 
     /// Calls `each` with the wrench and unit wrench of every thruster open in `word` and the

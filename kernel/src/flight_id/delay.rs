@@ -19,6 +19,11 @@ pub struct CommandDelay<S> {
     head: usize,
     whole: usize,
     fraction: S,
+    /// With a fraction of a period: the interpolated commands acting over the newest
+    /// interval and the one before, the newest at `acting_newest` (built in place, read by
+    /// reference: no copy of a command per sample).
+    acting: [[S; COMMAND_LEN]; 2],
+    acting_newest: usize,
 }
 
 /// Why a delay is refused.
@@ -41,35 +46,67 @@ impl<S: Scalar> CommandDelay<S> {
             head: 0,
             whole,
             fraction: S::from_f32(fraction),
+            acting: [[S::ZERO; COMMAND_LEN]; 2],
+            acting_newest: 0,
         })
     }
 
-    /// Takes the command of the newest sample ([`crate::craft::Craft::command`]) and returns
-    /// the command acting over the interval that starts at it.
-    pub fn push(&mut self, command: [S; COMMAND_LEN]) -> [S; COMMAND_LEN] {
+    /// Takes the command of the newest sample ([`crate::craft::Craft::command`]), which
+    /// `write` writes in place into the line; [`CommandDelay::acting`] then reads the
+    /// commands acting over the intervals around it.
+    pub fn push_with(&mut self, write: impl FnOnce(&mut [S; COMMAND_LEN])) {
         self.head = self.head.checked_sub(1).unwrap_or(RING - 1);
         if let Some(r) = self.ring.get_mut(self.head) {
-            *r = command;
+            write(r);
         }
-        // `i` samples back: index head + i modulo RING (both below RING, no overflow).
-        let at = |i: usize| {
-            let k = self.head.saturating_add(i);
-            let k = if k >= RING { k.saturating_sub(RING) } else { k };
-            self.ring.get(k)
-        };
-        let zero = [S::ZERO; COMMAND_LEN];
-        let late = at(self.whole).unwrap_or(&zero);
         if !S::ZERO.lt(self.fraction) {
-            // A whole number of periods: the early command never acts.
-            return *late;
+            // A whole number of periods: the acting command is one of the line's.
+            return;
         }
-        let early = at(self.whole.saturating_add(1)).unwrap_or(&zero);
-        core::array::from_fn(|c| {
-            let (l, e) = (
-                late.get(c).copied().unwrap_or(S::ZERO),
-                early.get(c).copied().unwrap_or(S::ZERO),
-            );
-            l.plus(self.fraction.times(e.minus(l)))
-        })
+        self.acting_newest = 1usize.saturating_sub(self.acting_newest);
+        let (late, early) = (
+            self.ring.get(ring_index(self.head, self.whole)),
+            self.ring
+                .get(ring_index(self.head, self.whole.saturating_add(1))),
+        );
+        let (Some(late), Some(early), Some(out)) =
+            (late, early, self.acting.get_mut(self.acting_newest))
+        else {
+            return;
+        };
+        for (o, (l, e)) in out.iter_mut().zip(late.iter().zip(early)) {
+            *o = l.plus(self.fraction.times(e.minus(*l)));
+        }
+    }
+
+    /// The command acting over the interval that starts at the newest sample (`back` 0) or
+    /// at the one before it (`back` 1: the interval that ends at the newest sample).
+    pub fn acting(&self, back: usize) -> &[S; COMMAND_LEN] {
+        // The interpolated pair; with a whole delay never written, so all zero.
+        let [first, second] = &self.acting;
+        if S::ZERO.lt(self.fraction) {
+            return if (back == 0) == (self.acting_newest == 0) {
+                first
+            } else {
+                second
+            };
+        }
+        self.ring
+            .get(ring_index(
+                self.head,
+                self.whole.saturating_add(back.min(1)),
+            ))
+            .unwrap_or(first)
+    }
+}
+
+/// The ring's index `i` samples back from `head` (`head + i` modulo the length; both below
+/// it: no overflow).
+fn ring_index(head: usize, i: usize) -> usize {
+    let k = head.saturating_add(i);
+    if k >= RING {
+        k.saturating_sub(RING)
+    } else {
+        k
     }
 }

@@ -20,6 +20,8 @@ pub trait DriveSum<S>: Copy + core::fmt::Debug {
     fn set(&mut self, i: usize, value: S);
     /// The components now.
     fn snapshot(&self) -> Self::Snapshot;
+    /// The components now, by reference (a point response reads them without a copy).
+    fn current(&self) -> &Self::Snapshot;
     /// `(a + b) / 2` componentwise (the backward mean's response).
     fn mean2(a: &Self::Snapshot, b: &Self::Snapshot) -> Self::Snapshot;
     /// `(a + 2 b + c) / 4` componentwise (the central mean's response).
@@ -35,8 +37,14 @@ pub trait DriveSum<S>: Copy + core::fmt::Debug {
     type Products: Copy + core::fmt::Debug;
     /// The products of a zero rate.
     const ZERO_PRODUCTS: Self::Products;
+    /// The products of `rate`, written into `out` (in place: the tick's ring slot).
+    fn products_into(&self, rate: &[S; 3], out: &mut Self::Products);
     /// The products of `rate`.
-    fn products(&self, rate: &[S; 3]) -> Self::Products;
+    fn products(&self, rate: &[S; 3]) -> Self::Products {
+        let mut out = Self::ZERO_PRODUCTS;
+        self.products_into(rate, &mut out);
+        out
+    }
     /// Adds the products' integral over a step of `dt_s` to components `first..first + 6`,
     /// from the products at the step's end (`now`), start (`then`) and the sample before
     /// (`before`): Adams-Moulton's third-order rule `dt (5 now + 8 then - before) / 12` if
@@ -93,6 +101,9 @@ impl<S: Scalar + core::fmt::Debug> DriveSum<S> for Compensated<S> {
     fn snapshot(&self) -> [S; NZ] {
         self.z
     }
+    fn current(&self) -> &[S; NZ] {
+        &self.z
+    }
     fn mean2(a: &[S; NZ], b: &[S; NZ]) -> [S; NZ] {
         let h = S::from_int_pow2(1, -1);
         core::array::from_fn(|i| h.times(at(a, i).plus(at(b, i))))
@@ -109,9 +120,11 @@ impl<S: Scalar + core::fmt::Debug> DriveSum<S> for Compensated<S> {
     }
     type Products = [S; 6];
     const ZERO_PRODUCTS: [S; 6] = [S::ZERO; 6];
-    fn products(&self, rate: &[S; 3]) -> [S; 6] {
+    fn products_into(&self, rate: &[S; 3], out: &mut [S; 6]) {
         let get = |i: usize| rate.get(i).copied().unwrap_or(S::ZERO);
-        PRODUCTS.map(|(b, d)| get(b).times(get(d)))
+        for (o, (b, d)) in out.iter_mut().zip(PRODUCTS) {
+            *o = get(b).times(get(d));
+        }
     }
     fn add_products(
         &mut self,

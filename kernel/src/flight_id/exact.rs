@@ -205,24 +205,31 @@ fn exponent_for(bound: IntFloat) -> Option<i32> {
 }
 
 impl ExactMoments {
-    /// The item of the rounded drive `zq` and the rate `y_raw` relative to the window's first: the rate rounded, less
-    /// the nominal model's prediction from `zq` (in integers); None if out of range.
-    fn item_of(&self, zq: [i32; NZ], y_raw: &[IntFloat; 3]) -> Option<Sample<i32>> {
+    /// The item of the rounded drive already in `out.z` and the rate `y_raw` relative to the
+    /// window's first: the rate rounded, less the nominal model's prediction from the drive
+    /// (in integers), into `out.y`; false if out of range.
+    fn item_of(&self, out: &mut Sample<i32>, y_raw: &[IntFloat; 3]) -> bool {
         let ey = self.exp.get(NZ..).unwrap_or(&[]);
-        let mut y = [0i32; 3];
-        for ((o, (x, e)), row) in y.iter_mut().zip(y_raw.iter().zip(ey)).zip(&self.nominal) {
-            let raw = Self::round(*x, *e)?;
+        let zq = &out.z;
+        for ((o, (x, e)), row) in out
+            .y
+            .iter_mut()
+            .zip(y_raw.iter().zip(ey))
+            .zip(&self.nominal)
+        {
+            let Some(raw) = Self::round(*x, *e) else {
+                return false;
+            };
             let sum = row.iter().zip(zq.iter()).fold(0u64, |acc, (n, q)| {
                 mul_acc(&Native, &acc, &(*n as u32), &(*q as u32))
             });
             let pred = round_product(&Native, &sum, PREDICTION_FRAC) as i32;
-            let r = raw.checked_sub(pred)?;
-            if r.unsigned_abs() >= 1u32 << VALUE_BITS {
-                return None;
+            match raw.checked_sub(pred) {
+                Some(r) if r.unsigned_abs() < 1u32 << VALUE_BITS => *o = r,
+                _ => return false,
             }
-            *o = r;
         }
-        Some(Sample { z: zq, y })
+        true
     }
 
     /// The item of an exact drive snapshot `z` (component `c` in units `2^-(extra[c] + bits)`
@@ -236,26 +243,27 @@ impl ExactMoments {
         extra: &[i32; NZ],
         bits: u32,
         y_raw: &[IntFloat; 3],
-    ) -> Option<Sample<i32>> {
-        let mut zq = [0i32; NZ];
-        for ((o, v), x) in zq.iter_mut().zip(z).zip(extra) {
+        out: &mut Sample<i32>,
+    ) -> bool {
+        for ((o, v), x) in out.z.iter_mut().zip(z).zip(extra) {
             if *v == 0 {
                 // Most of a planar craft's components.
+                *o = 0;
                 continue;
             }
             // The sentinel, and anything past round_product's |v| <= 2^62, is out of range
             // (a component within its bound is far below).
             if *v == i64::MAX || v.unsigned_abs() > 1u64 << 62 {
-                return None;
+                return false;
             }
             let frac = x.unsigned_abs().saturating_add(bits);
             let q = round_product(&Native, &(*v as u64), frac) as i32;
             if q.unsigned_abs() >= 1u32 << VALUE_BITS {
-                return None;
+                return false;
             }
             *o = q;
         }
-        self.item_of(zq, y_raw)
+        self.item_of(out, y_raw)
     }
 
     /// `v` rounded to the integer multiple of `2^exp`, if `|q| < 2^VALUE_BITS`.
@@ -304,12 +312,26 @@ impl Recent<IntFloat> for ExactMoments {
         y_raw: &[IntFloat; 3],
         _: &[[IntFloat; NZ]; 3],
     ) -> Option<Sample<i32>> {
+        let mut out = Self::ZERO_ITEM;
+        self.item_into(z, y_raw, &[[IntFloat::ZERO; NZ]; 3], &mut out)
+            .then_some(out)
+    }
+
+    fn item_into(
+        &self,
+        z: &[IntFloat; NZ],
+        y_raw: &[IntFloat; 3],
+        _: &[[IntFloat; NZ]; 3],
+        out: &mut Sample<i32>,
+    ) -> bool {
         let ez = self.exp.get(..NZ).unwrap_or(&[]);
-        let mut zq = [0i32; NZ];
-        for (o, (x, e)) in zq.iter_mut().zip(z.iter().zip(ez)) {
-            *o = Self::round(*x, *e)?;
+        for (o, (x, e)) in out.z.iter_mut().zip(z.iter().zip(ez)) {
+            match Self::round(*x, *e) {
+                Some(q) => *o = q,
+                None => return false,
+            }
         }
-        self.item_of(zq, y_raw)
+        self.item_of(out, y_raw)
     }
 
     fn accumulate(sum: &mut Sample<i64>, item: &Sample<i32>) {
@@ -390,7 +412,8 @@ const fn is_product(c: usize) -> bool {
 /// saturates the component, which the sums then refuse as out of range.
 #[derive(Clone, Copy, Debug)]
 pub struct ExactDrive {
-    z: [i64; NZ],
+    /// The sums, as a point response reads them ([`DriveSum::current`]; `bits` 0).
+    now: Response,
     exp: [i32; NZ],
     /// Per component, the drive's resolution below the sums' ([`drive_extra_bits`]).
     extra: [i32; NZ],
@@ -778,7 +801,7 @@ pub const fn response_frac(max_window: u32, bits: u32) -> u32 {
 
 impl DriveSum<IntFloat> for ExactDrive {
     fn add(&mut self, i: usize, increment: IntFloat) {
-        if let (Some(z), Some(e)) = (self.z.get_mut(i), self.exp.get(i)) {
+        if let (Some(z), Some(e)) = (self.now.z.get_mut(i), self.exp.get(i)) {
             let q = Self::rounded(increment, *e);
             *z = if q == i64::MAX || *z == i64::MAX {
                 i64::MAX
@@ -789,7 +812,7 @@ impl DriveSum<IntFloat> for ExactDrive {
         }
     }
     fn set(&mut self, i: usize, value: IntFloat) {
-        if let (Some(z), Some(e)) = (self.z.get_mut(i), self.exp.get(i)) {
+        if let (Some(z), Some(e)) = (self.now.z.get_mut(i), self.exp.get(i)) {
             // A held value is as large as its bound: rounded at the sums' resolution (it fits
             // 32 bits there), then brought to the drive's, exactly.
             let extra = self.extra.get(i).copied().unwrap_or(0);
@@ -809,7 +832,10 @@ impl DriveSum<IntFloat> for ExactDrive {
         bits: 0,
     };
     fn snapshot(&self) -> Response {
-        Response { z: self.z, bits: 0 }
+        self.now
+    }
+    fn current(&self) -> &Response {
+        &self.now
     }
     fn mean2(a: &Response, b: &Response) -> Response {
         // The sum at one bit finer: the half, exactly. (Snapshots, bits 0.)
@@ -853,16 +879,15 @@ impl DriveSum<IntFloat> for ExactDrive {
         })
     }
     fn clear(&mut self) {
-        self.z = [0; NZ];
+        self.now.z = [0; NZ];
     }
     /// Exact integer products of the rates rounded once ([`RateProducts`]), then the rounded
     /// rates themselves (the window's turn, [`ExactReach`]); `i64::MAX` for a rate beyond the
     /// bound (the sentinel: the step's components saturate and the sample is refused).
     type Products = [i64; 9];
     const ZERO_PRODUCTS: [i64; 9] = [0; 9];
-    fn products(&self, rate: &[IntFloat; 3]) -> [i64; 9] {
+    fn products_into(&self, rate: &[IntFloat; 3], out: &mut [i64; 9]) {
         let r = rounded_rates(rate, self.products.rate_exp);
-        let mut out = [0i64; 9];
         for (o, (b, d)) in out.iter_mut().zip(super::solve::PRODUCTS) {
             let (x, y) = (
                 r.get(b).copied().unwrap_or(0),
@@ -878,7 +903,6 @@ impl DriveSum<IntFloat> for ExactDrive {
         if let Some(rates) = out.get_mut(6..) {
             rates.copy_from_slice(&r);
         }
-        out
     }
     fn add_products(
         &mut self,
@@ -897,7 +921,7 @@ impl DriveSum<IntFloat> for ExactDrive {
         };
         let c = Self::rounded(coefficient, scales.coef_exp);
         for (p, ((n, t), b)) in now.iter().zip(then).zip(before).take(6).enumerate() {
-            let Some(z) = self.z.get_mut(first.saturating_add(p)) else {
+            let Some(z) = self.now.z.get_mut(first.saturating_add(p)) else {
                 continue;
             };
             // `before` counts only in the third-order rule (in the trapezoid it may be a sample
@@ -1022,7 +1046,10 @@ impl SumScalar for IntFloat {
     }
     fn drive(scales: &ExactScales) -> ExactDrive {
         ExactDrive {
-            z: [0; NZ],
+            now: Response {
+                z: [0; NZ],
+                bits: 0,
+            },
             exp: scales.drive_exp,
             extra: scales.extra,
             products: scales.products,
@@ -1034,8 +1061,9 @@ impl SumScalar for IntFloat {
         z: &Response,
         y_raw: &[IntFloat; 3],
         _: &[[IntFloat; NZ]; 3],
-    ) -> Option<Sample<i32>> {
-        recent.item_of_drive(&z.z, &drive.extra, z.bits, y_raw)
+        out: &mut Sample<i32>,
+    ) -> bool {
+        recent.item_of_drive(&z.z, &drive.extra, z.bits, y_raw, out)
     }
 }
 
@@ -1302,10 +1330,10 @@ mod tests {
         assert_eq!(fast[0], i64::MAX);
         let zero = d.products(&[IntFloat::ZERO; 3]);
         d.add_products(6, &fast, &zero, &zero, step_s().mul_pow2(-1), false);
-        assert_eq!(d.z[6], i64::MAX);
+        assert_eq!(d.now.z[6], i64::MAX);
         // xy and xz carry the sentinel too; yy, zz and yz do not.
-        assert_eq!((d.z[9], d.z[10]), (i64::MAX, i64::MAX));
-        assert_eq!((d.z[7], d.z[8], d.z[11]), (0, 0, 0));
+        assert_eq!((d.now.z[9], d.now.z[10]), (i64::MAX, i64::MAX));
+        assert_eq!((d.now.z[7], d.now.z[8], d.now.z[11]), (0, 0, 0));
     }
 
     #[test]
@@ -1320,7 +1348,7 @@ mod tests {
             d.add(0, IntFloat::from_f32(1e-4));
         }
         let step = ExactDrive::rounded(IntFloat::from_f32(1e-4), d.exp[0]);
-        assert_eq!(d.z[0], 10_000 * step);
+        assert_eq!(d.now.z[0], 10_000 * step);
         let values = |d: &ExactDrive| d.values_of(&d.snapshot());
         assert!((values(&d)[0].to_f32() - 1.0).abs() < 1e-6);
         // A held value at its bound (it does not fit 32 bits at the drive's resolution).
@@ -1333,12 +1361,20 @@ mod tests {
         // An increment far beyond the bound saturates the component: the sums refuse it.
         d.add(2, IntFloat::from_f32(1e6));
         d.add(2, IntFloat::from_f32(-1e6));
-        assert_eq!(d.z[2], i64::MAX);
+        assert_eq!(d.now.z[2], i64::MAX);
         let r = IntFloat::recent(&scales);
         assert!(r.item(&values(&d), &[IntFloat::ZERO; 3], &none).is_none());
         // The same through the integer path.
         let zero = [IntFloat::ZERO; 3];
-        assert!(IntFloat::drive_item(&r, &d, &d.snapshot(), &zero, &none).is_none());
+        let mut item = ExactMoments::ZERO_ITEM;
+        assert!(!IntFloat::drive_item(
+            &r,
+            &d,
+            &d.snapshot(),
+            &zero,
+            &none,
+            &mut item
+        ));
         d.clear();
         assert!(values(&d).iter().all(|v| *v == IntFloat::ZERO));
     }
@@ -1367,7 +1403,7 @@ mod tests {
         assert_eq!(frac_of(&drives[0], &snaps[0]), response_frac(20_000, 0));
         let zero = [IntFloat::ZERO; 3];
         let exact_of = |i: usize, w: [f64; 3]| -> f64 {
-            let sum: f64 = (0..3).map(|k| w[k] * drives[k].z[i] as f64).sum();
+            let sum: f64 = (0..3).map(|k| w[k] * drives[k].now.z[i] as f64).sum();
             sum / w.iter().sum::<f64>() / 2f64.powi(drives[0].extra[i])
         };
         let responses = [
@@ -1380,7 +1416,10 @@ mod tests {
         ];
         let mut worst_before = 0.0f64;
         for (z, w) in responses {
-            let item = IntFloat::drive_item(&r, &drives[0], &z, &zero, &none).unwrap();
+            let mut item = ExactMoments::ZERO_ITEM;
+            assert!(IntFloat::drive_item(
+                &r, &drives[0], &z, &zero, &none, &mut item
+            ));
             let old = r.item(&drives[0].values_of(&z), &zero, &none).unwrap();
             for i in 0..NZ {
                 let exact = exact_of(i, w);
@@ -1394,7 +1433,8 @@ mod tests {
             }
             // Planted: a shift one bit short is a different item.
             let short = drives[0].extra.map(|x| x - 1);
-            let wrong = r.item_of_drive(&z.z, &short, z.bits, &zero).unwrap();
+            let mut wrong = ExactMoments::ZERO_ITEM;
+            assert!(r.item_of_drive(&z.z, &short, z.bits, &zero, &mut wrong));
             assert_ne!(wrong.z, item.z);
         }
         assert!(worst_before > 0.5, "{worst_before}");
@@ -1472,7 +1512,9 @@ mod tests {
             let z: [IntFloat; NZ] = core::array::from_fn(|i| IntFloat::from_f32(v(k, i) as f32));
             let y: [IntFloat; 3] =
                 core::array::from_fn(|a| IntFloat::from_f32(v(k, NZ + a) as f32));
-            window.push(&mut flight, &mut recent, 0, |r| r.item(&z, &y, &none));
+            window.push(&mut flight, &mut recent, 0, |r, out| {
+                r.item_into(&z, &y, &none, out)
+            });
         }
         recent.fold_all(&mut flight);
         let close = |got: IntFloat, want: f64, what: &str| {
@@ -1531,7 +1573,9 @@ mod tests {
                 core::array::from_fn(|i| S::from_f32(if i == 2 { z as f32 } else { 0.0 }));
             let ys: [S; 3] =
                 core::array::from_fn(|a| S::from_f32(if a == 2 { y as f32 } else { 0.0 }));
-            window.push(&mut flight, &mut recent, 0, |r| r.item(&zs, &ys, &none));
+            window.push(&mut flight, &mut recent, 0, |r, out| {
+                r.item_into(&zs, &ys, &none, out)
+            });
         }
         recent.fold_all(&mut flight);
         coloured_cost_of(&flight)

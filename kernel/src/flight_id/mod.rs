@@ -150,8 +150,9 @@ pub struct FlightId<S: SumScalar> {
     delay: delay::CommandDelay<S>,
     /// The rate noise's moving-average part, taken out of each measurement.
     prefilter: ma_prefilter::MaPrefilter<S>,
-    /// The previous sample's acting command ([`crate::craft::Craft::command`]) and measured rate.
-    previous: Option<([S; COMMAND_LEN], [S; 3])>,
+    /// Whether the previous sample was valid (the command acting since it is the delay
+    /// line's [`delay::CommandDelay::acting`] one back).
+    previous: bool,
     /// The nominal model's matrix: the sums hold rates minus its prediction, so that they
     /// stay small (f32 rounding) whatever the rates.
     nominal: [[S; NZ]; 3],
@@ -258,7 +259,7 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, filled).write(0);
         field!(slot, Self, reach).write(reach);
         field!(slot, Self, first_rate).write(None);
-        field!(slot, Self, previous).write(None);
+        field!(slot, Self, previous).write(false);
         field!(slot, Self, delay).write(delay);
         field!(slot, Self, prefilter).write(prefilter);
         field!(slot, Self, nominal).write(nominal);
@@ -303,27 +304,35 @@ impl<S: SumScalar> FlightId<S> {
     /// model's CoM N m and force N, then the open thrusters' positive torques), or
     /// [`command_of_wrench`].
     pub fn push(&mut self, dt_s: S, rate: [S; 3], valid: bool, command: [S; COMMAND_LEN]) {
+        self.push_with(dt_s, rate, valid, |slot| *slot = command);
+    }
+
+    /// [`FlightId::push`] with the command written in place by `command` (into the delay
+    /// line: no copy of it in the tick), e.g. by [`crate::craft::Craft::command_into`].
+    pub fn push_with(
+        &mut self,
+        dt_s: S,
+        rate: [S; 3],
+        valid: bool,
+        command: impl FnOnce(&mut [S; COMMAND_LEN]),
+    ) {
         // A few entries of the closed windows' terms ([`close`]).
         self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);
         // The command history runs on whatever happens to the rate samples.
-        let wrench = self.delay.push(command);
+        self.delay.push_with(command);
         if !valid {
             self.close_window();
-            self.previous = None;
+            self.previous = false;
             return;
         }
         let gap = self.gap;
-        let joins = match &self.previous {
-            Some((w_prev, _)) => {
-                !gap.lt(dt_s)
-                    && S::ZERO.lt(dt_s)
-                    && self.filled < self.cfg.max_window
-                    && (self.filled < self.cfg.turn_window || self.reach.turn_within())
-                    && self.reach.walk_within()
-                    && !(self.cfg.cut_at_changes && differs(w_prev, &wrench))
-            }
-            None => false,
-        };
+        let joins = self.previous
+            && !gap.lt(dt_s)
+            && S::ZERO.lt(dt_s)
+            && self.filled < self.cfg.max_window
+            && (self.filled < self.cfg.turn_window || self.reach.turn_within())
+            && self.reach.walk_within()
+            && !(self.cfg.cut_at_changes && differs(self.delay.acting(1), self.delay.acting(0)));
         if !joins {
             self.close_window();
         }
@@ -337,16 +346,18 @@ impl<S: SumScalar> FlightId<S> {
         };
         self.products_newest = now;
         if let Some(p) = self.products.get_mut(now) {
-            *p = if gyro {
-                self.drive.products(&rate)
+            if gyro {
+                self.drive.products_into(&rate, p);
             } else {
-                <S::Drive as DriveSum<S>>::ZERO_PRODUCTS
-            };
+                *p = <S::Drive as DriveSum<S>>::ZERO_PRODUCTS;
+            }
         }
         let zero = <S::Drive as DriveSum<S>>::ZERO_PRODUCTS;
         let at = |k: usize| self.products.get(k).unwrap_or(&zero);
         let (products, then, before) = (at(now), at(then), at(before));
-        if let (true, Some((w_prev, _))) = (joins, &self.previous) {
+        if joins {
+            // The command acting over the interval that ends at this sample.
+            let w_prev = self.delay.acting(1);
             // Torque and force held over the interval.
             for i in 0..6 {
                 self.drive.add(i, get(w_prev, i).times(dt_s));
@@ -392,18 +403,15 @@ impl<S: SumScalar> FlightId<S> {
             self.newest.saturating_sub(1)
         };
         if let Some(r) = self.last.get_mut(self.newest) {
-            *r = (self.drive.snapshot(), rate);
+            // A point response reads the drive itself ([`DriveSum::current`]).
+            if self.cfg.sensor != SensorResponse::Point {
+                r.0 = self.drive.snapshot();
+            }
+            r.1 = rate;
         }
         self.filled = self.filled.saturating_add(1);
         self.emit();
-        // In place: the command is copied once, not built into a new value and moved.
-        match &mut self.previous {
-            Some((w, r)) => {
-                *w = wrench;
-                *r = rate;
-            }
-            None => self.previous = Some((wrench, rate)),
-        }
+        self.previous = true;
     }
 
     /// The measurement the newest sample completes, through the sensor's response.
@@ -417,7 +425,7 @@ impl<S: SumScalar> FlightId<S> {
         };
         let mean: DriveSnapshot<S>;
         let (z, y) = match self.cfg.sensor {
-            SensorResponse::Point => (z2, y2),
+            SensorResponse::Point => (self.drive.current(), y2),
             SensorResponse::BackwardMean if self.filled >= 2 => {
                 mean = S::Drive::mean2(z1, z2);
                 (&mean, y2)
@@ -437,14 +445,14 @@ impl<S: SumScalar> FlightId<S> {
             let (fz, fy) = self.prefilter.apply(&values, &y_raw);
             let nominal = &self.nominal;
             self.window
-                .push(&mut self.sums, &mut self.recent, skip, |r| {
-                    r.item(fz, fy, nominal)
+                .push(&mut self.sums, &mut self.recent, skip, |r, out| {
+                    r.item_into(fz, fy, nominal, out)
                 });
         } else {
             let (drive, nominal) = (&self.drive, &self.nominal);
             self.window
-                .push(&mut self.sums, &mut self.recent, skip, |r| {
-                    S::drive_item(r, drive, z, &y_raw, nominal)
+                .push(&mut self.sums, &mut self.recent, skip, |r, out| {
+                    S::drive_item(r, drive, z, &y_raw, nominal, out)
                 });
         }
     }
@@ -466,7 +474,7 @@ impl<S: SumScalar> FlightId<S> {
     pub fn finish(&mut self) {
         self.close_window();
         self.pending.drain_all(&mut self.sums);
-        self.previous = None;
+        self.previous = false;
     }
 
     /// Fits the mass properties to the closed windows and tests their consistency (on a

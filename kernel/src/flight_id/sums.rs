@@ -33,7 +33,8 @@ pub type Active = ActiveOf<NZ>;
 const _: () = assert!(NZ <= u8::MAX as usize);
 /// Lags kept: 0..LAGS-1 (an AR noise model of order up to LAGS - 1).
 pub const LAGS: usize = 3;
-// The window's history ring ([`WindowSums::push`]) holds exactly the two lagged samples.
+// The window's history ring ([`WindowSums::push`]) holds the two lagged samples and the
+// slot the next item is written into.
 const _: () = assert!(LAGS == 3);
 
 /// `sum_k v_k v_(k-l)^T` by blocks, `v = (z, y)`; the `z` block is shared by the three axes.
@@ -600,6 +601,19 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     /// stay small whatever the rates), as an item; None if it cannot be represented (the
     /// flight's sums are then [`FlightSums::out_of_range`]).
     fn item(&self, z: &[S; NZ], y_raw: &[S; 3], nominal: &[[S; NZ]; 3]) -> Option<Self::Item>;
+    /// [`Recent::item`] written into `out` ([`WindowSums::push`]'s slot); false if it cannot
+    /// be represented.
+    fn item_into(
+        &self,
+        z: &[S; NZ],
+        y_raw: &[S; 3],
+        nominal: &[[S; NZ]; 3],
+        out: &mut Self::Item,
+    ) -> bool {
+        self.item(z, y_raw, nominal)
+            .map(|item| *out = item)
+            .is_some()
+    }
     /// Adds `item` to `sum`.
     fn accumulate(sum: &mut Self::ItemSum, item: &Self::Item);
     /// A sum's value.
@@ -674,13 +688,15 @@ pub trait SumScalar: Scalar {
     /// The item of the drive snapshot `z` (the sensor's response of `drive`'s snapshots) and
     /// the rate `y_raw` relative to the window's first: [`Recent::item`] of its values in floating point; the fixed
     /// kernel rounds its exact drive once, in integers.
+    /// Written into `out` (in place: no copy of the sample); false if not representable.
     fn drive_item(
         recent: &Self::Recent,
         drive: &Self::Drive,
         z: &DriveSnapshot<Self>,
         y_raw: &[Self; 3],
         nominal: &[[Self; NZ]; 3],
-    ) -> Option<<Self::Recent as Recent<Self>>::Item>;
+        out: &mut <Self::Recent as Recent<Self>>::Item,
+    ) -> bool;
 }
 
 /// The drive's snapshot type of a [`SumScalar`] ([`DriveSum::Snapshot`]).
@@ -794,8 +810,9 @@ macro_rules! float_sums {
                 z: &[$t; NZ],
                 y_raw: &[$t; 3],
                 nominal: &[[$t; NZ]; 3],
-            ) -> Option<Sample<$t>> {
-                recent.item(z, y_raw, nominal)
+                out: &mut Sample<$t>,
+            ) -> bool {
+                recent.item_into(z, y_raw, nominal, out)
             }
         }
     )*};
@@ -992,8 +1009,10 @@ pub struct WindowSums<S: SumScalar> {
     n: u32,
     /// Samples seen, including those left out at the start.
     seen: u32,
-    /// The last two samples used for the lagged products: a ring, the newest at `newest`.
-    history: [<S::Recent as Recent<S>>::Item; LAGS - 1],
+    /// The last two samples used for the lagged products and the slot the next is made in:
+    /// a ring, the newest at `newest`, the one before it next (modulo [`LAGS`]), then the
+    /// free slot (items are made in place: no copy of a sample per push).
+    history: [<S::Recent as Recent<S>>::Item; LAGS],
     newest: usize,
 }
 
@@ -1003,7 +1022,7 @@ impl<S: SumScalar> Default for WindowSums<S> {
             sum: <S::Recent as Recent<S>>::ZERO_SUM,
             n: 0,
             seen: 0,
-            history: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS - 1],
+            history: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS],
             newest: 0,
         }
     }
@@ -1020,8 +1039,8 @@ impl<S: SumScalar> WindowSums<S> {
         self.n == 0
     }
 
-    /// Adds one measurement, the item `item` makes of it ([`Recent::item`],
-    /// [`SumScalar::drive_item`]; None: not representable), to `flight`'s sums (its products
+    /// Adds one measurement, the item `item` writes of it into its slot ([`Recent::item`],
+    /// [`SumScalar::drive_item`]; false: not representable), to `flight`'s sums (its products
     /// through `recent`), except the window's first `skip` (the noise model's order: their
     /// whitened residual would need samples before the window), whose item is not made.
     pub fn push(
@@ -1029,35 +1048,41 @@ impl<S: SumScalar> WindowSums<S> {
         flight: &mut FlightSums<S>,
         recent: &mut RecentSums<S::Recent>,
         skip: u32,
-        item: impl FnOnce(&S::Recent) -> Option<<S::Recent as Recent<S>>::Item>,
+        item: impl FnOnce(&S::Recent, &mut <S::Recent as Recent<S>>::Item) -> bool,
     ) {
         self.seen = self.seen.saturating_add(1);
         if self.seen <= skip {
             return;
         }
-        let Some(item) = item(&recent.sums) else {
+        // The ring: lag 1 at `newest`, lag 2 after it, the free slot after that.
+        let at = |k: usize| k.checked_rem(LAGS).unwrap_or(0);
+        let (lag1, lag2, free) = (
+            self.newest,
+            at(self.newest.saturating_add(1)),
+            at(self.newest.saturating_add(2)),
+        );
+        let made = self
+            .history
+            .get_mut(free)
+            .is_some_and(|slot| item(&recent.sums, slot));
+        let (true, Some(item)) = (made, self.history.get(free)) else {
             flight.out_of_range = true;
             return;
         };
         recent
             .active
-            .note(|i| <S::Recent as Recent<S>>::nonzero(&item, i));
-        recent.sums.add_pair(0, &item, &item, &recent.active);
+            .note(|i| <S::Recent as Recent<S>>::nonzero(item, i));
+        recent.sums.add_pair(0, item, item, &recent.active);
         let back = usize::try_from(self.n).unwrap_or(usize::MAX);
-        // Lag 1 is the newest of the history, lag 2 the other (LAGS - 1 = 2 entries).
-        let older = 1usize.saturating_sub(self.newest);
-        for (l, k) in [self.newest, older].into_iter().enumerate() {
+        for (l, k) in [lag1, lag2].into_iter().enumerate() {
             if let (true, Some(then)) = (l < back, self.history.get(k)) {
                 recent
                     .sums
-                    .add_pair(l.saturating_add(1), &item, then, &recent.active);
+                    .add_pair(l.saturating_add(1), item, then, &recent.active);
             }
         }
-        S::Recent::accumulate(&mut self.sum, &item);
-        self.newest = older;
-        if let Some(h) = self.history.get_mut(older) {
-            *h = item;
-        }
+        S::Recent::accumulate(&mut self.sum, item);
+        self.newest = free;
         self.n = self.n.saturating_add(1);
         flight.samples = flight.samples.saturating_add(1);
         recent.fold(flight, <S::Recent as Recent<S>>::FOLD_PER_SAMPLE);
@@ -1153,7 +1178,9 @@ pub(crate) mod tests {
                 }
             });
             let y: [S; 3] = core::array::from_fn(|a| S::from_f32(v(k, NZ + a)));
-            window.push(&mut flight, &mut recent, 0, |r| r.item(&z, &y, &none));
+            window.push(&mut flight, &mut recent, 0, |r, out| {
+                r.item_into(&z, &y, &none, out)
+            });
             if k == 50 {
                 close(&mut window, &mut flight, &mut pending, &recent);
             }

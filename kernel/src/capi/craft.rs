@@ -729,12 +729,12 @@ unsafe fn flight_id_push<S: SumScalar>(
     // SAFETY: non-NULL; the caller passes three floats.
     let rate = unsafe { rate_rad_s.cast::<[f32; 3]>().read_unaligned() };
     with_flight_id::<S>(block, magic, |st| {
-        let craft = &st.craft;
-        st.id.push_with(
+        st.id.push_word(
             S::from_f32(dt_s),
             rate.map(S::from_f32),
             valid != 0,
-            |command| craft.command_into(thrusters, command),
+            &st.craft,
+            thrusters,
         );
         MassidStatus::Ok
     })

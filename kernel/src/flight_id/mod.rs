@@ -43,7 +43,7 @@ pub mod window;
 
 use core::mem::MaybeUninit;
 
-use crate::craft::COMMAND_LEN;
+use crate::craft::{Craft, COMMAND_LEN};
 use crate::in_place::{assume_all_written, field};
 use crate::scalar::Scalar;
 use drive::DriveSum;
@@ -316,10 +316,24 @@ impl<S: SumScalar> FlightId<S> {
         valid: bool,
         command: impl FnOnce(&mut [S; COMMAND_LEN]),
     ) {
-        // A few entries of the closed windows' terms ([`close`]).
-        self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);
         // The command history runs on whatever happens to the rate samples.
         self.delay.push_with(command);
+        self.step(dt_s, rate, valid);
+    }
+
+    /// [`FlightId::push`] of the thruster word `word` of `craft` (the craft the
+    /// identification was configured for): its command is made only when the word changes
+    /// ([`delay::CommandDelay::push_word`]), the same arithmetic as
+    /// `push(.., craft.command(word))`.
+    pub fn push_word(&mut self, dt_s: S, rate: [S; 3], valid: bool, craft: &Craft<S>, word: u16) {
+        self.delay.push_word(craft, word);
+        self.step(dt_s, rate, valid);
+    }
+
+    /// A sample whose command is in the delay line.
+    fn step(&mut self, dt_s: S, rate: [S; 3], valid: bool) {
+        // A few entries of the closed windows' terms ([`close`]).
+        self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);
         if !valid {
             self.close_window();
             self.previous = false;

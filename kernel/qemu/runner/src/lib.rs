@@ -410,7 +410,7 @@ pub fn run_flight_id<S: RawBits + SumScalar, W: Write>(
             S::from_f32((c - bias) / per)
         });
         markers::begin();
-        id.push_with(dt, rate, valid, |command| table.command_into(word, command));
+        id.push_word(dt, rate, valid, &table, word);
         markers::end();
         markers::kind(if k == missing {
             craft.close_kind

@@ -27,6 +27,10 @@ pub struct CommandDelay<S> {
     /// The thruster word the newest command was made of ([`CommandDelay::push_word`]); None
     /// for a command written by [`CommandDelay::push_with`].
     word: Option<u16>,
+    /// Per slot, which command it holds: equal numbers, the same command (a repeated word's
+    /// copy); a new command takes the next number ([`CommandDelay::acting_key`]).
+    generation: [u32; RING],
+    next_generation: u32,
 }
 
 /// Why a delay is refused.
@@ -52,6 +56,8 @@ impl<S: Scalar> CommandDelay<S> {
             acting: [[S::ZERO; COMMAND_LEN]; 2],
             acting_newest: 0,
             word: None,
+            generation: [0; RING],
+            next_generation: 1,
         })
     }
 
@@ -64,6 +70,7 @@ impl<S: Scalar> CommandDelay<S> {
         if let Some(r) = self.ring.get_mut(self.head) {
             write(r);
         }
+        self.number(self.head, None);
         self.interpolate();
     }
 
@@ -85,11 +92,47 @@ impl<S: Scalar> CommandDelay<S> {
             if let (Some(src), Some(dst)) = (src, dst) {
                 *dst = *src;
             }
-        } else if let Some(r) = self.ring.get_mut(new) {
-            craft.command_into(word, r);
+            self.number(new, Some(old));
+        } else {
+            if let Some(r) = self.ring.get_mut(new) {
+                craft.command_into(word, r);
+            }
+            self.number(new, None);
         }
         self.word = Some(word);
         self.interpolate();
+    }
+
+    /// Numbers slot `slot`: as slot `same` (a copy of its command), or anew.
+    fn number(&mut self, slot: usize, same: Option<usize>) {
+        let n = match same.and_then(|k| self.generation.get(k)) {
+            Some(n) => *n,
+            None => {
+                let n = self.next_generation;
+                self.next_generation = n.wrapping_add(1);
+                n
+            }
+        };
+        if let Some(g) = self.generation.get_mut(slot) {
+            *g = n;
+        }
+    }
+
+    /// Which commands [`CommandDelay::acting`]`(back)` is made of: equal keys, the same
+    /// acting command (numbers wrap after 2^32 new commands: a key is only to be compared
+    /// with one taken a few samples before).
+    pub fn acting_key(&self, back: usize) -> (u32, u32) {
+        let late = ring_index(self.head, self.whole.saturating_add(back.min(1)));
+        let early = if S::ZERO.lt(self.fraction) {
+            ring_index(
+                self.head,
+                self.whole.saturating_add(back.min(1)).saturating_add(1),
+            )
+        } else {
+            late
+        };
+        let at = |k: usize| self.generation.get(k).copied().unwrap_or(0);
+        (at(late), at(early))
     }
 
     /// With a fractional delay, the acting command of the newest interval, interpolated in
@@ -155,46 +198,23 @@ mod tests {
         clippy::arithmetic_side_effects
     )]
     use super::*;
-    use crate::craft::Thruster;
+    use crate::flight_id::test_flights::{five_thrusters, words};
     use crate::IntFloat;
-
-    /// Five thrusters (three open at once take a pressure drop) and words that hold, change,
-    /// come back and wrap the ring.
-    fn craft<S: Scalar>() -> Craft<S> {
-        let t = |pos_m: [f32; 3], dir: [f32; 3], thrust_n: f32| Thruster {
-            pos_m,
-            dir,
-            thrust_n,
-        };
-        let thrusters = [
-            t([0.1, 0.1, 0.0], [1.0, 0.0, 0.0], 0.2),
-            t([0.1, -0.1, 0.05], [0.0, 1.0, 0.0], 0.25),
-            t([-0.1, 0.0, -0.05], [0.0, -1.0, 0.0], 0.2),
-            t([0.0, 0.1, 0.1], [0.0, 0.0, 1.0], 0.3),
-            t([0.1, 0.1, 0.0], [-1.0, 0.0, 0.0], 0.15),
-        ];
-        Craft::new(&thrusters, [0.01, -0.02, 0.0], 0.01).unwrap()
-    }
-
-    fn words() -> impl Iterator<Item = u16> {
-        // 200 samples (three times round the ring): runs of 1-9 samples of a few words.
-        let seq = [
-            0b00001u16, 0b00011, 0b00011, 0b10110, 0, 0b01000, 0b00001, 0b11111,
-        ];
-        (0..200u32).map(move |k| seq[((k * k / 7 + k / 3) % 8) as usize])
-    }
 
     /// The word path (the command made once per run of a word, else copied) acts exactly as
     /// the command path, and both as the delay's definition: command `k - m` and `k - m - 1`
     /// weighted by the fraction. Planted (checked by hand, 2026-11-30): a word path that
     /// never remakes the command fails at the first change.
     fn the_word_path_acts_as_the_commands<S: Scalar + PartialEq + core::fmt::Debug>() {
-        let craft = craft::<S>();
+        let craft = five_thrusters::<S>();
         for periods in [0.0f32, 1.0, 2.5, 61.75] {
             let mut by_word = CommandDelay::<S>::new(periods).unwrap();
             let mut by_command = CommandDelay::<S>::new(periods).unwrap();
             let mut history: [[S; COMMAND_LEN]; 256] = [[S::ZERO; COMMAND_LEN]; 256];
-            for (k, word) in words().enumerate() {
+            let mut previous = ((0, 0), [S::ZERO; COMMAND_LEN]);
+            let mut reused = 0;
+            // 200 samples: three times round the ring.
+            for (k, word) in words(200).enumerate() {
                 by_word.push_word(&craft, word);
                 by_command.push_with(|slot| craft.command_into(word, slot));
                 history[k] = craft.command(word);
@@ -213,10 +233,19 @@ mod tests {
                         }
                     });
                     let (w, c) = (by_word.acting(b), by_command.acting(b));
+                    // Equal keys (a step reused by the identification), equal commands.
+                    if b == 1 && by_word.acting_key(1) == previous.0 {
+                        assert_eq!(w, &previous.1, "{periods} periods, sample {k}: key");
+                    }
                     assert_eq!(w, c, "{periods} periods, sample {k}");
                     assert_eq!(w, &want, "{periods} periods, sample {k}, back {b}");
                 }
+                let key = by_word.acting_key(1);
+                reused += usize::from(key == previous.0);
+                previous = (key, *by_word.acting(1));
             }
+            // Runs of a word: keys reused (and checked above) dozens of times.
+            assert!(reused > 10, "{periods} periods: {reused} keys reused");
         }
     }
 

@@ -2,7 +2,8 @@
 //! increments per window, summed without drift. In floating point a Kahan-compensated sum
 //! ([`Compensated`]); in the fixed kernel exact integers ([`super::exact::ExactDrive`]), an
 //! integer add per increment instead of four rounded integer-float sums.
-use super::components::{NZ, PRODUCTS};
+use super::components::{NZ, N_MODEL, PRODUCTS, SPLIT_TORQUE};
+use crate::craft::COMMAND_LEN;
 use crate::scalar::Scalar;
 
 /// A window's drive components, `z` of [`super::sums::Sample`].
@@ -30,6 +31,21 @@ pub trait DriveSum<S>: Copy + core::fmt::Debug {
     fn values_of(&self, snapshot: &Self::Snapshot) -> [S; NZ];
     /// All zero (a new window).
     fn clear(&mut self);
+
+    /// What one interval of a held command adds to the drive's torque, force, held-torque
+    /// and positive-torque components ([`DriveSum::held_step`]): the same for every
+    /// interval of one command and step length, so the tick makes it once per change
+    /// ([`super::FlightId`]) and adds it ([`DriveSum::add_step`]) in a few instructions.
+    type Step: Copy + core::fmt::Debug;
+    /// The step of nothing held.
+    const ZERO_STEP: Self::Step;
+    /// The step of `command` ([`crate::craft::Craft::command`]) held for `dt_s`: the
+    /// torque and force times `dt_s` (components 0..6), the held torque (set, not summed,
+    /// `N_MODEL..SPLIT_TORQUE`) and the positive torques times `dt_s` where positive
+    /// (`SPLIT_TORQUE..NZ`).
+    fn held_step(&self, command: &[S; COMMAND_LEN], dt_s: S) -> Self::Step;
+    /// Adds `step` ([`DriveSum::held_step`]): the same as adding and setting its values.
+    fn add_step(&mut self, step: &Self::Step);
 
     /// The rate products `omega_b omega_d` of one sample (order of [`PRODUCTS`]) as this drive
     /// integrates them, first: the values in floating point; in the fixed kernel exact integer
@@ -117,6 +133,35 @@ impl<S: Scalar + core::fmt::Debug> DriveSum<S> for Compensated<S> {
     }
     fn clear(&mut self) {
         *self = Self::default();
+    }
+    /// Increments (`None`: a positive torque that is not, which adds nothing: adding a zero
+    /// would still apply the compensation's carry), then the held torques.
+    type Step = ([Option<S>; 9], [S; 3]);
+    const ZERO_STEP: Self::Step = ([None; 9], [S::ZERO; 3]);
+    fn held_step(&self, command: &[S; COMMAND_LEN], dt_s: S) -> Self::Step {
+        let at = |i: usize| command.get(i).copied().unwrap_or(S::ZERO);
+        let increments = core::array::from_fn(|c| {
+            let w = at(c);
+            // Components 0..6 always; the positive torques (command 6..9) where positive.
+            (c < 6 || S::ZERO.lt(w)).then(|| w.times(dt_s))
+        });
+        (increments, core::array::from_fn(at))
+    }
+    fn add_step(&mut self, (increments, held): &Self::Step) {
+        for (i, v) in increments.iter().enumerate() {
+            if let Some(v) = v {
+                // Command entries 6..9 drive components SPLIT_TORQUE..NZ.
+                let c = if i < 6 {
+                    i
+                } else {
+                    SPLIT_TORQUE.saturating_add(i.saturating_sub(6))
+                };
+                self.add(c, *v);
+            }
+        }
+        for (b, v) in held.iter().enumerate() {
+            self.set(N_MODEL.saturating_add(b), *v);
+        }
     }
     type Products = [S; 6];
     const ZERO_PRODUCTS: [S; 6] = [S::ZERO; 6];

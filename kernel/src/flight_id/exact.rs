@@ -24,8 +24,9 @@ use core::mem::MaybeUninit;
 use super::drive::DriveSum;
 use super::sums::{
     entry_components, fold_period, Active, LagForm, LagMoments, Recent, Sample, SumScalar,
-    DEFAULT_PIVOT_EXP, ENTRIES, NZ, N_MODEL,
+    DEFAULT_PIVOT_EXP, ENTRIES, NZ, N_MODEL, SPLIT_TORQUE,
 };
+use crate::craft::COMMAND_LEN;
 use crate::in_place::{assume_all_written, field};
 use crate::int::mul::{mul_acc, round_product, widening_mul};
 use crate::int::shift::shift_nearest;
@@ -799,10 +800,17 @@ pub const fn response_frac(max_window: u32, bits: u32) -> u32 {
         .saturating_add(bits)
 }
 
-impl DriveSum<IntFloat> for ExactDrive {
-    fn add(&mut self, i: usize, increment: IntFloat) {
-        if let (Some(z), Some(e)) = (self.now.z.get_mut(i), self.exp.get(i)) {
-            let q = Self::rounded(increment, *e);
+impl ExactDrive {
+    /// Component `i`'s increment in the drive's units (the sentinel if out of range).
+    fn increment_of(&self, i: usize, increment: IntFloat) -> i64 {
+        self.exp
+            .get(i)
+            .map_or(i64::MAX, |e| Self::rounded(increment, *e))
+    }
+
+    /// Adds an increment of [`ExactDrive::increment_of`] to component `i`.
+    fn add_increment(&mut self, i: usize, q: i64) {
+        if let Some(z) = self.now.z.get_mut(i) {
             *z = if q == i64::MAX || *z == i64::MAX {
                 i64::MAX
             } else {
@@ -811,19 +819,70 @@ impl DriveSum<IntFloat> for ExactDrive {
             };
         }
     }
+
+    /// Held component `i`'s value in the drive's units (the sentinel if out of range).
+    fn held_of(&self, i: usize, value: IntFloat) -> i64 {
+        let (Some(e), Some(extra)) = (self.exp.get(i), self.extra.get(i)) else {
+            return i64::MAX;
+        };
+        // A held value is as large as its bound: rounded at the sums' resolution (it fits
+        // 32 bits there), then brought to the drive's, exactly.
+        let q = Self::rounded(value, e.saturating_add(*extra));
+        if q == i64::MAX {
+            q
+        } else {
+            // |q| < 2^31 and extra <= 35: a value beyond its bound saturates to the
+            // sentinel (refused); within it |q| < 2^VALUE_BITS and nothing saturates.
+            q.saturating_mul(1i64 << (*extra).clamp(0, 35))
+        }
+    }
+}
+
+impl DriveSum<IntFloat> for ExactDrive {
+    fn add(&mut self, i: usize, increment: IntFloat) {
+        let q = self.increment_of(i, increment);
+        self.add_increment(i, q);
+    }
     fn set(&mut self, i: usize, value: IntFloat) {
-        if let (Some(z), Some(e)) = (self.now.z.get_mut(i), self.exp.get(i)) {
-            // A held value is as large as its bound: rounded at the sums' resolution (it fits
-            // 32 bits there), then brought to the drive's, exactly.
-            let extra = self.extra.get(i).copied().unwrap_or(0);
-            let q = Self::rounded(value, e.saturating_add(extra));
-            *z = if q == i64::MAX {
-                q
+        let v = self.held_of(i, value);
+        if let Some(z) = self.now.z.get_mut(i) {
+            *z = v;
+        }
+    }
+    /// The increments in the drive's units (a positive torque that is not adds zero, which
+    /// changes nothing), then the held torques'.
+    type Step = ([i64; 9], [i64; 3]);
+    const ZERO_STEP: Self::Step = ([0; 9], [0; 3]);
+    fn held_step(&self, command: &[IntFloat; COMMAND_LEN], dt_s: IntFloat) -> Self::Step {
+        let at = |i: usize| command.get(i).copied().unwrap_or(IntFloat::ZERO);
+        let increments = core::array::from_fn(|c| {
+            let w = at(c);
+            if c < 6 {
+                self.increment_of(c, w.times(dt_s))
+            } else if IntFloat::ZERO.lt(w) {
+                // Command entries 6..9 drive components SPLIT_TORQUE..NZ.
+                self.increment_of(
+                    SPLIT_TORQUE.saturating_add(c.saturating_sub(6)),
+                    w.times(dt_s),
+                )
             } else {
-                // |q| < 2^31 and extra <= 35: a value beyond its bound saturates to the
-                // sentinel (refused); within it |q| < 2^VALUE_BITS and nothing saturates.
-                q.saturating_mul(1i64 << extra.clamp(0, 35))
+                0
+            }
+        });
+        let held = core::array::from_fn(|b| self.held_of(N_MODEL.saturating_add(b), at(b)));
+        (increments, held)
+    }
+    fn add_step(&mut self, (increments, held): &Self::Step) {
+        for (i, q) in increments.iter().enumerate() {
+            let c = if i < 6 {
+                i
+            } else {
+                SPLIT_TORQUE.saturating_add(i.saturating_sub(6))
             };
+            self.add_increment(c, *q);
+        }
+        for (z, v) in self.now.z.iter_mut().skip(N_MODEL).zip(held) {
+            *z = *v;
         }
     }
     type Snapshot = Response;

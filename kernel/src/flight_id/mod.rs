@@ -49,7 +49,7 @@ use crate::scalar::Scalar;
 use drive::DriveSum;
 use reach::Reach;
 use solve::{Solution, SolveConfig, SolveError, NP};
-use sums::{DriveSnapshot, FlightSums, Recent, RecentSums, SumScalar, WindowSums, NZ, N_MODEL};
+use sums::{DriveSnapshot, FlightSums, Recent, RecentSums, SumScalar, WindowSums, NZ};
 
 /// How the measured rate relates to the body rate (the reference's `SensorResponse`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -150,6 +150,11 @@ pub struct FlightId<S: SumScalar> {
     delay: delay::CommandDelay<S>,
     /// The rate noise's moving-average part, taken out of each measurement.
     prefilter: ma_prefilter::MaPrefilter<S>,
+    /// The held command's step ([`DriveSum::held_step`]) of the acting command whose key
+    /// ([`delay::CommandDelay::acting_key`]) and step length are given: remade only when
+    /// either changes (None: a new window).
+    held: Option<((u32, u32), S)>,
+    held_step: <S::Drive as DriveSum<S>>::Step,
     /// Whether the previous sample was valid (the command acting since it is the delay
     /// line's [`delay::CommandDelay::acting`] one back).
     previous: bool,
@@ -260,6 +265,8 @@ impl<S: SumScalar> FlightId<S> {
         field!(slot, Self, reach).write(reach);
         field!(slot, Self, first_rate).write(None);
         field!(slot, Self, previous).write(false);
+        field!(slot, Self, held).write(None);
+        field!(slot, Self, held_step).write(<S::Drive as DriveSum<S>>::ZERO_STEP);
         field!(slot, Self, delay).write(delay);
         field!(slot, Self, prefilter).write(prefilter);
         field!(slot, Self, nominal).write(nominal);
@@ -286,6 +293,8 @@ impl<S: SumScalar> FlightId<S> {
                     delay,
                     prefilter,
                     previous,
+                    held,
+                    held_step,
                     nominal
                 }
             )
@@ -370,12 +379,21 @@ impl<S: SumScalar> FlightId<S> {
         let at = |k: usize| self.products.get(k).unwrap_or(&zero);
         let (products, then, before) = (at(now), at(then), at(before));
         if joins {
-            // The command acting over the interval that ends at this sample.
-            let w_prev = self.delay.acting(1);
-            // Torque and force held over the interval.
-            for i in 0..6 {
-                self.drive.add(i, get(w_prev, i).times(dt_s));
+            // The command acting over the interval that ends at this sample, held: its
+            // torque and force accumulated, the held torque (the timing test's direction, set,
+            // not summed) and the open thrusters' positive torques about each axis
+            // accumulated (the thrust-symmetry test's direction, [`consistency`], and what
+            // tells thrusters apart in the thrust-uncertainty recovery, [`consider`]). The
+            // same for every interval of one command and step: made once per change.
+            let key = (self.delay.acting_key(1), dt_s);
+            let same = self
+                .held
+                .is_some_and(|(k, dt)| k == key.0 && !(dt.lt(dt_s) || dt_s.lt(dt)));
+            if !same {
+                self.held_step = self.drive.held_step(self.delay.acting(1), dt_s);
+                self.held = Some(key);
             }
+            self.drive.add_step(&self.held_step);
             if gyro {
                 // The integral of the measured rate products over the step (unbiased: the
                 // noise products have zero mean in every component of omega x I omega; taking
@@ -392,18 +410,6 @@ impl<S: SumScalar> FlightId<S> {
                 let third_order = self.filled >= 2 && !dt_s.mul_pow2(-6).lt(jitter);
                 self.drive
                     .add_products(6, products, then, before, dt_s, third_order);
-            }
-            for b in 0..3 {
-                // The held torque itself (the timing test's direction), not summed.
-                self.drive.set(N_MODEL.saturating_add(b), get(w_prev, b));
-                // The open thrusters' positive torques about axis b, accumulated (the
-                // thrust-symmetry test's direction, [`consistency`], and what tells thrusters
-                // apart in the thrust-uncertainty recovery, [`consider`]).
-                let positive = get(w_prev, 6usize.saturating_add(b));
-                if S::ZERO.lt(positive) {
-                    self.drive
-                        .add(sums::SPLIT_TORQUE.saturating_add(b), positive.times(dt_s));
-                }
             }
         }
         self.dt_before = dt_s;
@@ -477,6 +483,7 @@ impl<S: SumScalar> FlightId<S> {
                 .close(&mut self.sums, sum, n, self.recent.active());
         }
         self.drive.clear();
+        self.held = None;
         self.prefilter.reset();
         self.filled = 0;
         self.reach.clear();
@@ -655,6 +662,37 @@ mod tests {
         assert!((19..=21).contains(&doubled), "{doubled}");
         // A weight on an axis the craft does not turn about changes nothing.
         assert_eq!(windows_of([1.0, 5.0, 5.0], 0.1), plain);
+    }
+
+    /// A word's held step is made once per change of the acting command or of the step
+    /// length (`FlightId::held`): pushing words (steps reused) gives the sums bit for bit of
+    /// pushing each sample's command (a new command each time: every step remade), with a
+    /// fractional delay, steps that change within a word's run, and words that hold and
+    /// change. Planted (checked by hand, 2026-11-30): a key without the step length fails.
+    #[test]
+    fn held_steps_are_remade_when_the_command_or_the_step_changes() {
+        use crate::IntFloat;
+        fn run<S: SumScalar + core::fmt::Debug>(by_word: bool) -> u64 {
+            let c = S::from_f32;
+            let mut cfg = test_flights::config::<S>([10.0, 10.0, 10.0, 0.0, 0.0, 0.0]);
+            cfg.delay_periods = 1.5;
+            let craft = test_flights::five_thrusters::<S>();
+            let mut id = FlightId::new(cfg).expect("config");
+            for (k, word) in test_flights::words(1500).enumerate() {
+                let dt = c(if k % 7 == 3 { 1.01e-3 } else { 1e-3 });
+                let t = k as f32 * 1e-3;
+                let rate = [c(0.1 + 0.2 * t), c(-0.05 + 0.1 * t), c(0.02 * t)];
+                if by_word {
+                    id.push_word(dt, rate, true, &craft, word);
+                } else {
+                    id.push(dt, rate, true, craft.command(word));
+                }
+            }
+            id.finish();
+            sums::tests::text_hash(id.sums())
+        }
+        assert_eq!(run::<f32>(true), run::<f32>(false));
+        assert_eq!(run::<IntFloat>(true), run::<IntFloat>(false));
     }
 
     /// A 3-D test craft's configuration at 1 kHz, no turn limit, with the window length, the

@@ -10,6 +10,8 @@
 use super::solve::{SolveConfig, NP};
 use super::sums::SumScalar;
 use super::{consider, exact, FlightId, FlightIdConfig, SensorResponse};
+use crate::craft::{Craft, Thruster};
+use crate::scalar::Scalar;
 
 /// A 3-D craft at 1 kHz, windows of 700 samples, the gyroscopic term in, every term free.
 pub(crate) fn config<S: SumScalar>(j_nominal: [f32; 6]) -> FlightIdConfig<S> {
@@ -122,4 +124,30 @@ pub(crate) fn coloured_cost_of<S: crate::scalar::Scalar>(
     u[NZ] = S::ONE;
     let k = ar_weights(&COLOURED_PHI.map(|v| S::from_f32(v as f32)));
     f64::from(quad(&weighted(flight, 2, &k), &u, &u).to_f32())
+}
+
+/// Five thrusters of a 3-D craft (three open at once take a pressure drop).
+pub(crate) fn five_thrusters<S: Scalar>() -> Craft<S> {
+    let t = |pos_m: [f32; 3], dir: [f32; 3], thrust_n: f32| Thruster {
+        pos_m,
+        dir,
+        thrust_n,
+    };
+    let thrusters = [
+        t([0.1, 0.1, 0.0], [1.0, 0.0, 0.0], 0.2),
+        t([0.1, -0.1, 0.05], [0.0, 1.0, 0.0], 0.25),
+        t([-0.1, 0.0, -0.05], [0.0, -1.0, 0.0], 0.2),
+        t([0.0, 0.1, 0.1], [0.0, 0.0, 1.0], 0.3),
+        t([0.1, 0.1, 0.0], [-1.0, 0.0, 0.0], 0.15),
+    ];
+    Craft::new(&thrusters, [0.01, -0.02, 0.0], 0.01).unwrap()
+}
+
+/// `n` thruster words of [`five_thrusters`]: runs of 1-9 samples of a few words that hold,
+/// change and come back.
+pub(crate) fn words(n: u32) -> impl Iterator<Item = u16> {
+    let seq = [
+        0b00001u16, 0b00011, 0b00011, 0b10110, 0, 0b01000, 0b00001, 0b11111,
+    ];
+    (0..n).map(move |k| seq[((k * k / 7 + k / 3) % 8) as usize])
 }

@@ -252,12 +252,13 @@ impl ExactMoments {
                 *o = 0;
                 continue;
             }
-            // The sentinel, and anything past round_product's |v| <= 2^62, is out of range
-            // (a component within its bound is far below).
-            if *v == i64::MAX || v.unsigned_abs() > 1u64 << 62 {
+            // Anything past round_product's |v| <= 2^62, the sentinel `i64::MAX` included, is
+            // out of range (a component within its bound is far below): one comparison,
+            // `v + 2^62` within `[0, 2^63]`.
+            if (*v as u64).wrapping_add(1 << 62) > 1 << 63 {
                 return false;
             }
-            let frac = x.unsigned_abs().saturating_add(bits);
+            let frac = x.unsigned_abs().wrapping_add(bits);
             let q = round_product(&Native, &(*v as u64), frac) as i32;
             if q.unsigned_abs() >= 1u32 << VALUE_BITS {
                 return false;

@@ -325,16 +325,22 @@ pub fn identify_adjusted<S: SumScalar>(
             prev_t = Some(*t);
             let valid = (0..3).all(|a| !axes[a] || rate[a].is_finite());
             let r = rate.map(|v| S::from_f32(if v.is_finite() { v as f32 } else { 0.0 }));
-            let command = match cmd {
-                Command::Word(w) => table.command(*w),
+            let dt = S::from_f32(dt as f32);
+            match cmd {
+                // As the C ABI flies a word: its command made once per run of the word.
+                Command::Word(w) => id.push_word(dt, r, valid, &table, *w),
                 Command::Wrench { force, torque } => {
                     let v = [
                         torque[0], torque[1], torque[2], force[0], force[1], force[2],
                     ];
-                    command_of_wrench(v.map(|x| S::from_f32(x as f32)))
+                    id.push(
+                        dt,
+                        r,
+                        valid,
+                        command_of_wrench(v.map(|x| S::from_f32(x as f32))),
+                    );
                 }
-            };
-            id.push(S::from_f32(dt as f32), r, valid, command);
+            }
             if FlightId::<S>::REANCHORS && k + 1 == next_anchor {
                 next_anchor = next_anchor.saturating_mul(2);
                 reanchor(&mut id);

@@ -6,14 +6,17 @@
 //! instructions on the M4F in the tick that closed the window, 3.6 times the 8,400 budget,
 //! where a sample costs 14,000. The fit reads these sums only outside the tick
 //! ([`super::FlightId::solve`]), so nothing needs them at once: a closed window's means and
-//! sums wait here, and each later sample adds [`DRAIN_PER_SAMPLE`] of its entries. Each entry
-//! takes the same operation as before, and the windows are taken in the order they closed, so
-//! the sums are bit for bit those of the close done at once.
+//! sums wait here, and each later sample adds [`DRAIN_ALONE`] of its entries while one window
+//! waits, [`DRAIN_PER_SAMPLE`] while more do ([`PendingCloses::drain_tick`]: the fewer a
+//! tick adds, the cheaper the ticks that add them, 960 instructions on the M4F at 8). Each
+//! entry takes the same operation as before, and the windows are taken in the order they
+//! closed, so the sums are bit for bit those of the close done at once.
 //!
-//! Up to [`PENDING`] closed windows wait. A dense window (381 entries) is done in 48 samples,
-//! so the queue fills only if windows shorter than about 50 samples close one after the other
-//! (a rate sensor failing every few samples); then the oldest is finished in the tick that
-//! closes the next (the close done at once, as before).
+//! Up to [`PENDING`] closed windows wait. A dense window (381 entries) is done in 96 samples
+//! alone, in 48 once the next has closed, so the queue fills only if windows shorter than
+//! about 50 samples close one after the other (a rate sensor failing every few samples); then
+//! the oldest is finished in the tick that closes the next (the close done at once, as
+//! before).
 
 use super::components::NZ;
 use super::sums::{Active, FlightSums, Sample};
@@ -21,8 +24,10 @@ use crate::scalar::Scalar;
 
 /// Closed windows that can wait for their term.
 pub const PENDING: usize = 4;
-/// Entries of the waiting term added per sample.
+/// Entries of the waiting terms added per sample while two or more windows wait.
 pub const DRAIN_PER_SAMPLE: usize = 8;
+/// Entries of the waiting term added per sample while it is the only one.
+pub const DRAIN_ALONE: usize = 4;
 
 /// A closed window's term: its means and sums over the components it moved.
 #[derive(Clone, Copy, Debug)]
@@ -189,6 +194,17 @@ impl<S: Scalar> PendingCloses<S> {
         }
     }
 
+    /// A tick's share: [`DRAIN_ALONE`] entries while one window waits, [`DRAIN_PER_SAMPLE`]
+    /// while more do.
+    pub fn drain_tick(&mut self, flight: &mut FlightSums<S>) {
+        let budget = if self.waiting() > 1 {
+            DRAIN_PER_SAMPLE
+        } else {
+            DRAIN_ALONE
+        };
+        self.drain(flight, budget);
+    }
+
     /// Adds every waiting term (before a fit, and at the end of the flight: not a tick's work).
     pub fn drain_all(&mut self, flight: &mut FlightSums<S>) {
         self.drain(flight, usize::MAX);
@@ -277,7 +293,7 @@ mod tests {
             q.close(&mut f, sum, n, &active);
             most = most.max(q.waiting());
             for _ in 0..gap {
-                q.drain(&mut f, DRAIN_PER_SAMPLE);
+                q.drain_tick(&mut f);
             }
         }
         // An empty window queues nothing.
@@ -295,8 +311,9 @@ mod tests {
         assert_ne!(got, at_once::<S>([0, 1, 3, 2, 4, 5, 6]));
     }
 
-    /// The queued terms, drained a few entries per sample (and at once when the queue is
-    /// full), are bit for bit the terms added at once in the order the windows closed.
+    /// The queued terms, drained a few entries per sample (4 alone, 8 while more wait, and at
+    /// once when the queue is full), are bit for bit the terms added at once in the order the
+    /// windows closed.
     #[test]
     fn a_spread_close_equals_the_close_at_once_bit_for_bit() {
         spread_equals_at_once::<f32>();

@@ -342,7 +342,7 @@ impl<S: SumScalar> FlightId<S> {
     /// A sample whose command is in the delay line.
     fn step(&mut self, dt_s: S, rate: [S; 3], valid: bool) {
         // A few entries of the closed windows' terms ([`close`]).
-        self.pending.drain(&mut self.sums, close::DRAIN_PER_SAMPLE);
+        self.pending.drain_tick(&mut self.sums);
         if !valid {
             self.close_window();
             self.previous = false;

@@ -74,8 +74,9 @@ impl<S: Scalar> CommandDelay<S> {
         self.interpolate();
     }
 
-    /// Takes the newest sample's thruster word: its command ([`Craft::command`]) is made
-    /// only when the word differs from the previous sample's, and otherwise copied (a
+    /// Takes the newest sample's thruster word of `craft` (the same table on every call): its
+    /// command ([`Craft::command`]) is made only when the word differs from the previous
+    /// sample's, and otherwise copied (a
     /// thruster word holds for many samples: the command of 16 thrusters costs the integer
     /// float some 1,200 instructions, the copy under a hundred).
     pub fn push_word(&mut self, craft: &Craft<S>, word: u16) {

@@ -7,10 +7,12 @@
 //! kernel's tick. Here each component of a sample, `v = (z, y)`, is first rounded to a
 //! signed integer at a per-component power of two chosen from the flight's [`Envelope`]
 //! (`|q| < 2^VALUE_BITS`), and the products are summed exactly in `i64`: one 32 x 32 -> 64
-//! multiply-accumulate each (`smlal` on the M4F). Every entry is folded into the flight's
-//! integer-float sums (rounded once) at least every [`FOLD_PERIOD`] samples, so it holds at
-//! most that many products: `FOLD_PERIOD 2^(2 VALUE_BITS) < 2^63`, checked below at compile
-//! time and proved by Z3 (`massid_proofs_solver`, obligation `mul_acc`).
+//! multiply-accumulate each (`smlal` on the M4F): lag 0's levels, and lags 1 and 2 as the
+//! symmetric differences the fit reads ([`Recent::PADS`]). Every entry is folded into the
+//! flight's integer-float sums (rounded once) at least every [`FOLD_PERIOD`] items, so it
+//! holds at most [`PRODUCTS_PER_FOLD`] products: `PRODUCTS_PER_FOLD 2^(2 VALUE_BITS) < 2^63`,
+//! checked below at compile time and proved by Z3 (`massid_proofs_solver`, obligation
+//! `mul_acc`).
 //!
 //! What it costs in accuracy: a component is resolved to `2^-VALUE_BITS` of its bound (twice
 //! its reach over the longest window, rounded up to a power of two), about 10^-8; the rate
@@ -53,11 +55,11 @@ const PER_LAG: usize = NZ * (NZ + 1) / 2 + 3 * NZ + 3;
 /// ([`Recent::PADS`]), [`PER_LAG`] each, in the order [`Recent::take`] folds them.
 pub const EXACT_ENTRIES: usize = LAGS * PER_LAG;
 
-/// Products an exact entry can hold between two of its folds: one a sample ([`FOLD_PERIOD`]
-/// samples at most), and a window's last items' pairings with the zeros after it, two at
-/// most per closed window (a window of one item or more: one per sample at most), and two
-/// left from a window closed before (`massid_proofs_solver`, obligation `mul_acc`, proves
-/// the sum exact for this many).
+/// Products an exact entry can hold between two of its folds: one an item ([`FOLD_PERIOD`]
+/// items at most: the fold runs after each), and a window's last items' pairings with the
+/// zeros after it, two at most per closed window (a window has one item or more: one window
+/// per item at most), and what is left of a window closed before (one; two counted)
+/// (`massid_proofs_solver`, obligation `mul_acc`, proves the sum exact for this many).
 pub const PRODUCTS_PER_FOLD: usize = 3 * FOLD_PERIOD + 2;
 
 // That many products of `|a|, |b| < 2^VALUE_BITS` cannot overflow i64.
@@ -68,7 +70,7 @@ const _: () = assert!((PRODUCTS_PER_FOLD as u128) << (2 * VALUE_BITS) < i64::MAX
 /// sum, about 80 instructions on the M4F).
 pub const FOLD_PER_SAMPLE: usize = fewest_folds();
 
-/// Samples between two folds of one exact entry, at most.
+/// Items between two folds of one exact entry, at most (the fold runs after each item).
 pub const FOLD_PERIOD: usize = EXACT_ENTRIES.div_ceil(FOLD_PER_SAMPLE);
 
 // Evaluated at compile time: an overflow or a bad index is a build error, not a panic.
@@ -91,7 +93,7 @@ const fn fewest_folds() -> usize {
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 const FOLD_TABLE: [u32; EXACT_ENTRIES] = {
     const fn pack(flat: usize, ci: usize, cj: usize, half: bool) -> u32 {
-        flat as u32 | (ci as u32) << 11 | (cj as u32) << 16 | (half as u32) << 21
+        (flat as u32) | ((ci as u32) << 11) | ((cj as u32) << 16) | ((half as u32) << 21)
     }
     let mut out = [0u32; EXACT_ENTRIES];
     let mut k = 0;
@@ -134,9 +136,9 @@ fn fold_entry(k: usize) -> Option<(usize, usize, usize, bool)> {
     let t = *FOLD_TABLE.get(k)?;
     Some((
         (t & 0x7ff) as usize,
-        (t >> 11 & 0x1f) as usize,
-        (t >> 16 & 0x1f) as usize,
-        t >> 21 & 1 == 1,
+        ((t >> 11) & 0x1f) as usize,
+        ((t >> 16) & 0x1f) as usize,
+        (t >> 21) & 1 == 1,
     ))
 }
 
@@ -373,9 +375,9 @@ impl Recent<IntFloat> for ExactMoments {
     /// whitened information in the last digits of the 25-bit mantissa, random planar craft
     /// 79024 and 79109 `ok` 3.6-3.8 sigma off where f32 says 1.4 and 1.0; gathered as levels
     /// and turned into differences at each fold, a lag-0 entry was rounded into five sums.)
-    /// The products: `d d^T` is symmetric, so a lag takes the 231 products of its upper
-    /// triangle where `v_k v_(k-l)^T` took 441 (about 1,300 instructions fewer a sample on the
-    /// M4F).
+    /// The products: `d d^T` is symmetric, so a lag takes the 228 products of its upper
+    /// triangle, `zy` and `yy` where `v_k v_(k-l)^T` took 435 (about 1,150 instructions fewer
+    /// a sample on the M4F).
     const LAG_FORM: LagForm = LagForm::Differences;
     const PADS: bool = true;
     const FOLD_ENTRIES: usize = EXACT_ENTRIES;

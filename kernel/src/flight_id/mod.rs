@@ -38,7 +38,7 @@ pub mod reach;
 pub mod solve;
 pub mod sums;
 #[cfg(test)]
-mod test_flights;
+pub(crate) mod test_flights;
 pub mod window;
 
 use core::mem::MaybeUninit;
@@ -135,7 +135,8 @@ pub struct FlightId<S: SumScalar> {
     /// A step longer than this starts a new window (1.5 periods).
     gap: S,
     /// The window's last three (drive, measured rate), a ring whose newest is at `newest`
-    /// (the older ones follow, modulo 3); `filled` of them valid.
+    /// (the older ones follow, modulo 3); `filled` of them valid. The drive is kept only for
+    /// the sensor means: a point response reads the drive itself ([`DriveSum::current`]).
     last: [(DriveSnapshot<S>, [S; 3]); 3],
     newest: usize,
     filled: u32,
@@ -331,9 +332,10 @@ impl<S: SumScalar> FlightId<S> {
     }
 
     /// [`FlightId::push`] of the thruster word `word` of `craft` (the craft the
-    /// identification was configured for): its command is made only when the word changes
-    /// ([`delay::CommandDelay::push_word`]), the same arithmetic as
-    /// `push(.., craft.command(word))`.
+    /// identification was configured for, the same table on every call: a repeated word's
+    /// command is copied, not remade, [`delay::CommandDelay::push_word`]), the same arithmetic
+    /// as `push(.., craft.command(word))`. A caller that changes the table pushes
+    /// [`FlightId::push`] once after the change (which forgets the word).
     pub fn push_word(&mut self, dt_s: S, rate: [S; 3], valid: bool, craft: &Craft<S>, word: u16) {
         self.delay.push_word(craft, word);
         self.step(dt_s, rate, valid);

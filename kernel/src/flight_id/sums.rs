@@ -460,13 +460,6 @@ pub const BLOCK: usize = 256;
 /// the whole fold), so that each is folded every [`BLOCK`] samples or sooner.
 pub const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil(BLOCK);
 
-/// Samples between two folds of one entry when `per_sample` entries are folded per sample, at
-/// most: each sample adds at most one product to an entry, so this bounds the products a
-/// recent entry holds ([`super::exact`]).
-pub const fn fold_period(per_sample: usize) -> usize {
-    ENTRIES.div_ceil(if per_sample == 0 { 1 } else { per_sample })
-}
-
 /// Which two components of `v = (z, y)` entry `k` of the flat order multiplies (`z[i]` is
 /// component `i`, `y[a]` is `NZ + a`), or None past the last entry.
 pub fn entry_components(k: usize) -> Option<(usize, usize)> {
@@ -635,7 +628,8 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     /// [`super::anchor`]); false, with nothing changed, where these sums are not moved (the
     /// fixed kernel's exact sums).
     fn shift(item: &mut [Self::Item], sum: &mut Self::ItemSum, d: &[[S; NZ]; 3]) -> bool;
-    /// Entry `k` of the flat order, in `S`, and empties it.
+    /// Entry `k` (of the flat order, or of [`Recent::FOLD_ENTRIES`]' own), in `S`, and
+    /// empties it.
     fn take(&mut self, k: usize) -> S;
 }
 

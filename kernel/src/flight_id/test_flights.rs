@@ -128,6 +128,11 @@ pub(crate) fn coloured_cost_of<S: crate::scalar::Scalar>(
 
 /// Five thrusters of a 3-D craft (three open at once take a pressure drop).
 pub(crate) fn five_thrusters<S: Scalar>() -> Craft<S> {
+    five_thrusters_with_drop(0.01)
+}
+
+/// [`five_thrusters`] with a pressure drop of `drop_n` per extra open thruster.
+pub(crate) fn five_thrusters_with_drop<S: Scalar>(drop_n: f32) -> Craft<S> {
     let t = |pos_m: [f32; 3], dir: [f32; 3], thrust_n: f32| Thruster {
         pos_m,
         dir,
@@ -140,7 +145,7 @@ pub(crate) fn five_thrusters<S: Scalar>() -> Craft<S> {
         t([0.0, 0.1, 0.1], [0.0, 0.0, 1.0], 0.3),
         t([0.1, 0.1, 0.0], [-1.0, 0.0, 0.0], 0.15),
     ];
-    Craft::new(&thrusters, [0.01, -0.02, 0.0], 0.01).unwrap()
+    Craft::new(&thrusters, [0.01, -0.02, 0.0], drop_n).unwrap()
 }
 
 /// `n` thruster words of [`five_thrusters`]: runs of 1-9 samples of a few words that hold,

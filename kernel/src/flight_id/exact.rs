@@ -52,7 +52,7 @@ pub const VALUE_BITS: u32 = 27;
 const PER_LAG: usize = NZ * (NZ + 1) / 2 + 3 * NZ + 3;
 
 /// Entries of the exact sums: lag 0's levels and lags 1 and 2's padded differences
-/// ([`Recent::PADS`]), [`PER_LAG`] each, in the order [`Recent::take`] folds them.
+/// ([`Recent::PADS`]), `PER_LAG` (228) each, in the order [`Recent::take`] folds them.
 pub const EXACT_ENTRIES: usize = LAGS * PER_LAG;
 
 /// Products an exact entry can hold between two of its folds: one an item ([`FOLD_PERIOD`]
@@ -507,7 +507,7 @@ impl Recent<IntFloat> for ExactMoments {
         }
     }
 
-    /// Exact entry `k` ([`FOLD_TABLE`]) and its scale; a lag's diagonal entries (`zz[i][i]`,
+    /// Exact entry `k` (the fold table's order) and its scale; a lag's diagonal entries (`zz[i][i]`,
     /// `yy`) halved, the others whole: the flight's `zz[l][i][j]`, `i < j`, and `zy[l]` hold
     /// `G_l`'s entry against a zero `zz[l][j][i]` and `yz[l]`, whose half-sums
     /// ([`LagMoments::zz_sym`], [`LagMoments::zy_sym`]) are then `G_l / 2`.

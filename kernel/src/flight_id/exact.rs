@@ -527,6 +527,10 @@ impl Recent<IntFloat> for ExactMoments {
     fn flight_entry(k: usize) -> usize {
         fold_entry(k).map_or(usize::MAX, |(flat, ..)| flat)
     }
+
+    fn components(k: usize) -> Option<(usize, usize)> {
+        fold_entry(k).map(|(_, i, j, _)| (i, j))
+    }
 }
 
 /// Bits the drive is kept finer than its rounded components, for a window of at most

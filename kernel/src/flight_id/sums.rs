@@ -622,7 +622,7 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     }
     /// The two components of `v = (z, y)` entry `k` multiplies (`z[i]` is `i`, `y[a]` is
     /// `NZ + a`), where the fold may skip an entry whose drive components the flight has not
-    /// moved ([`RecentSums::fold`]); None: never skipped.
+    /// moved (the rolling fold of [`RecentSums`]); None: never skipped.
     fn components(_k: usize) -> Option<(usize, usize)> {
         None
     }

@@ -528,6 +528,8 @@ impl Recent<IntFloat> for ExactMoments {
         fold_entry(k).map_or(usize::MAX, |(flat, ..)| flat)
     }
 
+    const SKIPS_UNMOVED: bool = true;
+
     fn components(k: usize) -> Option<(usize, usize)> {
         fold_entry(k).map(|(_, i, j, _)| (i, j))
     }

@@ -620,9 +620,11 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     fn flight_entry(k: usize) -> usize {
         k
     }
-    /// The two components of `v = (z, y)` entry `k` multiplies (`z[i]` is `i`, `y[a]` is
-    /// `NZ + a`), where the fold may skip an entry whose drive components the flight has not
-    /// moved (the rolling fold of [`RecentSums`]); None: never skipped.
+    /// Whether the fold skips the entries of drive components the flight has not moved (the
+    /// rolling fold of [`RecentSums`], [`Recent::components`]).
+    const SKIPS_UNMOVED: bool = false;
+    /// With [`Recent::SKIPS_UNMOVED`]: the two components of `v = (z, y)` entry `k`
+    /// multiplies (`z[i]` is `i`, `y[a]` is `NZ + a`).
     fn components(_k: usize) -> Option<(usize, usize)> {
         None
     }
@@ -884,13 +886,14 @@ impl<R> RecentSums<R> {
     /// Moves `count` entries, from the cursor on, into `flight`'s folded ones. While the
     /// flight has moved few drive components ([`Active::sparse`]: their products are the only
     /// ones gathered), an entry of a component it has not moved is zero and its fold, which
-    /// would add a zero, is skipped ([`Recent::components`]): the same sums bit for bit, the
+    /// would add a zero, is skipped ([`Recent::components`]; the fixed kernel's exact sums,
+    /// whose fold is an integer-float conversion and sum): the same sums bit for bit, the
     /// cursor where it was (a planar craft's fold 5 times cheaper).
     fn fold<S: Scalar>(&mut self, flight: &mut FlightSums<S>, count: usize)
     where
         R: Recent<S>,
     {
-        let sparse = self.active.sparse();
+        let sparse = R::SKIPS_UNMOVED && self.active.sparse();
         for _ in 0..count {
             let k = self.cursor;
             let gathered = !sparse

@@ -38,7 +38,7 @@ extern "C" {
  * 4 massid_flight_id_settings.rate_noise_ma_root and rate_noise_ma_lag, 5 massid_fixed_flight_id
  * 36864 bytes, 6 a 3-D craft's windows also end at the coupled noise walk (same layout, other
  * answers on fast-spinning craft). */
-#define MASSID_ABI_VERSION 8u
+#define MASSID_ABI_VERSION 7u
 uint32_t massid_abi_version(void);
 
 #define MASSID_N_THRUSTERS 12

@@ -366,12 +366,9 @@ pub extern "C" fn massid_pipeline_state_bytes(fixed_point: u8) -> u32 {
 /// (the closed windows waiting for their term, `flight_id::close`), 6 the identification's
 /// windows of a 3-D craft also end at the coupled noise walk (`flight_id::window`; same
 /// layout, other answers on fast-spinning craft), 7 `massid_f32_flight_id_reanchor`, and a
-/// solve mid-window includes the open window (same layout, other answers mid-flight), 8 the
-/// fixed kernel's lags gathered as exact symmetric differences (same layout, answers that
-/// differ in the last digits, and `MASSID_OVERFLOW` for a rate residual that jumps by half its
-/// bound between two samples).
+/// solve mid-window includes the open window (same layout, other answers mid-flight).
 /// [`ABI_LAYOUTS`] records each version's struct sizes from version 3 on.
-pub const ABI_VERSION: u32 = 8;
+pub const ABI_VERSION: u32 = 7;
 
 /// Per version (append-only: a new version adds a row, no row is edited), the sizes of the
 /// ABI's types on a 64-bit host (`massid_type_size(0..8)` then `massid_craft_type_size(0..7)`;
@@ -379,7 +376,7 @@ pub const ABI_VERSION: u32 = 8;
 /// changes size without a new version no longer matches its version's row
 /// ([`abi_layout_check`]). A change that keeps every size (fields reordered or retyped alike)
 /// is not seen here: the version must still be raised by hand.
-pub const ABI_LAYOUTS: [(u32, [u32; 15]); 6] = [
+pub const ABI_LAYOUTS: [(u32, [u32; 15]); 5] = [
     (
         3,
         [
@@ -406,12 +403,6 @@ pub const ABI_LAYOUTS: [(u32, [u32; 15]); 6] = [
     ),
     (
         7,
-        [
-            388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 36864,
-        ],
-    ),
-    (
-        8,
         [
             388, 2, 76, 76, 96, 4096, 1024, 20, 460, 128, 2048, 20480, 196, 436, 36864,
         ],

@@ -7,12 +7,10 @@
 //! kernel's tick. Here each component of a sample, `v = (z, y)`, is first rounded to a
 //! signed integer at a per-component power of two chosen from the flight's [`Envelope`]
 //! (`|q| < 2^VALUE_BITS`), and the products are summed exactly in `i64`: one 32 x 32 -> 64
-//! multiply-accumulate each (`smlal` on the M4F): lag 0's levels, and lags 1 and 2 as the
-//! symmetric differences the fit reads ([`Recent::PADS`]). Every entry is folded into the
-//! flight's integer-float sums (rounded once) at least every [`FOLD_PERIOD`] items, so it
-//! holds at most [`PRODUCTS_PER_FOLD`] products: `PRODUCTS_PER_FOLD 2^(2 VALUE_BITS) < 2^63`,
-//! checked below at compile time and proved by Z3 (`massid_proofs_solver`, obligation
-//! `mul_acc`).
+//! multiply-accumulate each (`smlal` on the M4F). Every entry is folded into the flight's
+//! integer-float sums (rounded once) at least every [`FOLD_PERIOD`] samples, so it holds at
+//! most that many products: `FOLD_PERIOD 2^(2 VALUE_BITS) < 2^63`, checked below at compile
+//! time and proved by Z3 (`massid_proofs_solver`, obligation `mul_acc`).
 //!
 //! What it costs in accuracy: a component is resolved to `2^-VALUE_BITS` of its bound (twice
 //! its reach over the longest window, rounded up to a power of two), about 10^-8; the rate
@@ -25,8 +23,8 @@ use core::mem::MaybeUninit;
 
 use super::drive::DriveSum;
 use super::sums::{
-    yy_entry, zy_entry, zz_entry, Active, LagForm, LagMoments, Recent, Sample, SumScalar,
-    DEFAULT_PIVOT_EXP, ENTRIES, LAGS, NZ, N_MODEL, SPLIT_TORQUE,
+    entry_components, fold_period, Active, LagForm, LagMoments, Recent, Sample, SumScalar,
+    DEFAULT_PIVOT_EXP, ENTRIES, NZ, N_MODEL, SPLIT_TORQUE,
 };
 use crate::craft::COMMAND_LEN;
 use crate::in_place::{assume_all_written, field};
@@ -47,100 +45,16 @@ pub const MAX_REACH_S: f32 = 100.0;
 /// Bits of a rounded component: `|q| < 2^VALUE_BITS`.
 pub const VALUE_BITS: u32 = 27;
 
-/// Entries of the exact sums per lag: the upper triangle of `zz`, then `zy` and `yy` (the fit
-/// reads the sums' symmetric parts only: [`LagMoments::zz_sym`], [`LagMoments::zy_sym`]).
-const PER_LAG: usize = NZ * (NZ + 1) / 2 + 3 * NZ + 3;
+// An entry's products between two folds cannot overflow i64.
+const _: () = assert!((FOLD_PERIOD as u128) << (2 * VALUE_BITS) < i64::MAX as u128);
 
-/// Entries of the exact sums: lag 0's levels and lags 1 and 2's padded differences
-/// ([`Recent::PADS`]), `PER_LAG` (228) each, in the order [`Recent::take`] folds them.
-pub const EXACT_ENTRIES: usize = LAGS * PER_LAG;
+/// Entries of the exact sums folded per sample: the fewest that keep [`FOLD_PERIOD`] products
+/// of `2^(2 VALUE_BITS)` within `i64` (each fold is an integer-float rounding and sum, about
+/// 130 instructions on the M4F: 3 a sample instead of the floating-point sums' 6).
+pub const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil((i64::MAX >> (2 * VALUE_BITS)) as usize);
 
-/// Products an exact entry can hold between two of its folds: one an item ([`FOLD_PERIOD`]
-/// items at most: the fold runs after each), and a window's last items' pairings with the
-/// zeros after it, two at most per closed window (a window has one item or more: one window
-/// per item at most), and what is left of a window closed before (one; two counted)
-/// (`massid_proofs_solver`, obligation `mul_acc`, proves the sum exact for this many).
-pub const PRODUCTS_PER_FOLD: usize = 3 * FOLD_PERIOD + 2;
-
-// That many products of `|a|, |b| < 2^VALUE_BITS` cannot overflow i64.
-const _: () = assert!((PRODUCTS_PER_FOLD as u128) << (2 * VALUE_BITS) < i64::MAX as u128);
-
-/// Entries of the exact sums folded per sample: the fewest that keep [`PRODUCTS_PER_FOLD`]
-/// products of `2^(2 VALUE_BITS)` within `i64` (each fold is an integer-float rounding and
-/// sum, about 80 instructions on the M4F).
-pub const FOLD_PER_SAMPLE: usize = fewest_folds();
-
-/// Items between two folds of one exact entry, at most (the fold runs after each item).
-pub const FOLD_PERIOD: usize = EXACT_ENTRIES.div_ceil(FOLD_PER_SAMPLE);
-
-// Evaluated at compile time: an overflow or a bad index is a build error, not a panic.
-#[allow(clippy::arithmetic_side_effects)]
-const fn fewest_folds() -> usize {
-    let most = (i64::MAX >> (2 * VALUE_BITS)) as usize;
-    let mut f = 1;
-    while 3 * EXACT_ENTRIES.div_ceil(f) + 2 > most {
-        f += 1;
-    }
-    f
-}
-
-/// Each exact entry's fold, in [`EXACT_ENTRIES`]' order, packed: the flat entry of the
-/// [`LagMoments`] it is kept in and folds into (bits 0-10), its two components (`z[i]` is
-/// `i`, `y[a]` is `NZ + a`; bits 11-15 and 16-20), and whether it is halved (bit 21: a lag's
-/// diagonal, `zz[l][i][i]` and `yy[l]`). Lag `l`'s entries: the upper triangle of `zz`, row by
-/// row, then `zy`, then `yy`.
-// Evaluated at compile time: an overflow or a bad index is a build error, not a panic.
-#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
-const FOLD_TABLE: [u32; EXACT_ENTRIES] = {
-    const fn pack(flat: usize, ci: usize, cj: usize, half: bool) -> u32 {
-        (flat as u32) | ((ci as u32) << 11) | ((cj as u32) << 16) | ((half as u32) << 21)
-    }
-    let mut out = [0u32; EXACT_ENTRIES];
-    let mut k = 0;
-    let mut l = 0;
-    while l < LAGS {
-        let mut i = 0;
-        while i < NZ {
-            let mut j = i;
-            while j < NZ {
-                out[k] = pack(zz_entry(l, i, j), i, j, l > 0 && i == j);
-                k += 1;
-                j += 1;
-            }
-            i += 1;
-        }
-        let mut a = 0;
-        while a < 3 {
-            let mut i = 0;
-            while i < NZ {
-                out[k] = pack(zy_entry(l, a, i), i, NZ + a, false);
-                k += 1;
-                i += 1;
-            }
-            a += 1;
-        }
-        let mut a = 0;
-        while a < 3 {
-            out[k] = pack(yy_entry(l, a), NZ + a, NZ + a, l > 0);
-            k += 1;
-            a += 1;
-        }
-        l += 1;
-    }
-    assert!(k == EXACT_ENTRIES && ENTRIES < 1 << 11 && NZ + 3 <= 1 << 5);
-    out
-};
-
-/// [`FOLD_TABLE`]'s entry `k`: flat entry, components, halved.
-fn fold_entry(k: usize) -> Option<(usize, usize, usize, bool)> {
-    let t = *FOLD_TABLE.get(k)?;
-    Some((
-        (t & 0x7ff) as usize,
-        ((t >> 11) & 0x1f) as usize,
-        ((t >> 16) & 0x1f) as usize,
-        (t >> 21) & 1 == 1,
-    ))
-}
+/// Samples between two folds of one exact entry, at most ([`fold_period`]).
+pub const FOLD_PERIOD: usize = fold_period(FOLD_PER_SAMPLE);
 
 /// What the flight can bring: the largest magnitude of each component of the commanded
 /// wrench, and of each rate. The fixed kernel scales its exact sums to it; f32 ignores it.
@@ -367,20 +281,14 @@ impl ExactMoments {
 
 impl Recent<IntFloat> for ExactMoments {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
-    /// Differences, and gathered as differences: lag `l`'s sums are `G_l = sum d d^T` with
-    /// `d = v_k - v_(k-l)` over the window padded with zero items at both ends
-    /// ([`Recent::PADS`]), so `sym(L_0 - L_l) = G_l / 2` exactly in integers, each entry
-    /// rounded once per fold, relative to the difference itself. (Levels in the flight's
-    /// integer float: a gyro filtered far below the sampling rate, AR root near 1, left the
-    /// whitened information in the last digits of the 25-bit mantissa, random planar craft
-    /// 79024 and 79109 `ok` 3.6-3.8 sigma off where f32 says 1.4 and 1.0; gathered as levels
-    /// and turned into differences at each fold, a lag-0 entry was rounded into five sums.)
-    /// The products: `d d^T` is symmetric, so a lag takes the 228 products of its upper
-    /// triangle, `zy` and `yy` where `v_k v_(k-l)^T` took 435 (about 1,150 instructions fewer
-    /// a sample on the M4F).
+    /// Differences: the exact sums gather levels (their accumulators and proofs are sized for
+    /// `|a b|`), and each fold takes a lag-`l` entry from `M_l` and adds a lag-0 entry to every
+    /// `M_l` it is part of, so the flight's integer-float sums round relative to the
+    /// differences. In levels, a gyro filtered far below the sampling rate (AR root near 1) left
+    /// the whitened information in the last digits of the 25-bit mantissa: random planar craft
+    /// 79024 and 79109 (1 kHz, 25-26 Hz gyros) `ok` 3.6-3.8 sigma off where f32 says 1.4 and 1.0.
     const LAG_FORM: LagForm = LagForm::Differences;
-    const PADS: bool = true;
-    const FOLD_ENTRIES: usize = EXACT_ENTRIES;
+    const RECENT_FORM: LagForm = LagForm::Levels;
     /// Exact integer products, each entry rounded once per fold.
     const PIVOT_EXP: i32 = DEFAULT_PIVOT_EXP;
     const SHIFTS: bool = false;
@@ -460,78 +368,23 @@ impl Recent<IntFloat> for ExactMoments {
         false
     }
 
-    /// Lag 0: `now now^T`; lags 1 and 2: `d d^T`, `d = now - then` (`then` the zero item before
-    /// a window's first), refused if a component of `d` is `2^VALUE_BITS` or more (a rate
-    /// residual that jumps by half its bound in two samples: a sensor glitch, not a flight).
-    fn add_pair(
-        &mut self,
-        l: usize,
-        now: &Sample<i32>,
-        then: &Sample<i32>,
-        active: &Active,
-    ) -> bool {
-        // |a b| < 2^(2 VALUE_BITS) and an entry holds at most PRODUCTS_PER_FOLD products
-        // between folds (the assertion above): no wrap.
-        let mac = |m: &mut i64, a: i32, b: i32| {
+    fn add_pair(&mut self, l: usize, now: &Sample<i32>, then: &Sample<i32>, active: &Active) {
+        // |a b| < 2^(2 VALUE_BITS) and an entry holds at most FOLD_PERIOD products between
+        // folds (the assertion above): no wrap.
+        self.sums.add_pair_by(l, now, then, active, |m, a, b| {
             *m = mul_acc(&Native, &(*m as u64), &(a as u32), &(b as u32)) as i64;
-        };
-        if l == 0 {
-            self.sums.add_pair_by(0, true, now, now, active, mac);
-            return true;
-        }
-        let mut d = Self::ZERO_ITEM;
-        // |a|, |b| < 2^VALUE_BITS: no wrap; the bits of |d| from VALUE_BITS on gathered, one
-        // test for the sample.
-        let mut beyond = 0u32;
-        for (o, (a, b)) in d.z.iter_mut().zip(now.z.iter().zip(&then.z)) {
-            *o = a.wrapping_sub(*b);
-            beyond |= o.unsigned_abs() >> VALUE_BITS;
-        }
-        for (o, (a, b)) in d.y.iter_mut().zip(now.y.iter().zip(&then.y)) {
-            *o = a.wrapping_sub(*b);
-            beyond |= o.unsigned_abs() >> VALUE_BITS;
-        }
-        if beyond != 0 {
-            return false;
-        }
-        self.sums.add_pair_by(l, true, &d, &d, active, mac);
-        true
+        });
     }
 
-    fn add_end(&mut self, item: &Sample<i32>, from: usize, active: &Active) {
-        for l in from..LAGS {
-            self.sums
-                .add_pair_by(l, true, item, item, active, |m, a, b| {
-                    *m = mul_acc(&Native, &(*m as u64), &(a as u32), &(b as u32)) as i64;
-                });
-        }
-    }
-
-    /// Exact entry `k` (the fold table's order) and its scale; a lag's diagonal entries (`zz[i][i]`,
-    /// `yy`) halved, the others whole: the flight's `zz[l][i][j]`, `i < j`, and `zy[l]` hold
-    /// `G_l`'s entry against a zero `zz[l][j][i]` and `yz[l]`, whose half-sums
-    /// ([`LagMoments::zz_sym`], [`LagMoments::zy_sym`]) are then `G_l / 2`.
     fn take(&mut self, k: usize) -> IntFloat {
-        let Some((flat, ci, cj, half)) = fold_entry(k) else {
-            return IntFloat::ZERO;
-        };
         let v = self
             .sums
-            .entry_mut(flat)
+            .entry_mut(k)
             .map_or(0, |v| core::mem::replace(v, 0));
-        let exp = |c: usize| self.exp.get(c).copied().unwrap_or(0);
-        let e = exp(ci).saturating_add(exp(cj));
-        IntFloat::from_i64_pow2(v, e.saturating_sub(i32::from(half)))
-    }
-
-    fn flight_entry(k: usize) -> usize {
-        fold_entry(k).map_or(usize::MAX, |(flat, ..)| flat)
-    }
-
-    const SKIPS_UNMOVED: bool = true;
-
-    fn components(k: usize) -> Option<(usize, usize)> {
-        fold_entry(k).map(|(_, i, j, _)| (i, j))
+        let e = entry_components(k)
+            .and_then(|(i, j)| Some(self.exp.get(i)?.saturating_add(*self.exp.get(j)?)))
+            .unwrap_or(0);
+        IntFloat::from_i64_pow2(v, e)
     }
 }
 
@@ -1695,12 +1548,9 @@ mod tests {
         assert!((0..3).any(|a| (raw.y[a] - item.y[a]).abs() > 1000));
     }
 
-    /// Through the window's rings, its ends and the rolling fold, every lagged moment is the
-    /// direct sum of the lagged products within each window: windows of 1, 2, 3 and 40 items
-    /// back to back (a window closing while the one before's end is still being added), then
-    /// one read open, as a fit reads it mid-window. Exact values, so only the fold's last
-    /// rounding is allowed. Planted (checked by hand, 2026-11-30): the window's end left out,
-    /// or a diagonal entry not halved, fails.
+    /// Through the window's rings and the rolling fold, every lagged moment is the direct sum
+    /// of the lagged products (the pairing of lags 1 and 2 and each entry's power of two are
+    /// what this checks: exact values, so only the fold's last rounding is allowed).
     #[test]
     fn exact_lagged_moments_equal_the_direct_sums_of_lagged_products() {
         use crate::flight_id::sums::{FlightSums, RecentSums, WindowSums, LAGS};
@@ -1709,6 +1559,7 @@ mod tests {
         let none = [[IntFloat::ZERO; NZ]; 3];
         let scales = scales_for(&bounds, &none, 1000, IntFloat::ONE).unwrap();
         let mut recent = RecentSums::new(IntFloat::recent(&scales));
+        // The form the fixed kernel's flight keeps (the fold turns the levels into it).
         let mut flight = FlightSums::<IntFloat> {
             lag_form: <ExactMoments as Recent<IntFloat>>::LAG_FORM,
             ..FlightSums::default()
@@ -1716,30 +1567,16 @@ mod tests {
         let mut window = WindowSums::<IntFloat>::default();
         // Multiples of 1/64 in [-1, 1.3]: exact in every format here.
         let v = |k: usize, c: usize| ((k * 7 + c * 13) % 17) as f64 / 8.0 - 1.0 + c as f64 / 64.0;
-        let windows = [1usize, 2, 3, 40, 1, 7];
-        let mut k = 0;
-        let mut spans = [(0usize, 0usize); 6];
-        for (w, len) in windows.iter().enumerate() {
-            spans[w] = (k, k + len);
-            for _ in 0..*len {
-                let z: [IntFloat; NZ] =
-                    core::array::from_fn(|i| IntFloat::from_f32(v(k, i) as f32));
-                let y: [IntFloat; 3] =
-                    core::array::from_fn(|a| IntFloat::from_f32(v(k, NZ + a) as f32));
-                window.push(&mut flight, &mut recent, 0, |r, out| {
-                    r.item_into(&z, &y, &none, out)
-                });
-                k += 1;
-            }
-            if w + 1 < windows.len() {
-                window.close(&mut recent);
-            }
+        let n = 40;
+        for k in 0..n {
+            let z: [IntFloat; NZ] = core::array::from_fn(|i| IntFloat::from_f32(v(k, i) as f32));
+            let y: [IntFloat; 3] =
+                core::array::from_fn(|a| IntFloat::from_f32(v(k, NZ + a) as f32));
+            window.push(&mut flight, &mut recent, 0, |r, out| {
+                r.item_into(&z, &y, &none, out)
+            });
         }
-        // The last window read open, as `FlightId::solve` reads it: on a copy, closed.
-        let (mut open, mut copy) = (window, recent);
-        open.close(&mut copy);
-        open.settle_end(&mut copy, usize::MAX);
-        copy.fold_all(&mut flight);
+        recent.fold_all(&mut flight);
         let close = |got: IntFloat, want: f64, what: &str| {
             let got = f64::from(got.to_f32());
             assert!(
@@ -1747,14 +1584,11 @@ mod tests {
                 "{what}: {got} vs {want}"
             );
         };
-        // The symmetrised lag-`l` sum of the products of components `c` and `d` within each
-        // window, and what the flight keeps of it: the level at lag 0, at lags 1 and 2 the
-        // differences `L_0 - L_l`.
+        // The symmetrised lag-`l` sum of the products of components `c` and `d`, and what the
+        // flight keeps of it: the level, or at lags 1 and 2 in differences `L_0 - L_l`.
         let level = |l: usize, c: usize, d: usize| -> f64 {
-            spans
-                .iter()
-                .flat_map(|&(a, b)| (a + l..b).map(move |k| (k, k - l)))
-                .map(|(k, m)| 0.5 * (v(k, c) * v(m, d) + v(k, d) * v(m, c)))
+            (l..n)
+                .map(|k| 0.5 * (v(k, c) * v(k - l, d) + v(k, d) * v(k - l, c)))
                 .sum()
         };
         assert_eq!(flight.lag_form, LagForm::Differences);
@@ -1778,35 +1612,7 @@ mod tests {
                 close(flight.lag.yy[l][a], kept(l, NZ + a, NZ + a), "yy");
             }
         }
-        assert_eq!(flight.samples, k as u32);
-    }
-
-    /// A lag's difference is a product of `VALUE_BITS`-bit factors like every other (the sums'
-    /// proof): a residual that jumps by its bound's power of two or more between two items
-    /// (bound 3: values below 4, a jump of 4 or more) marks the sums out of range; a jump
-    /// within it does not (the control), and neither does a window's first item, paired with
-    /// the zero before it.
-    #[test]
-    fn a_jump_beyond_the_bound_between_two_items_is_refused() {
-        use crate::flight_id::sums::{FlightSums, RecentSums, WindowSums};
-        let bounds = [IntFloat::from_f32(3.0); NZ + 3];
-        let none = [[IntFloat::ZERO; NZ]; 3];
-        let scales = scales_for(&bounds, &none, 1000, IntFloat::ONE).unwrap();
-        let refused = |jump: f32| {
-            let mut recent = RecentSums::new(IntFloat::recent(&scales));
-            let mut flight = FlightSums::<IntFloat>::default();
-            let mut window = WindowSums::<IntFloat>::default();
-            for y in [jump / 2.0, -jump / 2.0] {
-                let ys = [0.0, 0.0, y].map(IntFloat::from_f32);
-                window.push(&mut flight, &mut recent, 0, |r, out| {
-                    r.item_into(&[IntFloat::ZERO; NZ], &ys, &none, out)
-                });
-            }
-            flight.out_of_range
-        };
-        assert!(!refused(3.9));
-        assert!(refused(4.0));
-        assert!(refused(7.5));
+        assert_eq!(flight.samples, n as u32);
     }
 
     /// The whitened cost at the true parameter, `u^T W u`, of a strongly coloured flight
@@ -1831,16 +1637,14 @@ mod tests {
                 r.item_into(&zs, &ys, &none, out)
             });
         }
-        window.close(&mut recent);
-        window.settle_end(&mut recent, usize::MAX);
         recent.fold_all(&mut flight);
         coloured_cost_of(&flight)
     }
 
-    /// The fixed kernel's exact differences keep the whitened cost of a strongly coloured
-    /// noise (within 1 % of f64's); planted: the same sums read as levels (levels in the
-    /// integer float were what the kernel kept once: random planar craft 79024 and 79109,
-    /// 1 kHz and 25-26 Hz gyros, `ok` 3.6-3.8 sigma off where f32 said 1.4 and 1.0).
+    /// The fixed kernel's fold of its exact sums into differences keeps the whitened cost of
+    /// a strongly coloured noise (within 1 % of f64's: 0.03 %); planted: the same exact sums folded
+    /// into levels, what the kernel kept before (random planar craft 79024 and 79109, 1 kHz
+    /// and 25-26 Hz gyros: `ok` 3.6-3.8 sigma off where f32 said 1.4 and 1.0).
     #[test]
     fn folding_into_differences_keeps_the_whitened_cost_of_a_coloured_noise() {
         let truth = coloured_cost::<f64>(f64::recent(&()), LagForm::Differences);
@@ -1855,7 +1659,7 @@ mod tests {
             (differences / truth - 1.0).abs() < 0.01,
             "differences: {differences} against {truth}"
         );
-        // Planted: the sums read as levels.
+        // Planted: levels, 5.6 % off here (10,000 samples; the error grows with the flight).
         let levels = coloured_cost::<IntFloat>(exact, LagForm::Levels);
         assert!(
             (levels / truth - 1.0).abs() > 0.03,

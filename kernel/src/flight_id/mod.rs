@@ -480,7 +480,7 @@ impl<S: SumScalar> FlightId<S> {
     }
 
     fn close_window(&mut self) {
-        if let Some((sum, n)) = self.window.close(&mut self.recent) {
+        if let Some((sum, n)) = self.window.close(&self.recent) {
             self.pending
                 .close(&mut self.sums, sum, n, self.recent.active());
         }
@@ -496,7 +496,6 @@ impl<S: SumScalar> FlightId<S> {
     /// sums (call before the final [`FlightId::solve`]; the end of the flight, not a tick).
     pub fn finish(&mut self) {
         self.close_window();
-        self.window.settle_end(&mut self.recent, usize::MAX);
         self.pending.drain_all(&mut self.sums);
         self.previous = false;
     }
@@ -551,13 +550,9 @@ impl<S: SumScalar> FlightId<S> {
     fn sums_so_far(&self) -> FlightSums<S> {
         let mut sums = self.sums;
         let mut recent = self.recent;
-        // The open window as if it closed now (its end, where the sums pad it, included).
-        let mut window = self.window;
-        let term = window.close(&mut recent);
-        window.settle_end(&mut recent, usize::MAX);
         recent.fold_all(&mut sums);
         let mut pending = self.pending;
-        if let Some((sum, n)) = term {
+        if let Some((sum, n)) = self.window.term(&recent) {
             pending.close(&mut sums, sum, n, recent.active());
         }
         pending.drain_all(&mut sums);

@@ -72,10 +72,9 @@ impl<T: Copy> LagMoments<T> {
         unsafe { assume_all_written!(slot, Self { zz, zy, yz, yy }) }
     }
 
-    /// Adds `v_k v_(k-l)^T` to the sums of lag `l` (`now` = v_k, `then` = v_(k-l)) by
-    /// `mac(entry, a, b)`, which adds `a b` to the entry. With `upper` the products are
-    /// symmetric (`now` = `then`: lag 0, or the fixed kernel's differences): only `zz[l][i][j]`
-    /// with `i <= j` and `zy[l]` are kept (read them through [`LagMoments::zz_sym`] and
+    /// Adds `v_k v_(k-l)^T` for lag `l` (`now` = v_k, `then` = v_(k-l)) by `mac(entry, a, b)`,
+    /// which adds `a b` to the entry. At lag 0 the products are symmetric: only `zz[0][i][j]`
+    /// with `i <= j` and `zy[0]` are kept (read them through [`LagMoments::zz_sym`] and
     /// [`LagMoments::zy_sym`]).
     /// Components that are not `active` are zero in both samples (their products are zero):
     /// they are skipped, which leaves every sum bit for bit the same ([`Active`]).
@@ -83,7 +82,6 @@ impl<T: Copy> LagMoments<T> {
     pub(crate) fn add_pair_by<A: Copy>(
         &mut self,
         l: usize,
-        upper: bool,
         now: &Sample<A>,
         then: &Sample<A>,
         active: &Active,
@@ -98,14 +96,14 @@ impl<T: Copy> LagMoments<T> {
             return;
         };
         if active.sparse() {
-            add_sparse(zz, zy, yz, upper, now, then, active.components(), mac);
+            add_sparse(zz, zy, yz, l, now, then, active.components(), mac);
             for ((m, yn), yt) in yy.iter_mut().zip(now.y).zip(then.y) {
                 mac(m, yn, yt);
             }
             return;
         }
-        if upper {
-            // Symmetric: the upper triangle only (row i from column i on).
+        if l == 0 {
+            // Lag 0: the upper triangle only (row i from column i on).
             add_upper(zz, &now.z, &then.z, mac);
         } else {
             // Two rows at a time ([`add_rows`]).
@@ -120,7 +118,7 @@ impl<T: Copy> LagMoments<T> {
         // `zy[a][i]` takes `z_k[i] y_(k-l)[a]`: the three axes' rows, the axis' `y` the row's
         // operand (the product's operands in the same order).
         add_axes(zy, then.y, &now.z, move |m, y, z| mac(m, z, y));
-        if !upper {
+        if l > 0 {
             add_axes(yz, now.y, &then.z, mac);
         }
         for ((m, yn), yt) in yy.iter_mut().zip(now.y).zip(then.y) {
@@ -130,16 +128,15 @@ impl<T: Copy> LagMoments<T> {
 }
 
 /// [`LagMoments::add_pair_by`]'s products over the active components `comps` (increasing):
-/// the `z` block (symmetric, `upper`: its upper triangle), then `zy` and, unless symmetric,
-/// `yz`. Each entry takes at most one product a sample, so the order of the entries does not
-/// matter.
+/// the `z` block (lag 0: its upper triangle), then `zy` and, past lag 0, `yz`. Each entry
+/// takes at most one product a sample, so the order of the entries does not matter.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn add_sparse<T, A: Copy>(
     zz: &mut [[T; NZ]; NZ],
     zy: &mut [[T; NZ]; 3],
     yz: &mut [[T; NZ]; 3],
-    upper: bool,
+    l: usize,
     now: &Sample<A>,
     then: &Sample<A>,
     comps: &[u8],
@@ -149,8 +146,8 @@ fn add_sparse<T, A: Copy>(
         let (Some(row), Some(a)) = (zz.get_mut(i), now.z.get(i).copied()) else {
             continue;
         };
-        // Symmetric: row i from column i on (the list is increasing).
-        let cols = if upper {
+        // Lag 0 is symmetric: row i from column i on (the list is increasing).
+        let cols = if l == 0 {
             comps.get(p..).unwrap_or(&[])
         } else {
             comps
@@ -170,7 +167,7 @@ fn add_sparse<T, A: Copy>(
             if let (Some(m), Some(z)) = (zy_a.get_mut(i), now.z.get(i).copied()) {
                 mac(m, z, *yt);
             }
-            if !upper {
+            if l > 0 {
                 if let (Some(m), Some(z)) = (yz_a.get_mut(i), then.z.get(i).copied()) {
                     mac(m, *yn, z);
                 }
@@ -460,6 +457,13 @@ pub const BLOCK: usize = 256;
 /// the whole fold), so that each is folded every [`BLOCK`] samples or sooner.
 pub const FOLD_PER_SAMPLE: usize = ENTRIES.div_ceil(BLOCK);
 
+/// Samples between two folds of one entry when `per_sample` entries are folded per sample, at
+/// most: each sample adds at most one product to an entry, so this bounds the products a
+/// recent entry holds ([`super::exact`]).
+pub const fn fold_period(per_sample: usize) -> usize {
+    ENTRIES.div_ceil(if per_sample == 0 { 1 } else { per_sample })
+}
+
 /// Which two components of `v = (z, y)` entry `k` of the flat order multiplies (`z[i]` is
 /// component `i`, `y[a]` is `NZ + a`), or None past the last entry.
 pub fn entry_components(k: usize) -> Option<(usize, usize)> {
@@ -469,32 +473,6 @@ pub fn entry_components(k: usize) -> Option<(usize, usize)> {
         (Block::Yz, _, a, c) => Some((NZ.checked_add(a)?, c)),
         (Block::Yy, _, a, _) => Some((NZ.checked_add(a)?, NZ.checked_add(a)?)),
     }
-}
-
-/// The flat entry of `zz[l][i][j]` (the order of [`LagMoments::entry_mut`]).
-pub(crate) const fn zz_entry(l: usize, i: usize, j: usize) -> usize {
-    l.saturating_mul(NZ)
-        .saturating_add(i)
-        .saturating_mul(NZ)
-        .saturating_add(j)
-}
-
-/// The flat entry of `zy[l][a][i]`.
-pub(crate) const fn zy_entry(l: usize, a: usize, i: usize) -> usize {
-    const ZZ: usize = LAGS * NZ * NZ;
-    l.saturating_mul(3)
-        .saturating_add(a)
-        .saturating_mul(NZ)
-        .saturating_add(i)
-        .saturating_add(ZZ)
-}
-
-/// The flat entry of `yy[l][a]`.
-pub(crate) const fn yy_entry(l: usize, a: usize) -> usize {
-    const ZZ_ZY_YZ: usize = LAGS * NZ * NZ + 2 * LAGS * 3 * NZ;
-    l.saturating_mul(3)
-        .saturating_add(a)
-        .saturating_add(ZZ_ZY_YZ)
 }
 
 /// The blocks of a [`LagMoments`].
@@ -533,26 +511,63 @@ fn locate(k: usize) -> Option<(Block, usize, usize, usize)> {
 impl<T> LagMoments<T> {
     /// Entry `k` of the flat order (`zz`, `zy`, `yz`, `yy`).
     pub(crate) fn entry_mut(&mut self, k: usize) -> Option<&mut T> {
-        // The blocks' arrays flattened: the same order as `locate`'s, no division (the fold
-        // reads two entries a fold).
-        const ZZ: usize = LAGS * NZ * NZ;
-        const ZY: usize = LAGS * 3 * NZ;
-        if k < ZZ {
-            self.zz.as_flattened_mut().as_flattened_mut().get_mut(k)
-        } else if k < ZZ + ZY {
-            self.zy
-                .as_flattened_mut()
-                .as_flattened_mut()
-                .get_mut(k.wrapping_sub(ZZ))
-        } else if k < ZZ + 2 * ZY {
-            self.yz
-                .as_flattened_mut()
-                .as_flattened_mut()
-                .get_mut(k.wrapping_sub(ZZ + ZY))
-        } else {
-            self.yy
-                .as_flattened_mut()
-                .get_mut(k.wrapping_sub(ZZ + 2 * ZY))
+        let (block, l, r, c) = locate(k)?;
+        self.entry_at(block, l, r, c)
+    }
+
+    /// The entry of `block` at lag `l`, row `r` (the axis of `zy`, `yz` and `yy`), column `c`.
+    fn entry_at(&mut self, block: Block, l: usize, r: usize, c: usize) -> Option<&mut T> {
+        match block {
+            Block::Zz => self.zz.get_mut(l)?.get_mut(r)?.get_mut(c),
+            Block::Zy => self.zy.get_mut(l)?.get_mut(r)?.get_mut(c),
+            Block::Yz => self.yz.get_mut(l)?.get_mut(r)?.get_mut(c),
+            Block::Yy => self.yy.get_mut(l)?.get_mut(r),
+        }
+    }
+}
+
+impl<S: Scalar> LagMoments<S> {
+    /// Adds `v`, the part of flat entry `k` of level sums gathered since its last fold, to
+    /// these sums kept in [`LagForm::Differences`]: a lag-0 entry to `L_0` and to every
+    /// `M_l = L_0 - L_l` it is part of (both triangles of `zz`, `zy` and `yz` alike); a
+    /// lag-`l` entry is taken from `M_l`. Each sum then holds what it would in levels, up to
+    /// rounding, but rounds relative to its own size: a difference, not a level.
+    pub fn fold_level_into_differences(&mut self, k: usize, v: S) {
+        let Some((block, l, r, c)) = locate(k) else {
+            return;
+        };
+        if l > 0 {
+            if let Some(d) = self.entry_at(block, l, r, c) {
+                *d = d.minus(v);
+            }
+            return;
+        }
+        let mut add = |block: Block, m: usize, r: usize, c: usize| {
+            if let Some(d) = self.entry_at(block, m, r, c) {
+                *d = d.plus(v);
+            }
+        };
+        add(block, 0, r, c);
+        if !(S::ZERO.lt(v) || v.lt(S::ZERO)) {
+            // Nothing gathered (an inactive component, the lower triangle kept at zero).
+            return;
+        }
+        for m in 1..LAGS {
+            match block {
+                Block::Zz => {
+                    add(Block::Zz, m, r, c);
+                    if r != c {
+                        add(Block::Zz, m, c, r);
+                    }
+                }
+                Block::Zy => {
+                    add(Block::Zy, m, r, c);
+                    add(Block::Yz, m, r, c);
+                }
+                // Not gathered at lag 0 (`zy[0]` holds it).
+                Block::Yz => {}
+                Block::Yy => add(Block::Yy, m, r, c),
+            }
         }
     }
 }
@@ -567,6 +582,9 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     const FOLD_PER_SAMPLE: usize;
     /// What the flight's sums these fold into keep at lags 1 and 2 ([`LagForm`]).
     const LAG_FORM: LagForm;
+    /// What these recent sums gather at lags 1 and 2: the fold turns levels into the flight's
+    /// differences where the two differ ([`LagMoments::fold_level_into_differences`]).
+    const RECENT_FORM: LagForm;
     /// The fit's pivot threshold on the information these sums give, as a power of two relative
     /// to its scaled diagonal ([`FlightSums::pivot_exp`]).
     const PIVOT_EXP: i32;
@@ -601,33 +619,9 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     /// A sum's value.
     fn sum_value(&self, sum: &Self::ItemSum) -> Sample<S>;
     /// Adds `now then^T` at lag `l` (at lag 0 the upper triangle of `zz` only; at lags 1 and 2
-    /// `now (now - then)^T` in [`LagForm::Differences`]; with [`Recent::PADS`], the symmetric
-    /// `d d^T`, `d = now - then`), skipping the components that are not `active` (zero in
-    /// both); false, with nothing added, if the pair cannot be represented.
-    fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item, active: &Active) -> bool;
-    /// Whether these sums keep the lags as `G_l = sum d d^T` over a window padded with zero
-    /// items at both ends (`d_k = v_k - v_(k-l)`, `v` zero outside the window): the window's
-    /// first items pair with the zeros before them, and its last items with those after,
-    /// through [`Recent::add_end`] ([`WindowSums::close`]). Then `sym(L_0 - L_l) = G_l / 2`,
-    /// all the fit reads ([`LagMoments::zz_sym`], [`LagMoments::zy_sym`]).
-    const PADS: bool = false;
-    /// With [`Recent::PADS`]: adds `item item^T`, a window's last item paired with a zero
-    /// after the window, to the lags `from..LAGS`.
-    fn add_end(&mut self, _item: &Self::Item, _from: usize, _active: &Active) {}
-    /// Entries these sums fold, in the order of [`Recent::take`]'s `k`.
-    const FOLD_ENTRIES: usize = ENTRIES;
-    /// The flat entry of the flight's [`LagMoments`] that entry `k` folds into.
-    fn flight_entry(k: usize) -> usize {
-        k
-    }
-    /// Whether the fold skips the entries of drive components the flight has not moved (the
-    /// rolling fold of [`RecentSums`], [`Recent::components`]).
-    const SKIPS_UNMOVED: bool = false;
-    /// With [`Recent::SKIPS_UNMOVED`]: the two components of `v = (z, y)` entry `k`
-    /// multiplies (`z[i]` is `i`, `y[a]` is `NZ + a`).
-    fn components(_k: usize) -> Option<(usize, usize)> {
-        None
-    }
+    /// `now (now - then)^T` in [`LagForm::Differences`]), skipping the components that are
+    /// not `active` (zero in both).
+    fn add_pair(&mut self, l: usize, now: &Self::Item, then: &Self::Item, active: &Active);
     /// True if `item`'s drive component `i` is other than zero or not a valid number.
     fn nonzero(item: &Self::Item, i: usize) -> bool;
     /// Whether [`Recent::shift`] moves these sums.
@@ -636,8 +630,7 @@ pub trait Recent<S>: Copy + core::fmt::Debug {
     /// [`super::anchor`]); false, with nothing changed, where these sums are not moved (the
     /// fixed kernel's exact sums).
     fn shift(item: &mut [Self::Item], sum: &mut Self::ItemSum, d: &[[S; NZ]; 3]) -> bool;
-    /// Entry `k` (of the flat order, or of [`Recent::FOLD_ENTRIES`]' own), in `S`, and
-    /// empties it.
+    /// Entry `k` of the flat order, in `S`, and empties it.
     fn take(&mut self, k: usize) -> S;
 }
 
@@ -712,6 +705,7 @@ pub type DriveSnapshot<S> = <<S as SumScalar>::Drive as DriveSum<S>>::Snapshot;
 impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     const FOLD_PER_SAMPLE: usize = FOLD_PER_SAMPLE;
     const LAG_FORM: LagForm = LagForm::Differences;
+    const RECENT_FORM: LagForm = LagForm::Differences;
     /// Rounded sums: f32's entries were measured 1e-7 - 1.6e-6 (relative) from the same sums in
     /// f64 (random planar craft 73017), so a pivot of 2^-20 (1e-6) was within f32's rounding of
     /// the information, and a nearly degenerate direction (two thrusters) passed for determined:
@@ -745,14 +739,13 @@ impl<S: Scalar + core::fmt::Debug> Recent<S> for LagMoments<S> {
     fn sum_value(&self, sum: &CompensatedSum<S>) -> Sample<S> {
         sum.value()
     }
-    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>, active: &Active) -> bool {
+    fn add_pair(&mut self, l: usize, now: &Sample<S>, then: &Sample<S>, active: &Active) {
         let mac = |m: &mut S, a: S, b: S| *m = m.mul_add(a, b);
         if l == 0 {
-            self.add_pair_by(l, true, now, then, active, mac);
-        } else {
-            self.add_pair_by(l, false, now, &now.minus(then), active, mac);
+            self.add_pair_by(l, now, then, active, mac);
+            return;
         }
-        true
+        self.add_pair_by(l, now, &now.minus(then), active, mac);
     }
     fn shift(items: &mut [Sample<S>], sum: &mut CompensatedSum<S>, d: &[[S; NZ]; 3]) -> bool {
         for item in items {
@@ -883,32 +876,21 @@ impl<R> RecentSums<R> {
         &self.active
     }
 
-    /// Moves `count` entries, from the cursor on, into `flight`'s folded ones. While the
-    /// flight has moved few drive components ([`Active::sparse`]: their products are the only
-    /// ones gathered), an entry of a component it has not moved is zero and its fold, which
-    /// would add a zero, is skipped ([`Recent::components`]; the fixed kernel's exact sums,
-    /// whose fold is an integer-float conversion and sum): the same sums bit for bit, the
-    /// cursor where it was (a planar craft's fold 5 times cheaper).
+    /// Moves `count` entries, from the cursor on, into `flight`'s folded ones.
     fn fold<S: Scalar>(&mut self, flight: &mut FlightSums<S>, count: usize)
     where
         R: Recent<S>,
     {
-        let sparse = R::SKIPS_UNMOVED && self.active.sparse();
         for _ in 0..count {
             let k = self.cursor;
-            let gathered = !sparse
-                || R::components(k).is_none_or(|(i, j)| {
-                    let moved = |c: usize| c >= NZ || self.active.contains(c);
-                    moved(i) && moved(j)
-                });
-            if gathered {
-                let moved = self.sums.take(k);
-                if let Some(d) = flight.lag.entry_mut(R::flight_entry(k)) {
-                    *d = d.plus(moved);
-                }
+            let moved = self.sums.take(k);
+            if R::RECENT_FORM == LagForm::Levels && flight.lag_form == LagForm::Differences {
+                flight.lag.fold_level_into_differences(k, moved);
+            } else if let Some(d) = flight.lag.entry_mut(k) {
+                *d = d.plus(moved);
             }
             self.cursor = k.saturating_add(1);
-            if self.cursor >= R::FOLD_ENTRIES {
+            if self.cursor >= ENTRIES {
                 self.cursor = 0;
             }
         }
@@ -919,7 +901,7 @@ impl<R> RecentSums<R> {
     where
         R: Recent<S>,
     {
-        self.fold(flight, R::FOLD_ENTRIES);
+        self.fold(flight, ENTRIES);
     }
 }
 
@@ -932,8 +914,9 @@ impl<R> RecentSums<R> {
 /// smooth drive and an f32 sum of levels has nothing left (planar random craft seed 73009:
 /// AR(0.66, 0.33) at 250 Hz, an estimate 5 sigma off with status `ok`). The differences are of
 /// the size of what remains, `sum_l w_l L_l = (sum_l w_l) L_0 - w_1 M_1 - w_2 M_2`. The fixed
-/// kernel gathers the differences' symmetric parts exactly in integers ([`Recent::PADS`])
-/// and rounds each into its 25-bit integer float once per fold.
+/// kernel gathers exact integer products of levels (its accumulators and their proofs are
+/// sized for `|a b|`) and its fold turns them into differences
+/// ([`LagMoments::fold_level_into_differences`]): its 25-bit integer float rounds like f32.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LagForm {
     /// `L_l`.
@@ -1031,11 +1014,6 @@ pub struct WindowSums<S: SumScalar> {
     /// free slot (items are made in place: no copy of a sample per push).
     history: [<S::Recent as Recent<S>>::Item; LAGS],
     newest: usize,
-    /// With [`Recent::PADS`]: the last closed window's last two items (newest first) and how
-    /// many of their pairings with the zeros after the window are still to add
-    /// ([`WindowSums::settle_end`]).
-    end: [<S::Recent as Recent<S>>::Item; LAGS - 1],
-    end_left: u8,
 }
 
 impl<S: SumScalar> Default for WindowSums<S> {
@@ -1046,8 +1024,6 @@ impl<S: SumScalar> Default for WindowSums<S> {
             seen: 0,
             history: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS],
             newest: 0,
-            end: [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS - 1],
-            end_left: 0,
         }
     }
 }
@@ -1074,8 +1050,6 @@ impl<S: SumScalar> WindowSums<S> {
         skip: u32,
         item: impl FnOnce(&S::Recent, &mut <S::Recent as Recent<S>>::Item) -> bool,
     ) {
-        // One step of the last window's end a sample (no tick carries all of it).
-        self.settle_end(recent, 1);
         self.seen = self.seen.saturating_add(1);
         if self.seen <= skip {
             return;
@@ -1098,23 +1072,14 @@ impl<S: SumScalar> WindowSums<S> {
         recent
             .active
             .note(|i| <S::Recent as Recent<S>>::nonzero(item, i));
-        // Padded sums pair the window's first items with the zeros before it (the ring's
-        // slots are zero in a new window); the others only pair items.
-        let back = if <S::Recent as Recent<S>>::PADS {
-            usize::MAX
-        } else {
-            usize::try_from(self.n).unwrap_or(usize::MAX)
-        };
-        let mut fits = recent.sums.add_pair(0, item, item, &recent.active);
+        recent.sums.add_pair(0, item, item, &recent.active);
+        let back = usize::try_from(self.n).unwrap_or(usize::MAX);
         for (l, k) in [lag1, lag2].into_iter().enumerate() {
             if let (true, Some(then)) = (l < back, self.history.get(k)) {
-                fits &= recent
+                recent
                     .sums
                     .add_pair(l.saturating_add(1), item, then, &recent.active);
             }
-        }
-        if !fits {
-            flight.out_of_range = true;
         }
         S::Recent::accumulate(&mut self.sum, item);
         self.newest = free;
@@ -1128,46 +1093,11 @@ impl<S: SumScalar> WindowSums<S> {
         (self.n > 0).then(|| (recent.sums.sum_value(&self.sum), self.n))
     }
 
-    /// Closes the window: [`WindowSums::term`]; empties the window. With [`Recent::PADS`] its
-    /// last items' pairings with the zeros after it are left to the next samples
-    /// ([`WindowSums::settle_end`]; an earlier window's that are left are added first).
-    pub fn close(&mut self, recent: &mut RecentSums<S::Recent>) -> Option<(Sample<S>, u32)> {
+    /// Closes the window: [`WindowSums::term`]; empties the window.
+    pub fn close(&mut self, recent: &RecentSums<S::Recent>) -> Option<(Sample<S>, u32)> {
         let closed = self.term(recent);
-        if <S::Recent as Recent<S>>::PADS && self.n > 0 {
-            self.settle_end(recent, usize::MAX);
-            // The newest item pairs with the next zero at every lag, the one before it from
-            // lag 2 on (a window of one item: the zero before it, which adds nothing).
-            let before = self.newest.saturating_add(1).checked_rem(LAGS).unwrap_or(0);
-            for (e, k) in self.end.iter_mut().zip([self.newest, before]) {
-                if let Some(item) = self.history.get(k) {
-                    *e = *item;
-                }
-            }
-            self.end_left = 2;
-        }
-        // Empty, in place (the last window's end kept).
-        self.sum = <S::Recent as Recent<S>>::ZERO_SUM;
-        self.n = 0;
-        self.seen = 0;
-        self.history = [<S::Recent as Recent<S>>::ZERO_ITEM; LAGS];
-        self.newest = 0;
+        *self = WindowSums::default();
         closed
-    }
-
-    /// Adds up to `steps` of the last window's end ([`WindowSums::close`]): its newest item
-    /// paired with a zero at lags 1 and 2, then the one before it at lag 2.
-    pub fn settle_end(&mut self, recent: &mut RecentSums<S::Recent>, steps: usize) {
-        for _ in 0..steps {
-            let (from, k) = match self.end_left {
-                2 => (1, 0),
-                1 => (2, 1),
-                _ => return,
-            };
-            if let Some(item) = self.end.get(k) {
-                recent.sums.add_end(item, from, &recent.active);
-            }
-            self.end_left = self.end_left.saturating_sub(1);
-        }
     }
 
     /// Moves the window's sum and lag history to a reference `d` further on
@@ -1233,7 +1163,7 @@ pub(crate) mod tests {
         let close = |w: &mut WindowSums<S>,
                      f: &mut FlightSums<S>,
                      p: &mut crate::flight_id::close::PendingCloses<S>,
-                     r: &mut RecentSums<S::Recent>| {
+                     r: &RecentSums<S::Recent>| {
             if let Some((sum, n)) = w.close(r) {
                 p.close(f, sum, n, r.active());
             }
@@ -1252,11 +1182,11 @@ pub(crate) mod tests {
                 r.item_into(&z, &y, &none, out)
             });
             if k == 50 {
-                close(&mut window, &mut flight, &mut pending, &mut recent);
+                close(&mut window, &mut flight, &mut pending, &recent);
             }
             pending.drain(&mut flight, crate::flight_id::close::DRAIN_PER_SAMPLE);
         }
-        close(&mut window, &mut flight, &mut pending, &mut recent);
+        close(&mut window, &mut flight, &mut pending, &recent);
         pending.drain_all(&mut flight);
         recent.fold_all(&mut flight);
         text_hash(&flight)
@@ -1282,7 +1212,7 @@ pub(crate) mod tests {
             item.y[2] = S::from_f32(y as f32);
             flight
                 .lag
-                .add_pair_by(0, true, &item, &item, &Active::full(), mac);
+                .add_pair_by(0, &item, &item, &Active::full(), mac);
             for (l, then) in [history[1], history[0]].iter().enumerate() {
                 if k > l {
                     let other = match form {
@@ -1291,7 +1221,7 @@ pub(crate) mod tests {
                     };
                     flight
                         .lag
-                        .add_pair_by(l + 1, false, &item, &other, &Active::full(), mac);
+                        .add_pair_by(l + 1, &item, &other, &Active::full(), mac);
                 }
             }
             history = [history[1], item];
@@ -1352,7 +1282,7 @@ pub(crate) mod tests {
         let add = |active: &Active| {
             let mut m = LagMoments::<f32>::zero();
             // The trait's `e + a b` (f32's own `mul_add` is `e a + b`).
-            m.add_pair_by(1, false, &now, &now, active, |e, a, b| {
+            m.add_pair_by(1, &now, &now, active, |e, a, b| {
                 *e = Scalar::mul_add(*e, a, b)
             });
             text_hash(&m)

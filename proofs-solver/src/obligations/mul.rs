@@ -143,9 +143,8 @@ impl Obligation for UnsignedByHalves {
 
 /// `mul_acc(acc, a, b) = acc + a b` exactly, and the sum stays within the bound of a full
 /// sum, for the envelope of the fixed kernel's exact sums (`massid_kernel::flight_id::exact`):
-/// `|a|, |b| < 2^VALUE_BITS` (a lag's differences included: they are refused beyond it) and
-/// `|acc|` at most `PRODUCTS_PER_FOLD - 1` such products. By induction over the products an
-/// entry takes between two folds, no sum wraps. The code
+/// `|a|, |b| < 2^VALUE_BITS` and `|acc|` at most `FOLD_PERIOD - 1` such products. By
+/// induction over the products an entry takes between two folds, no sum wraps. The code
 /// under proof is the kernel's `mul_acc` as the host compiles it (the 64-bit multiply; the
 /// Cortex-M0's product by halves is the open `widening_mul_byhalves`).
 pub struct MulAcc;
@@ -158,14 +157,14 @@ impl Obligation for MulAcc {
         &["acc_hi", "acc_lo", "a", "b"]
     }
     fn check<P: Prover>(&self, p: &P, x: &[P::W]) -> (P::Bool, P::Bool) {
-        use massid_kernel::flight_id::exact::PRODUCTS_PER_FOLD;
+        use massid_kernel::flight_id::exact::FOLD_PERIOD;
         use massid_kernel::flight_id::exact::VALUE_BITS;
         let acc = p.d_of(&x[0], &x[1]);
         let (a, b) = (&x[2], &x[3]);
         let got = p.under_test(|m| mul_acc(m, &acc, a, b));
         let value = (1i128 << VALUE_BITS) - 1;
         let product = value * value;
-        let before = product * (PRODUCTS_PER_FOLD as i128 - 1);
+        let before = product * (FOLD_PERIOD as i128 - 1);
         let acc_i = p.int_d(&acc, true);
         let pre = p.all(
             &p.all(
@@ -176,7 +175,7 @@ impl Obligation for MulAcc {
         );
         let exact = p.i_add(&acc_i, &p.i_mul(&p.sw(a), &p.sw(b)));
         let got_i = p.int_d(&got, true);
-        let bound = product * PRODUCTS_PER_FOLD as i128;
+        let bound = product * FOLD_PERIOD as i128;
         (
             pre,
             p.all(&p.i_eq(&got_i, &exact), &p.i_within(&got_i, -bound, bound)),

@@ -83,15 +83,17 @@ impl<S: Scalar> CommandDelay<S> {
         let (old, new) = (self.head, self.head.checked_sub(1).unwrap_or(RING - 1));
         self.head = new;
         if self.word == Some(word) {
-            // The two slots are next to each other (or the ring's ends): one split.
-            let (low, high) = self.ring.split_at_mut(old.max(new));
-            let (src, dst) = if new < old {
-                (high.first(), low.get_mut(new))
-            } else {
-                (low.get(old), high.first_mut())
-            };
-            if let (Some(src), Some(dst)) = (src, dst) {
-                *dst = *src;
+            // The two slots are next to each other (or the ring's ends): one split (checked:
+            // no panic path in the tick).
+            if let Some((low, high)) = self.ring.split_at_mut_checked(old.max(new)) {
+                let (src, dst) = if new < old {
+                    (high.first(), low.get_mut(new))
+                } else {
+                    (low.get(old), high.first_mut())
+                };
+                if let (Some(src), Some(dst)) = (src, dst) {
+                    *dst = *src;
+                }
             }
             self.number(new, Some(old));
         } else {

@@ -87,9 +87,9 @@ impl<'a> Problem<'a> {
         Some(self.predict_every(p, 1)?.as_ref().clone())
     }
 
-    /// Predicted gyro output at every `every`-th sample (and each rate reset), NaN at the
-    /// others ([`model::predict_every`]), shared with the kept ones, so that a repeat (or a
-    /// reader) copies nothing.
+    /// Predicted gyro output at samples `0, every, 2 every, ...` only, in that order
+    /// ([`model::predict_every`]), shared with the kept ones, so that a repeat (or a reader)
+    /// copies nothing.
     fn predict_every(&self, p: &Params, every: usize) -> Option<std::rc::Rc<Vec<[f64; 3]>>> {
         let kept = self
             .recent
@@ -154,8 +154,8 @@ impl<'a> Problem<'a> {
     pub fn weighted(&self, p: &Params) -> Option<DVector<f64>> {
         let y = self.predict_every(p, self.stride)?;
         let s = self.series;
-        let mut v = Vec::with_capacity(y.len() * 3 / self.stride + 3);
-        for (i, yi) in y.iter().enumerate().step_by(self.stride) {
+        let mut v = Vec::with_capacity(y.len() * 3 + 3);
+        for (i, yi) in (0..).step_by(self.stride).zip(y.iter()) {
             if !self.in_fit(i) {
                 continue;
             }

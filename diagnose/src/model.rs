@@ -591,7 +591,7 @@ pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Optio
 /// sample `k every`; the rate resets between them still apply): what a fit that uses
 /// every `every`-th sample needs, and no more (with `every` 1, every sample). A rigid 3-D
 /// craft takes RK4 steps of up to `LONG_STEP_MS` wherever the torque holds (with a
-/// blowdown, the torque at each stage's time, [`blowdown_rk4`]), across the samples it
+/// blowdown, the torque at each stage's time, `blowdown_rk4`), across the samples it
 /// needs too (those inside a step come from the cubic through the step's ends, `Span`): a
 /// step ends where the duty or the mass properties change, where a blowdown starts or the
 /// model's clock jumps, at a rate reset, at the last sample or after `LONG_STEP_MS`. So a

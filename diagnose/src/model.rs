@@ -936,49 +936,45 @@ fn predict_with(
                 1
             };
             match motion {
-                Motion::Rigid if p.blowdown.is_some() => {
-                    let h = m as f64 * 1e-3;
-                    // the stages' times on the recording's clock: from the step's start
-                    // (so the end's is the left limit where the clock jumps there), or
-                    // each read from the clock where it jumps inside the step (a 1 ms step)
-                    let from = k as f64 - p.delay_ms;
-                    let shifts_to = |x: f64| {
-                        series
-                            .clock_shifts
-                            .partition_point(|&(at, _)| (at as f64) <= x)
-                    };
-                    let jumps = shifts_to(from) != shifts_to(from + m as f64);
-                    let stage = |dt: f64| {
-                        let real = if jumps {
-                            series.real_ms(from + dt)
-                        } else {
-                            series.real_ms(from) + dt
-                        };
-                        torque(props, d, scale_at_real(real))
-                    };
-                    let taus = [stage(0.0), stage(0.5 * m as f64), stage(m as f64)];
-                    let w0 = w;
-                    let f0;
-                    (w, f0) = blowdown_rk4(props, &taus, &damping, &w, h);
-                    if k + m > ts {
-                        spanned = Some(Span {
-                            from: k,
-                            to: k + m,
-                            w0,
-                            f0,
-                            w1: w,
-                            f1: rigid_rate(props, &taus[2], &damping, &w),
-                        });
-                    }
-                }
                 Motion::Rigid => {
                     let h = m as f64 * 1e-3;
-                    let f = |w: &Vector3<f64>| rigid_rate(props, &tau_c, &damping, w);
-                    let (w0, f0) = (w, f_start.unwrap_or_else(|| f(&w)));
-                    w = rk4_from(&w, f0, h, f);
+                    let w0 = w;
+                    // the step, its start's derivative and the torque at its end
+                    let (f0, tau_end) = if p.blowdown.is_some() {
+                        // the stages' times on the recording's clock: from the step's
+                        // start (so the end's is the left limit where the clock jumps
+                        // there), or each read from the clock where it jumps inside the
+                        // step (a 1 ms step)
+                        let from = k as f64 - p.delay_ms;
+                        let shifts_to = |x: f64| {
+                            series
+                                .clock_shifts
+                                .partition_point(|&(at, _)| (at as f64) <= x)
+                        };
+                        let jumps = shifts_to(from) != shifts_to(from + m as f64);
+                        let stage = |dt: f64| {
+                            let real = if jumps {
+                                series.real_ms(from + dt)
+                            } else {
+                                series.real_ms(from) + dt
+                            };
+                            torque(props, d, scale_at_real(real))
+                        };
+                        let taus = [stage(0.0), stage(0.5 * m as f64), stage(m as f64)];
+                        let f0;
+                        (w, f0) = blowdown_rk4(props, &taus, &damping, &w, h);
+                        (f0, taus[2])
+                    } else {
+                        let f = |w: &Vector3<f64>| rigid_rate(props, &tau_c, &damping, w);
+                        let f0 = f_start.unwrap_or_else(|| f(&w));
+                        w = rk4_from(&w, f0, h, f);
+                        (f0, tau_c)
+                    };
                     if k + m > ts {
-                        let f1 = f(&w);
-                        f_end = Some(f1);
+                        let f1 = rigid_rate(props, &tau_end, &damping, &w);
+                        if p.blowdown.is_none() {
+                            f_end = Some(f1);
+                        }
                         spanned = Some(Span {
                             from: k,
                             to: k + m,
@@ -1278,6 +1274,20 @@ pub(crate) mod tests {
         }
     }
 
+    /// SPHERES sampled at 100 Hz for 30 s, a random word at each sample (about a quarter of
+    /// the thrusters open): a flight that turns at up to about 1 rad/s.
+    fn pulses_at_100_hz(seed: u64) -> (Plant, Series) {
+        let sat = Satellite::builtin("sph2").unwrap();
+        let mut rnd = lcg(seed);
+        let t: Vec<i64> = (0..3000).map(|i| i * 10).collect();
+        let words: Vec<u16> = t.iter().map(|_| (rnd(4096) & rnd(4096)) as u16).collect();
+        let counts = vec![[2048, 2048, 2048]; t.len()];
+        let bias = sat.gyro_bias_counts;
+        let scale = sat.gyro_counts_per_rad_s;
+        let series = Series::from_counts(&t, &counts, &words, bias, scale, None).unwrap();
+        (Plant::new(&sat), series)
+    }
+
     /// A rigid 3-D craft sampled at 100 Hz takes RK4 steps of up to 10 ms where the torque
     /// holds; over 30 s of pulses, turning at up to about 1 rad/s with the gyroscopic term,
     /// the rates stay within 1e-11 rad/s of the 1 ms steps' (measured: 2.9e-14). The
@@ -1285,15 +1295,7 @@ pub(crate) mod tests {
     /// rates by more than the bound (6e-9).
     #[test]
     fn long_steps_agree_with_millisecond_steps() {
-        let sat = Satellite::builtin("sph2").unwrap();
-        let plant = Plant::new(&sat);
-        let mut rnd = lcg(777);
-        let t: Vec<i64> = (0..3000).map(|i| i * 10).collect();
-        let words: Vec<u16> = t.iter().map(|_| (rnd(4096) & rnd(4096)) as u16).collect();
-        let counts = vec![[2048, 2048, 2048]; t.len()];
-        let bias = sat.gyro_bias_counts;
-        let scale = sat.gyro_counts_per_rad_s;
-        let series = Series::from_counts(&t, &counts, &words, bias, scale, None).unwrap();
+        let (plant, series) = pulses_at_100_hz(777);
         let duty = duty_grid(&series, 3.3, 5.1, 0.0);
         let p = Params {
             omega0: [0.5, -0.4, 0.8],
@@ -1327,15 +1329,7 @@ pub(crate) mod tests {
     /// jump, 8.3e-8; the torque of a step's start for all four stages, 2.1e-5.
     #[test]
     fn blowdown_long_steps_agree_with_millisecond_steps() {
-        let sat = Satellite::builtin("sph2").unwrap();
-        let plant = Plant::new(&sat);
-        let mut rnd = lcg(4242);
-        let t: Vec<i64> = (0..3000).map(|i| i * 10).collect();
-        let words: Vec<u16> = t.iter().map(|_| (rnd(4096) & rnd(4096)) as u16).collect();
-        let counts = vec![[2048, 2048, 2048]; t.len()];
-        let bias = sat.gyro_bias_counts;
-        let scale = sat.gyro_counts_per_rad_s;
-        let mut series = Series::from_counts(&t, &counts, &words, bias, scale, None).unwrap();
+        let (plant, mut series) = pulses_at_100_hz(4242);
         series.clock_shifts = vec![(12_000, 3)];
         let duty = duty_grid(&series, 3.3, 5.1, 0.0);
         let p = Params {

@@ -581,8 +581,9 @@ impl MassProps {
 /// torque over each run of equal duty, so its prediction jumps from run end to run end
 /// with the closed form of the same 1 ms RK4 steps (equal to them within rounding): the
 /// cost follows the commands and samples, not the milliseconds of the flight. A rigid 3-D
-/// craft takes RK4 steps of up to `LONG_STEP_MS` (10 ms) where the torque holds between
-/// samples more than 1 ms apart (below 1 kHz, and across a 1 kHz recording's gaps).
+/// craft takes RK4 steps of up to `LONG_STEP_MS` (10 ms) where the torque holds (or decays
+/// smoothly, a blowdown) between samples more than 1 ms apart (below 1 kHz, and across a
+/// 1 kHz recording's gaps).
 pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Option<Vec<[f64; 3]>> {
     predict_with(plant, series, duty, p, true, 1)
 }
@@ -607,7 +608,7 @@ pub fn predict_every(
     predict_with(plant, series, duty, p, true, every.max(1))
 }
 
-/// The body's equations over one 1 ms step with the torque held: which of the three
+/// The body's equations over one step (1 ms, or longer where it may): which of the three
 /// the prediction integrates is chosen once per prediction, so each inner loop is one
 /// straight-line RK4.
 #[derive(Clone, Copy, PartialEq)]
@@ -725,7 +726,8 @@ fn linear_rk4_steps(y0: f64, a: f64, b: f64, h: f64, m: usize) -> f64 {
     y0 + gain * (a - b * y0)
 }
 
-/// Longest RK4 step of a rigid 3-D craft, ms, where the torque holds over it between two
+/// Longest RK4 step of a rigid 3-D craft, ms, where the torque holds (or a blowdown decays
+/// it smoothly, `blowdown_rk4`) over it between two
 /// samples (below 1 kHz, or across a gap) or across samples a strided fit does not stop at
 /// ([`predict_every`]): RK4's error grows as the step's fourth power; at
 /// 10 ms it stays near rounding (`long_steps_agree_with_millisecond_steps`: 30 s turning at
@@ -907,7 +909,7 @@ fn predict_with(
             k = end;
         }
         while k < ts {
-            // one 1 ms step from k to k+1 with the torque averaged over the step
+            // one step from k: 1 ms with the step's mean duty, or m ms (below) where it holds
             r = run_at(runs, r, k);
             let props = props_at(k);
             let d = &runs[r].1;
@@ -926,9 +928,10 @@ fn predict_with(
             last_tau = Some(tau_c);
             let f_start = if same { f_end.take() } else { None };
             f_end = None;
-            // steps taken at once: up to LONG_STEP_MS while the torque holds (between
-            // samples, changes of duty and the mass change), else one
-            // (past the sample at ts when the fit does not read the samples between)
+            // steps taken at once: up to LONG_STEP_MS while the torque holds or decays
+            // smoothly (between samples, changes of duty, the mass change and a
+            // blowdown's breaks), else one (past the sample at ts when the fit does not
+            // read the samples between)
             let m = if long_steps {
                 let until = if every > 1 { stop_ms } else { ts };
                 (held_until(k, r, until) - k).clamp(1, LONG_STEP_MS)
@@ -942,18 +945,18 @@ fn predict_with(
                     // the step, its start's derivative and the torque at its end
                     let (f0, tau_end) = if p.blowdown.is_some() {
                         // the stages' times on the recording's clock: from the step's
-                        // start (so the end's is the left limit where the clock jumps
-                        // there), or each read from the clock where it jumps inside the
-                        // step (a 1 ms step)
+                        // start (after a jump at the start; so the end's is the left
+                        // limit where the clock jumps at the end), or each read from the
+                        // clock where it jumps strictly inside the step (a 1 ms step: the
+                        // steps end on both sides of a jump)
                         let from = k as f64 - p.delay_ms;
-                        let shifts_to = |x: f64| {
-                            series
-                                .clock_shifts
-                                .partition_point(|&(at, _)| (at as f64) <= x)
-                        };
-                        let jumps = shifts_to(from) != shifts_to(from + m as f64);
+                        let to = from + m as f64;
+                        let jumps_inside = series
+                            .clock_shifts
+                            .iter()
+                            .any(|&(at, _)| (at as f64) > from && (at as f64) < to);
                         let stage = |dt: f64| {
-                            let real = if jumps {
+                            let real = if jumps_inside {
                                 series.real_ms(from + dt)
                             } else {
                                 series.real_ms(from) + dt
@@ -1354,6 +1357,27 @@ pub(crate) mod tests {
         slower.blowdown = Some((7.5034, 20.0 * (1.0 + 1e-6)));
         let moved = predict_with(&plant, &series, &duty, &slower, false, 1).unwrap();
         assert!(gap(&moved, &short) > 1e-12);
+        // A step that ends where the clock jumps takes the torque from before the jump
+        // there: with no delay the jump at 12 s falls on a step's end, and up to that
+        // sample the rates are those of the same flight without the jump, bit for bit
+        // (planted: the end's torque read after a 2 s jump, 2.6e-5 by that sample).
+        let mut no_delay = p.clone();
+        no_delay.delay_ms = 0.0;
+        let mut jumped = series.clone();
+        jumped.clock_shifts = vec![(12_000, 2_000)];
+        let mut plain = series.clone();
+        plain.clock_shifts = vec![];
+        for long_steps in [true, false] {
+            let a = predict_with(&plant, &jumped, &duty, &no_delay, long_steps, 1).unwrap();
+            let b = predict_with(&plant, &plain, &duty, &no_delay, long_steps, 1).unwrap();
+            let upto = series.t_ms.iter().take_while(|&&t| t <= 12_000).count();
+            assert_eq!(
+                a[..upto],
+                b[..upto],
+                "before the jump (long steps {long_steps})"
+            );
+            assert!(gap(&a[upto..], &b[upto..]) > 1e-3, "the jump acts after it");
+        }
     }
 
     /// A fit at a stride of 5 on a 1 kHz recording reads every fifth sample: predicted at
@@ -1392,8 +1416,12 @@ pub(crate) mod tests {
         };
         let every = predict(&plant, &series, &duty, &p).unwrap();
         let fifth = predict_every(&plant, &series, &duty, &p, 5).unwrap();
-        // entry k is sample 5 k, and only those
+        // entry k is sample 5 k, and only those (the last one too when the length is not a
+        // multiple of the stride)
         assert_eq!(fifth.len(), every.len().div_ceil(5));
+        let seventh = predict_every(&plant, &series, &duty, &p, 7).unwrap();
+        assert_eq!(seventh.len(), every.len().div_ceil(7));
+        assert_ne!(every.len() % 7, 0);
         let mut err: f64 = 0.0;
         for (a, b) in every.iter().step_by(5).zip(&fifth) {
             for k in 0..3 {

@@ -1432,6 +1432,30 @@ pub(crate) mod tests {
         let peak = every.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
         assert!(peak > 0.5, "the test flight must turn fast ({peak})");
         assert!(err < 1e-11, "every fifth sample differs by {err:e}");
+        // a blowdown's steps (the torque at each stage's time) and a mass change read at a
+        // stride too (measured: 2.0e-12; planted, the cubic's end derivative with the step
+        // start's torque: 7.4e-7)
+        let changing = Params {
+            blowdown: Some((7.5034, 20.0)),
+            mass_change: Some((12.3456, [4.0, -3.0, 0.0], plant.inertia)),
+            ..p.clone()
+        };
+        let every_c = predict(&plant, &series, &duty, &changing).unwrap();
+        let fifth_c = predict_every(&plant, &series, &duty, &changing, 5).unwrap();
+        let err_c = every_c
+            .iter()
+            .step_by(5)
+            .zip(&fifth_c)
+            .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()))
+            .fold(0.0, f64::max);
+        assert!(
+            err_c < 1e-11,
+            "with a blowdown and a mass change: {err_c:e}"
+        );
+        assert!(
+            every_c.iter().zip(&every).any(|(a, b)| a != b),
+            "the changes act"
+        );
         let mut stronger = p.clone();
         stronger.thrust_scale = [1.0 + 1e-8; NT];
         let moved = predict_every(&plant, &series, &duty, &stronger, 5).unwrap();

@@ -825,9 +825,6 @@ fn predict_with(
     // the run of the duty grid step k is in
     let runs = &grid.runs;
     let mut r = runs.partition_point(|&(start, _)| start <= k).max(1) - 1;
-    // the torque holds from step k (in run r) until `ts` (the next sample, or for a strided
-    // fit the next step's end it must stop at), the next run or the mass change, whichever
-    // comes first
     // with a blowdown the torque decays in time: a step takes it at its stages' times
     // ([`blowdown_rk4`]) and ends on both sides of where the decay starts and of where the
     // model's clock jumps (the decay's clock is the recording's), so the torque is smooth
@@ -851,6 +848,9 @@ fn predict_with(
         }
         None => vec![],
     };
+    // the torque holds from step k (in run r) until `ts` (the next sample, or for a strided
+    // fit the next step's end it must stop at), the next run the mass change or a
+    // blowdown's break, whichever comes first
     let held_until = |k: usize, r: usize, ts: usize| {
         let mut end = ts.min(runs.get(r + 1).map_or(usize::MAX, |&(start, _)| start));
         if k < change_step {

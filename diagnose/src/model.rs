@@ -849,7 +849,7 @@ fn predict_with(
         None => vec![],
     };
     // the torque holds from step k (in run r) until `ts` (the next sample, or for a strided
-    // fit the next step's end it must stop at), the next run the mass change or a
+    // fit the next step's end it must stop at), the next run, the mass change or a
     // blowdown's break, whichever comes first
     let held_until = |k: usize, r: usize, ts: usize| {
         let mut end = ts.min(runs.get(r + 1).map_or(usize::MAX, |&(start, _)| start));

@@ -7,6 +7,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::model::{self, Params, Plant};
 use crate::noise::NoiseModel;
+use crate::response::Response;
 use crate::series::Series;
 
 /// Everything needed to evaluate a model against the recording.
@@ -15,6 +16,8 @@ pub struct Problem<'a> {
     pub series: &'a Series,
     /// Per-axis weight 1/sqrt(long-run variance).
     pub weight: [f64; 3],
+    /// What the rate sensor reports of the predicted rates (the noise model's sensor).
+    pub response: Response,
     /// Use every `stride`-th sample in the fit (speed); the fit's predictions give only
     /// those ([`model::predict_every`]), still on the 1 ms command grid.
     pub stride: usize,
@@ -57,6 +60,7 @@ impl<'a> Problem<'a> {
             plant,
             series,
             weight,
+            response: Response::of_noise(noise),
             stride: 1,
             train: None,
             duty_cache: Default::default(),
@@ -82,14 +86,15 @@ impl<'a> Problem<'a> {
         d
     }
 
-    /// Predicted gyro output per sample.
+    /// Predicted rate-sensor output per sample.
     pub fn predict(&self, p: &Params) -> Option<Vec<[f64; 3]>> {
         Some(self.predict_every(p, 1)?.as_ref().clone())
     }
 
-    /// Predicted gyro output at samples `0, every, 2 every, ...` only, in that order
-    /// ([`model::predict_every`]), shared with the kept ones, so that a repeat (or a reader)
-    /// copies nothing.
+    /// Predicted rate-sensor output at samples `0, every, 2 every, ...` only, in that order
+    /// ([`model::predict_every`], through the sensor's [`Response`]; a response that reads
+    /// the neighbours predicts every sample), shared with the kept ones, so that a repeat (or
+    /// a reader) copies nothing.
     fn predict_every(&self, p: &Params, every: usize) -> Option<std::rc::Rc<Vec<[f64; 3]>>> {
         let kept = self
             .recent
@@ -102,7 +107,15 @@ impl<'a> Problem<'a> {
             return Some(y);
         }
         let d = self.duty(p.open_ms + p.delay_ms, p.close_ms + p.delay_ms, p.rise_ms);
-        let y = std::rc::Rc::new(model::predict_every(self.plant, self.series, &d, p, every)?);
+        let y = match self.response {
+            Response::Point => model::predict_every(self.plant, self.series, &d, p, every)?,
+            response => {
+                let (all, integral) = model::predict_with_integral(self.plant, self.series, &d, p)?;
+                let seen = response.apply(self.series, &all, &integral);
+                seen.into_iter().step_by(every.max(1)).collect()
+            }
+        };
+        let y = std::rc::Rc::new(y);
         let keep =
             (RECENT_BYTES / (y.len() * std::mem::size_of::<[f64; 3]>()).max(1)).min(RECENT_MAX);
         if keep > 0 {
@@ -137,6 +150,7 @@ impl<'a> Problem<'a> {
             plant: self.plant,
             series: self.series,
             weight: self.weight,
+            response: self.response,
             stride: self.stride,
             train: Some(train),
             duty_cache: Default::default(),

@@ -20,6 +20,7 @@ pub mod numfmt;
 pub mod output;
 pub mod profile;
 pub mod report;
+pub mod response;
 pub mod ringing;
 pub mod rows;
 pub mod select;

@@ -744,7 +744,34 @@ fn predict_with(
     jumps: bool,
     every: usize,
 ) -> Option<Vec<[f64; 3]>> {
-    if grid.is_empty() {
+    predict_integrated(plant, series, grid, p, jumps, every, false).map(|(y, _)| y)
+}
+
+/// [`predict`] with, when `integrate` (at every sample only), the gyro output integrated
+/// in time from the first sample to each sample (rad, each step by its trapezoid: exact
+/// for the rate linear in a step, as it is under a step's constant torque without
+/// gyroscopic coupling or damping, and within 1e-8 rad a step with them): what a sensor
+/// that reports the mean rate over an interval ([`crate::response`]) reads.
+pub fn predict_with_integral(
+    plant: &Plant,
+    series: &Series,
+    duty: &Duty,
+    p: &Params,
+) -> Option<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+    predict_integrated(plant, series, duty, p, true, 1, true)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn predict_integrated(
+    plant: &Plant,
+    series: &Series,
+    grid: &Duty,
+    p: &Params,
+    jumps: bool,
+    every: usize,
+    integrate: bool,
+) -> Option<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+    if grid.is_empty() || (integrate && every != 1) {
         return None;
     }
     PREDICTIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -810,6 +837,16 @@ fn predict_with(
             y[a] = p.gyro_scale[a] * w[a] + p.gyro_bias_counts[a] / plant.counts_per_rad_s[a];
         }
         out.push(y);
+    };
+    // the body's rate integrated from t0 (when `integrate`), and per sample the gyro
+    // output's integral (the bias integrated over the time since t0)
+    let mut theta = Vector3::zeros();
+    let mut integrals = Vec::with_capacity(if integrate { series.len() } else { 0 });
+    let emit_integral = |theta: &Vector3<f64>, t_ms: i64, out: &mut Vec<[f64; 3]>| {
+        let since_s = (t_ms - t0) as f64 * 1e-3;
+        out.push(std::array::from_fn(|a| {
+            p.gyro_scale[a] * theta[a] + p.gyro_bias_counts[a] / plant.counts_per_rad_s[a] * since_s
+        }));
     };
     let h = 1e-3;
     let mut k = t0.max(0) as usize;
@@ -905,7 +942,11 @@ fn predict_with(
             let props = props_at(k);
             let tau_c = torque(props, &runs[r].1, 1.0);
             let izz = props.inertia[(2, 2)];
+            let w_before = w;
             w.z = linear_rk4_steps(w.z, tau_c.z / izz, damping.z / izz, h, end - k);
+            if integrate {
+                theta += (w_before + w) * ((end - k) as f64 * 1e-3 * 0.5);
+            }
             k = end;
         }
         while k < ts {
@@ -938,6 +979,7 @@ fn predict_with(
             } else {
                 1
             };
+            let w_before = w;
             match motion {
                 Motion::Rigid => {
                     let h = m as f64 * 1e-3;
@@ -1019,6 +1061,9 @@ fn predict_with(
                     qd += (k1d + k2d * 2.0 + k3d * 2.0 + k4d) * (h / 6.0);
                 }
             }
+            if integrate {
+                theta += (w_before + w) * (m as f64 * 1e-3 * 0.5);
+            }
             k += m;
         }
         if let Some(g) = series.gap_resets.iter().position(|&i| i == si) {
@@ -1039,10 +1084,13 @@ fn predict_with(
         }
         if si % every == 0 {
             emit(&at, &mut out);
+            if integrate {
+                emit_integral(&theta, series.t_ms[si], &mut integrals);
+            }
         }
         si += 1;
     }
-    Some(out)
+    Some((out, integrals))
 }
 
 /// One RK4 step of a rigid craft, its ends' rates and derivatives: the cubic Hermite

@@ -6,14 +6,16 @@
 //! - **band-limited** (a gyro sampled near or above its bandwidth, seed Fig. 3.10: 300 Hz):
 //!   a first-order Gauss-Markov process, positive lag-1 correlation decaying geometrically;
 //! - **differenced attitude** (rates differenced from motion-capture attitude): attitude
-//!   noise differenced over one sample plus white noise, an MA(1) process whose lag-1
-//!   correlation is *negative* (down to -0.5) and whose lag-2 and later correlations are 0.
+//!   noise differenced over a span of `s` samples plus white noise, whose correlation at lag
+//!   `s` is *negative* (down to -0.5) and is 0 at every other lag: `s` = 1 for the difference
+//!   with the previous sample (an MA(1)), `s` = 2 for the central difference
+//!   `(a_(k+1) - a_(k-1)) / 2 dt` (open3's pl6), whose lag-1 correlation is 0.
 //!
 //! The statistics come from lagged differences inside coasting stretches (no valve open,
 //! away from edges), where model error barely changes over a few ms: the structure function
 //! D(L) = E[(x_{t+L} - x_t)^2] = 2 (g0 - gL). The kind is the sign of the pooled lag-1
-//! correlation, counted only when it stands clear of its sampling noise ([`KIND_MIN`],
-//! [`KIND_SIGMAS`]; see [`estimate`]). The model then sets the per-sample variance and its
+//! correlation, or a negative lag-2 one, counted only when it stands clear of its sampling
+//! noise ([`KIND_MIN`], [`KIND_SIGMAS`]; see [`estimate`]). The model then sets the per-sample variance and its
 //! uncertainty (the `unexplained` level), the effective variance that weights chi-square,
 //! BIC, Wald tests and standard errors, and how far apart the whiteness test's block means
 //! must be to share no noise ([`NoiseModel::block_gap`]).
@@ -78,6 +80,9 @@ pub struct NoiseModel {
     pub long_run_var: [f64; 3],
     /// Lag-1 autocorrelation.
     pub rho1: [f64; 3],
+    /// Differenced attitude: the samples the attitude is differenced over (the lag of its
+    /// negative correlation), 1 or 2; 0 for the other kinds.
+    pub span: usize,
     /// How many lagged samples entered the estimate.
     pub pairs: usize,
     /// Autocovariance at lags 0..=m per axis (lag 0 = `var`).
@@ -97,6 +102,10 @@ pub struct NoiseReport {
     pub rms: [f64; 3],
     /// Lag-1 autocorrelation per axis.
     pub rho1: [f64; 3],
+    /// Differenced attitude only: the samples the attitude is differenced over (1: from the
+    /// previous sample; 2: central, from the previous to the next).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub difference_samples: Option<usize>,
     /// sqrt of the variance that weights the fits, rad/s.
     pub effective_rms: [f64; 3],
     /// Relative standard error of `rms` (from the independent quiet pairs it rests on).
@@ -111,6 +120,7 @@ impl NoiseModel {
             var,
             long_run_var: var,
             rho1: [0.0; 3],
+            span: 0,
             pairs: 0,
             acov: var.map(|v| vec![v]),
             dt_ms: 1.0,
@@ -143,14 +153,15 @@ impl NoiseModel {
                     0.0
                 }
             }),
+            difference_samples: (self.kind == NoiseKind::DifferencedAttitude).then_some(self.span),
             effective_rms: self.long_run_var.map(r),
             rms_rel_se: self.level_se,
         }
     }
 
     /// Model autocovariance of axis `a` at `lag` samples: what the kind implies beyond the
-    /// lags measured (a band-limited gyro's geometric decay, nothing past lag 1 for
-    /// differenced attitude, nothing past lag 0 for white).
+    /// lags measured (a band-limited gyro's geometric decay, nothing past the differencing
+    /// span for differenced attitude, nothing past lag 0 for white).
     pub fn gamma(&self, a: usize, lag: usize) -> f64 {
         let g = &self.acov[a];
         match self.kind {
@@ -163,7 +174,7 @@ impl NoiseModel {
             }
             NoiseKind::DifferencedAttitude => match lag {
                 0 => self.var[a],
-                1 => g.get(1).copied().unwrap_or(0.0),
+                l if l <= self.span => g.get(l).copied().unwrap_or(0.0),
                 _ => 0.0,
             },
             NoiseKind::BandLimited => {
@@ -196,8 +207,8 @@ impl NoiseModel {
     }
 
     /// Samples to leave out between blocks of `n` so that neighbouring block means share
-    /// no noise (model correlation below `negligible` on every axis): 1 for differenced
-    /// attitude (neighbouring means share one attitude sample), 0 for white noise and for
+    /// no noise (model correlation below `negligible` on every axis): the span for differenced
+    /// attitude (neighbouring means share attitude samples), 0 for white noise and for
     /// a gyro whose correlation is gone within a block (SPHERES at 1 kHz).
     pub fn block_gap(&self, n: usize, negligible: f64) -> usize {
         let n = n.max(1);
@@ -356,14 +367,27 @@ fn forced_kind() -> Option<NoiseKind> {
 /// Rule: on steady stretches ([`steady_mask`]) the pooled lag-1 correlation
 /// rho1 = 1 - D(1) / mean D(2..), or c = D(2)/D(1) - 1 where that is larger in size, decides
 /// the kind: below [`KIND_MIN`] or [`KIND_SIGMAS`] standard errors (2/sqrt(pairs)) white,
-/// above it band-limited, below minus it differenced attitude. White noise, and a gyro whose correlation is gone within the ~12 ms of lags
-/// read (SPHERES' at 1 kHz), keep the variance read at those lags in coasting stretches, as
-/// always. A band-limited gyro with c = D(2)/D(1) - 1 (its AR(1) coefficient) still
-/// correlated there has its variance read where the correlation has fallen below 1 %
-/// (lag ln 0.01 / ln c; at most 100 ms, and there corrected by 1 / (1 - c^lag)): read at a
-/// fixed 12 ms, a slow gyro's variance comes out low. Differenced attitude: lags >= 2 give
-/// the variance, lag 1 the (negative) covariance.
+/// above it band-limited, below minus it differenced attitude (span 1). Before that, a lag-2
+/// correlation against the lags from 3 on that is negative by as much, and below the lag-1
+/// one, is a central difference (span 2). White noise, and a gyro whose correlation is gone
+/// within the ~12 ms of lags read (SPHERES' at 1 kHz), keep the variance read at those lags
+/// in coasting stretches, as always. A band-limited gyro with c = D(2)/D(1) - 1 (its AR(1)
+/// coefficient) still correlated there has its variance read where the correlation has
+/// fallen below 1 % (lag ln 0.01 / ln c; at most 100 ms, and there corrected by
+/// 1 / (1 - c^lag)): read at a fixed 12 ms, a slow gyro's variance comes out low.
+/// Differenced attitude: the lags past the span give the variance, the lags up to it the
+/// covariances (the span's negative).
 pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
+    estimate_with(series, r, None)
+}
+
+/// [`estimate`] with the kind (and a differenced sensor's span) of `like`: the level read
+/// again from another residual of the same recording.
+pub fn estimate_as(series: &Series, r: &[[f64; 3]], like: &NoiseModel) -> NoiseModel {
+    estimate_with(series, r, Some((like.kind, like.span)))
+}
+
+fn estimate_with(series: &Series, r: &[[f64; 3]], known: Option<(NoiseKind, usize)>) -> NoiseModel {
     let dt = (1000.0 / series.sample_rate_hz).round().max(1.0) as i64;
     // lags up to ~12 ms, at least 3 samples
     let max_lag = ((12 / dt) as usize).max(3);
@@ -417,20 +441,44 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
     // against c's -0.33), c a slow gyro (its AR(1) coefficient, where rho1 against lags
     // 2..4 that are themselves still correlated reads low); the stronger one decides
     let stat = if c.abs() > rho.abs() { c } else { rho };
-    let coloured = stat.abs() > KIND_MIN && stat.abs() > KIND_SIGMAS * se;
-    let mut kind = if !coloured {
-        NoiseKind::White
-    } else if stat > 0.0 {
+    let clear = |v: f64| v.abs() > KIND_MIN && v.abs() > KIND_SIGMAS * se;
+    // a central difference: no lag-1 correlation and a negative lag-2 one, each against the
+    // lags from 3 on (rho1 and c, which compare lag 1 with lag 2, read it as a positive
+    // correlation: band-limited). A gyro's correlations are positive, and a model error in a
+    // steady stretch (a slow ramp) only raises the longer lags' D, so neither makes it.
+    let plateau_3 =
+        |a: usize| (3..=max_lag + 1).map(|l| ds[l][a]).sum::<f64>() / (max_lag - 1) as f64;
+    let lag_corr = |l: usize| {
+        pooled(&|a| {
+            let p = plateau_3(a);
+            if p > 0.0 {
+                1.0 - ds[l][a] / p
+            } else {
+                0.0
+            }
+        })
+    };
+    let (r1, r2) = (lag_corr(1), lag_corr(2));
+    let central = r2 < 0.0 && clear(r2) && r2 < r1;
+    let mut kind = if central || (clear(stat) && stat < 0.0) {
+        NoiseKind::DifferencedAttitude
+    } else if clear(stat) {
         NoiseKind::BandLimited
     } else {
-        NoiseKind::DifferencedAttitude
+        NoiseKind::White
     };
     if let Some(k) = forced_kind() {
         kind = k;
     }
+    // the lag of a differenced sensor's negative correlation
+    let mut span = if central { 2 } else { 1 };
+    if let Some((k, s)) = known {
+        (kind, span) = (k, s.max(1));
+    }
     if std::env::var_os("MASSID_NOISE_DEBUG").is_some() {
         eprintln!(
-            "noise: coasting pairs {pairs}, steady pairs {pairs_s:?}, rho1 {rho:.3} c {c:.3} se {se:.3}: {kind:?}"
+            "noise: coasting pairs {pairs}, steady pairs {pairs_s:?}, rho1 {rho:.3} c {c:.3} \
+             against lags 3+: lag 1 {r1:.3} lag 2 {r2:.3}; se {se:.3}: {kind:?}"
         );
     }
     // a band-limited gyro whose correlation outlasts the lags read: read further
@@ -467,8 +515,9 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
             g0 = p[a];
         }
         if kind == NoiseKind::DifferencedAttitude {
-            // every lag from 2 on is the plateau: use them all
-            g0 = (2..=max_lag + 1).map(|l| dl[l][a]).sum::<f64>() / (2 * max_lag) as f64;
+            // every lag past the span is the plateau: use them all
+            g0 = (span + 1..=max_lag + 1).map(|l| dl[l][a]).sum::<f64>()
+                / (2 * (max_lag + 1 - span)) as f64;
         }
         var[a] = g0.max(1e-30);
         acov[a] = (0..max_lag)
@@ -480,21 +529,26 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
                 }
             })
             .collect();
-        if kind == NoiseKind::DifferencedAttitude && acov[a].len() > 1 {
-            // an MA(1) lag-1 covariance is at least -gamma0 / 2 (no negative white part)
-            acov[a][1] = acov[a][1].max(-0.49 * var[a]);
+        if kind == NoiseKind::DifferencedAttitude {
+            // a difference's covariance at its span is at least -gamma0 / 2 (no negative
+            // white part)
+            if let Some(g) = acov[a].get_mut(span) {
+                *g = g.max(-0.49 * var[a]);
+            }
         }
         rho1[a] = 1.0 - dl[1][a] / (2.0 * var[a]);
         lr[a] = match kind {
             NoiseKind::DifferencedAttitude => {
-                // gamma1 = -sigma_d^2; the variance of the mean over a command run of m
-                // samples, times m: 2 sigma_d^2 / m + sigma_w^2 (a scalar weight cannot be
-                // right at every frequency; this one is right for a box-shaped model error
-                // as long as a command run, and conservative for anything slower)
-                let g1 = acov[a].get(1).copied().unwrap_or(0.0).min(0.0);
-                let sd2 = -g1;
+                // gamma_s = -sigma_d^2 at the span s; over a command run of m >= s samples
+                // the differences telescope to s attitude samples at each end, so the
+                // variance of the run's mean, times m, is 2 s sigma_d^2 / m + sigma_w^2 (a
+                // scalar weight cannot be right at every frequency; this one is right for a
+                // box-shaped model error as long as a command run, and conservative for
+                // anything slower)
+                let gs = acov[a].get(span).copied().unwrap_or(0.0).min(0.0);
+                let sd2 = -gs;
                 let sw2 = (g0 - 2.0 * sd2).max(0.0);
-                2.0 * sd2 / runs + sw2
+                2.0 * span as f64 * sd2 / runs + sw2
             }
             NoiseKind::BandLimited if plateau.is_some() => {
                 let phi = rho1[a].clamp(0.0, 0.99);
@@ -523,6 +577,11 @@ pub fn estimate(series: &Series, r: &[[f64; 3]]) -> NoiseModel {
         var,
         long_run_var: lr,
         rho1,
+        span: if kind == NoiseKind::DifferencedAttitude {
+            span
+        } else {
+            0
+        },
         pairs,
         acov,
         dt_ms: dt as f64,

@@ -16,5 +16,6 @@ pub mod allocation_check;
 pub mod coverage;
 pub mod crlb;
 pub mod identification_mc;
+pub mod mocap_flight;
 pub mod planted_faults;
 pub mod random_craft;

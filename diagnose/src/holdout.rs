@@ -11,6 +11,7 @@ use crate::locate;
 use crate::model::Plant;
 use crate::noise;
 use crate::output::DataIssues;
+use crate::response::Response;
 use crate::select::fit_nuisance_with;
 use crate::select::Settings;
 use crate::series::Series;
@@ -52,8 +53,8 @@ pub fn fit_then_predict(
         railed: first.railed,
     };
     let analysis = diagnosis::diagnose(&first, plant, recording, model, issues, settings)?;
-    let nominal = held_out_rms(&rest, plant, &[])?;
-    let fitted = held_out_rms(&rest, plant, &analysis.fitted)?;
+    let nominal = held_out_rms(&rest, plant, analysis.response, &[])?;
+    let fitted = held_out_rms(&rest, plant, analysis.response, &analysis.fitted)?;
     Some(Holdout {
         split_ms: series.real_ms(rest.t_ms[0] as f64),
         fitted_samples: first.len(),
@@ -64,11 +65,18 @@ pub fn fit_then_predict(
     })
 }
 
-/// RMS residual of `part` under the model with `effects`, its state nuisances fitted.
-fn held_out_rms(part: &Series, plant: &Plant, effects: &[(Kind, Vec<f64>)]) -> Option<[f64; 3]> {
+/// RMS residual of `part` under the model with `effects`, its state nuisances fitted, as the
+/// rate sensor reports it (`response`, found on the fitted part).
+fn held_out_rms(
+    part: &Series,
+    plant: &Plant,
+    response: Response,
+    effects: &[(Kind, Vec<f64>)],
+) -> Option<[f64; 3]> {
     // weights only shape the nuisance fit; the noise of the part's own nominal residual
     let provisional = noise::NoiseModel::white([1e-6; 3]);
-    let prob = Problem::new(plant, part, &provisional);
+    let mut prob = Problem::new(plant, part, &provisional);
+    prob.response = response;
     let mut start = initial_rate(part).to_vec();
     start.extend(std::iter::repeat_n(0.0, 3 * part.gap_resets.len()));
     let fr = fit_nuisance_with(&prob, effects, &start)?;

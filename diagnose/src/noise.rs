@@ -106,6 +106,10 @@ pub struct NoiseReport {
     /// previous sample; 2: central, from the previous to the next).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub difference_samples: Option<usize>,
+    /// What the sensor reports of the rate when it is not the rate at the sample
+    /// (`central_mean`: `crate::response`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub response: Option<String>,
     /// sqrt of the variance that weights the fits, rad/s.
     pub effective_rms: [f64; 3],
     /// Relative standard error of `rms` (from the independent quiet pairs it rests on).
@@ -154,6 +158,7 @@ impl NoiseModel {
                 }
             }),
             difference_samples: (self.kind == NoiseKind::DifferencedAttitude).then_some(self.span),
+            response: None,
             effective_rms: self.long_run_var.map(r),
             rms_rel_se: self.level_se,
         }
@@ -174,7 +179,7 @@ impl NoiseModel {
             }
             NoiseKind::DifferencedAttitude => match lag {
                 0 => self.var[a],
-                l if l <= self.span => g.get(l).copied().unwrap_or(0.0),
+                l if l == self.span => g.get(l).copied().unwrap_or(0.0),
                 _ => 0.0,
             },
             NoiseKind::BandLimited => {
@@ -459,7 +464,17 @@ fn estimate_with(series: &Series, r: &[[f64; 3]], known: Option<(NoiseKind, usiz
         })
     };
     let (r1, r2) = (lag_corr(1), lag_corr(2));
-    let central = r2 < 0.0 && clear(r2) && r2 < r1;
+    // ... and a flat plateau from lag 3 on: a tone near a quarter of the sampling rate (a
+    // limit cycle, a ringing) also correlates negatively at lag 2, but at lag 1 too and it
+    // swings between lags 3 and 4
+    let flat = pooled(&|a| {
+        if ds[3][a] > 0.0 {
+            ds[4][a] / ds[3][a] - 1.0
+        } else {
+            0.0
+        }
+    });
+    let central = r2 < 0.0 && clear(r2) && !clear(r1) && !clear(flat);
     let mut kind = if central || (clear(stat) && stat < 0.0) {
         NoiseKind::DifferencedAttitude
     } else if clear(stat) {
@@ -686,6 +701,55 @@ mod tests {
                 assert_eq!(m.block_gap(3, 0.02), 1);
             }
         }
+    }
+
+    /// Attitude central-differenced, `(a_(k+1) - a_(k-1)) / 2 dt`, plus white noise (open3's
+    /// pl6): differenced attitude over two samples, its level, no model covariance at lag 1
+    /// and a negative one at lag 2, block means of two samples two apart. Not so a tone at a
+    /// quarter of the sampling rate, which also correlates negatively at lag 2 (the kind rule's
+    /// other conditions: no lag-1 correlation, a flat plateau from lag 3).
+    #[test]
+    fn a_central_difference_is_read_over_two_samples_and_a_quarter_rate_tone_is_not() {
+        let (dt, sa, sw, n) = (40i64, 0.00015, 0.002, 20_000usize);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        let mut g = move || -> f64 { StandardNormal.sample(&mut rng) };
+        let att: Vec<[f64; 3]> = (0..n + 2).map(|_| [sa * g(), sa * g(), sa * g()]).collect();
+        let two_dt = 2.0 * dt as f64 * 1e-3;
+        let noise: Vec<[f64; 3]> = (0..n)
+            .map(|k| std::array::from_fn(|a| (att[k + 2][a] - att[k][a]) / two_dt + sw * g()))
+            .collect();
+        let s = series(dt, &noise);
+        let m = estimate(&s, &s.rate.clone());
+        assert_eq!(
+            (m.kind, m.span),
+            (NoiseKind::DifferencedAttitude, 2),
+            "{m:?}"
+        );
+        let want = (sw * sw + 2.0 * (sa / two_dt).powi(2)).sqrt();
+        for a in 0..3 {
+            let got = m.var[a].sqrt();
+            assert!(
+                (got / want - 1.0).abs() < 3.0 * m.level_se,
+                "axis {a}: {got} vs {want}"
+            );
+            assert_eq!(m.gamma(a, 1), 0.0);
+            assert!(m.gamma(a, 2) < -0.2 * m.var[a], "{}", m.gamma(a, 2));
+            assert_eq!(m.gamma(a, 3), 0.0);
+        }
+        assert_eq!(m.block_gap(2, 0.02), 2);
+        // a tone at a quarter of the sampling rate, as loud as the noise, with white noise
+        let tone: Vec<[f64; 3]> = (0..n)
+            .map(|k| {
+                let phase = std::f64::consts::FRAC_PI_2 * k as f64 + 0.3;
+                std::array::from_fn(|_| 0.004 * phase.cos() + sw * g())
+            })
+            .collect();
+        let s = series(dt, &tone);
+        let m = estimate(&s, &s.rate.clone());
+        assert!(
+            !(m.kind == NoiseKind::DifferencedAttitude && m.span == 2),
+            "a tone read as a central difference: {m:?}"
+        );
     }
 
     /// The 7-9 % low level of issue 24: a gyro still correlated at the ~12 ms lag the

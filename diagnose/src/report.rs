@@ -165,6 +165,9 @@ pub fn summary(a: &Analysis) -> String {
         "noise (per sample, rad/s, x y z): {}",
         f(a.noise.var.map(f64::sqrt))
     );
+    if let Some((_, what)) = a.response.name() {
+        let _ = writeln!(s, "rate sensor: {what}");
+    }
     let _ = writeln!(
         s,
         "residual RMS before (rad/s, x y z): {}",

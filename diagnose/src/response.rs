@@ -7,11 +7,13 @@
 //! smooths the rate's kinks at the valve edges without delaying it; a diagnosis that
 //! compared it with the point rate found 0.29 of the noise of structure in a nominal flight
 //! and reported it `unexplained` (open3 r01). The sensor is told from the noise's lag
-//! structure ([`crate::noise`]: differenced attitude over two samples). The difference over one
-//! sample is the mean over the period before the sample, i.e. the rate half a period late to
-//! first order: the vocabulary's `measurement_delay` says that, and this project's simulator
-//! makes such a sensor as the point rate with differenced noise, so that span keeps the
-//! point response.
+//! structure ([`crate::noise`]: differenced attitude over two samples). The difference with
+//! the previous sample, `(a_k - a_(k-1)) / dt`, is the mean over the period before the sample,
+//! to first order the rate half a period late, but a negative lag-1 correlation does not prove
+//! that response (a gyro with such noise, as open2's p07, or this project's simulator, whose
+//! differenced sensor is the point rate with differenced noise): that span keeps the point
+//! rate (README, "Attitude differenced with the previous sample": what it costs, and a choice by the
+//! nominal fit's cost that was tried).
 
 use crate::noise::{NoiseKind, NoiseModel};
 use crate::series::Series;
@@ -31,15 +33,27 @@ pub enum Response {
 pub const FORCE_POINT_ENV: &str = "MASSID_POINT_RESPONSE";
 
 impl Response {
-    /// The response the noise model implies.
+    /// The response the noise model implies: a central difference's mean, else the point
+    /// rate.
     pub fn of_noise(noise: &NoiseModel) -> Response {
         if std::env::var_os(FORCE_POINT_ENV).is_some() {
             return Response::Point;
         }
-        if noise.kind == NoiseKind::DifferencedAttitude && noise.span == 2 {
-            Response::CentralMean
-        } else {
-            Response::Point
+        match (noise.kind, noise.span) {
+            (NoiseKind::DifferencedAttitude, 2) => Response::CentralMean,
+            _ => Response::Point,
+        }
+    }
+
+    /// How the JSON's `noise.response` names it (None for the point rate, which it leaves
+    /// out), and what the summary says.
+    pub fn name(self) -> Option<(&'static str, &'static str)> {
+        match self {
+            Response::Point => None,
+            Response::CentralMean => Some((
+                "central_mean",
+                "the mean over the periods before and after each sample (attitude differenced centrally)",
+            )),
         }
     }
 
@@ -51,29 +65,32 @@ impl Response {
     /// re-estimated (a gap or a horizon: the predicted rate jumps there and the sensor saw no
     /// such jump).
     pub fn apply(self, series: &Series, y: &[[f64; 3]], integral: &[[f64; 3]]) -> Vec<[f64; 3]> {
-        match self {
-            Response::Point => y.to_vec(),
-            Response::CentralMean => {
-                let step = (1000.0 / series.sample_rate_hz).round() as i64;
-                let t = &series.t_ms;
-                let continuous = |i: usize| {
-                    t[i] - t[i - 1] == step && series.gap_resets.binary_search(&i).is_err()
-                };
-                (0..y.len())
-                    .map(|k| {
-                        if k == 0
-                            || k + 1 >= y.len().min(integral.len())
-                            || !continuous(k)
-                            || !continuous(k + 1)
-                        {
-                            return y[k];
-                        }
-                        let span_s = (t[k + 1] - t[k - 1]) as f64 * 1e-3;
-                        std::array::from_fn(|a| (integral[k + 1][a] - integral[k - 1][a]) / span_s)
-                    })
-                    .collect()
-            }
-        }
+        // the recording's step, ms (a rate logged in whole ms, 120 Hz as 8 and 9 ms, is within
+        // half a step of it)
+        let step = 1000.0 / series.sample_rate_hz.max(1e-9);
+        let t = &series.t_ms;
+        // the period ending at sample i is one step, with no re-estimate at i
+        let continuous = |i: usize| {
+            i > 0
+                && i < integral.len()
+                && t[i] > t[i - 1]
+                && ((t[i] - t[i - 1]) as f64 - step).abs() < 0.5 * step
+                && series.gap_resets.binary_search(&i).is_err()
+        };
+        // (first, last) samples of the mean's interval around sample k
+        let interval = |k: usize| match self {
+            Response::Point => None,
+            Response::CentralMean => (continuous(k) && continuous(k + 1)).then(|| (k - 1, k + 1)),
+        };
+        (0..y.len())
+            .map(|k| match interval(k) {
+                Some((a, b)) => {
+                    let span_s = (t[b] - t[a]) as f64 * 1e-3;
+                    std::array::from_fn(|i| (integral[b][i] - integral[a][i]) / span_s)
+                }
+                None => y[k],
+            })
+            .collect()
     }
 }
 

@@ -188,6 +188,41 @@ fn tests_with(series: &Series, r: &[[f64; 3]], noise: Option<&NoiseModel>) -> Re
 mod tests {
     use super::*;
 
+    /// With a noise model the whiteness statistic is the mean of Ljung-Box Q over every
+    /// sample the first block can start at (here 25 Hz: blocks of two samples, none left out
+    /// for white noise, so two starts); a residual whose structure sits at one phase of the
+    /// blocks (here every fourth pair of samples carries a slow wave) gives different Qs.
+    #[test]
+    fn the_whiteness_statistic_is_the_mean_over_the_blocks_starts() {
+        let mut st = 777u64;
+        let mut u = || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((st >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let n = 3_000;
+        let x: Vec<[f64; 3]> = (0..n)
+            .map(|k| {
+                let wave = if k % 4 < 2 {
+                    (k as f64 * 0.01).sin()
+                } else {
+                    0.0
+                };
+                [u() + 0.3 * wave; 3]
+            })
+            .collect();
+        let t: Vec<i64> = (0..n as i64).map(|k| k * 40).collect();
+        let s = Series::from_rates(&t, &x, &vec![0u16; n], 0xff, Some(25.0)).unwrap();
+        let m = NoiseModel::white([1.0 / 12.0; 3]);
+        let q: Vec<f64> = (0..2)
+            .map(|from| ljung_box(&blocks(&s, &s.rate, 0, 50, 0, from).0).unwrap())
+            .collect();
+        assert!((q[0] - q[1]).abs() > 5.0, "{q:?}");
+        let got = residual_tests_for(&s, &s.rate, &m).ljung_box_q[0];
+        assert!((got - 0.5 * (q[0] + q[1])).abs() < 1e-9, "{got} {q:?}");
+    }
+
     /// Block means of differenced-attitude noise correlate at about -0.5 when cut
     /// contiguously, and not at all with one sample left out between blocks.
     #[test]

@@ -1,28 +1,38 @@
-//! The diagnosis on central-differenced motion-capture rates (`massid_tests::mocap_flight`,
-//! the air-bearing craft at 25 Hz): per flight, nominal and with the true Izz 20 % above the
+//! The diagnosis on differenced motion-capture rates (`massid_tests::mocap_flight`, the
+//! air-bearing craft at 25 Hz; central differences, or with `backward` the difference with the
+//! previous sample): per flight, nominal and with the true Izz 20 % above the
 //! model's, what is named (the truth, or an effect that lists it under `equivalent_to`: on
 //! yaw alone a gyro scale is an inertia) and whether anything is left unexplained; then the
 //! counts.
-//! `cargo run --release -p massid-tests --example diagnose_central_mc -- FLIGHTS SEED0 [DIR]`
+//! `cargo run --release -p massid-tests --example diagnose_central_mc -- FLIGHTS SEED0
+//! [central|backward] [DIR]`
 //! (with DIR, each recording is also written there as `nominal_SEED.csv` and
 //! `inertia_SEED.csv`, for `massid diagnose FILE --model examples/models/airbearing-mpc.toml`).
 use massid_diagnose::{diagnose_rate_recording, Settings};
 use massid_tests::identification_mc::airbearing_model;
-use massid_tests::mocap_flight::central_differenced_csv;
+use massid_tests::mocap_flight::{differenced_csv, Difference};
 use reference_f64::rate_recording::RateRecording;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let flights: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10);
     let seed0: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(95200);
-    let dir = args.get(3).map(std::path::PathBuf::from);
+    let difference = match args.get(3).map(String::as_str) {
+        Some("backward") => Difference::Backward,
+        None | Some("central") => Difference::Central,
+        Some(other) => {
+            eprintln!("unknown difference {other:?}: central or backward");
+            std::process::exit(2);
+        }
+    };
+    let dir = args.get(4).map(std::path::PathBuf::from);
     let sat = airbearing_model();
     // (case, flights with the truth named (or an effect listing it as equivalent) and nothing
     // unexplained, named so but unexplained, something else named)
     let mut tally = [("nominal", 0, 0, 0), ("inertia", 0, 0, 0)];
     for seed in seed0..seed0 + flights {
         for (case, scale, want) in [(0, 1.0, vec![]), (1, 1.2, vec!["inertia"])] {
-            let csv = central_differenced_csv(seed, scale);
+            let csv = differenced_csv(seed, scale, difference);
             if let Some(d) = &dir {
                 let name = format!("{}_{seed}.csv", tally[case].0);
                 std::fs::write(d.join(name), &csv).expect("write");

@@ -1,8 +1,8 @@
-//! Planar flights whose yaw rate is motion-capture attitude central-differenced,
-//! `(a_(k+1) - a_(k-1)) / 2 dt` (the sensor of open3's pl6), written independently of the
-//! simulator (whose differenced sensor is the point rate with differenced noise): the
-//! diagnosis's test and Monte Carlo of that sensor (`tests/tests/diagnose_central_difference.rs`,
-//! `examples/diagnose_central_mc.rs`).
+//! Planar flights whose yaw rate is motion-capture attitude differenced, centrally
+//! `(a_(k+1) - a_(k-1)) / 2 dt` (the sensor of open3's pl6) or with the previous sample
+//! `(a_k - a_(k-1)) / dt`, written independently of the simulator (whose differenced sensor
+//! is the point rate with differenced noise): the diagnosis's test and Monte Carlo of those
+//! sensors (`tests/tests/diagnose_central_difference.rs`, `examples/diagnose_central_mc.rs`).
 use crate::identification_mc::airbearing_model;
 
 /// Attitude noise, rad per sample, and white rate noise, rad/s (open3 pl6's).
@@ -15,6 +15,20 @@ pub const WHITE_RAD_S: f64 = 0.002;
 /// noise: the recording's text (format v2). `izz_scale` multiplies the true Izz
 /// against the model's (1: nominal).
 pub fn central_differenced_csv(seed: u64, izz_scale: f64) -> String {
+    differenced_csv(seed, izz_scale, Difference::Central)
+}
+
+/// Over which samples the attitude is differenced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Difference {
+    /// `(a_(k+1) - a_(k-1)) / 2 dt`.
+    Central,
+    /// `(a_k - a_(k-1)) / dt`.
+    Backward,
+}
+
+/// [`central_differenced_csv`] with the attitude differenced as `difference` says.
+pub fn differenced_csv(seed: u64, izz_scale: f64, difference: Difference) -> String {
     let model = airbearing_model();
     let n = model.n_thrusters();
     let izz = model.inertia_kgm2[2] * izz_scale;
@@ -60,7 +74,10 @@ pub fn central_differenced_csv(seed: u64, izz_scale: f64) -> String {
          # thrusters = {n}\n# sample_rate_hz = 25.0\ntime_ms,rate_z,thrusters\n"
     );
     for k in 1..rows.len() - 1 {
-        let rate = (measured[k + 1] - measured[k - 1]) / (2.0 * dt) + WHITE_RAD_S * normal();
+        let rate = match difference {
+            Difference::Central => (measured[k + 1] - measured[k - 1]) / (2.0 * dt),
+            Difference::Backward => (measured[k] - measured[k - 1]) / dt,
+        } + WHITE_RAD_S * normal();
         text.push_str(&format!("{},{rate},{}\n", rows[k].0, rows[k].1));
     }
     text

@@ -36,6 +36,11 @@ fn central_differences_are_the_sensor_s_and_a_nominal_flight_names_nothing() {
         let noise = out.noise.as_ref().expect("noise");
         assert_eq!(noise.kind.name(), "differenced_attitude", "seed {seed}");
         assert_eq!(noise.difference_samples, Some(2), "seed {seed}");
+        assert_eq!(
+            noise.response.as_deref(),
+            Some("central_mean"),
+            "seed {seed}"
+        );
         assert!(named(&out).is_empty(), "seed {seed}: {:?}", named(&out));
         assert!(
             out.unexplained.is_none(),

@@ -12,6 +12,7 @@ use crate::effects::Describe;
 use crate::effects::{self, Kind};
 use crate::locate;
 use crate::model::{Plant, NT};
+use crate::noise::NoiseReport;
 use crate::output::{DataIssues, DiagnosisOutput, EffectReport, FORMAT};
 use crate::stats;
 
@@ -56,7 +57,10 @@ pub(super) fn conclude(
         effects: effects_out,
         unexplained,
         data_issues: issues,
-        noise: Some(n.noise.report()),
+        noise: Some(NoiseReport {
+            response: n.prob.response.name().map(|(key, _)| key.to_string()),
+            ..n.noise.report()
+        }),
     };
     Analysis {
         fitted: named.pairs(),
@@ -69,6 +73,7 @@ pub(super) fn conclude(
         residual_before: n.residual,
         residual_after: named.residual,
         noise: n.noise,
+        response: n.prob.response,
         spectrum_before: tone.spectrum_before,
         spectrum_threshold: tone.threshold,
         alias_marks: tone.alias_marks,

@@ -75,6 +75,8 @@ pub struct Analysis {
     pub residual_before: Vec<[f64; 3]>,
     pub residual_after: Vec<[f64; 3]>,
     pub noise: NoiseModel,
+    /// What the rate sensor reports of the rate (`crate::response`).
+    pub response: crate::response::Response,
     pub tests_before: ResidualTests,
     pub tests_after: ResidualTests,
     /// Post-edge residual spectrum of the nominal model (frequency Hz, power).

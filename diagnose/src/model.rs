@@ -585,7 +585,7 @@ impl MassProps {
 /// smoothly, a blowdown) between samples more than 1 ms apart (below 1 kHz, and across a
 /// 1 kHz recording's gaps).
 pub fn predict(plant: &Plant, series: &Series, duty: &Duty, p: &Params) -> Option<Vec<[f64; 3]>> {
-    predict_with(plant, series, duty, p, true, 1)
+    predict_with(plant, series, duty, p, true, 1, false).map(|(y, _)| y)
 }
 
 /// [`predict`] at samples `0, every, 2 every, ...` only, in that order (entry `k` is
@@ -605,7 +605,7 @@ pub fn predict_every(
     p: &Params,
     every: usize,
 ) -> Option<Vec<[f64; 3]>> {
-    predict_with(plant, series, duty, p, true, every.max(1))
+    predict_with(plant, series, duty, p, true, every.max(1), false).map(|(y, _)| y)
 }
 
 /// The body's equations over one step (1 ms, or longer where it may): which of the three
@@ -734,36 +734,25 @@ fn linear_rk4_steps(y0: f64, a: f64, b: f64, h: f64, m: usize) -> f64 {
 /// up to 1 rad/s; about 1e-12 with a mass change, delay and gaps besides).
 const LONG_STEP_MS: usize = 10;
 
-/// [`predict`], with the planar run jumps and the rigid long steps on or off (off: every
-/// 1 ms step, the reference both are tested against).
-fn predict_with(
-    plant: &Plant,
-    series: &Series,
-    grid: &Duty,
-    p: &Params,
-    jumps: bool,
-    every: usize,
-) -> Option<Vec<[f64; 3]>> {
-    predict_integrated(plant, series, grid, p, jumps, every, false).map(|(y, _)| y)
-}
-
-/// [`predict`] with, when `integrate` (at every sample only), the gyro output integrated
-/// in time from the first sample to each sample (rad, each step by its trapezoid: exact
-/// for the rate linear in a step, as it is under a step's constant torque without
-/// gyroscopic coupling or damping, and within h^3 |w''| / 12 a step with them, 3e-7 rad for a
-/// 10 ms step at 1 rad/s and 2 rad/s^2): what a sensor
-/// that reports the mean rate over an interval ([`crate::response`]) reads.
+/// [`predict_with_integral`]'s gyro output integrated in time from the first sample to each
+/// sample (rad, each step by its trapezoid: exact for the rate linear in a step, as it is
+/// under a step's constant torque without gyroscopic coupling or damping, and within
+/// h^3 |w''| / 12 a step with them, 3e-7 rad for a 10 ms step at 1 rad/s and 2 rad/s^2): what
+/// a sensor that reports the mean rate over an interval ([`crate::response`]) reads.
 pub fn predict_with_integral(
     plant: &Plant,
     series: &Series,
     duty: &Duty,
     p: &Params,
 ) -> Option<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
-    predict_integrated(plant, series, duty, p, true, 1, true)
+    predict_with(plant, series, duty, p, true, 1, true)
 }
 
+/// [`predict`], with the planar run jumps and the rigid long steps on or off (off: every
+/// 1 ms step, the reference both are tested against), and with the integral of
+/// [`predict_with_integral`] when `integrate` (at every sample only; else empty).
 #[allow(clippy::too_many_arguments)]
-fn predict_integrated(
+fn predict_with(
     plant: &Plant,
     series: &Series,
     grid: &Duty,
@@ -1252,8 +1241,8 @@ pub(crate) mod tests {
             resets: vec![[0.0, 0.0, -0.01], [0.0, 0.0, 0.02]],
             ..Params::default()
         };
-        let jumped = predict_with(&plant, &series, &duty, &p, true, 1).unwrap();
-        let stepped = predict_with(&plant, &series, &duty, &p, false, 1).unwrap();
+        let jumped = rates(&plant, &series, &duty, &p, true);
+        let stepped = rates(&plant, &series, &duty, &p, false);
         let worst = jumped
             .iter()
             .zip(&stepped)
@@ -1269,7 +1258,7 @@ pub(crate) mod tests {
         // change would make) is caught by it many times over
         let mut later = p.clone();
         later.mass_change = Some((12.3466, [4.0, -3.0, 0.0], inertia));
-        let moved = predict_with(&plant, &series, &duty, &later, false, 1).unwrap();
+        let moved = rates(&plant, &series, &duty, &later, false);
         let shift = moved
             .iter()
             .zip(&stepped)
@@ -1340,6 +1329,63 @@ pub(crate) mod tests {
         (Plant::new(&sat), series)
     }
 
+    /// The rates at every sample, with the long steps and run jumps on or off.
+    fn rates(
+        plant: &Plant,
+        series: &Series,
+        duty: &Duty,
+        p: &Params,
+        jumps: bool,
+    ) -> Vec<[f64; 3]> {
+        predict_with(plant, series, duty, p, jumps, 1, false)
+            .unwrap()
+            .0
+    }
+
+    /// [`pulses_at_100_hz`] with latencies and a craft turning at up to about 1 rad/s, damped.
+    fn tumbling_at_100_hz(seed: u64) -> (Plant, Series, Duty, Params) {
+        let (plant, series) = pulses_at_100_hz(seed);
+        let duty = duty_grid(&series, 3.3, 5.1, 0.0);
+        let p = Params {
+            omega0: [0.5, -0.4, 0.8],
+            damping_nms: [1e-4, 0.0, 2e-4],
+            ..Params::default()
+        };
+        (plant, series, duty, p)
+    }
+
+    /// The time integral a mean-rate sensor reads ([`predict_with_integral`]): over each
+    /// sample's period, the rigid long steps' (a trapezoid per step of up to 10 ms) is the 1 ms
+    /// steps' within 1e-7 rad (measured 1.1e-8: 1e-6 rad/s as a mean over 10 ms), with the
+    /// gyroscopic term, damping and a gyro bias. Planted: the trapezoid of the rates at the
+    /// samples alone, blind to the pulses' edges between them, is off by more than 1e-6 rad.
+    #[test]
+    fn the_integral_of_long_steps_is_that_of_millisecond_steps() {
+        let (plant, series, duty, mut p) = tumbling_at_100_hz(778);
+        p.gyro_bias_counts = [5.0, 0.0, -3.0];
+        let (y, long) = predict_with(&plant, &series, &duty, &p, true, 1, true).unwrap();
+        let (_, short) = predict_with(&plant, &series, &duty, &p, false, 1, true).unwrap();
+        assert_eq!((long.len(), short.len()), (series.len(), series.len()));
+        assert_eq!(long[0], [0.0; 3]);
+        // over each sample's period (what a mean reads), in rad
+        let increment = |v: &[[f64; 3]], k: usize, i: usize| v[k][i] - v[k - 1][i];
+        let worst = (1..series.len())
+            .flat_map(|k| (0..3).map(move |i| (k, i)))
+            .map(|(k, i)| (increment(&long, k, i) - increment(&short, k, i)).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-7, "{worst}");
+        // the trapezoid of the samples' rates misses the pulses' edges between them
+        let mut off = 0.0f64;
+        for k in 1..y.len() {
+            let h = (series.t_ms[k] - series.t_ms[k - 1]) as f64 * 1e-3;
+            for i in 0..3 {
+                let trapezoid = 0.5 * h * (y[k - 1][i] + y[k][i]);
+                off = off.max((trapezoid - increment(&short, k, i)).abs());
+            }
+        }
+        assert!(off > 1e-6, "{off} {worst}");
+    }
+
     /// A rigid 3-D craft sampled at 100 Hz takes RK4 steps of up to 10 ms where the torque
     /// holds; over 30 s of pulses, turning at up to about 1 rad/s with the gyroscopic term,
     /// the rates stay within 1e-11 rad/s of the 1 ms steps' (measured: 2.9e-14). The
@@ -1347,15 +1393,9 @@ pub(crate) mod tests {
     /// rates by more than the bound (6e-9).
     #[test]
     fn long_steps_agree_with_millisecond_steps() {
-        let (plant, series) = pulses_at_100_hz(777);
-        let duty = duty_grid(&series, 3.3, 5.1, 0.0);
-        let p = Params {
-            omega0: [0.5, -0.4, 0.8],
-            damping_nms: [1e-4, 0.0, 2e-4],
-            ..Params::default()
-        };
-        let long = predict_with(&plant, &series, &duty, &p, true, 1).unwrap();
-        let short = predict_with(&plant, &series, &duty, &p, false, 1).unwrap();
+        let (plant, series, duty, p) = tumbling_at_100_hz(777);
+        let long = rates(&plant, &series, &duty, &p, true);
+        let short = rates(&plant, &series, &duty, &p, false);
         let gap = |a: &[[f64; 3]], b: &[[f64; 3]]| {
             a.iter()
                 .zip(b)
@@ -1368,7 +1408,7 @@ pub(crate) mod tests {
         assert!(err < 1e-11, "long steps differ by {err:e}");
         let mut stronger = p.clone();
         stronger.thrust_scale = [1.0 + 1e-8; NT];
-        let moved = predict_with(&plant, &series, &duty, &stronger, false, 1).unwrap();
+        let moved = rates(&plant, &series, &duty, &stronger, false);
         assert!(gap(&moved, &short) > 1e-11);
     }
 
@@ -1396,15 +1436,15 @@ pub(crate) mod tests {
                 .flat_map(|(x, y)| (0..3).map(move |i| (x[i] - y[i]).abs()))
                 .fold(0.0, f64::max)
         };
-        let long = predict_with(&plant, &series, &duty, &p, true, 1).unwrap();
-        let short = predict_with(&plant, &series, &duty, &p, false, 1).unwrap();
+        let long = rates(&plant, &series, &duty, &p, true);
+        let short = rates(&plant, &series, &duty, &p, false);
         let peak = short.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
         assert!(peak > 0.5, "the test flight must turn fast ({peak})");
         let err = gap(&long, &short);
         assert!(err < 1e-12, "long steps with a blowdown differ by {err:e}");
         let mut slower = p.clone();
         slower.blowdown = Some((7.5034, 20.0 * (1.0 + 1e-6)));
-        let moved = predict_with(&plant, &series, &duty, &slower, false, 1).unwrap();
+        let moved = rates(&plant, &series, &duty, &slower, false);
         assert!(gap(&moved, &short) > 1e-12);
         // A step that ends where the clock jumps takes the torque from before the jump
         // there: with no delay the jump at 12 s falls on a step's end, and up to that
@@ -1417,8 +1457,8 @@ pub(crate) mod tests {
         let mut plain = series.clone();
         plain.clock_shifts = vec![];
         for long_steps in [true, false] {
-            let a = predict_with(&plant, &jumped, &duty, &no_delay, long_steps, 1).unwrap();
-            let b = predict_with(&plant, &plain, &duty, &no_delay, long_steps, 1).unwrap();
+            let a = rates(&plant, &jumped, &duty, &no_delay, long_steps);
+            let b = rates(&plant, &plain, &duty, &no_delay, long_steps);
             let upto = series.t_ms.iter().take_while(|&&t| t <= 12_000).count();
             assert_eq!(
                 a[..upto],

@@ -15,8 +15,8 @@
 //! away from edges), where model error barely changes over a few ms: the structure function
 //! D(L) = E[(x_{t+L} - x_t)^2] = 2 (g0 - gL). The kind is the sign of the pooled lag-1
 //! correlation, or a negative lag-2 one, counted only when it stands clear of its sampling
-//! noise ([`KIND_MIN`], [`KIND_SIGMAS`]; see [`estimate`]). The model then sets the per-sample variance and its
-//! uncertainty (the `unexplained` level), the effective variance that weights chi-square,
+//! noise ([`KIND_MIN`], [`KIND_SIGMAS`]; see [`estimate`]). The model then sets the
+//! per-sample variance and its uncertainty (the `unexplained` level), the effective variance that weights chi-square,
 //! BIC, Wald tests and standard errors, and how far apart the whiteness test's block means
 //! must be to share no noise ([`NoiseModel::block_gap`]).
 
@@ -373,8 +373,9 @@ fn forced_kind() -> Option<NoiseKind> {
 /// rho1 = 1 - D(1) / mean D(2..), or c = D(2)/D(1) - 1 where that is larger in size, decides
 /// the kind: below [`KIND_MIN`] or [`KIND_SIGMAS`] standard errors (2/sqrt(pairs)) white,
 /// above it band-limited, below minus it differenced attitude (span 1). Before that, a lag-2
-/// correlation against the lags from 3 on that is negative by as much, and below the lag-1
-/// one, is a central difference (span 2). White noise, and a gyro whose correlation is gone
+/// correlation against the lags from 3 on that is negative by as much, with no lag-1
+/// correlation standing clear and lags 3 and 4 alike (a flat plateau), is a central
+/// difference (span 2). White noise, and a gyro whose correlation is gone
 /// within the ~12 ms of lags read (SPHERES' at 1 kHz), keep the variance read at those lags
 /// in coasting stretches, as always. A band-limited gyro with c = D(2)/D(1) - 1 (its AR(1)
 /// coefficient) still correlated there has its variance read where the correlation has
@@ -449,8 +450,8 @@ fn estimate_with(series: &Series, r: &[[f64; 3]], known: Option<(NoiseKind, usiz
     let clear = |v: f64| v.abs() > KIND_MIN && v.abs() > KIND_SIGMAS * se;
     // a central difference: no lag-1 correlation and a negative lag-2 one, each against the
     // lags from 3 on (rho1 and c, which compare lag 1 with lag 2, read it as a positive
-    // correlation: band-limited). A gyro's correlations are positive, and a model error in a
-    // steady stretch (a slow ramp) only raises the longer lags' D, so neither makes it.
+    // correlation: band-limited). A first-order gyro's correlations are positive, and a model
+    // error in a steady stretch (a slow ramp) only raises the longer lags' D.
     let plateau_3 =
         |a: usize| (3..=max_lag + 1).map(|l| ds[l][a]).sum::<f64>() / (max_lag - 1) as f64;
     let lag_corr = |l: usize| {

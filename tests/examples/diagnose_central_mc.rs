@@ -7,7 +7,8 @@
 //! `cargo run --release -p massid-tests --example diagnose_central_mc -- FLIGHTS SEED0
 //! [central|backward] [DIR]`
 //! (with DIR, each recording is also written there as `nominal_SEED.csv` and
-//! `inertia_SEED.csv`, for `massid diagnose FILE --model examples/models/airbearing-mpc.toml`).
+//! `inertia_SEED.csv`, for `massid diagnose FILE --model examples/models/airbearing-mpc.toml`;
+//! with `CLOSED_LOOP=1` in the environment the flights are closed loop).
 use massid_diagnose::{diagnose_rate_recording, Settings};
 use massid_tests::identification_mc::airbearing_model;
 use massid_tests::mocap_flight::{differenced_csv, Difference};
@@ -25,6 +26,7 @@ fn main() {
             std::process::exit(2);
         }
     };
+    let closed_loop = std::env::var_os("CLOSED_LOOP").is_some();
     let dir = args.get(4).map(std::path::PathBuf::from);
     let sat = airbearing_model();
     // (case, flights with the truth named (or an effect listing it as equivalent) and nothing
@@ -32,7 +34,7 @@ fn main() {
     let mut tally = [("nominal", 0, 0, 0), ("inertia", 0, 0, 0)];
     for seed in seed0..seed0 + flights {
         for (case, scale, want) in [(0, 1.0, vec![]), (1, 1.2, vec!["inertia"])] {
-            let csv = differenced_csv(seed, scale, difference);
+            let csv = differenced_csv(seed, scale, difference, closed_loop);
             if let Some(d) = &dir {
                 let name = format!("{}_{seed}.csv", tally[case].0);
                 std::fs::write(d.join(name), &csv).expect("write");

@@ -48,12 +48,25 @@ fn central_differences_are_the_sensor_s_and_a_nominal_flight_names_nothing() {
             out.unexplained
         );
     }
-    // The same kind of flight with the true Izz 20 % above the model's: named.
+    // The same kind of flight with the true Izz 20 % above the model's: named, as the inertia
+    // or as what gives the same yaw rates with the inertia listed under `equivalent_to` (a
+    // gyro scale), and nothing left unexplained.
     let out = diagnose(&flight_csv(3, 1.2));
-    assert_eq!(named(&out), vec!["inertia"], "{:?}", out.unexplained);
+    let lists_inertia = |e: &massid_diagnose::EffectReport| {
+        e.effect == "inertia"
+            || e.equivalent_to
+                .iter()
+                .any(|v| v.get("effect").and_then(|x| x.as_str()) == Some("inertia"))
+    };
+    assert!(
+        out.effects.len() == 1 && lists_inertia(&out.effects[0]),
+        "{:?}",
+        named(&out)
+    );
+    assert!(out.unexplained.is_none(), "{:?}", out.unexplained);
     // The residual of the nominal model is the noise: over eight flights its RMS is the
-    // true per-sample noise within 2 % (measured 0.4 % at seeds 1-4). Planted: the point rate
-    // as the sensor's response leaves the mean's difference in it (2.9 % at seeds 1-4).
+    // true per-sample noise within 2 % (measured 0.3 %). Planted: the point rate as the
+    // sensor's response leaves the mean's difference in it (4.3 %).
     let truth = (WHITE_RAD_S.powi(2) + 2.0 * (ATTITUDE_RAD / 0.08).powi(2)).sqrt();
     let mean_level = || {
         (1..=8)
@@ -73,12 +86,15 @@ fn central_differences_are_the_sensor_s_and_a_nominal_flight_names_nothing() {
         point - 1.0 > 0.02,
         "point response: residual RMS {point:.4} of the noise"
     );
-    // Planted: the noise read as a band-limited gyro.
+    // Planted: the noise read as a band-limited gyro. Most of the same eight nominal flights
+    // are then reported unexplained (measured: 6 of 8; 14 of 20 on held-out seeds).
     std::env::set_var(massid_diagnose::noise::FORCE_KIND_ENV, "band_limited");
-    let forced = diagnose(&flight_csv(1, 1.0));
+    let flagged = (1..=8)
+        .filter(|&seed| diagnose(&flight_csv(seed, 1.0)).unexplained.is_some())
+        .count();
     std::env::remove_var(massid_diagnose::noise::FORCE_KIND_ENV);
     assert!(
-        forced.unexplained.is_some(),
-        "read as a gyro's noise, the nominal flight should be reported unexplained"
+        flagged >= 4,
+        "read as a gyro's noise, {flagged} of 8 nominal flights reported unexplained"
     );
 }
